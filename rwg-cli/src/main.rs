@@ -1,0 +1,5 @@
+//! The `rwg` command-line tool.
+
+fn main() {
+    println!("rwg");
+}

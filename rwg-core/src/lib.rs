@@ -1,0 +1,16 @@
+//! # rwg-core
+//!
+//! The pieces every part of rwg shares: the Gym-like [`Environment`] trait and
+//! its [`Space`]s, the [`TimeLimit`] wrapper that applies Gymnasium's
+//! truncation rule, and numpy-exact [`seeding`].
+
+pub mod env;
+pub mod float;
+pub mod seeding;
+pub mod space;
+pub mod suggest;
+pub mod time_limit;
+
+pub use env::{Action, ActionDtype, EnvError, EnvSpec, Environment, Step};
+pub use space::{BoxSpace, Space};
+pub use time_limit::TimeLimit;

@@ -1,0 +1,148 @@
+//! CartPole-v0 / CartPole-v1 (Gymnasium's `CartPoleEnv`, Euler integrator).
+//!
+//! v0 and v1 share the dynamics; only the time limit (200 / 500) and the
+//! reward threshold (195 / 475) differ.
+
+use rwg_core::env::{check_state_len, discrete_action};
+use rwg_core::float::f32r;
+use rwg_core::seeding::Pcg64;
+use rwg_core::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
+
+const GRAVITY: f64 = 9.8;
+const MASSCART: f64 = 1.0;
+const MASSPOLE: f64 = 0.1;
+const LENGTH: f64 = 0.5; // half the pole's length
+const FORCE_MAG: f64 = 10.0;
+const TAU: f64 = 0.02;
+const X_THRESHOLD: f64 = 2.4;
+
+/// 12 degrees in radians, computed as Gymnasium does: `12 * 2 * pi / 360`.
+fn theta_threshold() -> f64 {
+    12.0 * 2.0 * std::f64::consts::PI / 360.0
+}
+
+/// The cart-pole balancing task.
+#[derive(Debug, Clone)]
+pub struct CartPole {
+    spec: EnvSpec,
+    /// `[x, x_dot, theta, theta_dot]`.
+    state: [f64; 4],
+    /// Gymnasium's `steps_beyond_terminated`: reward 0 after the terminal step.
+    terminated_before: bool,
+}
+
+impl CartPole {
+    /// CartPole-v0 (time limit 200, solved at 195).
+    pub fn v0() -> Self {
+        Self::with_spec("CartPole-v0", 200, 195.0)
+    }
+
+    /// CartPole-v1 (time limit 500, solved at 475).
+    pub fn v1() -> Self {
+        Self::with_spec("CartPole-v1", 500, 475.0)
+    }
+
+    fn with_spec(id: &str, max_steps: u32, threshold: f64) -> Self {
+        let th = theta_threshold();
+        let high = [
+            X_THRESHOLD * 2.0,
+            f32::MAX as f64,
+            th * 2.0,
+            f32::MAX as f64,
+        ];
+        let high: Vec<f64> = high.iter().map(|&h| f32r(h)).collect();
+        let spec = EnvSpec {
+            id: id.into(),
+            observation_space: Space::Box(BoxSpace::symmetric(&high)),
+            action_space: Space::Discrete { n: 2 },
+            max_episode_steps: Some(max_steps),
+            reward_threshold: Some(threshold),
+        };
+        CartPole {
+            spec,
+            state: [0.0; 4],
+            terminated_before: false,
+        }
+    }
+
+    fn write_obs(&self, obs: &mut [f64]) {
+        for (o, s) in obs.iter_mut().zip(self.state) {
+            *o = f32r(s);
+        }
+    }
+}
+
+impl Environment for CartPole {
+    fn spec(&self) -> &EnvSpec {
+        &self.spec
+    }
+
+    fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+        let mut rng = Pcg64::from_seed(seed);
+        for s in &mut self.state {
+            *s = rng.uniform(-0.05, 0.05);
+        }
+        self.terminated_before = false;
+        self.write_obs(obs);
+        Ok(())
+    }
+
+    #[inline]
+    fn step(&mut self, action: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+        let a = discrete_action(action, 2)?;
+        let [x, x_dot, theta, theta_dot] = self.state;
+        let force = if a == 1 { FORCE_MAG } else { -FORCE_MAG };
+        let costheta = theta.cos();
+        let sintheta = theta.sin();
+        let total_mass = MASSPOLE + MASSCART;
+        let polemass_length = MASSPOLE * LENGTH;
+
+        let temp = (force + polemass_length * (theta_dot * theta_dot) * sintheta) / total_mass;
+        let thetaacc = (GRAVITY * sintheta - costheta * temp)
+            / (LENGTH * (4.0 / 3.0 - MASSPOLE * (costheta * costheta) / total_mass));
+        let xacc = temp - polemass_length * thetaacc * costheta / total_mass;
+
+        self.state = [
+            x + TAU * x_dot,
+            x_dot + TAU * xacc,
+            theta + TAU * theta_dot,
+            theta_dot + TAU * thetaacc,
+        ];
+        let [x, _, theta, _] = self.state;
+        let th = theta_threshold();
+        let terminated = x < -X_THRESHOLD || x > X_THRESHOLD || theta < -th || theta > th;
+
+        let reward = if !terminated {
+            1.0
+        } else if !self.terminated_before {
+            self.terminated_before = true;
+            1.0
+        } else {
+            0.0
+        };
+        self.write_obs(obs);
+        Ok(Step {
+            reward,
+            terminated,
+            truncated: false,
+        })
+    }
+
+    fn state_len(&self) -> usize {
+        4
+    }
+
+    fn state(&self, out: &mut [f64]) -> Result<(), EnvError> {
+        check_state_len(out, 4)?;
+        out.copy_from_slice(&self.state);
+        Ok(())
+    }
+
+    fn set_state(&mut self, state: &[f64], obs: &mut [f64]) -> Result<(), EnvError> {
+        check_state_len(state, 4)?;
+        self.state.copy_from_slice(state);
+        self.terminated_before = false;
+        self.write_obs(obs);
+        Ok(())
+    }
+}

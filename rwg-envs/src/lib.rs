@@ -1,0 +1,10 @@
+//! # rwg-envs
+//!
+//! Gymnasium's classic-control environments, reproducing Gymnasium 1.4's
+//! numbers bit for bit (and gym 0.17.2's for Pendulum-v0). Each env lives in
+//! its own module; [`registry`] builds them by id with Gymnasium's time limits.
+
+pub mod cartpole;
+pub mod registry;
+
+pub use registry::{make, visit, EnvOptions, EnvVisitor, Registration, UnknownEnv, REGISTRY};
