@@ -4,6 +4,7 @@
 //! numbers bit for bit (and gym 0.17.2's for Pendulum-v0). Each env lives in
 //! its own module; [`registry`] builds them by id with Gymnasium's time limits.
 
+pub mod acrobot;
 pub mod cartpole;
 pub mod registry;
 

@@ -8,6 +8,7 @@
 use rwg_core::{ActionDtype, Environment, TimeLimit};
 use thiserror::Error;
 
+use crate::acrobot::Acrobot;
 use crate::cartpole::CartPole;
 
 /// Settings that change how a built-in environment is built.
@@ -40,6 +41,11 @@ pub const REGISTRY: &[Registration] = &[
     Registration {
         id: "CartPole-v1",
         summary: "balance a pole on a cart (Gymnasium CartPole, 500 steps)",
+        dtype_sensitive: false,
+    },
+    Registration {
+        id: "Acrobot-v1",
+        summary: "swing a two-link arm's tip above a line (Gymnasium Acrobot, 500 steps)",
         dtype_sensitive: false,
     },
 ];
@@ -80,6 +86,7 @@ pub fn visit<V: EnvVisitor>(id: &str, opts: &EnvOptions, v: V) -> Result<V::Outp
     Ok(match id {
         "CartPole-v0" => v.visit(TimeLimit::new(CartPole::v0(), limit)),
         "CartPole-v1" => v.visit(TimeLimit::new(CartPole::v1(), limit)),
+        "Acrobot-v1" => v.visit(TimeLimit::new(Acrobot::new(), limit)),
         _ => {
             return Err(UnknownEnv {
                 id: id.to_string(),

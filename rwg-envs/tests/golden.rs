@@ -188,3 +188,8 @@ fn golden_cartpole_v0() {
 fn golden_cartpole_v1() {
     assert!(replay("CartPole-v1") > 0);
 }
+
+#[test]
+fn golden_acrobot_v1() {
+    assert!(replay("Acrobot-v1") > 0);
+}
