@@ -1,5 +1,36 @@
-//! The `rwg` command-line tool.
+//! `rwg`: Random Weight Guessing analysis of reinforcement-learning environments.
+
+mod cmd;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+/// Measure how hard an RL benchmark really is by Random Weight Guessing:
+/// sample small neural-network controllers with random weights, run them, and
+/// look at the distribution of their scores.
+#[derive(Parser)]
+#[command(name = "rwg", version, about, long_about = None, max_term_width = 100)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List the available environments with their spaces, time limit and solved score.
+    Envs(cmd::envs::Args),
+    /// Run one episode of an environment with given actions and print every step.
+    Rollout(cmd::rollout::Args),
+}
 
 fn main() {
-    println!("rwg");
+    let cli = Cli::parse();
+    let result: Result<()> = match cli.command {
+        Command::Envs(a) => cmd::envs::run(a),
+        Command::Rollout(a) => cmd::rollout::run(a),
+    };
+    if let Err(e) = result {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
 }

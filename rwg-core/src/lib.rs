@@ -6,6 +6,7 @@
 
 pub mod env;
 pub mod float;
+pub mod policy;
 pub mod seeding;
 pub mod space;
 pub mod suggest;

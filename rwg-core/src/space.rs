@@ -60,6 +60,27 @@ impl Space {
         }
     }
 
+    /// Compact form for tables: `Discrete(2)`, `Box(4)`, or `Box(1, [-2.0, 2.0])`
+    /// when every dimension has the same finite bounds.
+    pub fn short(&self) -> String {
+        match self {
+            Space::Discrete { n } => format!("Discrete({n})"),
+            Space::Box(b) => {
+                let same = b.low.windows(2).all(|w| w[0] == w[1])
+                    && b.high.windows(2).all(|w| w[0] == w[1]);
+                match (same, b.low.first(), b.high.first()) {
+                    (true, Some(lo), Some(hi)) if lo.is_finite() && hi.is_finite() => format!(
+                        "Box({}, [{}, {}])",
+                        b.dim(),
+                        crate::float::fmt_f64(*lo),
+                        crate::float::fmt_f64(*hi)
+                    ),
+                    _ => format!("Box({})", b.dim()),
+                }
+            }
+        }
+    }
+
     /// Human-readable form, e.g. `Discrete(2)` or `Box(4, [-4.8, ...])`.
     pub fn describe(&self) -> String {
         match self {
@@ -99,5 +120,10 @@ mod tests {
         let s = Space::Box(BoxSpace::symmetric(&[2.0]));
         assert_eq!(s.describe(), "Box(1, low=[-2.0], high=[2.0])");
         assert_eq!(s.flat_dim(), 1);
+        assert_eq!(s.short(), "Box(1, [-2.0, 2.0])");
+        assert_eq!(
+            Space::Box(BoxSpace::symmetric(&[1.0, 2.0])).short(),
+            "Box(2)"
+        );
     }
 }

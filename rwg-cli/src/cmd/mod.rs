@@ -1,0 +1,4 @@
+//! One module per `rwg` subcommand.
+
+pub mod envs;
+pub mod rollout;

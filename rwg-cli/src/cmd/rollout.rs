@@ -1,0 +1,280 @@
+//! `rwg rollout`: one episode with given actions, printed step by step.
+
+use anyhow::{bail, Context, Result};
+use rwg_core::float::fmt_f64;
+use rwg_core::{Action, ActionDtype, Environment, Space};
+use rwg_envs::{make, EnvOptions};
+use std::io::{BufWriter, Write};
+use std::path::PathBuf;
+
+/// Arguments of `rwg rollout`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Actions: steps are separated by commas (--actions) or newlines (--actions-file); \
+the components of a vector action inside one step by spaces. Discrete actions are \
+integers. Continuous actions are clipped to the action space exactly as Gymnasium \
+clips them.
+
+Output: the first line (step 0) is the observation after reset; then one line per \
+step with the action, observation, reward, terminated and truncated. Floats are \
+printed in shortest round-trip form. The rollout stops when the episode ends or the \
+actions run out.
+
+Examples:
+  rwg rollout CartPole-v0 --seed 3 --actions 0,1,1,0
+  rwg rollout Pendulum-v1 --seed 4 --actions 0.5,-2.5 --action-dtype float32
+  rwg rollout Pendulum-v0 --state 3.0,0.5 --actions-file actions.txt --format csv")]
+pub struct Args {
+    /// Environment id (see `rwg envs`).
+    env: String,
+    /// Reset seed, as in Gymnasium's `env.reset(seed=SEED)`.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Start from this internal state (comma-separated, Gymnasium's
+    /// `env.unwrapped.state` order) instead of a seeded reset.
+    #[arg(long, value_name = "X,Y,...", allow_hyphen_values = true)]
+    state: Option<String>,
+    /// Actions, one per step, separated by commas.
+    #[arg(
+        long,
+        value_name = "A,A,...",
+        allow_hyphen_values = true,
+        conflicts_with = "actions_file"
+    )]
+    actions: Option<String>,
+    /// File with one action per line (blank lines and lines starting with # are skipped).
+    #[arg(long, value_name = "FILE")]
+    actions_file: Option<PathBuf>,
+    /// dtype of the continuous action array, as handed to Gymnasium's `step()`.
+    #[arg(long, value_name = "DTYPE", default_value = "float64",
+          value_parser = ["float64", "float32"])]
+    action_dtype: String,
+    /// Override the registered time limit.
+    #[arg(long, value_name = "N")]
+    max_episode_steps: Option<u32>,
+    /// Output format.
+    #[arg(long, default_value = "jsonl", value_parser = ["jsonl", "csv"])]
+    format: String,
+}
+
+/// One parsed action: where it came from, and its components.
+struct ParsedAction {
+    origin: String,
+    values: Vec<f64>,
+    discrete: Option<i64>,
+}
+
+/// Splits the action text into steps, each with a description of where it
+/// stands (for error messages).
+fn action_texts(args: &Args) -> Result<Vec<(String, String)>> {
+    if let Some(path) = &args.actions_file {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read actions file {}", path.display()))?;
+        Ok(text
+            .lines()
+            .enumerate()
+            .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+            .map(|(i, l)| {
+                (
+                    format!("{}:{}", path.display(), i + 1),
+                    l.trim().to_string(),
+                )
+            })
+            .collect())
+    } else if let Some(list) = &args.actions {
+        if list.trim().is_empty() {
+            return Ok(vec![]);
+        }
+        Ok(list
+            .split(',')
+            .enumerate()
+            .map(|(i, a)| (format!("--actions item {}", i + 1), a.trim().to_string()))
+            .collect())
+    } else {
+        Ok(vec![])
+    }
+}
+
+fn parse_actions(args: &Args, space: &Space) -> Result<Vec<ParsedAction>> {
+    let mut out = vec![];
+    for (step, (origin, text)) in action_texts(args)?.into_iter().enumerate() {
+        let step = step + 1;
+        let where_ = format!("{origin} (step {step})");
+        match space {
+            Space::Discrete { n } => {
+                let a: i64 = text.parse().map_err(|_| {
+                    anyhow::anyhow!(
+                        "{where_}: '{text}' is not an integer action (Discrete({n}) takes 0..={})",
+                        n - 1
+                    )
+                })?;
+                out.push(ParsedAction {
+                    origin: where_,
+                    values: vec![a as f64],
+                    discrete: Some(a),
+                });
+            }
+            Space::Box(b) => {
+                let parts: Vec<&str> = text
+                    .split(|c: char| c.is_whitespace() || c == ',')
+                    .filter(|s| !s.is_empty())
+                    .collect();
+                let values = parts
+                    .iter()
+                    .map(|p| p.parse::<f64>())
+                    .collect::<Result<Vec<f64>, _>>()
+                    .map_err(|_| anyhow::anyhow!("{where_}: '{text}' is not a number"))?;
+                if values.len() != b.dim() {
+                    bail!(
+                        "{where_}: '{text}' has {} values, the action space has {}",
+                        values.len(),
+                        b.dim()
+                    );
+                }
+                out.push(ParsedAction {
+                    origin: where_,
+                    values,
+                    discrete: None,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn parse_state(text: &str) -> Result<Vec<f64>> {
+    text.split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .map_err(|_| anyhow::anyhow!("--state: '{}' is not a number", p.trim()))
+        })
+        .collect()
+}
+
+/// JSON number (shortest round-trip), or null for a non-finite value.
+fn json_num(x: f64) -> String {
+    if x.is_finite() {
+        fmt_f64(x)
+    } else {
+        "null".into()
+    }
+}
+
+/// Runs `rwg rollout`.
+pub fn run(args: Args) -> Result<()> {
+    let dtype: ActionDtype = args.action_dtype.parse().map_err(anyhow::Error::msg)?;
+    let opts = EnvOptions {
+        action_dtype: dtype,
+        max_episode_steps: args.max_episode_steps,
+    };
+    let mut env = make(&args.env, &opts)?;
+    let spec = env.spec().clone();
+    let actions = parse_actions(&args, &spec.action_space)?;
+
+    let mut obs = vec![0.0; spec.obs_dim()];
+    match &args.state {
+        Some(text) => {
+            let state = parse_state(text)?;
+            if state.len() != env.state_len() {
+                bail!(
+                    "--state has {} values; {} expects {} (its internal state, in Gymnasium's order)",
+                    state.len(),
+                    spec.id,
+                    env.state_len()
+                );
+            }
+            env.set_state(&state, &mut obs)
+                .with_context(|| format!("--state for {}", spec.id))?;
+        }
+        None => env.reset(args.seed, &mut obs)?,
+    }
+
+    let stdout = std::io::stdout();
+    let mut out = BufWriter::new(stdout.lock());
+    let csv = args.format == "csv";
+    let act_dim = spec.action_space.flat_dim();
+    if csv {
+        let mut cols = vec!["step".to_string()];
+        cols.extend((0..act_dim).map(|i| {
+            if act_dim == 1 {
+                "action".into()
+            } else {
+                format!("action_{i}")
+            }
+        }));
+        cols.extend((0..obs.len()).map(|i| format!("obs_{i}")));
+        cols.extend(["reward", "terminated", "truncated"].map(String::from));
+        writeln!(out, "{}", cols.join(","))?;
+    }
+    let write_line = |out: &mut dyn Write,
+                      step: usize,
+                      action: Option<&ParsedAction>,
+                      obs: &[f64],
+                      s: Option<rwg_core::Step>|
+     -> std::io::Result<()> {
+        if csv {
+            let mut cells = vec![step.to_string()];
+            match action {
+                Some(a) => cells.extend(a.values.iter().map(|v| match a.discrete {
+                    Some(d) => d.to_string(),
+                    None => fmt_f64(*v),
+                })),
+                None => cells.extend((0..act_dim).map(|_| String::new())),
+            }
+            cells.extend(obs.iter().map(|v| fmt_f64(*v)));
+            match s {
+                Some(s) => cells.extend([
+                    fmt_f64(s.reward),
+                    s.terminated.to_string(),
+                    s.truncated.to_string(),
+                ]),
+                None => cells.extend([String::new(), String::new(), String::new()]),
+            }
+            writeln!(out, "{}", cells.join(","))
+        } else {
+            let obs_json: Vec<String> = obs.iter().map(|v| json_num(*v)).collect();
+            let action_json = match action {
+                None => "null".to_string(),
+                Some(a) => match a.discrete {
+                    Some(d) => d.to_string(),
+                    None => format!(
+                        "[{}]",
+                        a.values
+                            .iter()
+                            .map(|v| json_num(*v))
+                            .collect::<Vec<_>>()
+                            .join(",")
+                    ),
+                },
+            };
+            match s {
+                Some(s) => writeln!(
+                    out,
+                    "{{\"step\":{step},\"action\":{action_json},\"obs\":[{}],\"reward\":{},\"terminated\":{},\"truncated\":{}}}",
+                    obs_json.join(","),
+                    json_num(s.reward),
+                    s.terminated,
+                    s.truncated
+                ),
+                None => writeln!(out, "{{\"step\":0,\"obs\":[{}]}}", obs_json.join(",")),
+            }
+        }
+    };
+    write_line(&mut out, 0, None, &obs, None)?;
+    for (i, a) in actions.iter().enumerate() {
+        let action = match a.discrete {
+            Some(d) => Action::Discrete(d),
+            None => Action::Continuous(&a.values),
+        };
+        let s = env
+            .step(action, &mut obs)
+            .with_context(|| a.origin.clone())?;
+        write_line(&mut out, i + 1, Some(a), &obs, Some(s))?;
+        if s.terminated || s.truncated {
+            break;
+        }
+    }
+    out.flush()?;
+    Ok(())
+}

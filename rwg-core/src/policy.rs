@@ -1,0 +1,332 @@
+//! The controllers RWG samples: small fully connected networks with tanh units.
+//!
+//! Layout follows the paper's reference implementation: layer sizes
+//! `[obs_dim, hidden..., n_out]`; each layer computes `tanh(W · [x, 1])` where
+//! the constant 1 input exists only with bias; `W` is row-major (out × in) with
+//! the bias weight last in each row. Output to action: discrete spaces take the
+//! argmax of the outputs (first index wins ties, like `numpy.argmax`);
+//! continuous boxes map `tanh(output)` onto the bounds (`high · tanh` for
+//! symmetric bounds, `low + (tanh + 1)/2 · (high − low)` otherwise).
+
+use crate::env::Action;
+use crate::space::Space;
+use serde::Serialize;
+
+/// The hidden-layer sizes and bias setting of a network family.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, Serialize)]
+pub struct Architecture {
+    /// Hidden layer sizes (empty: a linear controller, "0HL").
+    pub hidden: Vec<usize>,
+    /// Whether every layer has a bias input.
+    pub bias: bool,
+}
+
+/// Shapes of a network for a given env: `(out, in)` per layer, `in` counting
+/// the bias input.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct NetShape {
+    layers: Vec<(usize, usize)>,
+    bias: bool,
+}
+
+impl NetShape {
+    /// Shape for `obs_dim` inputs, `arch`'s hidden layers and `n_out` outputs.
+    pub fn new(obs_dim: usize, arch: &Architecture, n_out: usize) -> Self {
+        let mut sizes = vec![obs_dim];
+        sizes.extend(&arch.hidden);
+        sizes.push(n_out);
+        let b = usize::from(arch.bias);
+        let layers = sizes.windows(2).map(|w| (w[1], w[0] + b)).collect();
+        NetShape {
+            layers,
+            bias: arch.bias,
+        }
+    }
+
+    /// Number of outputs a network needs for this action space.
+    pub fn outputs_for(space: &Space) -> usize {
+        match space {
+            Space::Discrete { n } => *n,
+            Space::Box(b) => b.dim(),
+        }
+    }
+
+    /// `(out, in)` of every layer, `in` including the bias input.
+    pub fn layers(&self) -> &[(usize, usize)] {
+        &self.layers
+    }
+
+    /// Whether the layers have a bias input.
+    pub fn bias(&self) -> bool {
+        self.bias
+    }
+
+    /// Total number of weights.
+    pub fn n_weights(&self) -> usize {
+        self.layers.iter().map(|(o, i)| o * i).sum()
+    }
+
+    /// Width of the widest layer output (scratch buffer size).
+    fn max_width(&self) -> usize {
+        self.layers.iter().map(|(o, _)| *o).max().unwrap_or(0)
+    }
+}
+
+/// How the network's outputs become an action.
+#[derive(Debug, Clone, PartialEq)]
+enum ActionMap {
+    Argmax,
+    /// `high · tanh(y)` per dimension.
+    Symmetric(Vec<f64>),
+    /// `low + (tanh(y) + 1)/2 · (high − low)` per dimension.
+    Affine(Vec<f64>, Vec<f64>),
+}
+
+/// A network with its weights and scratch buffers. Acting allocates nothing.
+#[derive(Debug, Clone)]
+pub struct Policy {
+    shape: NetShape,
+    weights: Vec<f64>,
+    map: ActionMap,
+    a: Vec<f64>,
+    b: Vec<f64>,
+    action: Vec<f64>,
+}
+
+impl Policy {
+    /// A policy of the given shape for `action_space`, with zero weights.
+    pub fn new(shape: NetShape, action_space: &Space) -> Self {
+        let map = match action_space {
+            Space::Discrete { .. } => ActionMap::Argmax,
+            Space::Box(b) => {
+                if b.low.iter().zip(&b.high).all(|(l, h)| *l == -*h) {
+                    ActionMap::Symmetric(b.high.clone())
+                } else {
+                    ActionMap::Affine(b.low.clone(), b.high.clone())
+                }
+            }
+        };
+        let w = shape.max_width();
+        let n_out = shape.layers.last().map_or(0, |l| l.0);
+        Policy {
+            weights: vec![0.0; shape.n_weights()],
+            a: vec![0.0; w],
+            b: vec![0.0; w],
+            action: vec![0.0; n_out],
+            shape,
+            map,
+        }
+    }
+
+    /// The network's shape.
+    pub fn shape(&self) -> &NetShape {
+        &self.shape
+    }
+
+    /// The weights, layer by layer, each row-major (out × in, bias last).
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+
+    /// Mutable weights, in the order of [`Policy::weights`].
+    pub fn weights_mut(&mut self) -> &mut [f64] {
+        &mut self.weights
+    }
+
+    /// Runs the network on `obs` and returns the action.
+    #[inline]
+    pub fn act(&mut self, obs: &[f64]) -> Action<'_> {
+        let bias = self.shape.bias;
+        let mut w = &self.weights[..];
+        let mut input: &[f64] = obs;
+        let n_layers = self.shape.layers.len();
+        let (mut cur, mut next) = (&mut self.a, &mut self.b);
+        for (li, &(n_out, n_in)) in self.shape.layers.iter().enumerate() {
+            let (lw, rest) = w.split_at(n_out * n_in);
+            w = rest;
+            let last = li + 1 == n_layers;
+            let out = &mut cur[..n_out];
+            let n_x = n_in - usize::from(bias);
+            for (o, row) in out.iter_mut().zip(lw.chunks_exact(n_in)) {
+                let mut s = 0.0;
+                for (wi, xi) in row[..n_x].iter().zip(&input[..n_x]) {
+                    s += wi * xi;
+                }
+                if bias {
+                    s += row[n_x];
+                }
+                // The output layer's tanh is applied by the action mapping.
+                *o = if last { s } else { s.tanh() };
+            }
+            std::mem::swap(&mut cur, &mut next);
+            input = &next[..n_out];
+        }
+        let y = input;
+        match &self.map {
+            ActionMap::Argmax => Action::Discrete(argmax_tanh(y) as i64),
+            ActionMap::Symmetric(high) => {
+                for ((a, h), v) in self.action.iter_mut().zip(high).zip(y) {
+                    *a = h * v.tanh();
+                }
+                Action::Continuous(&self.action)
+            }
+            ActionMap::Affine(low, high) => {
+                for (((a, l), h), v) in self.action.iter_mut().zip(low).zip(high).zip(y) {
+                    *a = l + (v.tanh() + 1.0) / 2.0 * (h - l);
+                }
+                Action::Continuous(&self.action)
+            }
+        }
+    }
+}
+
+/// `numpy.argmax(tanh(z))`: the first index whose tanh is the largest.
+///
+/// tanh is non-decreasing, so the first maximum of `z` is a maximum of
+/// `tanh(z)`; an earlier index can tie with it only where tanh rounds two
+/// different inputs to the same double (saturation near ±1, or inputs closer
+/// than tanh's rounding). Those cases are settled with tanh itself; elsewhere
+/// (both inputs in [-5, 5], where tanh' ≥ 1.8e-4, and at least 1e-6 apart) the
+/// outputs differ by far more than tanh's error, and no tanh is computed.
+#[inline]
+pub fn argmax_tanh(z: &[f64]) -> usize {
+    let mut best = 0;
+    for i in 1..z.len() {
+        if z[i] > z[best] {
+            best = i;
+        }
+    }
+    let zb = z[best];
+    for (j, &zj) in z[..best].iter().enumerate() {
+        let may_tie = zb - zj < 1e-6 || zb > 5.0 || zj < -5.0;
+        if may_tie && zj.tanh() == zb.tanh() {
+            return j;
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::space::BoxSpace;
+
+    fn n_weights(obs: usize, hidden: &[usize], out: usize, bias: bool) -> usize {
+        NetShape::new(
+            obs,
+            &Architecture {
+                hidden: hidden.to_vec(),
+                bias,
+            },
+            out,
+        )
+        .n_weights()
+    }
+
+    /// The paper's appendix tables of weight counts.
+    #[test]
+    fn weight_counts_match_the_paper() {
+        // CartPole: 4 inputs, 2 outputs; Acrobot: 6 inputs, 3 outputs;
+        // MountainCar: 2 in, 3 out; MountainCarContinuous: 2 in, 1 out;
+        // Pendulum: 3 in, 1 out.
+        let cases: [(usize, usize, [usize; 3], [usize; 3]); 5] = [
+            (4, 2, [8, 24, 40], [10, 30, 50]),
+            (6, 3, [18, 36, 52], [21, 43, 63]),
+            (2, 3, [6, 20, 36], [9, 27, 47]),
+            (2, 1, [2, 12, 28], [3, 17, 37]),
+            (3, 1, [3, 16, 32], [4, 21, 41]),
+        ];
+        let archs: [&[usize]; 3] = [&[], &[4], &[4, 4]];
+        for (obs, out, no_bias, bias) in cases {
+            for (k, h) in archs.iter().enumerate() {
+                assert_eq!(
+                    n_weights(obs, h, out, false),
+                    no_bias[k],
+                    "obs {obs} hidden {h:?}"
+                );
+                assert_eq!(
+                    n_weights(obs, h, out, true),
+                    bias[k],
+                    "obs {obs} hidden {h:?} bias"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn forward_pass_by_hand() {
+        // 2 inputs, hidden [2], 1 output in [-2, 2], with bias.
+        let arch = Architecture {
+            hidden: vec![2],
+            bias: true,
+        };
+        let space = Space::Box(BoxSpace::symmetric(&[2.0]));
+        let mut p = Policy::new(NetShape::new(2, &arch, 1), &space);
+        // layer 1: rows [w00 w01 b0], [w10 w11 b1]; layer 2: [v0 v1 c]
+        p.weights_mut()
+            .copy_from_slice(&[0.5, -1.0, 0.25, 2.0, 0.0, -0.5, 1.5, -0.75, 0.1]);
+        let x = [0.3, 0.7];
+        let h0 = (0.5 * 0.3 - 0.7 + 0.25f64).tanh();
+        let h1 = (2.0 * 0.3 + 0.0 * 0.7 + -0.5f64).tanh();
+        let y = (1.5 * h0 - 0.75 * h1 + 0.1f64).tanh();
+        match p.act(&x) {
+            Action::Continuous(a) => assert_eq!(a, &[2.0 * y]),
+            _ => panic!("expected a continuous action"),
+        }
+    }
+
+    #[test]
+    fn asymmetric_bounds_map_affinely() {
+        let arch = Architecture {
+            hidden: vec![],
+            bias: false,
+        };
+        let space = Space::Box(BoxSpace::new(vec![0.0], vec![1.0]));
+        let mut p = Policy::new(NetShape::new(1, &arch, 1), &space);
+        p.weights_mut()[0] = 1.0;
+        let Action::Continuous(a) = p.act(&[0.5]) else {
+            panic!()
+        };
+        assert_eq!(a[0], 0.0 + (0.5f64.tanh() + 1.0) / 2.0 * 1.0);
+    }
+
+    #[test]
+    fn argmax_is_numpy_argmax_of_tanh() {
+        let cases: [&[f64]; 7] = [
+            &[0.1, 0.2],
+            &[0.3, -0.3, 0.3],
+            &[25.0, 30.0],       // both saturate to 1.0: first wins
+            &[-30.0, -25.0],     // both -1.0: first wins
+            &[1.0, 1.0 + 1e-17], // equal after rounding
+            &[4.0, 4.0 + 1e-12], // distinct tanh values? decided by tanh
+            &[-1.0, 0.0, 19.5, 22.0],
+        ];
+        for z in cases {
+            let t: Vec<f64> = z.iter().map(|v| v.tanh()).collect();
+            let mut expect = 0;
+            for i in 1..t.len() {
+                if t[i] > t[expect] {
+                    expect = i;
+                }
+            }
+            assert_eq!(argmax_tanh(z), expect, "{z:?}");
+        }
+    }
+
+    #[test]
+    fn discrete_policy_acts_in_range() {
+        let arch = Architecture {
+            hidden: vec![4, 4],
+            bias: true,
+        };
+        let space = Space::Discrete { n: 3 };
+        let mut p = Policy::new(NetShape::new(6, &arch, 3), &space);
+        for (i, w) in p.weights_mut().iter_mut().enumerate() {
+            *w = ((i * 7919) % 13) as f64 / 6.0 - 1.0;
+        }
+        let Action::Discrete(a) = p.act(&[0.1, -0.2, 0.3, 0.4, -1.0, 2.0]) else {
+            panic!()
+        };
+        assert!((0..3).contains(&a));
+    }
+}
