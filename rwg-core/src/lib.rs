@@ -7,6 +7,7 @@
 pub mod env;
 pub mod float;
 pub mod policy;
+pub mod run_meta;
 pub mod seeding;
 pub mod space;
 pub mod suggest;
