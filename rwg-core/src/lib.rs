@@ -6,8 +6,10 @@
 
 pub mod env;
 pub mod float;
+pub mod manifest;
 pub mod policy;
 pub mod run_meta;
+pub mod sampler;
 pub mod seeding;
 pub mod space;
 pub mod suggest;

@@ -211,3 +211,18 @@ mod tests {
         assert_eq!(w, [0, 0, 1]);
     }
 }
+
+impl rand_core::RngCore for Pcg64 {
+    fn next_u32(&mut self) -> u32 {
+        (Pcg64::next_u64(self) >> 32) as u32
+    }
+    fn next_u64(&mut self) -> u64 {
+        Pcg64::next_u64(self)
+    }
+    fn fill_bytes(&mut self, dst: &mut [u8]) {
+        for chunk in dst.chunks_mut(8) {
+            let v = Pcg64::next_u64(self).to_le_bytes();
+            chunk.copy_from_slice(&v[..chunk.len()]);
+        }
+    }
+}

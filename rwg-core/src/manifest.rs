@@ -1,0 +1,511 @@
+//! The TOML manifest that drives a study.
+//!
+//! ```toml
+//! seed = 0             # optional, default 0
+//! samples = 1000       # networks per cell
+//! episodes = 20        # episodes per network
+//! out = "runs/quick"   # optional run directory (relative to the current directory)
+//! threads = 2          # optional, default: all cores
+//! bias = [false, true] # optional, default [false]
+//!
+//! [weights]            # optional, default normal with scale 1
+//! distribution = "normal"  # or "uniform"
+//! scale = 1.0              # std of the normal, or a of U(-a, a)
+//!
+//! [[architectures]]
+//! name = "0HL"
+//! hidden = []
+//!
+//! [[envs]]
+//! id = "CartPole-v0"
+//! solved = 195             # optional, overrides the env's reward threshold
+//! max_episode_steps = 200  # optional, overrides the env's time limit
+//! action_dtype = "float64" # optional: float64 (default) or float32
+//! ```
+//!
+//! Unknown keys and bad values are errors that name the file, line, column
+//! and key; nothing runs.
+
+use crate::env::ActionDtype;
+use crate::sampler::WeightDist;
+use serde::{Deserialize, Serialize};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+use toml::Spanned;
+
+/// A manifest error, located in its file.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("{file}:{line}:{column}: {message}")]
+pub struct ManifestError {
+    /// The manifest file.
+    pub file: String,
+    /// 1-based line.
+    pub line: usize,
+    /// 1-based column.
+    pub column: usize,
+    /// What is wrong, starting with the key.
+    pub message: String,
+}
+
+/// A manifest that could not be read at all.
+#[derive(Debug, Error)]
+pub enum LoadError {
+    /// The file could not be read.
+    #[error("cannot read manifest {file}: {source}")]
+    Io {
+        /// The manifest file.
+        file: String,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file was read but is not a valid manifest.
+    #[error(transparent)]
+    Invalid(#[from] ManifestError),
+}
+
+/// A number written as a TOML integer or float.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(untagged)]
+enum Num {
+    Int(i64),
+    Float(f64),
+}
+
+impl Num {
+    fn get(self) -> f64 {
+        match self {
+            Num::Int(i) => i as f64,
+            Num::Float(f) => f,
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Raw {
+    seed: Option<Spanned<i64>>,
+    samples: Spanned<i64>,
+    episodes: Spanned<i64>,
+    out: Option<Spanned<String>>,
+    threads: Option<Spanned<i64>>,
+    bias: Option<Spanned<Vec<bool>>>,
+    weights: Option<RawWeights>,
+    architectures: Spanned<Vec<RawArch>>,
+    envs: Spanned<Vec<RawEnv>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWeights {
+    distribution: Option<Spanned<String>>,
+    scale: Option<Spanned<Num>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawArch {
+    name: Spanned<String>,
+    hidden: Spanned<Vec<Spanned<i64>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawEnv {
+    id: Spanned<String>,
+    solved: Option<Spanned<Num>>,
+    max_episode_steps: Option<Spanned<i64>>,
+    action_dtype: Option<Spanned<String>>,
+    plugin: Option<Spanned<String>>,
+}
+
+/// A named architecture of the manifest.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ArchEntry {
+    /// Name used in output (cell directories, tables).
+    pub name: String,
+    /// Hidden layer sizes.
+    pub hidden: Vec<usize>,
+}
+
+/// An environment of the manifest.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EnvEntry {
+    /// Environment id.
+    pub id: String,
+    /// Solved score override.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solved: Option<f64>,
+    /// Time limit override.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_episode_steps: Option<u32>,
+    /// dtype of continuous actions.
+    pub action_dtype: ActionDtype,
+    /// Plugin library providing the env (absolute, resolved against the manifest's folder).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plugin: Option<PathBuf>,
+    /// Where the id stands in the manifest (byte range), for error messages.
+    #[serde(skip)]
+    pub id_span: Range<usize>,
+}
+
+/// A validated manifest.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Manifest {
+    /// Master seed.
+    pub seed: u64,
+    /// Networks per cell.
+    pub samples: u64,
+    /// Episodes per network.
+    pub episodes: u32,
+    /// Run directory, if given.
+    pub out: Option<PathBuf>,
+    /// Worker threads (`None`: all cores).
+    pub threads: Option<usize>,
+    /// Bias settings to run.
+    pub bias: Vec<bool>,
+    /// Weight distribution.
+    pub weights: WeightDist,
+    /// Architectures.
+    pub architectures: Vec<ArchEntry>,
+    /// Environments.
+    pub envs: Vec<EnvEntry>,
+    /// The manifest's file name, for messages.
+    pub file: String,
+    /// The manifest's text, for locating errors.
+    pub source: String,
+}
+
+/// 1-based line and column of a byte offset.
+fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let offset = offset.min(text.len());
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rfind('\n').map_or(offset, |p| offset - p - 1) + 1;
+    (line, col)
+}
+
+impl Manifest {
+    /// Reads and validates a manifest file.
+    pub fn load(path: &Path) -> Result<Manifest, LoadError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io { file: file.clone(), source })?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Ok(Manifest::parse(&text, &file, base)?)
+    }
+
+    /// An error located at `span` of this manifest's text.
+    pub fn error_at(&self, span: Range<usize>, message: impl Into<String>) -> ManifestError {
+        locate(&self.file, &self.source, span, message.into())
+    }
+
+    /// Validates manifest text. `file` names it in errors; relative plugin
+    /// paths are resolved against `base`.
+    pub fn parse(text: &str, file: &str, base: &Path) -> Result<Manifest, ManifestError> {
+        let err = |span: Range<usize>, msg: String| locate(file, text, span, msg);
+        let raw: Raw = toml::from_str(text).map_err(|e| {
+            let mut msg = e.message().trim_end().to_string();
+            if let Some(s) = unknown_field_suggestion(&msg) {
+                msg.push_str(&s);
+            }
+            err(e.span().unwrap_or(0..0), msg)
+        })?;
+
+        let positive = |v: &Spanned<i64>, key: &str| -> Result<u64, ManifestError> {
+            if *v.get_ref() >= 1 {
+                Ok(*v.get_ref() as u64)
+            } else {
+                Err(err(v.span(), format!("{key}: must be at least 1, got {}", v.get_ref())))
+            }
+        };
+
+        let seed = match &raw.seed {
+            None => 0,
+            Some(s) if *s.get_ref() >= 0 => *s.get_ref() as u64,
+            Some(s) => return Err(err(s.span(), format!("seed: must be a non-negative integer, got {}", s.get_ref()))),
+        };
+        let samples = positive(&raw.samples, "samples")?;
+        let episodes = positive(&raw.episodes, "episodes")?;
+        let episodes = u32::try_from(episodes)
+            .map_err(|_| err(raw.episodes.span(), "episodes: too large".into()))?;
+        let threads = raw.threads.as_ref().map(|t| positive(t, "threads").map(|t| t as usize)).transpose()?;
+        let bias = match &raw.bias {
+            None => vec![false],
+            Some(b) if b.get_ref().is_empty() => {
+                return Err(err(b.span(), "bias: needs at least one setting (false, true or both)".into()))
+            }
+            Some(b) => {
+                let mut v = b.get_ref().clone();
+                v.dedup();
+                if v.len() != b.get_ref().len() || (v.len() == 2 && v[0] == v[1]) {
+                    return Err(err(b.span(), "bias: each setting may appear once".into()));
+                }
+                v
+            }
+        };
+
+        let weights = match &raw.weights {
+            None => WeightDist::Normal { std: 1.0 },
+            Some(w) => {
+                let scale = match &w.scale {
+                    None => 1.0,
+                    Some(s) => {
+                        let v = s.get_ref().get();
+                        if !(v.is_finite() && v > 0.0) {
+                            return Err(err(s.span(), format!("weights.scale: must be a positive number, got {v}")));
+                        }
+                        v
+                    }
+                };
+                match w.distribution.as_ref().map(|d| (d.get_ref().as_str(), d.span())) {
+                    None | Some(("normal", _)) => WeightDist::Normal { std: scale },
+                    Some(("uniform", _)) => WeightDist::Uniform { a: scale },
+                    Some((other, span)) => {
+                        return Err(err(
+                            span,
+                            format!("weights.distribution: unknown distribution '{other}' (expected \"normal\" or \"uniform\")"),
+                        ))
+                    }
+                }
+            }
+        };
+
+        if raw.architectures.get_ref().is_empty() {
+            return Err(err(raw.architectures.span(), "architectures: needs at least one architecture".into()));
+        }
+        let mut architectures = Vec::new();
+        for (i, a) in raw.architectures.get_ref().iter().enumerate() {
+            let key = format!("architectures[{i}]");
+            let name = a.name.get_ref().trim().to_string();
+            if name.is_empty() {
+                return Err(err(a.name.span(), format!("{key}.name: must not be empty")));
+            }
+            if architectures.iter().any(|x: &ArchEntry| x.name == name) {
+                return Err(err(a.name.span(), format!("{key}.name: '{name}' is used twice")));
+            }
+            let mut hidden = Vec::new();
+            for (j, h) in a.hidden.get_ref().iter().enumerate() {
+                if !(1..=4096).contains(h.get_ref()) {
+                    return Err(err(
+                        h.span(),
+                        format!("{key}.hidden[{j}]: a layer needs 1 to 4096 units, got {}", h.get_ref()),
+                    ));
+                }
+                hidden.push(*h.get_ref() as usize);
+            }
+            architectures.push(ArchEntry { name, hidden });
+        }
+
+        if raw.envs.get_ref().is_empty() {
+            return Err(err(raw.envs.span(), "envs: needs at least one environment".into()));
+        }
+        let mut envs: Vec<EnvEntry> = Vec::new();
+        for (i, e) in raw.envs.get_ref().iter().enumerate() {
+            let key = format!("envs[{i}]");
+            let id = e.id.get_ref().clone();
+            if envs.iter().any(|x| x.id == id) {
+                return Err(err(e.id.span(), format!("{key}.id: '{id}' is listed twice")));
+            }
+            let solved = match &e.solved {
+                None => None,
+                Some(s) if s.get_ref().get().is_finite() => Some(s.get_ref().get()),
+                Some(s) => return Err(err(s.span(), format!("{key}.solved: must be a finite number"))),
+            };
+            let max_episode_steps = match &e.max_episode_steps {
+                None => None,
+                Some(m) => Some(
+                    u32::try_from(positive(m, &format!("{key}.max_episode_steps"))?)
+                        .map_err(|_| err(m.span(), format!("{key}.max_episode_steps: too large")))?,
+                ),
+            };
+            let action_dtype = match &e.action_dtype {
+                None => ActionDtype::F64,
+                Some(d) => d
+                    .get_ref()
+                    .parse()
+                    .map_err(|m: String| err(d.span(), format!("{key}.action_dtype: {m}")))?,
+            };
+            let plugin = e.plugin.as_ref().map(|p| {
+                let p = Path::new(p.get_ref());
+                if p.is_absolute() {
+                    p.to_path_buf()
+                } else {
+                    base.join(p)
+                }
+            });
+            envs.push(EnvEntry {
+                id,
+                solved,
+                max_episode_steps,
+                action_dtype,
+                plugin,
+                id_span: e.id.span(),
+            });
+        }
+
+        Ok(Manifest {
+            seed,
+            samples,
+            episodes,
+            out: raw.out.map(|o| PathBuf::from(o.into_inner())),
+            threads,
+            bias,
+            weights,
+            architectures,
+            envs,
+            file: file.to_string(),
+            source: text.to_string(),
+        })
+    }
+
+    /// The manifest as TOML with every value written out (the run directory's
+    /// `manifest.toml`). Reading it back gives the same study.
+    pub fn to_toml(&self) -> String {
+        #[derive(Serialize)]
+        struct Weights<'a> {
+            distribution: &'a str,
+            scale: f64,
+        }
+        #[derive(Serialize)]
+        struct Out<'a> {
+            seed: u64,
+            samples: u64,
+            episodes: u32,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            out: Option<String>,
+            #[serde(skip_serializing_if = "Option::is_none")]
+            threads: Option<usize>,
+            bias: &'a [bool],
+            weights: Weights<'a>,
+            architectures: &'a [ArchEntry],
+            envs: &'a [EnvEntry],
+        }
+        let o = Out {
+            seed: self.seed,
+            samples: self.samples,
+            episodes: self.episodes,
+            out: self.out.as_ref().map(|p| p.display().to_string()),
+            threads: self.threads,
+            bias: &self.bias,
+            weights: Weights { distribution: self.weights.name(), scale: self.weights.scale() },
+            architectures: &self.architectures,
+            envs: &self.envs,
+        };
+        toml::to_string(&o).expect("manifest serialises")
+    }
+}
+
+fn locate(file: &str, text: &str, span: Range<usize>, message: String) -> ManifestError {
+    let (line, column) = line_col(text, span.start);
+    ManifestError { file: file.to_string(), line, column, message }
+}
+
+/// "did you mean ...?" for serde's "unknown field `x`, expected one of `a`, `b`" messages.
+fn unknown_field_suggestion(msg: &str) -> Option<String> {
+    let rest = msg.strip_prefix("unknown field `")?;
+    let (field, rest) = rest.split_once('`')?;
+    let expected: Vec<&str> = rest.split('`').skip(1).step_by(2).collect();
+    crate::suggest::nearest(field, expected.iter().copied()).map(|s| format!(" (did you mean `{s}`?)"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const GOOD: &str = r#"
+seed = 3
+samples = 10
+episodes = 2
+bias = [false, true]
+
+[weights]
+distribution = "uniform"
+scale = 2
+
+[[architectures]]
+name = "0HL"
+hidden = []
+
+[[architectures]]
+name = "2HL"
+hidden = [4, 4]
+
+[[envs]]
+id = "CartPole-v0"
+solved = 195
+
+[[envs]]
+id = "Pendulum-v0"
+solved = -140.5
+action_dtype = "float32"
+plugin = "libs/x.so"
+"#;
+
+    fn parse(text: &str) -> Result<Manifest, ManifestError> {
+        Manifest::parse(text, "m.toml", Path::new("/base"))
+    }
+
+    #[test]
+    fn parses_a_full_manifest() {
+        let m = parse(GOOD).unwrap();
+        assert_eq!((m.seed, m.samples, m.episodes), (3, 10, 2));
+        assert_eq!(m.bias, [false, true]);
+        assert_eq!(m.weights, WeightDist::Uniform { a: 2.0 });
+        assert_eq!(m.architectures[1].hidden, [4, 4]);
+        assert_eq!(m.envs[0].solved, Some(195.0));
+        assert_eq!(m.envs[1].action_dtype, ActionDtype::F32);
+        assert_eq!(m.envs[1].plugin.as_deref(), Some(Path::new("/base/libs/x.so")));
+        assert_eq!(&GOOD[m.envs[1].id_span.clone()], "\"Pendulum-v0\"");
+    }
+
+    #[test]
+    fn resolved_toml_round_trips() {
+        let m = parse(GOOD).unwrap();
+        let again = parse(&m.to_toml()).unwrap();
+        assert_eq!(again.envs.iter().map(|e| &e.id).collect::<Vec<_>>(), ["CartPole-v0", "Pendulum-v0"]);
+        assert_eq!(again.weights, m.weights);
+        assert_eq!(again.architectures, m.architectures);
+        assert_eq!(again.bias, m.bias);
+        assert_eq!(again.envs[1].solved, Some(-140.5));
+    }
+
+    fn error_of(text: &str) -> String {
+        parse(text).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn errors_name_file_line_column_and_key() {
+        let e = error_of(&GOOD.replace("samples = 10", "samples = 0"));
+        assert_eq!(e, "m.toml:3:11: samples: must be at least 1, got 0");
+        let e = error_of(&GOOD.replace("hidden = [4, 4]", "hidden = [4, 0]"));
+        assert!(e.starts_with("m.toml:17:14: architectures[1].hidden[1]: a layer needs"), "{e}");
+        let e = error_of(&GOOD.replace("\"uniform\"", "\"cauchy\""));
+        assert!(e.starts_with("m.toml:8:16: weights.distribution: unknown distribution 'cauchy'"), "{e}");
+        let e = error_of(&GOOD.replace("action_dtype = \"float32\"", "action_dtype = \"int8\""));
+        assert!(e.starts_with("m.toml:25:16: envs[1].action_dtype: unknown action dtype"), "{e}");
+    }
+
+    #[test]
+    fn unknown_keys_are_errors_with_a_suggestion() {
+        let e = error_of(&GOOD.replace("episodes = 2", "episodes = 2\nsampels = 4"));
+        assert!(e.starts_with("m.toml:5:1: unknown field `sampels`"), "{e}");
+        let e = error_of(&GOOD.replace("solved = 195", "solve = 195"));
+        assert!(e.contains("unknown field `solve`") && e.contains("did you mean `solved`"), "{e}");
+    }
+
+    #[test]
+    fn type_errors_and_missing_keys() {
+        let e = error_of(&GOOD.replace("samples = 10", "samples = \"many\""));
+        assert!(e.starts_with("m.toml:3:11:"), "{e}");
+        let e = error_of(&GOOD.replace("episodes = 2\n", ""));
+        assert!(e.contains("missing field `episodes`"), "{e}");
+    }
+
+    #[test]
+    fn duplicate_env_and_empty_lists() {
+        let e = error_of(&GOOD.replace("Pendulum-v0", "CartPole-v0"));
+        assert!(e.contains("envs[1].id: 'CartPole-v0' is listed twice"), "{e}");
+        let e = error_of(&GOOD.replace("bias = [false, true]", "bias = []"));
+        assert!(e.contains("bias: needs at least one"), "{e}");
+    }
+}

@@ -1,0 +1,332 @@
+//! The RWG sampler: the paper's Algorithm 1, deterministic by construction.
+//!
+//! # Seeds
+//! Nothing depends on scheduling, thread count or on which other cells a
+//! manifest contains:
+//! - the weights of network `n` of a cell come from
+//!   `PCG64(SeedSequence([seed, 1, env_key, bias, len(hidden), *hidden, n]))`,
+//!   drawn layer by layer, row-major, bias weight last in each row;
+//! - episode `e` of network `n` starts with `env.reset(seed=r)` where
+//!   `r = SeedSequence([seed, 2, env_key, n, e]).generate_state(1, np.uint64)[0]`.
+//!
+//! `env_key = int.from_bytes(env_id.encode(), "little")` and `bias` is 0 or 1,
+//! all as in numpy (`SeedSequence` takes a list of non-negative integers). The
+//! reset seeds do not depend on the architecture, so network `n` of every
+//! architecture meets the same initial conditions (a paired comparison), and a
+//! user can replay any episode in Gymnasium with `env.reset(seed=r)`.
+
+use crate::env::{EnvError, Environment};
+use crate::policy::{Architecture, NetShape, Policy};
+use crate::seeding::{Pcg64, SeedSequence};
+use rand_distr::{Distribution, StandardNormal};
+use rayon::prelude::*;
+use std::ops::Range;
+use thiserror::Error;
+
+/// Distribution of every weight.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum WeightDist {
+    /// Normal(0, std).
+    Normal {
+        /// Standard deviation (the paper: 1).
+        std: f64,
+    },
+    /// Uniform(-a, a), drawn as numpy's `uniform(-a, a)`.
+    Uniform {
+        /// Half-width.
+        a: f64,
+    },
+}
+
+impl WeightDist {
+    /// `normal` or `uniform`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            WeightDist::Normal { .. } => "normal",
+            WeightDist::Uniform { .. } => "uniform",
+        }
+    }
+
+    /// The scale parameter (std or a).
+    pub fn scale(&self) -> f64 {
+        match *self {
+            WeightDist::Normal { std } => std,
+            WeightDist::Uniform { a } => a,
+        }
+    }
+}
+
+/// Seed stream tag of network weights.
+const STREAM_WEIGHTS: u64 = 1;
+/// Seed stream tag of episode reset seeds.
+const STREAM_RESETS: u64 = 2;
+
+/// The 32-bit words of `int.from_bytes(id.encode(), "little")`, i.e. numpy's
+/// entropy words for that integer (at least one word).
+fn env_key_words(env_id: &str, out: &mut Vec<u32>) {
+    let bytes = env_id.as_bytes();
+    let mut len = bytes.len();
+    while len > 0 && bytes[len - 1] == 0 {
+        len -= 1; // a big integer has no leading zero bytes
+    }
+    if len == 0 {
+        out.push(0);
+        return;
+    }
+    for chunk in bytes[..len].chunks(4) {
+        let mut w = [0u8; 4];
+        w[..chunk.len()].copy_from_slice(chunk);
+        out.push(u32::from_le_bytes(w));
+    }
+}
+
+fn push_int(n: u64, out: &mut Vec<u32>) {
+    crate::seeding::int_to_words(n, out);
+}
+
+/// The reset seed of episode `episode` of network `sample` (see the module docs).
+pub fn reset_seed(seed: u64, env_id: &str, sample: u64, episode: u32) -> u64 {
+    let mut w = Vec::with_capacity(16);
+    push_int(seed, &mut w);
+    push_int(STREAM_RESETS, &mut w);
+    env_key_words(env_id, &mut w);
+    push_int(sample, &mut w);
+    push_int(episode as u64, &mut w);
+    let [r] = SeedSequence::from_words(&w).generate_u64::<1>();
+    r
+}
+
+/// The random generator of network `sample`'s weights (see the module docs).
+pub fn weight_rng(seed: u64, env_id: &str, arch: &Architecture, sample: u64) -> Pcg64 {
+    let mut w = Vec::with_capacity(24);
+    push_int(seed, &mut w);
+    push_int(STREAM_WEIGHTS, &mut w);
+    env_key_words(env_id, &mut w);
+    push_int(arch.bias as u64, &mut w);
+    push_int(arch.hidden.len() as u64, &mut w);
+    for &h in &arch.hidden {
+        push_int(h as u64, &mut w);
+    }
+    push_int(sample, &mut w);
+    Pcg64::from_seed_sequence(&SeedSequence::from_words(&w))
+}
+
+/// Fills `weights` with draws from `dist` using `rng`.
+pub fn draw_weights(rng: &mut Pcg64, dist: WeightDist, weights: &mut [f64]) {
+    for w in weights {
+        *w = match dist {
+            WeightDist::Normal { std } => {
+                let z: f64 = StandardNormal.sample(rng);
+                z * std
+            }
+            WeightDist::Uniform { a } => rng.uniform(-a, a),
+        };
+    }
+}
+
+/// What one cell of the study runs: an environment with one architecture.
+#[derive(Debug, Clone)]
+pub struct CellPlan {
+    /// Manifest seed.
+    pub seed: u64,
+    /// Environment id (part of every seed).
+    pub env_id: String,
+    /// Architecture and bias.
+    pub arch: Architecture,
+    /// Episodes per network.
+    pub episodes: u32,
+    /// Weight distribution.
+    pub dist: WeightDist,
+}
+
+/// Score and length of one episode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EpisodeResult {
+    /// Undiscounted total reward.
+    pub score: f64,
+    /// Number of steps.
+    pub steps: u32,
+}
+
+/// An environment failure while sampling, with where it happened.
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("{env}: sample {sample}, episode {episode}, step {step}: {source}")]
+pub struct SampleError {
+    /// Environment id.
+    pub env: String,
+    /// Network index.
+    pub sample: u64,
+    /// Episode index.
+    pub episode: u32,
+    /// Step (0 = reset).
+    pub step: u32,
+    /// What the environment reported.
+    pub source: EnvError,
+}
+
+/// Per-worker buffers: a policy and an observation buffer.
+pub struct Worker<E> {
+    env: E,
+    policy: Policy,
+    obs: Vec<f64>,
+}
+
+impl<E: Environment> Worker<E> {
+    /// A worker for `plan` on `env`.
+    pub fn new(env: E, plan: &CellPlan) -> Self {
+        let spec = env.spec();
+        let shape = NetShape::new(spec.obs_dim(), &plan.arch, NetShape::outputs_for(&spec.action_space));
+        let policy = Policy::new(shape, &spec.action_space);
+        let obs = vec![0.0; spec.obs_dim()];
+        Worker { env, policy, obs }
+    }
+
+    /// Draws network `sample`'s weights and runs its episodes into `out`
+    /// (length `plan.episodes`).
+    pub fn run_sample(
+        &mut self,
+        plan: &CellPlan,
+        sample: u64,
+        out: &mut [EpisodeResult],
+    ) -> Result<(), SampleError> {
+        let mut rng = weight_rng(plan.seed, &plan.env_id, &plan.arch, sample);
+        draw_weights(&mut rng, plan.dist, self.policy.weights_mut());
+        for (episode, slot) in out.iter_mut().enumerate() {
+            let episode = episode as u32;
+            let r = reset_seed(plan.seed, &plan.env_id, sample, episode);
+            *slot = run_episode(&mut self.env, &mut self.policy, &mut self.obs, r).map_err(
+                |(step, source)| SampleError {
+                    env: plan.env_id.clone(),
+                    sample,
+                    episode,
+                    step,
+                    source,
+                },
+            )?;
+        }
+        Ok(())
+    }
+
+    /// The worker's policy (holding the last sample's weights).
+    pub fn policy(&self) -> &Policy {
+        &self.policy
+    }
+}
+
+/// Runs one episode from `env.reset(seed=reset_seed)` until it terminates or
+/// is truncated. The loop allocates nothing. On failure returns the step
+/// (0 = reset) and the error.
+#[inline]
+pub fn run_episode<E: Environment>(
+    env: &mut E,
+    policy: &mut Policy,
+    obs: &mut [f64],
+    reset_seed: u64,
+) -> Result<EpisodeResult, (u32, EnvError)> {
+    env.reset(reset_seed, obs).map_err(|e| (0, e))?;
+    let mut score = 0.0;
+    let mut steps = 0u32;
+    loop {
+        let action = policy.act(obs);
+        let s = env.step(action, obs).map_err(|e| (steps + 1, e))?;
+        score += s.reward;
+        steps += 1;
+        if s.terminated || s.truncated {
+            return Ok(EpisodeResult { score, steps });
+        }
+    }
+}
+
+/// The results of a block of consecutive samples.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BlockResult {
+    /// The samples of the block.
+    pub samples: Range<u64>,
+    /// `episodes` results per sample, sample-major.
+    pub episodes: Vec<EpisodeResult>,
+}
+
+/// Runs `samples` of a cell in parallel (on the current rayon pool), in blocks
+/// of `block_size` samples, and hands the finished blocks to `on_block` in
+/// sample order. Blocks are computed `wave` at a time, so memory stays bounded
+/// by `wave × block_size × episodes` results. `make_env` is called once per
+/// worker task (an instance is used by one thread at a time). Stops at the
+/// first error (or the first error `on_block` returns); everything handed to
+/// `on_block` before stays valid.
+pub fn run_cell<E, F, G, X>(
+    plan: &CellPlan,
+    samples: Range<u64>,
+    block_size: u64,
+    wave: usize,
+    make_env: F,
+    mut on_block: G,
+) -> Result<(), X>
+where
+    E: Environment + Send,
+    F: Fn() -> E + Sync,
+    G: FnMut(BlockResult) -> Result<(), X>,
+    X: From<SampleError> + Send,
+{
+    let block_size = block_size.max(1);
+    let blocks: Vec<Range<u64>> = (samples.start..samples.end)
+        .step_by(block_size as usize)
+        .map(|s| s..(s + block_size).min(samples.end))
+        .collect();
+    let e = plan.episodes as usize;
+    for wave_blocks in blocks.chunks(wave.max(1)) {
+        let results: Vec<Result<BlockResult, SampleError>> = wave_blocks
+            .par_iter()
+            .map_init(
+                || Worker::new(make_env(), plan),
+                |worker, range| {
+                    let n = (range.end - range.start) as usize;
+                    let mut episodes = vec![EpisodeResult { score: 0.0, steps: 0 }; n * e];
+                    for (k, out) in episodes.chunks_exact_mut(e.max(1)).enumerate().take(n) {
+                        worker.run_sample(plan, range.start + k as u64, out)?;
+                    }
+                    Ok(BlockResult { samples: range.clone(), episodes })
+                },
+            )
+            .collect();
+        for r in results {
+            on_block(r?)?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn env_key_is_int_from_bytes_little() {
+        // int.from_bytes(b"CartPole-v0", "little") split into 32-bit words
+        let mut w = vec![];
+        env_key_words("CartPole-v0", &mut w);
+        assert_eq!(w, [u32::from_le_bytes(*b"Cart"), u32::from_le_bytes(*b"Pole"), 0x0030_762d]);
+    }
+
+    // Values from numpy:
+    //   k = int.from_bytes(b"CartPole-v0", "little")
+    //   np.random.SeedSequence([7, 2, k, 3, 5]).generate_state(1, np.uint64)[0]
+    #[test]
+    fn reset_seed_matches_numpy() {
+        assert_eq!(reset_seed(7, "CartPole-v0", 3, 5), RESET_SEED_7_3_5);
+    }
+    const RESET_SEED_7_3_5: u64 = 17368565813789276978;
+
+    #[test]
+    fn weights_depend_on_arch_and_sample_only() {
+        let a = Architecture { hidden: vec![4], bias: false };
+        let b = Architecture { hidden: vec![4], bias: true };
+        let draw = |arch: &Architecture, n| {
+            let mut w = [0.0; 5];
+            draw_weights(&mut weight_rng(0, "CartPole-v0", arch, n), WeightDist::Normal { std: 1.0 }, &mut w);
+            w
+        };
+        assert_eq!(draw(&a, 3), draw(&a, 3));
+        assert_ne!(draw(&a, 3), draw(&a, 4));
+        assert_ne!(draw(&a, 3), draw(&b, 3));
+    }
+}
