@@ -110,6 +110,9 @@ impl Environment for CartPole {
         ];
         let [x, _, theta, _] = self.state;
         let th = theta_threshold();
+        // Gymnasium's strict comparisons, written out: a NaN state does not
+        // terminate, as in Python (a range `contains` would say it does).
+        #[allow(clippy::manual_range_contains)]
         let terminated = x < -X_THRESHOLD || x > X_THRESHOLD || theta < -th || theta > th;
 
         let reward = if !terminated {

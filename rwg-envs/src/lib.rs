@@ -5,6 +5,8 @@
 //! its own module; [`registry`] builds them by id with Gymnasium's time limits.
 
 pub mod cartpole;
+pub mod mountain_car;
+pub mod mountain_car_continuous;
 pub mod registry;
 
 pub use registry::{make, visit, EnvOptions, EnvVisitor, Registration, UnknownEnv, REGISTRY};

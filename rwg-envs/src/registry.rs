@@ -9,6 +9,8 @@ use rwg_core::{ActionDtype, Environment, TimeLimit};
 use thiserror::Error;
 
 use crate::cartpole::CartPole;
+use crate::mountain_car::MountainCar;
+use crate::mountain_car_continuous::MountainCarContinuous;
 
 /// Settings that change how a built-in environment is built.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -41,6 +43,16 @@ pub const REGISTRY: &[Registration] = &[
         id: "CartPole-v1",
         summary: "balance a pole on a cart (Gymnasium CartPole, 500 steps)",
         dtype_sensitive: false,
+    },
+    Registration {
+        id: "MountainCar-v0",
+        summary: "drive an under-powered car up a hill, 3 discrete pushes (200 steps)",
+        dtype_sensitive: false,
+    },
+    Registration {
+        id: "MountainCarContinuous-v0",
+        summary: "drive an under-powered car up a hill, continuous force (999 steps)",
+        dtype_sensitive: true,
     },
 ];
 
@@ -80,6 +92,11 @@ pub fn visit<V: EnvVisitor>(id: &str, opts: &EnvOptions, v: V) -> Result<V::Outp
     Ok(match id {
         "CartPole-v0" => v.visit(TimeLimit::new(CartPole::v0(), limit)),
         "CartPole-v1" => v.visit(TimeLimit::new(CartPole::v1(), limit)),
+        "MountainCar-v0" => v.visit(TimeLimit::new(MountainCar::new(), limit)),
+        "MountainCarContinuous-v0" => v.visit(TimeLimit::new(
+            MountainCarContinuous::new(opts.action_dtype),
+            limit,
+        )),
         _ => {
             return Err(UnknownEnv {
                 id: id.to_string(),

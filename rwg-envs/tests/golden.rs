@@ -188,3 +188,13 @@ fn golden_cartpole_v0() {
 fn golden_cartpole_v1() {
     assert!(replay("CartPole-v1") > 0);
 }
+
+#[test]
+fn golden_mountaincar_v0() {
+    assert!(replay("MountainCar-v0") > 0);
+}
+
+#[test]
+fn golden_mountaincarcontinuous_v0() {
+    assert!(replay("MountainCarContinuous-v0") > 0);
+}
