@@ -6,6 +6,8 @@
 
 pub mod acrobot;
 pub mod cartpole;
+pub mod mountain_car;
+pub mod mountain_car_continuous;
 pub mod registry;
 
 pub use registry::{make, visit, EnvOptions, EnvVisitor, Registration, UnknownEnv, REGISTRY};

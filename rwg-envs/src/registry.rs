@@ -10,6 +10,8 @@ use thiserror::Error;
 
 use crate::acrobot::Acrobot;
 use crate::cartpole::CartPole;
+use crate::mountain_car::MountainCar;
+use crate::mountain_car_continuous::MountainCarContinuous;
 
 /// Settings that change how a built-in environment is built.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -47,6 +49,16 @@ pub const REGISTRY: &[Registration] = &[
         id: "Acrobot-v1",
         summary: "swing a two-link arm's tip above a line (Gymnasium Acrobot, 500 steps)",
         dtype_sensitive: false,
+    },
+    Registration {
+        id: "MountainCar-v0",
+        summary: "drive an under-powered car up a hill, 3 discrete pushes (200 steps)",
+        dtype_sensitive: false,
+    },
+    Registration {
+        id: "MountainCarContinuous-v0",
+        summary: "drive an under-powered car up a hill, continuous force (999 steps)",
+        dtype_sensitive: true,
     },
 ];
 
@@ -87,6 +99,11 @@ pub fn visit<V: EnvVisitor>(id: &str, opts: &EnvOptions, v: V) -> Result<V::Outp
         "CartPole-v0" => v.visit(TimeLimit::new(CartPole::v0(), limit)),
         "CartPole-v1" => v.visit(TimeLimit::new(CartPole::v1(), limit)),
         "Acrobot-v1" => v.visit(TimeLimit::new(Acrobot::new(), limit)),
+        "MountainCar-v0" => v.visit(TimeLimit::new(MountainCar::new(), limit)),
+        "MountainCarContinuous-v0" => v.visit(TimeLimit::new(
+            MountainCarContinuous::new(opts.action_dtype),
+            limit,
+        )),
         _ => {
             return Err(UnknownEnv {
                 id: id.to_string(),

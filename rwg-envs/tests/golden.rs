@@ -193,3 +193,13 @@ fn golden_cartpole_v1() {
 fn golden_acrobot_v1() {
     assert!(replay("Acrobot-v1") > 0);
 }
+
+#[test]
+fn golden_mountaincar_v0() {
+    assert!(replay("MountainCar-v0") > 0);
+}
+
+#[test]
+fn golden_mountaincarcontinuous_v0() {
+    assert!(replay("MountainCarContinuous-v0") > 0);
+}
