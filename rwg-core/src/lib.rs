@@ -2,11 +2,14 @@
 //!
 //! The pieces every part of rwg shares: the Gym-like [`Environment`] trait and
 //! its [`Space`]s, the [`TimeLimit`] wrapper that applies Gymnasium's
-//! truncation rule, and numpy-exact [`seeding`].
+//! truncation rule, and numpy-exact [`seeding`] (plus gym 0.17.2's, built on
+//! [`sha512`] and [`mt19937`]).
 
 pub mod env;
 pub mod float;
+pub mod mt19937;
 pub mod seeding;
+pub mod sha512;
 pub mod space;
 pub mod suggest;
 pub mod time_limit;

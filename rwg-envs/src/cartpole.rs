@@ -110,6 +110,8 @@ impl Environment for CartPole {
         ];
         let [x, _, theta, _] = self.state;
         let th = theta_threshold();
+        // Gymnasium's condition, written as it is there.
+        #[allow(clippy::manual_range_contains)]
         let terminated = x < -X_THRESHOLD || x > X_THRESHOLD || theta < -th || theta > th;
 
         let reward = if !terminated {

@@ -5,6 +5,7 @@
 //! its own module; [`registry`] builds them by id with Gymnasium's time limits.
 
 pub mod cartpole;
+pub mod pendulum;
 pub mod registry;
 
 pub use registry::{make, visit, EnvOptions, EnvVisitor, Registration, UnknownEnv, REGISTRY};

@@ -9,11 +9,13 @@ use rwg_core::{ActionDtype, Environment, TimeLimit};
 use thiserror::Error;
 
 use crate::cartpole::CartPole;
+use crate::pendulum::Pendulum;
 
 /// Settings that change how a built-in environment is built.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct EnvOptions {
-    /// dtype of the continuous action array (Pendulum-v1, MountainCarContinuous-v0).
+    /// dtype of the continuous action array (Pendulum-v1, MountainCarContinuous-v0;
+    /// Pendulum-v0 only rounds an `F32` action to f32, its arithmetic is float64).
     pub action_dtype: ActionDtype,
     /// Overrides the registered time limit.
     pub max_episode_steps: Option<u32>,
@@ -41,6 +43,16 @@ pub const REGISTRY: &[Registration] = &[
         id: "CartPole-v1",
         summary: "balance a pole on a cart (Gymnasium CartPole, 500 steps)",
         dtype_sensitive: false,
+    },
+    Registration {
+        id: "Pendulum-v0",
+        summary: "swing a pendulum up and hold it (gym 0.17.2 dynamics and seeding, 200 steps)",
+        dtype_sensitive: false,
+    },
+    Registration {
+        id: "Pendulum-v1",
+        summary: "swing a pendulum up and hold it (Gymnasium Pendulum, 200 steps)",
+        dtype_sensitive: true,
     },
 ];
 
@@ -80,6 +92,8 @@ pub fn visit<V: EnvVisitor>(id: &str, opts: &EnvOptions, v: V) -> Result<V::Outp
     Ok(match id {
         "CartPole-v0" => v.visit(TimeLimit::new(CartPole::v0(), limit)),
         "CartPole-v1" => v.visit(TimeLimit::new(CartPole::v1(), limit)),
+        "Pendulum-v0" => v.visit(TimeLimit::new(Pendulum::v0(opts.action_dtype), limit)),
+        "Pendulum-v1" => v.visit(TimeLimit::new(Pendulum::v1(opts.action_dtype), limit)),
         _ => {
             return Err(UnknownEnv {
                 id: id.to_string(),

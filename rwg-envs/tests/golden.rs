@@ -188,3 +188,13 @@ fn golden_cartpole_v0() {
 fn golden_cartpole_v1() {
     assert!(replay("CartPole-v1") > 0);
 }
+
+#[test]
+fn golden_pendulum_v0() {
+    assert!(replay("Pendulum-v0") > 0);
+}
+
+#[test]
+fn golden_pendulum_v1() {
+    assert!(replay("Pendulum-v1") > 0);
+}
