@@ -189,7 +189,10 @@ impl Manifest {
     /// Reads and validates a manifest file.
     pub fn load(path: &Path) -> Result<Manifest, LoadError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io { file: file.clone(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
+            file: file.clone(),
+            source,
+        })?;
         let base = path.parent().unwrap_or(Path::new("."));
         Ok(Manifest::parse(&text, &file, base)?)
     }
@@ -215,24 +218,39 @@ impl Manifest {
             if *v.get_ref() >= 1 {
                 Ok(*v.get_ref() as u64)
             } else {
-                Err(err(v.span(), format!("{key}: must be at least 1, got {}", v.get_ref())))
+                Err(err(
+                    v.span(),
+                    format!("{key}: must be at least 1, got {}", v.get_ref()),
+                ))
             }
         };
 
         let seed = match &raw.seed {
             None => 0,
             Some(s) if *s.get_ref() >= 0 => *s.get_ref() as u64,
-            Some(s) => return Err(err(s.span(), format!("seed: must be a non-negative integer, got {}", s.get_ref()))),
+            Some(s) => {
+                return Err(err(
+                    s.span(),
+                    format!("seed: must be a non-negative integer, got {}", s.get_ref()),
+                ))
+            }
         };
         let samples = positive(&raw.samples, "samples")?;
         let episodes = positive(&raw.episodes, "episodes")?;
         let episodes = u32::try_from(episodes)
             .map_err(|_| err(raw.episodes.span(), "episodes: too large".into()))?;
-        let threads = raw.threads.as_ref().map(|t| positive(t, "threads").map(|t| t as usize)).transpose()?;
+        let threads = raw
+            .threads
+            .as_ref()
+            .map(|t| positive(t, "threads").map(|t| t as usize))
+            .transpose()?;
         let bias = match &raw.bias {
             None => vec![false],
             Some(b) if b.get_ref().is_empty() => {
-                return Err(err(b.span(), "bias: needs at least one setting (false, true or both)".into()))
+                return Err(err(
+                    b.span(),
+                    "bias: needs at least one setting (false, true or both)".into(),
+                ))
             }
             Some(b) => {
                 let mut v = b.get_ref().clone();
@@ -252,7 +270,10 @@ impl Manifest {
                     Some(s) => {
                         let v = s.get_ref().get();
                         if !(v.is_finite() && v > 0.0) {
-                            return Err(err(s.span(), format!("weights.scale: must be a positive number, got {v}")));
+                            return Err(err(
+                                s.span(),
+                                format!("weights.scale: must be a positive number, got {v}"),
+                            ));
                         }
                         v
                     }
@@ -271,7 +292,10 @@ impl Manifest {
         };
 
         if raw.architectures.get_ref().is_empty() {
-            return Err(err(raw.architectures.span(), "architectures: needs at least one architecture".into()));
+            return Err(err(
+                raw.architectures.span(),
+                "architectures: needs at least one architecture".into(),
+            ));
         }
         let mut architectures = Vec::new();
         for (i, a) in raw.architectures.get_ref().iter().enumerate() {
@@ -281,14 +305,20 @@ impl Manifest {
                 return Err(err(a.name.span(), format!("{key}.name: must not be empty")));
             }
             if architectures.iter().any(|x: &ArchEntry| x.name == name) {
-                return Err(err(a.name.span(), format!("{key}.name: '{name}' is used twice")));
+                return Err(err(
+                    a.name.span(),
+                    format!("{key}.name: '{name}' is used twice"),
+                ));
             }
             let mut hidden = Vec::new();
             for (j, h) in a.hidden.get_ref().iter().enumerate() {
                 if !(1..=4096).contains(h.get_ref()) {
                     return Err(err(
                         h.span(),
-                        format!("{key}.hidden[{j}]: a layer needs 1 to 4096 units, got {}", h.get_ref()),
+                        format!(
+                            "{key}.hidden[{j}]: a layer needs 1 to 4096 units, got {}",
+                            h.get_ref()
+                        ),
                     ));
                 }
                 hidden.push(*h.get_ref() as usize);
@@ -297,25 +327,37 @@ impl Manifest {
         }
 
         if raw.envs.get_ref().is_empty() {
-            return Err(err(raw.envs.span(), "envs: needs at least one environment".into()));
+            return Err(err(
+                raw.envs.span(),
+                "envs: needs at least one environment".into(),
+            ));
         }
         let mut envs: Vec<EnvEntry> = Vec::new();
         for (i, e) in raw.envs.get_ref().iter().enumerate() {
             let key = format!("envs[{i}]");
             let id = e.id.get_ref().clone();
             if envs.iter().any(|x| x.id == id) {
-                return Err(err(e.id.span(), format!("{key}.id: '{id}' is listed twice")));
+                return Err(err(
+                    e.id.span(),
+                    format!("{key}.id: '{id}' is listed twice"),
+                ));
             }
             let solved = match &e.solved {
                 None => None,
                 Some(s) if s.get_ref().get().is_finite() => Some(s.get_ref().get()),
-                Some(s) => return Err(err(s.span(), format!("{key}.solved: must be a finite number"))),
+                Some(s) => {
+                    return Err(err(
+                        s.span(),
+                        format!("{key}.solved: must be a finite number"),
+                    ))
+                }
             };
             let max_episode_steps = match &e.max_episode_steps {
                 None => None,
                 Some(m) => Some(
-                    u32::try_from(positive(m, &format!("{key}.max_episode_steps"))?)
-                        .map_err(|_| err(m.span(), format!("{key}.max_episode_steps: too large")))?,
+                    u32::try_from(positive(m, &format!("{key}.max_episode_steps"))?).map_err(
+                        |_| err(m.span(), format!("{key}.max_episode_steps: too large")),
+                    )?,
                 ),
             };
             let action_dtype = match &e.action_dtype {
@@ -387,7 +429,10 @@ impl Manifest {
             out: self.out.as_ref().map(|p| p.display().to_string()),
             threads: self.threads,
             bias: &self.bias,
-            weights: Weights { distribution: self.weights.name(), scale: self.weights.scale() },
+            weights: Weights {
+                distribution: self.weights.name(),
+                scale: self.weights.scale(),
+            },
             architectures: &self.architectures,
             envs: &self.envs,
         };
@@ -397,7 +442,12 @@ impl Manifest {
 
 fn locate(file: &str, text: &str, span: Range<usize>, message: String) -> ManifestError {
     let (line, column) = line_col(text, span.start);
-    ManifestError { file: file.to_string(), line, column, message }
+    ManifestError {
+        file: file.to_string(),
+        line,
+        column,
+        message,
+    }
 }
 
 /// "did you mean ...?" for serde's "unknown field `x`, expected one of `a`, `b`" messages.
@@ -405,7 +455,8 @@ fn unknown_field_suggestion(msg: &str) -> Option<String> {
     let rest = msg.strip_prefix("unknown field `")?;
     let (field, rest) = rest.split_once('`')?;
     let expected: Vec<&str> = rest.split('`').skip(1).step_by(2).collect();
-    crate::suggest::nearest(field, expected.iter().copied()).map(|s| format!(" (did you mean `{s}`?)"))
+    crate::suggest::nearest(field, expected.iter().copied())
+        .map(|s| format!(" (did you mean `{s}`?)"))
 }
 
 #[cfg(test)]
@@ -454,7 +505,10 @@ plugin = "libs/x.so"
         assert_eq!(m.architectures[1].hidden, [4, 4]);
         assert_eq!(m.envs[0].solved, Some(195.0));
         assert_eq!(m.envs[1].action_dtype, ActionDtype::F32);
-        assert_eq!(m.envs[1].plugin.as_deref(), Some(Path::new("/base/libs/x.so")));
+        assert_eq!(
+            m.envs[1].plugin.as_deref(),
+            Some(Path::new("/base/libs/x.so"))
+        );
         assert_eq!(&GOOD[m.envs[1].id_span.clone()], "\"Pendulum-v0\"");
     }
 
@@ -462,7 +516,10 @@ plugin = "libs/x.so"
     fn resolved_toml_round_trips() {
         let m = parse(GOOD).unwrap();
         let again = parse(&m.to_toml()).unwrap();
-        assert_eq!(again.envs.iter().map(|e| &e.id).collect::<Vec<_>>(), ["CartPole-v0", "Pendulum-v0"]);
+        assert_eq!(
+            again.envs.iter().map(|e| &e.id).collect::<Vec<_>>(),
+            ["CartPole-v0", "Pendulum-v0"]
+        );
         assert_eq!(again.weights, m.weights);
         assert_eq!(again.architectures, m.architectures);
         assert_eq!(again.bias, m.bias);
@@ -478,11 +535,20 @@ plugin = "libs/x.so"
         let e = error_of(&GOOD.replace("samples = 10", "samples = 0"));
         assert_eq!(e, "m.toml:3:11: samples: must be at least 1, got 0");
         let e = error_of(&GOOD.replace("hidden = [4, 4]", "hidden = [4, 0]"));
-        assert!(e.starts_with("m.toml:17:14: architectures[1].hidden[1]: a layer needs"), "{e}");
+        assert!(
+            e.starts_with("m.toml:17:14: architectures[1].hidden[1]: a layer needs"),
+            "{e}"
+        );
         let e = error_of(&GOOD.replace("\"uniform\"", "\"cauchy\""));
-        assert!(e.starts_with("m.toml:8:16: weights.distribution: unknown distribution 'cauchy'"), "{e}");
+        assert!(
+            e.starts_with("m.toml:8:16: weights.distribution: unknown distribution 'cauchy'"),
+            "{e}"
+        );
         let e = error_of(&GOOD.replace("action_dtype = \"float32\"", "action_dtype = \"int8\""));
-        assert!(e.starts_with("m.toml:25:16: envs[1].action_dtype: unknown action dtype"), "{e}");
+        assert!(
+            e.starts_with("m.toml:26:16: envs[1].action_dtype: unknown action dtype"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -490,7 +556,10 @@ plugin = "libs/x.so"
         let e = error_of(&GOOD.replace("episodes = 2", "episodes = 2\nsampels = 4"));
         assert!(e.starts_with("m.toml:5:1: unknown field `sampels`"), "{e}");
         let e = error_of(&GOOD.replace("solved = 195", "solve = 195"));
-        assert!(e.contains("unknown field `solve`") && e.contains("did you mean `solved`"), "{e}");
+        assert!(
+            e.contains("unknown field `solve`") && e.contains("did you mean `solved`"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -504,7 +573,10 @@ plugin = "libs/x.so"
     #[test]
     fn duplicate_env_and_empty_lists() {
         let e = error_of(&GOOD.replace("Pendulum-v0", "CartPole-v0"));
-        assert!(e.contains("envs[1].id: 'CartPole-v0' is listed twice"), "{e}");
+        assert!(
+            e.contains("envs[1].id: 'CartPole-v0' is listed twice"),
+            "{e}"
+        );
         let e = error_of(&GOOD.replace("bias = [false, true]", "bias = []"));
         assert!(e.contains("bias: needs at least one"), "{e}");
     }

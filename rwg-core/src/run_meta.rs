@@ -96,10 +96,21 @@ pub struct CellMeta {
 pub fn cell_dir_name(env: &str, arch: &str, bias: bool) -> String {
     let clean = |s: &str| -> String {
         s.chars()
-            .map(|c| if c.is_ascii_alphanumeric() || "-_.".contains(c) { c } else { '_' })
+            .map(|c| {
+                if c.is_ascii_alphanumeric() || "-_.".contains(c) {
+                    c
+                } else {
+                    '_'
+                }
+            })
             .collect()
     };
-    format!("{}__{}__{}", clean(env), clean(arch), if bias { "bias" } else { "nobias" })
+    format!(
+        "{}__{}__{}",
+        clean(env),
+        clean(arch),
+        if bias { "bias" } else { "nobias" }
+    )
 }
 
 #[cfg(test)]
@@ -108,7 +119,13 @@ mod tests {
 
     #[test]
     fn cell_dir_names() {
-        assert_eq!(cell_dir_name("CartPole-v0", "0HL", false), "CartPole-v0__0HL__nobias");
-        assert_eq!(cell_dir_name("acme/Maze-v2", "2HL 4,4", true), "acme_Maze-v2__2HL_4_4__bias");
+        assert_eq!(
+            cell_dir_name("CartPole-v0", "0HL", false),
+            "CartPole-v0__0HL__nobias"
+        );
+        assert_eq!(
+            cell_dir_name("acme/Maze-v2", "2HL 4,4", true),
+            "acme_Maze-v2__2HL_4_4__bias"
+        );
     }
 }

@@ -175,7 +175,11 @@ impl<E: Environment> Worker<E> {
     /// A worker for `plan` on `env`.
     pub fn new(env: E, plan: &CellPlan) -> Self {
         let spec = env.spec();
-        let shape = NetShape::new(spec.obs_dim(), &plan.arch, NetShape::outputs_for(&spec.action_space));
+        let shape = NetShape::new(
+            spec.obs_dim(),
+            &plan.arch,
+            NetShape::outputs_for(&spec.action_space),
+        );
         let policy = Policy::new(shape, &spec.action_space);
         let obs = vec![0.0; spec.obs_dim()];
         Worker { env, policy, obs }
@@ -280,11 +284,20 @@ where
                 || Worker::new(make_env(), plan),
                 |worker, range| {
                     let n = (range.end - range.start) as usize;
-                    let mut episodes = vec![EpisodeResult { score: 0.0, steps: 0 }; n * e];
+                    let mut episodes = vec![
+                        EpisodeResult {
+                            score: 0.0,
+                            steps: 0
+                        };
+                        n * e
+                    ];
                     for (k, out) in episodes.chunks_exact_mut(e.max(1)).enumerate().take(n) {
                         worker.run_sample(plan, range.start + k as u64, out)?;
                     }
-                    Ok(BlockResult { samples: range.clone(), episodes })
+                    Ok(BlockResult {
+                        samples: range.clone(),
+                        episodes,
+                    })
                 },
             )
             .collect();
@@ -304,7 +317,14 @@ mod tests {
         // int.from_bytes(b"CartPole-v0", "little") split into 32-bit words
         let mut w = vec![];
         env_key_words("CartPole-v0", &mut w);
-        assert_eq!(w, [u32::from_le_bytes(*b"Cart"), u32::from_le_bytes(*b"Pole"), 0x0030_762d]);
+        assert_eq!(
+            w,
+            [
+                u32::from_le_bytes(*b"Cart"),
+                u32::from_le_bytes(*b"Pole"),
+                0x0030_762d
+            ]
+        );
     }
 
     // Values from numpy:
@@ -318,11 +338,21 @@ mod tests {
 
     #[test]
     fn weights_depend_on_arch_and_sample_only() {
-        let a = Architecture { hidden: vec![4], bias: false };
-        let b = Architecture { hidden: vec![4], bias: true };
+        let a = Architecture {
+            hidden: vec![4],
+            bias: false,
+        };
+        let b = Architecture {
+            hidden: vec![4],
+            bias: true,
+        };
         let draw = |arch: &Architecture, n| {
             let mut w = [0.0; 5];
-            draw_weights(&mut weight_rng(0, "CartPole-v0", arch, n), WeightDist::Normal { std: 1.0 }, &mut w);
+            draw_weights(
+                &mut weight_rng(0, "CartPole-v0", arch, n),
+                WeightDist::Normal { std: 1.0 },
+                &mut w,
+            );
             w
         };
         assert_eq!(draw(&a, 3), draw(&a, 3));

@@ -4,6 +4,13 @@
 //! `np.random.Generator(np.random.PCG64(np.random.SeedSequence(s)))` and draws
 //! the initial state with `uniform`. This module reproduces those bits, so an
 //! rwg episode can be replayed in Python from its seed.
+//!
+//! gym 0.17.2 (Pendulum-v0) seeded differently: [`gym_np_random`] reproduces
+//! its `seeding.np_random`, a SHA-512-hashed seed fed to an MT19937
+//! `RandomState`.
+
+use crate::mt19937::Mt19937;
+use crate::sha512::sha512;
 
 const MASK32: u64 = 0xFFFF_FFFF;
 
@@ -166,9 +173,78 @@ impl Pcg64 {
     }
 }
 
+/// gym 0.17.2's `seeding.hash_seed(seed)`: the first 8 bytes of
+/// SHA-512(`str(seed)`), read as a little-endian integer (gym's
+/// `_bigint_from_bytes` packs them into little-endian 32-bit words).
+///
+/// gym first applies `create_seed`, which reduces an integer modulo 2^64; a
+/// `u64` is already reduced.
+pub fn gym_hash_seed(seed: u64) -> u64 {
+    // str(seed): decimal digits, no allocation.
+    let mut buf = [0u8; 20];
+    let mut start = buf.len();
+    let mut n = seed;
+    loop {
+        start -= 1;
+        buf[start] = b'0' + (n % 10) as u8;
+        n /= 10;
+        if n == 0 {
+            break;
+        }
+    }
+    let digest = sha512(&buf[start..]);
+    u64::from_le_bytes(digest[..8].try_into().unwrap())
+}
+
+/// gym 0.17.2's `seeding.np_random(seed)`: a `np.random.RandomState` seeded
+/// with `_int_list_from_bigint(hash_seed(seed))`, the little-endian 32-bit
+/// words of the hash without leading zero words (`[0]` for 0).
+pub fn gym_np_random(seed: u64) -> Mt19937 {
+    let h = gym_hash_seed(seed);
+    let words = [h as u32, (h >> 32) as u32];
+    let len = if h >> 32 != 0 { 2 } else { 1 };
+    Mt19937::from_key(&words[..len])
+}
+
+impl rand_core::RngCore for Pcg64 {
+    fn next_u32(&mut self) -> u32 {
+        (Pcg64::next_u64(self) >> 32) as u32
+    }
+    fn next_u64(&mut self) -> u64 {
+        Pcg64::next_u64(self)
+    }
+    fn fill_bytes(&mut self, dst: &mut [u8]) {
+        for chunk in dst.chunks_mut(8) {
+            let v = Pcg64::next_u64(self).to_le_bytes();
+            chunk.copy_from_slice(&v[..chunk.len()]);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    // Python: hashlib.sha512(str(s).encode()).digest()[:8], little-endian.
+    #[test]
+    fn gym_hash_seed_matches_python() {
+        assert_eq!(gym_hash_seed(0), 547404849 | (309914516 << 32));
+        assert_eq!(gym_hash_seed(9), 3626419469 | (134544068 << 32));
+        assert_eq!(
+            gym_hash_seed(u64::MAX).to_le_bytes(),
+            [0x2b, 0x1d, 0x68, 0x02, 0xdd, 0x9b, 0x3d, 0x7f]
+        );
+    }
+
+    // gym 0.17.2: env.seed(0); env.reset() on Pendulum-v0, i.e.
+    // np.random.RandomState([547404849, 309914516]).uniform([-pi, -1], [pi, 1])
+    #[test]
+    fn gym_np_random_matches_python() {
+        let pi = std::f64::consts::PI;
+        let mut g = gym_np_random(0);
+        assert_eq!(g.uniform(-pi, pi), -2.8000383468574164);
+        assert_eq!(g.uniform(-1.0, 1.0), 0.9307818744846408);
+    }
 
     // Values from numpy 2.x:
     //   np.random.SeedSequence(0).generate_state(4, np.uint32)
@@ -209,20 +285,5 @@ mod tests {
         int_to_words(0, &mut w);
         int_to_words(1 << 32, &mut w);
         assert_eq!(w, [0, 0, 1]);
-    }
-}
-
-impl rand_core::RngCore for Pcg64 {
-    fn next_u32(&mut self) -> u32 {
-        (Pcg64::next_u64(self) >> 32) as u32
-    }
-    fn next_u64(&mut self) -> u64 {
-        Pcg64::next_u64(self)
-    }
-    fn fill_bytes(&mut self, dst: &mut [u8]) {
-        for chunk in dst.chunks_mut(8) {
-            let v = Pcg64::next_u64(self).to_le_bytes();
-            chunk.copy_from_slice(&v[..chunk.len()]);
-        }
     }
 }

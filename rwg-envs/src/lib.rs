@@ -8,6 +8,7 @@ pub mod acrobot;
 pub mod cartpole;
 pub mod mountain_car;
 pub mod mountain_car_continuous;
+pub mod pendulum;
 pub mod registry;
 
 pub use registry::{make, visit, EnvOptions, EnvVisitor, Registration, UnknownEnv, REGISTRY};

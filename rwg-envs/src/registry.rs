@@ -12,11 +12,13 @@ use crate::acrobot::Acrobot;
 use crate::cartpole::CartPole;
 use crate::mountain_car::MountainCar;
 use crate::mountain_car_continuous::MountainCarContinuous;
+use crate::pendulum::Pendulum;
 
 /// Settings that change how a built-in environment is built.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct EnvOptions {
-    /// dtype of the continuous action array (Pendulum-v1, MountainCarContinuous-v0).
+    /// dtype of the continuous action array (Pendulum-v1, MountainCarContinuous-v0;
+    /// Pendulum-v0 only rounds an `F32` action to f32, its arithmetic is float64).
     pub action_dtype: ActionDtype,
     /// Overrides the registered time limit.
     pub max_episode_steps: Option<u32>,
@@ -49,6 +51,16 @@ pub const REGISTRY: &[Registration] = &[
         id: "Acrobot-v1",
         summary: "swing a two-link arm's tip above a line (Gymnasium Acrobot, 500 steps)",
         dtype_sensitive: false,
+    },
+    Registration {
+        id: "Pendulum-v0",
+        summary: "swing a pendulum up and hold it (gym 0.17.2 dynamics and seeding, 200 steps)",
+        dtype_sensitive: false,
+    },
+    Registration {
+        id: "Pendulum-v1",
+        summary: "swing a pendulum up and hold it (Gymnasium Pendulum, 200 steps)",
+        dtype_sensitive: true,
     },
     Registration {
         id: "MountainCar-v0",
@@ -99,6 +111,8 @@ pub fn visit<V: EnvVisitor>(id: &str, opts: &EnvOptions, v: V) -> Result<V::Outp
         "CartPole-v0" => v.visit(TimeLimit::new(CartPole::v0(), limit)),
         "CartPole-v1" => v.visit(TimeLimit::new(CartPole::v1(), limit)),
         "Acrobot-v1" => v.visit(TimeLimit::new(Acrobot::new(), limit)),
+        "Pendulum-v0" => v.visit(TimeLimit::new(Pendulum::v0(opts.action_dtype), limit)),
+        "Pendulum-v1" => v.visit(TimeLimit::new(Pendulum::v1(opts.action_dtype), limit)),
         "MountainCar-v0" => v.visit(TimeLimit::new(MountainCar::new(), limit)),
         "MountainCarContinuous-v0" => v.visit(TimeLimit::new(
             MountainCarContinuous::new(opts.action_dtype),

@@ -203,3 +203,13 @@ fn golden_mountaincar_v0() {
 fn golden_mountaincarcontinuous_v0() {
     assert!(replay("MountainCarContinuous-v0") > 0);
 }
+
+#[test]
+fn golden_pendulum_v0() {
+    assert!(replay("Pendulum-v0") > 0);
+}
+
+#[test]
+fn golden_pendulum_v1() {
+    assert!(replay("Pendulum-v1") > 0);
+}

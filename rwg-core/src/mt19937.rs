@@ -1,0 +1,163 @@
+//! The Mersenne Twister MT19937 behind numpy's legacy `np.random.RandomState`.
+//!
+//! gym 0.17.2 seeded its environments with a `RandomState` (see
+//! [`crate::seeding::gym_np_random`]); this reproduces its `seed`,
+//! `random_sample` and `uniform` bit for bit.
+
+const N: usize = 624;
+const M: usize = 397;
+const MATRIX_A: u32 = 0x9908_b0df;
+const UPPER_MASK: u32 = 0x8000_0000;
+const LOWER_MASK: u32 = 0x7fff_ffff;
+
+/// MT19937 with numpy's `RandomState` seeding and double generation.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Mt19937 {
+    key: [u32; N],
+    pos: usize,
+}
+
+impl Mt19937 {
+    /// `RandomState(seed)` for an integer seed in `0..2**32` (`init_genrand`).
+    pub fn new(seed: u32) -> Self {
+        let mut key = [0u32; N];
+        let mut s = seed;
+        for (i, k) in key.iter_mut().enumerate() {
+            *k = s;
+            s = 1_812_433_253u32
+                .wrapping_mul(s ^ (s >> 30))
+                .wrapping_add(i as u32 + 1);
+        }
+        Mt19937 { key, pos: N }
+    }
+
+    /// `RandomState(list)` for a non-empty list of 32-bit words
+    /// (`init_by_array`).
+    ///
+    /// # Panics
+    /// If `init_key` is empty (numpy raises `ValueError` there).
+    pub fn from_key(init_key: &[u32]) -> Self {
+        assert!(!init_key.is_empty(), "MT19937 seed key must not be empty");
+        let mut g = Mt19937::new(19_650_218);
+        let mt = &mut g.key;
+        let (mut i, mut j) = (1usize, 0usize);
+        for _ in 0..N.max(init_key.len()) {
+            mt[i] = (mt[i] ^ (mt[i - 1] ^ (mt[i - 1] >> 30)).wrapping_mul(1_664_525))
+                .wrapping_add(init_key[j])
+                .wrapping_add(j as u32);
+            i += 1;
+            j += 1;
+            if i >= N {
+                mt[0] = mt[N - 1];
+                i = 1;
+            }
+            if j >= init_key.len() {
+                j = 0;
+            }
+        }
+        for _ in 0..N - 1 {
+            mt[i] = (mt[i] ^ (mt[i - 1] ^ (mt[i - 1] >> 30)).wrapping_mul(1_566_083_941))
+                .wrapping_sub(i as u32);
+            i += 1;
+            if i >= N {
+                mt[0] = mt[N - 1];
+                i = 1;
+            }
+        }
+        mt[0] = 0x8000_0000;
+        g.pos = N;
+        g
+    }
+
+    /// Regenerates the whole key (the twist).
+    fn generate(&mut self) {
+        let mt = &mut self.key;
+        let twist = |a: u32, b: u32, c: u32| {
+            let y = (a & UPPER_MASK) | (b & LOWER_MASK);
+            c ^ (y >> 1) ^ if y & 1 != 0 { MATRIX_A } else { 0 }
+        };
+        for k in 0..N - M {
+            mt[k] = twist(mt[k], mt[k + 1], mt[k + M]);
+        }
+        for k in N - M..N - 1 {
+            mt[k] = twist(mt[k], mt[k + 1], mt[k + M - N]);
+        }
+        mt[N - 1] = twist(mt[N - 1], mt[0], mt[M - 1]);
+        self.pos = 0;
+    }
+
+    /// The next tempered 32-bit output (`genrand_int32`).
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        if self.pos >= N {
+            self.generate();
+        }
+        let mut y = self.key[self.pos];
+        self.pos += 1;
+        y ^= y >> 11;
+        y ^= (y << 7) & 0x9d2c_5680;
+        y ^= (y << 15) & 0xefc6_0000;
+        y ^ (y >> 18)
+    }
+
+    /// `random_sample()`: a 53-bit double in [0, 1) made of two outputs
+    /// (`genrand_res53`): `((a >> 5) * 2^26 + (b >> 6)) / 2^53`.
+    #[inline]
+    pub fn next_f64(&mut self) -> f64 {
+        let a = (self.next_u32() >> 5) as f64;
+        let b = (self.next_u32() >> 6) as f64;
+        (a * 67_108_864.0 + b) / 9_007_199_254_740_992.0
+    }
+
+    /// `RandomState.uniform(low, high)`: `low + (high - low) * random_sample()`.
+    #[inline]
+    pub fn uniform(&mut self, low: f64, high: f64) -> f64 {
+        low + (high - low) * self.next_f64()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    // np.random.RandomState(5489).randint(0, 2**32, size=3, dtype=np.uint32)
+    // (also the reference MT19937 output for the default seed).
+    #[test]
+    fn int_seed_matches_numpy() {
+        let mut g = Mt19937::new(5489);
+        let v: Vec<u32> = (0..3).map(|_| g.next_u32()).collect();
+        assert_eq!(v, [3499211612, 581869302, 3890346734]);
+    }
+
+    // np.random.RandomState([547404849, 309914516]): get_state() key, the
+    // first raw outputs, then random_sample().
+    #[test]
+    fn key_seed_matches_numpy() {
+        let g = Mt19937::from_key(&[547404849, 309914516]);
+        assert_eq!(&g.key[..3], &[2147483648, 2629026387, 2478113671]);
+        assert_eq!(g.key[623], 196887160);
+        let mut g = g;
+        let v: Vec<u32> = (0..3).map(|_| g.next_u32()).collect();
+        assert_eq!(v, [233474672, 1047681358, 4146322502]);
+        assert_eq!(g.next_f64(), 0.2284548404268245);
+    }
+
+    #[test]
+    fn short_and_long_keys_match_numpy() {
+        // np.random.RandomState([0])
+        let mut g = Mt19937::from_key(&[0]);
+        assert_eq!([g.next_u32(), g.next_u32()], [3626764237, 1654615998]);
+        // np.random.RandomState([123]).random_sample() twice
+        let mut g = Mt19937::from_key(&[123]);
+        assert_eq!(g.next_f64(), 0.052363598850944326);
+        assert_eq!(g.next_f64(), 0.08718667752263232);
+        // np.random.RandomState(list(range(1000))): a key longer than the
+        // state; the 700th random_sample crosses two twists.
+        let key: Vec<u32> = (0..1000).collect();
+        let mut g = Mt19937::from_key(&key);
+        assert_eq!([g.next_u32(), g.next_u32()], [4012946933, 3615799318]);
+        let mut g = Mt19937::from_key(&key);
+        let x = (0..700).map(|_| g.next_f64()).last().unwrap();
+        assert_eq!(x, 0.04907009344695634);
+    }
+}
