@@ -21,6 +21,8 @@ enum Command {
     Envs(cmd::envs::Args),
     /// Run one episode of an environment with given actions and print every step.
     Rollout(cmd::rollout::Args),
+    /// Run the RWG study a TOML manifest describes and write a run directory.
+    Run(cmd::run::Args),
 }
 
 fn main() {
@@ -28,6 +30,7 @@ fn main() {
     let result: Result<()> = match cli.command {
         Command::Envs(a) => cmd::envs::run(a),
         Command::Rollout(a) => cmd::rollout::run(a),
+        Command::Run(a) => cmd::run::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

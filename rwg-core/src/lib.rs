@@ -6,6 +6,7 @@
 //! [`sha512`] and [`mt19937`]).
 
 pub mod env;
+pub mod export;
 pub mod float;
 pub mod manifest;
 pub mod mt19937;
@@ -16,6 +17,7 @@ pub mod seeding;
 pub mod sha512;
 pub mod space;
 pub mod suggest;
+pub mod summary;
 pub mod time_limit;
 
 pub use env::{Action, ActionDtype, EnvError, EnvSpec, Environment, Step};

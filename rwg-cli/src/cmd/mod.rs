@@ -2,3 +2,4 @@
 
 pub mod envs;
 pub mod rollout;
+pub mod run;

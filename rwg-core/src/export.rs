@@ -1,0 +1,188 @@
+//! Writers of the run directory's CSV files, and small formatting helpers.
+//!
+//! Floats are written in shortest round-trip form (parsing gives the same
+//! `f64` back). Files are written to a temporary name and renamed into place
+//! when complete, so a reader never sees a half-written file under the final
+//! name.
+
+use crate::float::fmt_f64;
+use crate::sampler::BlockResult;
+use crate::summary::SampleSummary;
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::time::{SystemTime, UNIX_EPOCH};
+
+/// Header of `scores.csv`.
+pub const SCORES_HEADER: &str = "sample,episode,score,steps";
+/// Header of `samples.csv`.
+pub const SAMPLES_HEADER: &str = "sample,mean,variance,std,min,max,rank";
+
+/// A file written under `<name>.tmp` and renamed to its final name by
+/// [`AtomicFile::commit`]; dropped uncommitted, the temporary file stays behind
+/// for inspection but the final name is untouched.
+pub struct AtomicFile {
+    tmp: PathBuf,
+    path: PathBuf,
+    out: BufWriter<File>,
+}
+
+impl AtomicFile {
+    /// Starts writing `path`.
+    pub fn create(path: &Path) -> io::Result<Self> {
+        let mut tmp = path.as_os_str().to_owned();
+        tmp.push(".tmp");
+        let tmp = PathBuf::from(tmp);
+        let out = BufWriter::with_capacity(1 << 16, File::create(&tmp)?);
+        Ok(AtomicFile {
+            tmp,
+            path: path.to_path_buf(),
+            out,
+        })
+    }
+
+    /// Flushes, syncs and renames the file into place.
+    pub fn commit(mut self) -> io::Result<()> {
+        self.out.flush()?;
+        self.out.get_ref().sync_all()?;
+        std::fs::rename(&self.tmp, &self.path)
+    }
+}
+
+impl Write for AtomicFile {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.out.write(buf)
+    }
+    fn flush(&mut self) -> io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// Writes a whole file atomically.
+pub fn write_atomic(path: &Path, contents: &[u8]) -> io::Result<()> {
+    let mut f = AtomicFile::create(path)?;
+    f.write_all(contents)?;
+    f.commit()
+}
+
+/// Appends a block's rows to a `scores.csv` writer: `sample,episode,score,steps`.
+pub fn write_score_rows<W: Write>(
+    out: &mut W,
+    block: &BlockResult,
+    episodes: u32,
+) -> io::Result<()> {
+    let e = episodes as usize;
+    for (k, sample) in block.samples.clone().enumerate() {
+        for (ep, r) in block.episodes[k * e..(k + 1) * e].iter().enumerate() {
+            writeln!(out, "{sample},{ep},{},{}", fmt_f64(r.score), r.steps)?;
+        }
+    }
+    Ok(())
+}
+
+/// Writes `samples.csv` rows for samples `0..summaries.len()`.
+pub fn write_sample_rows<W: Write>(
+    out: &mut W,
+    summaries: &[SampleSummary],
+    ranks: &[u64],
+) -> io::Result<()> {
+    writeln!(out, "{SAMPLES_HEADER}")?;
+    for (i, (s, r)) in summaries.iter().zip(ranks).enumerate() {
+        writeln!(
+            out,
+            "{i},{},{},{},{},{},{r}",
+            fmt_f64(s.mean),
+            fmt_f64(s.variance),
+            fmt_f64(s.std),
+            fmt_f64(s.min),
+            fmt_f64(s.max)
+        )?;
+    }
+    Ok(())
+}
+
+/// A time as RFC 3339 UTC with second precision, e.g. `2026-11-22T05:40:00Z`.
+pub fn rfc3339(t: SystemTime) -> String {
+    let secs = t.duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!(
+        "{y:04}-{m:02}-{d:02}T{:02}:{:02}:{:02}Z",
+        rem / 3600,
+        rem % 3600 / 60,
+        rem % 60
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::EpisodeResult;
+    use std::time::Duration;
+
+    #[test]
+    fn rfc3339_dates() {
+        assert_eq!(rfc3339(UNIX_EPOCH), "1970-01-01T00:00:00Z");
+        assert_eq!(
+            rfc3339(UNIX_EPOCH + Duration::from_secs(1_795_326_000)),
+            "2026-11-22T05:40:00Z"
+        );
+        assert_eq!(
+            rfc3339(UNIX_EPOCH + Duration::from_secs(951_782_400)),
+            "2000-02-29T00:00:00Z"
+        );
+    }
+
+    #[test]
+    fn score_rows() {
+        let block = BlockResult {
+            samples: 4..6,
+            episodes: vec![
+                EpisodeResult {
+                    score: 1.5,
+                    steps: 3,
+                },
+                EpisodeResult {
+                    score: -0.1,
+                    steps: 7,
+                },
+                EpisodeResult {
+                    score: 200.0,
+                    steps: 200,
+                },
+                EpisodeResult {
+                    score: 1e-20,
+                    steps: 1,
+                },
+            ],
+        };
+        let mut out = vec![];
+        write_score_rows(&mut out, &block, 2).unwrap();
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "4,0,1.5,3\n4,1,-0.1,7\n5,0,200.0,200\n5,1,1e-20,1\n"
+        );
+    }
+
+    #[test]
+    fn atomic_file_appears_only_on_commit() {
+        let dir = std::env::temp_dir().join(format!("rwg-atomic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("x.csv");
+        let mut f = AtomicFile::create(&p).unwrap();
+        f.write_all(b"a\n").unwrap();
+        assert!(!p.exists());
+        f.commit().unwrap();
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "a\n");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

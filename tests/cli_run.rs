@@ -1,0 +1,208 @@
+//! `rwg run` end to end: determinism across thread counts and manifests, the
+//! paper's CartPole figure, the documented files, and manifest errors.
+
+mod common;
+use common::*;
+use std::path::Path;
+
+fn manifest(dir: &Path, name: &str, body: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, body).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+const CARTPOLE: &str = r#"
+seed = 11
+samples = 40
+episodes = 3
+[[architectures]]
+name = "1HL"
+hidden = [4]
+[[envs]]
+id = "CartPole-v0"
+"#;
+
+fn read(p: impl AsRef<Path>) -> String {
+    std::fs::read_to_string(p.as_ref()).unwrap_or_else(|e| panic!("{}: {e}", p.as_ref().display()))
+}
+
+#[test]
+fn scores_do_not_depend_on_thread_count() {
+    let dir = temp_dir("threads");
+    let m = manifest(&dir, "m.toml", CARTPOLE);
+    for t in ["1", "2"] {
+        let out = dir.join(format!("t{t}"));
+        rwg_ok(&["run", &m, "--threads", t, "--out", out.to_str().unwrap()]);
+    }
+    for f in ["scores.csv", "samples.csv"] {
+        let cell = "cells/CartPole-v0__1HL__nobias";
+        assert_eq!(
+            read(dir.join("t1").join(cell).join(f)),
+            read(dir.join("t2").join(cell).join(f)),
+            "{f}"
+        );
+    }
+}
+
+#[test]
+fn a_cell_gives_the_same_scores_alone_and_in_a_bigger_manifest() {
+    let dir = temp_dir("paired");
+    let alone = manifest(&dir, "alone.toml", CARTPOLE);
+    let bigger = manifest(
+        &dir,
+        "big.toml",
+        &(CARTPOLE.replace("samples = 40", "samples = 50").replace(
+            "[[architectures]]",
+            "bias = [true, false]\n[[architectures]]\nname = \"0HL\"\nhidden = []\n[[architectures]]",
+        ) + "[[envs]]\nid = \"Acrobot-v1\"\nmax_episode_steps = 50\n"),
+    );
+    rwg_ok(&["run", &alone, "--out", dir.join("a").to_str().unwrap()]);
+    rwg_ok(&["run", &bigger, "--out", dir.join("b").to_str().unwrap()]);
+    let cell = "cells/CartPole-v0__1HL__nobias/scores.csv";
+    let a = read(dir.join("a").join(cell));
+    let b = read(dir.join("b").join(cell));
+    // the first 40 samples of the 50-sample run are the 40 samples of the small run
+    let b40: Vec<&str> = b.lines().take(1 + 40 * 3).collect();
+    assert_eq!(a.lines().collect::<Vec<_>>(), b40);
+}
+
+#[test]
+fn run_directory_has_the_documented_files() {
+    let dir = temp_dir("files");
+    let m = manifest(
+        &dir,
+        "m.toml",
+        &CARTPOLE.replace("samples = 40", "samples = 5"),
+    );
+    let out = dir.join("run");
+    let stdout = rwg_ok(&[
+        "run",
+        &m,
+        "--out",
+        out.to_str().unwrap(),
+        "--episodes",
+        "2",
+        "--seed",
+        "5",
+    ]);
+    assert!(stdout.contains(out.to_str().unwrap()), "{stdout}");
+    let resolved = read(out.join("manifest.toml"));
+    assert!(
+        resolved.contains("seed = 5") && resolved.contains("episodes = 2"),
+        "{resolved}"
+    );
+    let meta: serde_json::Value = serde_json::from_str(&read(out.join("run.json"))).unwrap();
+    assert_eq!(meta["samples"], 5);
+    assert!(meta["end_time"].is_string());
+    let cell = &meta["cells"][0];
+    assert_eq!(cell["dir"], "CartPole-v0__1HL__nobias");
+    assert_eq!(cell["n_weights"], 24);
+    assert_eq!(cell["solved"], 195.0);
+    assert_eq!(cell["solved_source"], "env");
+    let scores = read(out.join("cells/CartPole-v0__1HL__nobias/scores.csv"));
+    let rows: Vec<&str> = scores.lines().collect();
+    assert_eq!(rows[0], "sample,episode,score,steps");
+    assert_eq!(rows.len(), 1 + 5 * 2);
+    let steps: u64 = rows[1..]
+        .iter()
+        .map(|r| r.split(',').nth(3).unwrap().parse::<u64>().unwrap())
+        .sum();
+    assert_eq!(meta["env_steps"], steps);
+    let samples = read(out.join("cells/CartPole-v0__1HL__nobias/samples.csv"));
+    let srows: Vec<Vec<&str>> = samples.lines().map(|l| l.split(',').collect()).collect();
+    assert_eq!(
+        srows[0],
+        ["sample", "mean", "variance", "std", "min", "max", "rank"]
+    );
+    let mut ranks: Vec<u64> = srows[1..].iter().map(|r| r[6].parse().unwrap()).collect();
+    ranks.sort();
+    assert_eq!(ranks, [0, 1, 2, 3, 4]);
+    // the manifest written into the run directory runs the same study
+    let again = dir.join("again");
+    rwg_ok(&[
+        "run",
+        out.join("manifest.toml").to_str().unwrap(),
+        "--out",
+        again.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        read(again.join("cells/CartPole-v0__1HL__nobias/scores.csv")),
+        scores
+    );
+}
+
+/// The paper: "over 3%" of linear CartPole-v0 controllers reach a mean of 195;
+/// Python implementations on Gymnasium give 3.8-4.2%.
+#[test]
+fn cartpole_linear_solved_fraction_is_the_papers() {
+    let dir = temp_dir("paper-cartpole");
+    let m = manifest(
+        &dir,
+        "m.toml",
+        "seed = 0\nsamples = 1000\nepisodes = 20\n[[architectures]]\nname = \"0HL\"\nhidden = []\n[[envs]]\nid = \"CartPole-v0\"\nsolved = 195\n",
+    );
+    let out = dir.join("run");
+    rwg_ok(&["run", &m, "--out", out.to_str().unwrap()]);
+    let samples = read(out.join("cells/CartPole-v0__0HL__nobias/samples.csv"));
+    let means: Vec<f64> = samples
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(means.len(), 1000);
+    let frac = means.iter().filter(|&&m| m >= 195.0).count() as f64 / 1000.0;
+    assert!((0.02..=0.07).contains(&frac), "fraction solved {frac}");
+}
+
+#[test]
+fn refuses_to_overwrite_a_run() {
+    let dir = temp_dir("overwrite");
+    let m = manifest(
+        &dir,
+        "m.toml",
+        &CARTPOLE.replace("samples = 40", "samples = 2"),
+    );
+    let out = dir.join("run");
+    rwg_ok(&["run", &m, "--out", out.to_str().unwrap()]);
+    let err = rwg_err(&["run", &m, "--out", out.to_str().unwrap()]);
+    assert!(err.contains("already holds a run"), "{err}");
+}
+
+#[test]
+fn manifest_errors_name_file_line_and_key_and_nothing_runs() {
+    let dir = temp_dir("errors");
+    let cases = [
+        (
+            "samples = 40",
+            "samples = 0",
+            "m.toml:3:11: samples: must be at least 1",
+        ),
+        (
+            "hidden = [4]",
+            "hidden = [0]",
+            "m.toml:7:11: architectures[0].hidden[0]: a layer needs 1 to 4096 units, got 0",
+        ),
+        (
+            "id = \"CartPole-v0\"",
+            "id = \"CartPole-v9\"",
+            "m.toml:9:6: envs: unknown environment 'CartPole-v9' (did you mean 'CartPole-v0'?)",
+        ),
+        (
+            "episodes = 3",
+            "episodes = 3\n[weights]\ndistribution = \"cauchy\"",
+            "m.toml:6:16: weights.distribution: unknown distribution 'cauchy'",
+        ),
+        (
+            "episodes = 3",
+            "episodes = 3\nepisodez = 4",
+            "m.toml:5:1: unknown field `episodez`",
+        ),
+    ];
+    for (from, to, expected) in cases {
+        let m = manifest(&dir, "m.toml", &CARTPOLE.replace(from, to));
+        let out = dir.join("never");
+        let err = rwg_err(&["run", &m, "--out", out.to_str().unwrap()]);
+        assert!(err.contains(expected), "expected {expected:?} in:\n{err}");
+        assert!(!out.exists(), "{to}: the run must not start");
+    }
+}
