@@ -155,7 +155,7 @@ fn cartpole_linear_solved_fraction_is_the_papers() {
 }
 
 #[test]
-fn refuses_to_overwrite_a_run() {
+fn a_finished_run_is_not_redone_and_another_study_is_refused() {
     let dir = temp_dir("overwrite");
     let m = manifest(
         &dir,
@@ -164,8 +164,25 @@ fn refuses_to_overwrite_a_run() {
     );
     let out = dir.join("run");
     rwg_ok(&["run", &m, "--out", out.to_str().unwrap()]);
-    let err = rwg_err(&["run", &m, "--out", out.to_str().unwrap()]);
-    assert!(err.contains("already holds a run"), "{err}");
+    let again = rwg_ok(&["run", &m, "--out", out.to_str().unwrap()]);
+    assert!(again.contains("complete; nothing to do"), "{again}");
+    let err = rwg_err(&["run", &m, "--out", out.to_str().unwrap(), "--episodes", "4"]);
+    assert!(
+        err.contains("holds a different study (episodes: 3 vs 4)"),
+        "{err}"
+    );
+    assert!(err.contains("--force-new"), "{err}");
+    rwg_ok(&[
+        "run",
+        &m,
+        "--out",
+        out.to_str().unwrap(),
+        "--episodes",
+        "4",
+        "--force-new",
+    ]);
+    let scores = read(out.join("cells/CartPole-v0__1HL__nobias/scores.csv"));
+    assert_eq!(scores.lines().count(), 1 + 2 * 4);
 }
 
 #[test]

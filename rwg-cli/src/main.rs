@@ -1,6 +1,7 @@
 //! `rwg`: Random Weight Guessing analysis of reinforcement-learning environments.
 
 mod cmd;
+mod study;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
@@ -23,6 +24,8 @@ enum Command {
     Rollout(cmd::rollout::Args),
     /// Run the RWG study a TOML manifest describes and write a run directory.
     Run(cmd::run::Args),
+    /// Combine the shards of a study (`rwg run --shard K/N`) into one run directory.
+    Merge(cmd::merge::Args),
 }
 
 fn main() {
@@ -31,6 +34,7 @@ fn main() {
         Command::Envs(a) => cmd::envs::run(a),
         Command::Rollout(a) => cmd::rollout::run(a),
         Command::Run(a) => cmd::run::run(a),
+        Command::Merge(a) => cmd::merge::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -400,8 +400,11 @@ impl Manifest {
         })
     }
 
-    /// The manifest as TOML with every value written out (the run directory's
-    /// `manifest.toml`). Reading it back gives the same study.
+    /// The study the manifest defines, as TOML with every value written out
+    /// (the run directory's `manifest.toml`). `out` and `threads` are left out:
+    /// they say where and how fast, not what, so runs of the same study written
+    /// to different places or with different thread counts have identical
+    /// manifests. Reading it back gives the same study.
     pub fn to_toml(&self) -> String {
         #[derive(Serialize)]
         struct Weights<'a> {
@@ -409,25 +412,19 @@ impl Manifest {
             scale: f64,
         }
         #[derive(Serialize)]
-        struct Out<'a> {
+        struct Study<'a> {
             seed: u64,
             samples: u64,
             episodes: u32,
-            #[serde(skip_serializing_if = "Option::is_none")]
-            out: Option<String>,
-            #[serde(skip_serializing_if = "Option::is_none")]
-            threads: Option<usize>,
             bias: &'a [bool],
             weights: Weights<'a>,
             architectures: &'a [ArchEntry],
             envs: &'a [EnvEntry],
         }
-        let o = Out {
+        let o = Study {
             seed: self.seed,
             samples: self.samples,
             episodes: self.episodes,
-            out: self.out.as_ref().map(|p| p.display().to_string()),
-            threads: self.threads,
             bias: &self.bias,
             weights: Weights {
                 distribution: self.weights.name(),
@@ -437,6 +434,24 @@ impl Manifest {
             envs: &self.envs,
         };
         toml::to_string(&o).expect("manifest serialises")
+    }
+
+    /// How the study of `other` differs from this one (empty: the same study).
+    /// Compares what [`Manifest::to_toml`] writes, key by key.
+    pub fn study_differences(&self, other: &Manifest) -> Vec<String> {
+        let a: toml::Table = toml::from_str(&self.to_toml()).expect("valid TOML");
+        let b: toml::Table = toml::from_str(&other.to_toml()).expect("valid TOML");
+        let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+        keys.sort();
+        keys.dedup();
+        keys.into_iter()
+            .filter(|k| a.get(*k) != b.get(*k))
+            .map(|k| {
+                let show =
+                    |v: Option<&toml::Value>| v.map_or("(absent)".to_string(), |v| v.to_string());
+                format!("{k}: {} vs {}", show(a.get(k)), show(b.get(k)))
+            })
+            .collect()
     }
 }
 
@@ -524,6 +539,9 @@ plugin = "libs/x.so"
         assert_eq!(again.architectures, m.architectures);
         assert_eq!(again.bias, m.bias);
         assert_eq!(again.envs[1].solved, Some(-140.5));
+        assert!(m.study_differences(&again).is_empty());
+        let other = parse(&GOOD.replace("episodes = 2", "episodes = 3")).unwrap();
+        assert_eq!(m.study_differences(&other), ["episodes: 2 vs 3"]);
     }
 
     fn error_of(text: &str) -> String {

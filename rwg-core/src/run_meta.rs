@@ -42,8 +42,55 @@ pub struct RunMeta {
     pub env_steps: u64,
     /// `env_steps / wall_s`.
     pub steps_per_s: f64,
-    /// One entry per cell, in manifest order (env, then architecture, then bias).
+    /// One entry per finished cell, in manifest order (env, then architecture,
+    /// then bias).
     pub cells: Vec<CellMeta>,
+    /// Samples per block (the unit of commits and shards).
+    #[serde(default)]
+    pub block_samples: u64,
+    /// Set when the directory holds one shard of a study (`rwg run --shard`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<ShardMeta>,
+}
+
+/// Which share of a study a shard directory holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ShardMeta {
+    /// 0-based shard index.
+    pub index: u64,
+    /// Number of shards.
+    pub count: u64,
+}
+
+impl ShardMeta {
+    /// Whether block `block` of cell `cell` (of `blocks_per_cell` blocks) belongs
+    /// to this shard: the cells' blocks are numbered one after the other and
+    /// dealt round robin, `global % count == index`.
+    pub fn owns(&self, cell: usize, blocks_per_cell: u64, block: u64) -> bool {
+        (cell as u64 * blocks_per_cell + block) % self.count == self.index
+    }
+}
+
+impl std::str::FromStr for ShardMeta {
+    type Err = String;
+    /// Parses `K/N` (0 ≤ K < N).
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (k, n) = s
+            .split_once('/')
+            .ok_or_else(|| format!("'{s}' is not K/N"))?;
+        let index: u64 = k
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{k}' is not a shard index"))?;
+        let count: u64 = n
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{n}' is not a shard count"))?;
+        if count == 0 || index >= count {
+            return Err(format!("shard {index}/{count}: need 0 <= K < N"));
+        }
+        Ok(ShardMeta { index, count })
+    }
 }
 
 /// The weight distribution of a run.
@@ -116,6 +163,18 @@ pub fn cell_dir_name(env: &str, arch: &str, bias: bool) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn shards_deal_blocks_round_robin_and_cover_everything_once() {
+        let shards: Vec<ShardMeta> = (0..3).map(|k| format!("{k}/3").parse().unwrap()).collect();
+        for cell in 0..4 {
+            for b in 0..5 {
+                assert_eq!(shards.iter().filter(|s| s.owns(cell, 5, b)).count(), 1);
+            }
+        }
+        assert!("3/3".parse::<ShardMeta>().is_err());
+        assert!("1".parse::<ShardMeta>().is_err());
+    }
 
     #[test]
     fn cell_dir_names() {

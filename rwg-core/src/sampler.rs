@@ -250,20 +250,15 @@ pub struct BlockResult {
     pub episodes: Vec<EpisodeResult>,
 }
 
-/// Runs `samples` of a cell in parallel (on the current rayon pool), in blocks
-/// of `block_size` samples, and hands the finished blocks to `on_block` in
-/// sample order. Blocks are computed `wave` at a time, so memory stays bounded
-/// by `wave × block_size × episodes` results. `make_env` is called once per
-/// worker task (an instance is used by one thread at a time). Stops at the
-/// first error (or the first error `on_block` returns); everything handed to
-/// `on_block` before stays valid.
+/// Runs `samples` of a cell in parallel, in blocks of `block_size` samples;
+/// see [`run_blocks`].
 pub fn run_cell<E, F, G, X>(
     plan: &CellPlan,
     samples: Range<u64>,
     block_size: u64,
     wave: usize,
     make_env: F,
-    mut on_block: G,
+    on_block: G,
 ) -> Result<(), X>
 where
     E: Environment + Send,
@@ -276,6 +271,29 @@ where
         .step_by(block_size as usize)
         .map(|s| s..(s + block_size).min(samples.end))
         .collect();
+    run_blocks(plan, &blocks, wave, make_env, on_block)
+}
+
+/// Runs the given blocks of samples of a cell in parallel (on the current
+/// rayon pool) and hands the finished blocks to `on_block` in the order given.
+/// Blocks are computed `wave` at a time, so memory stays bounded by
+/// `wave × block × episodes` results. `make_env` is called once per worker
+/// task (an instance is used by one thread at a time). Stops at the first
+/// error, or the first error `on_block` returns (e.g. on an interrupt);
+/// everything handed to `on_block` before stays valid.
+pub fn run_blocks<E, F, G, X>(
+    plan: &CellPlan,
+    blocks: &[Range<u64>],
+    wave: usize,
+    make_env: F,
+    mut on_block: G,
+) -> Result<(), X>
+where
+    E: Environment + Send,
+    F: Fn() -> E + Sync,
+    G: FnMut(BlockResult) -> Result<(), X>,
+    X: From<SampleError> + Send,
+{
     let e = plan.episodes as usize;
     for wave_blocks in blocks.chunks(wave.max(1)) {
         let results: Vec<Result<BlockResult, SampleError>> = wave_blocks

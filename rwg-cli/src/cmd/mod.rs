@@ -1,5 +1,6 @@
 //! One module per `rwg` subcommand.
 
 pub mod envs;
+pub mod merge;
 pub mod rollout;
 pub mod run;

@@ -1,36 +1,37 @@
-//! `rwg run`: the RWG study described by a manifest.
+//! `rwg run`: the RWG study described by a manifest, resumable and shardable.
 
+use crate::study::{new_meta, plan_cells, read_meta, summary_header, write_meta, Cell};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rwg_core::export::{
-    rfc3339, write_atomic, write_sample_rows, write_score_rows, AtomicFile, SCORES_HEADER,
-};
+use rwg_core::export::{rfc3339, write_atomic};
 use rwg_core::manifest::Manifest;
-use rwg_core::policy::{Architecture, NetShape};
-use rwg_core::run_meta::{cell_dir_name, CellMeta, RunMeta, WeightsMeta, RUN_FORMAT};
-use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError};
-use rwg_core::summary::{ranks_by_mean, SampleSummary};
+use rwg_core::run_meta::{CellMeta, ShardMeta};
+use rwg_core::rundir::{block_done, block_samples, cell_complete, n_blocks, write_block};
+use rwg_core::sampler::{run_blocks, BlockResult, SampleError};
 use rwg_core::Environment;
-use rwg_envs::{visit, EnvOptions, EnvVisitor};
-use std::io::Write;
+use rwg_envs::{visit, EnvVisitor};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Instant, SystemTime};
-
-/// Samples per block: the unit of parallel work.
-const BLOCK: u64 = 32;
 
 /// Arguments of `rwg run`.
 #[derive(clap::Args)]
 #[command(after_help = "\
 Writes a run directory:
-  manifest.toml               the resolved manifest (overrides applied, defaults written out)
-  run.json                    run metadata: version, times, threads, env steps, steps/s, per cell
+  manifest.toml   the study (resolved manifest: overrides applied, defaults written out)
+  run.json        run metadata: version, times, threads, env steps, steps/s, per cell
   cells/<env>__<arch>__<bias|nobias>/scores.csv   sample,episode,score,steps (one row per episode)
   cells/<env>__<arch>__<bias|nobias>/samples.csv  sample,mean,variance,std,min,max,rank
+  cells/<env>__<arch>__<bias|nobias>/cell.json    the cell's metadata
 
-Example:
+Work is committed in blocks of 32 networks. Running the same manifest on a
+directory that holds an unfinished run resumes it; the result is byte-identical to
+an uninterrupted run. Ctrl-C stops after the blocks in flight.
+
+Examples:
   rwg run examples/quick.toml
-  rwg run examples/paper.toml --samples 1000 --out runs/paper-1k")]
+  rwg run examples/paper.toml --samples 1000 --out runs/paper-1k
+  rwg run examples/paper.toml --shard 0/3 --out runs/paper-s0   # then rwg merge")]
 pub struct Args {
     /// The study's TOML manifest.
     manifest: PathBuf,
@@ -49,21 +50,32 @@ pub struct Args {
     /// Worker threads (overrides the manifest; default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// Compute only shard K of N (0 <= K < N): every N-th block of networks,
+    /// across all cells, into its own directory; combine shards with `rwg merge`.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<ShardMeta>,
+    /// Delete what the run directory holds and start over (needed when it holds
+    /// a different study).
+    #[arg(long)]
+    force_new: bool,
 }
 
-/// One cell to run, with everything resolved.
-struct Cell {
-    plan: CellPlan,
-    arch_name: String,
-    opts: EnvOptions,
-    solved: Option<f64>,
-    solved_source: Option<String>,
-    dir: String,
+/// Set by Ctrl-C; checked after every wave of blocks.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+/// Why a cell stopped.
+#[derive(Debug, thiserror::Error)]
+enum StopError {
+    #[error(transparent)]
+    Sample(#[from] SampleError),
+    #[error(transparent)]
+    Store(#[from] rwg_core::rundir::RunDirError),
+    #[error("interrupted")]
+    Interrupted,
 }
 
-/// Runs `rwg run`.
-pub fn run(args: Args) -> Result<()> {
-    let mut m = Manifest::load(&args.manifest)?;
+/// Applies the command-line overrides to the manifest.
+fn apply_overrides(m: &mut Manifest, args: &Args) -> Result<()> {
     if let Some(s) = args.samples {
         if s == 0 {
             bail!("--samples must be at least 1");
@@ -85,9 +97,15 @@ pub fn run(args: Args) -> Result<()> {
         }
         m.threads = Some(t);
     }
+    Ok(())
+}
+
+/// Runs `rwg run`.
+pub fn run(args: Args) -> Result<()> {
+    let mut m = Manifest::load(&args.manifest)?;
+    apply_overrides(&mut m, &args)?;
     let out = match (&args.out, &m.out) {
-        (Some(o), _) => o.clone(),
-        (None, Some(o)) => o.clone(),
+        (Some(o), _) | (None, Some(o)) => o.clone(),
         (None, None) => {
             let stem = args
                 .manifest
@@ -96,174 +114,286 @@ pub fn run(args: Args) -> Result<()> {
             PathBuf::from("runs").join(stem)
         }
     };
-    m.out = Some(out.clone());
     let cells = plan_cells(&m)?;
     let threads = m
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-
-    prepare_dir(&out)?;
+    let previous = prepare_dir(&out, &m, args.shard, args.force_new)?;
+    if previous.as_ref().is_some_and(|p| p.end_time.is_some()) {
+        println!(
+            "{} already holds this study, complete; nothing to do.",
+            out.display()
+        );
+        return Ok(());
+    }
     write_atomic(&out.join("manifest.toml"), m.to_toml().as_bytes())?;
+
+    let _ = ctrlc::set_handler(|| {
+        if INTERRUPTED.swap(true, Ordering::SeqCst) {
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: finishing the blocks in flight (Ctrl-C again to quit at once)");
+    });
 
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let total = cells.len() as u64 * m.samples;
-    let bar = progress_bar(total);
-    let start_time = SystemTime::now();
+    let nb = n_blocks(m.samples);
+    let owned = |ci: usize, b: u64| args.shard.is_none_or(|s| s.owns(ci, nb, b));
+    let todo: u64 = cells
+        .iter()
+        .enumerate()
+        .map(|(ci, c)| {
+            let dir = out.join("cells").join(&c.dir);
+            if args.shard.is_none() && cell_complete(&dir) {
+                return 0;
+            }
+            (0..nb)
+                .filter(|&b| owned(ci, b) && !block_done(&dir, b))
+                .map(|b| block_samples(b, m.samples).count() as u64)
+                .sum()
+        })
+        .sum();
+    let bar = progress_bar(todo);
     let t0 = Instant::now();
-    let mut meta = RunMeta {
-        format: RUN_FORMAT,
-        rwg_version: env!("CARGO_PKG_VERSION").into(),
-        seed: m.seed,
-        samples: m.samples,
-        episodes: m.episodes,
-        weights: WeightsMeta {
-            distribution: m.weights.name().into(),
-            scale: m.weights.scale(),
-        },
-        threads,
-        start_time: rfc3339(start_time),
-        end_time: None,
-        wall_s: 0.0,
-        env_steps: 0,
-        steps_per_s: 0.0,
-        cells: vec![],
-    };
-    let mut summary_lines = vec![];
-    for (i, cell) in cells.iter().enumerate() {
-        bar.set_message(format!("cell {}/{}: {}", i + 1, cells.len(), cell.dir));
-        let result = pool.install(|| run_one_cell(&m, cell, &out, &bar, meta.env_steps, t0));
-        match result {
-            Ok(c) => {
-                meta.env_steps += c.meta.env_steps;
-                summary_lines.push(c.line);
-                meta.cells.push(c.meta);
-            }
-            Err(e) => {
-                bar.abandon();
-                meta.wall_s = t0.elapsed().as_secs_f64();
-                write_atomic(
-                    &out.join("run.json"),
-                    serde_json::to_string_pretty(&meta)?.as_bytes(),
-                )?;
-                return Err(e.context(format!(
-                    "cell {} failed; the {} cells before it are complete in {}",
+    let mut meta = new_meta(&m, threads, rfc3339(SystemTime::now()), args.shard);
+    if let Some(p) = &previous {
+        meta.start_time = p.start_time.clone();
+    }
+    let mut lines = vec![];
+    let mut steps_now = 0u64;
+
+    for (ci, cell) in cells.iter().enumerate() {
+        let dir = out.join("cells").join(&cell.dir);
+        if args.shard.is_none() && cell_complete(&dir) {
+            let cm = read_cell_meta(&dir)?;
+            meta.env_steps += cm.env_steps;
+            meta.cells.push(cm);
+            continue;
+        }
+        bar.set_message(format!("cell {}/{}: {}", ci + 1, cells.len(), cell.dir));
+        let blocks: Vec<_> = (0..nb)
+            .filter(|&b| owned(ci, b) && !block_done(&dir, b))
+            .map(|b| block_samples(b, m.samples))
+            .collect();
+        let t_cell = Instant::now();
+        let mut cell_steps = 0u64;
+        let result = pool.install(|| {
+            run_cell_blocks(cell, &blocks, &dir, m.episodes, |b: &BlockResult| {
+                let s: u64 = b.episodes.iter().map(|r| r.steps as u64).sum();
+                cell_steps += s;
+                steps_now += s;
+                bar.inc(b.samples.end - b.samples.start);
+                let rate = steps_now as f64 / t0.elapsed().as_secs_f64();
+                let msg = bar.message();
+                let head = msg.split("  ").next().unwrap_or("").to_string();
+                bar.set_message(format!("{head}  {rate:.3e} env steps/s"));
+            })
+        });
+        if let Err(e) = result {
+            bar.abandon();
+            meta.wall_s = t0.elapsed().as_secs_f64();
+            write_meta(&out, &meta)?;
+            let resume = format!(
+                "rwg run {} --out {}{}",
+                args.manifest.display(),
+                out.display(),
+                shard_flag(args.shard)
+            );
+            return match e {
+                StopError::Interrupted => {
+                    eprintln!(
+                        "stopped; every finished block is saved in {}. Resume with:\n  {resume}",
+                        out.display()
+                    );
+                    std::process::exit(130)
+                }
+                e => Err(anyhow::Error::new(e).context(format!(
+                    "cell {} failed; the blocks and cells finished before are saved in {}",
                     cell.dir,
-                    meta.cells.len(),
                     out.display()
-                )));
-            }
+                ))),
+            };
+        }
+        let wall = t_cell.elapsed().as_secs_f64();
+        if args.shard.is_none() {
+            let (cm, totals) = cell.finalize(&m, &out, wall)?;
+            lines.push(cell.summary_line(&totals.means, cm.steps_per_s));
+            meta.env_steps += cm.env_steps;
+            meta.cells.push(cm);
+        } else {
+            meta.env_steps += cell_steps;
         }
         meta.wall_s = t0.elapsed().as_secs_f64();
-        write_atomic(
-            &out.join("run.json"),
-            serde_json::to_string_pretty(&meta)?.as_bytes(),
-        )?;
+        write_meta(&out, &meta)?;
     }
     bar.finish_and_clear();
     meta.wall_s = t0.elapsed().as_secs_f64();
-    meta.steps_per_s = meta.env_steps as f64 / meta.wall_s;
+    meta.steps_per_s = steps_now as f64 / meta.wall_s;
     meta.end_time = Some(rfc3339(SystemTime::now()));
-    write_atomic(
-        &out.join("run.json"),
-        serde_json::to_string_pretty(&meta)?.as_bytes(),
-    )?;
+    write_meta(&out, &meta)?;
 
-    println!(
-        "{:<40} {:>12} {:>12} {:>9} {:>12}",
-        "cell", "best mean", "median mean", "solved", "steps/s"
-    );
-    for l in summary_lines {
-        println!("{l}");
+    if args.shard.is_none() {
+        println!("{}", summary_header());
+        for l in &lines {
+            println!("{l}");
+        }
+        if lines.len() < cells.len() {
+            println!(
+                "({} cells were already complete)",
+                cells.len() - lines.len()
+            );
+        }
     }
     println!(
-        "\n{} cells, {} networks x {} episodes, {} env steps in {:.2} s ({:.3e} steps/s, {} threads)",
+        "\n{} cells, {} networks x {} episodes; this session: {} env steps in {:.2} s ({:.3e} steps/s, {} threads)",
         cells.len(),
         m.samples,
         m.episodes,
-        meta.env_steps,
+        steps_now,
         meta.wall_s,
         meta.steps_per_s,
         threads
     );
-    println!(
-        "Results: {}  (run.json, cells/*/scores.csv, cells/*/samples.csv)",
-        out.display()
-    );
+    match args.shard {
+        None => println!(
+            "Results: {}  (run.json, cells/*/scores.csv, cells/*/samples.csv)",
+            out.display()
+        ),
+        Some(s) => println!(
+            "Shard {}/{} done: {}. Combine all shards with: rwg merge DIR... --out DIR",
+            s.index,
+            s.count,
+            out.display()
+        ),
+    }
     Ok(())
 }
 
-/// Expands the manifest into cells (env × architecture × bias), checking env ids.
-fn plan_cells(m: &Manifest) -> Result<Vec<Cell>> {
-    let mut cells = vec![];
-    for e in &m.envs {
-        if e.plugin.is_some() {
-            return Err(m
-                .error_at(
-                    e.id_span.clone(),
-                    format!(
-                        "env '{}': plugin environments are not supported by this build",
-                        e.id
-                    ),
-                )
-                .into());
+fn shard_flag(s: Option<ShardMeta>) -> String {
+    s.map_or(String::new(), |s| {
+        format!(" --shard {}/{}", s.index, s.count)
+    })
+}
+
+/// Runs the given blocks of a cell, committing each; statically dispatched.
+fn run_cell_blocks(
+    cell: &Cell,
+    blocks: &[std::ops::Range<u64>],
+    dir: &Path,
+    episodes: u32,
+    on_done: impl FnMut(&BlockResult),
+) -> Result<(), StopError> {
+    struct Runner<'a, F> {
+        cell: &'a Cell,
+        blocks: &'a [std::ops::Range<u64>],
+        dir: &'a Path,
+        episodes: u32,
+        on_done: F,
+    }
+    impl<F: FnMut(&BlockResult)> EnvVisitor for Runner<'_, F> {
+        type Output = Result<(), StopError>;
+        fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
+            let Runner {
+                cell,
+                blocks,
+                dir,
+                episodes,
+                mut on_done,
+            } = self;
+            let wave = rayon::current_num_threads() * 2;
+            run_blocks(
+                &cell.plan,
+                blocks,
+                wave,
+                || env.clone(),
+                |b: BlockResult| -> Result<(), StopError> {
+                    write_block(dir, &b, episodes)?;
+                    on_done(&b);
+                    if INTERRUPTED.load(Ordering::SeqCst) {
+                        return Err(StopError::Interrupted);
+                    }
+                    Ok(())
+                },
+            )
         }
-        let opts = EnvOptions {
-            action_dtype: e.action_dtype,
-            max_episode_steps: e.max_episode_steps,
-        };
-        let spec = visit(&e.id, &opts, SpecOf)
-            .map_err(|err| m.error_at(e.id_span.clone(), format!("envs: {err}")))?;
-        let (solved, solved_source) = match (e.solved, spec.reward_threshold) {
-            (Some(s), _) => (Some(s), Some("manifest".to_string())),
-            (None, Some(t)) => (Some(t), Some("env".to_string())),
-            (None, None) => (None, None),
-        };
-        for a in &m.architectures {
-            for &bias in &m.bias {
-                cells.push(Cell {
-                    plan: CellPlan {
-                        seed: m.seed,
-                        env_id: e.id.clone(),
-                        arch: Architecture {
-                            hidden: a.hidden.clone(),
-                            bias,
-                        },
-                        episodes: m.episodes,
-                        dist: m.weights,
-                    },
-                    arch_name: a.name.clone(),
-                    opts,
-                    solved,
-                    solved_source: solved_source.clone(),
-                    dir: cell_dir_name(&e.id, &a.name, bias),
-                });
+    }
+    let runner = Runner {
+        cell,
+        blocks,
+        dir,
+        episodes,
+        on_done,
+    };
+    visit(&cell.plan.env_id, &cell.opts, runner)
+        .expect("env ids are checked when cells are planned")
+}
+
+fn read_cell_meta(dir: &Path) -> Result<CellMeta> {
+    let p = dir.join("cell.json");
+    let text =
+        std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{} is not an rwg cell.json", p.display()))
+}
+
+/// Creates the run directory, or checks that the one there holds the same
+/// study (to resume it). Returns the previous run's metadata, if any.
+fn prepare_dir(
+    out: &Path,
+    m: &Manifest,
+    shard: Option<ShardMeta>,
+    force_new: bool,
+) -> Result<Option<rwg_core::run_meta::RunMeta>> {
+    let manifest_path = out.join("manifest.toml");
+    if force_new {
+        for p in ["cells", "run.json", "manifest.toml"] {
+            let p = out.join(p);
+            if p.is_dir() {
+                std::fs::remove_dir_all(&p)
+                    .with_context(|| format!("cannot remove {}", p.display()))?;
+            } else if p.exists() {
+                std::fs::remove_file(&p)
+                    .with_context(|| format!("cannot remove {}", p.display()))?;
             }
         }
     }
-    Ok(cells)
-}
-
-struct SpecOf;
-
-impl EnvVisitor for SpecOf {
-    type Output = rwg_core::EnvSpec;
-    fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
-        env.spec().clone()
-    }
-}
-
-/// Creates the run directory; refuses one that already holds a run.
-fn prepare_dir(out: &Path) -> Result<()> {
-    if out.join("run.json").exists() {
+    let mut previous = None;
+    if manifest_path.exists() {
+        let old = Manifest::load(&manifest_path)?;
+        let diffs = old.study_differences(m);
+        if !diffs.is_empty() {
+            bail!(
+                "{} holds a different study ({}); use another --out, or --force-new to delete it and start over",
+                out.display(),
+                diffs.join("; ")
+            );
+        }
+        if out.join("run.json").exists() {
+            let meta = read_meta(out)?;
+            if meta.shard != shard {
+                let show = |s: Option<ShardMeta>| {
+                    s.map_or("the whole study".into(), |s| {
+                        format!("shard {}/{}", s.index, s.count)
+                    })
+                };
+                bail!(
+                    "{} holds {}, not {}; use another --out",
+                    out.display(),
+                    show(meta.shard),
+                    show(shard)
+                );
+            }
+            previous = Some(meta);
+        }
+    } else if out.join("run.json").exists() {
         bail!(
-            "{} already holds a run (run.json); choose another directory with --out, or delete it",
+            "{} holds a run.json but no manifest.toml; use another --out, or --force-new",
             out.display()
         );
     }
     std::fs::create_dir_all(out.join("cells"))
-        .with_context(|| format!("cannot create {}", out.display()))
+        .with_context(|| format!("cannot create {}", out.display()))?;
+    Ok(previous)
 }
 
 fn progress_bar(total: u64) -> ProgressBar {
@@ -275,141 +405,4 @@ fn progress_bar(total: u64) -> ProgressBar {
         .expect("valid template"),
     );
     bar
-}
-
-struct CellDone {
-    meta: CellMeta,
-    line: String,
-}
-
-/// Runs one cell through the statically dispatched sampler and writes its files.
-fn run_one_cell(
-    m: &Manifest,
-    cell: &Cell,
-    out: &Path,
-    bar: &ProgressBar,
-    steps_before: u64,
-    t_run: Instant,
-) -> Result<CellDone> {
-    struct Runner<'a> {
-        m: &'a Manifest,
-        cell: &'a Cell,
-        dir: PathBuf,
-        bar: &'a ProgressBar,
-        steps_before: u64,
-        t_run: Instant,
-    }
-    impl EnvVisitor for Runner<'_> {
-        type Output = Result<CellDone>;
-        fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Result<CellDone> {
-            let Runner {
-                m,
-                cell,
-                dir,
-                bar,
-                steps_before,
-                t_run,
-            } = self;
-            std::fs::create_dir_all(&dir)
-                .with_context(|| format!("cannot create {}", dir.display()))?;
-            let spec = env.spec().clone();
-            let t0 = Instant::now();
-            let e = m.episodes as usize;
-            let mut scores = AtomicFile::create(&dir.join("scores.csv"))?;
-            writeln!(scores, "{SCORES_HEADER}")?;
-            let mut summaries: Vec<SampleSummary> = Vec::with_capacity(m.samples as usize);
-            let mut steps = 0u64;
-            let mut buf = Vec::with_capacity(e);
-            let mut scratch = Vec::with_capacity(e);
-            run_cell(
-                &cell.plan,
-                0..m.samples,
-                BLOCK,
-                rayon::current_num_threads() * 4,
-                || env.clone(),
-                |b: BlockResult| -> Result<(), RunError> {
-                    write_score_rows(&mut scores, &b, m.episodes).map_err(RunError::Io)?;
-                    for chunk in b.episodes.chunks_exact(e) {
-                        buf.clear();
-                        buf.extend(chunk.iter().map(|r| r.score));
-                        steps += chunk.iter().map(|r| r.steps as u64).sum::<u64>();
-                        summaries.push(SampleSummary::of(&buf, &mut scratch));
-                    }
-                    bar.inc(b.samples.end - b.samples.start);
-                    let all = steps_before + steps;
-                    bar.set_message(format!(
-                        "{}  {:.3e} env steps/s",
-                        bar.message().split("  ").next().unwrap_or(""),
-                        all as f64 / t_run.elapsed().as_secs_f64()
-                    ));
-                    Ok(())
-                },
-            )?;
-            scores.commit()?;
-            let means: Vec<f64> = summaries.iter().map(|s| s.mean).collect();
-            let ranks = ranks_by_mean(&means);
-            let mut samples = AtomicFile::create(&dir.join("samples.csv"))?;
-            write_sample_rows(&mut samples, &summaries, &ranks)?;
-            samples.commit()?;
-            let wall_s = t0.elapsed().as_secs_f64();
-
-            let shape = NetShape::new(
-                spec.obs_dim(),
-                &cell.plan.arch,
-                NetShape::outputs_for(&spec.action_space),
-            );
-            let best = means.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            let mut sorted = means.clone();
-            sorted.sort_by(f64::total_cmp);
-            let median = sorted[sorted.len() / 2];
-            let solved_txt = match cell.solved {
-                Some(s) => {
-                    let k = means.iter().filter(|&&x| x >= s).count();
-                    format!("{:.2}%", 100.0 * k as f64 / means.len() as f64)
-                }
-                None => "-".into(),
-            };
-            let steps_per_s = steps as f64 / wall_s;
-            let line = format!(
-                "{:<40} {:>12.2} {:>12.2} {:>9} {:>12.3e}",
-                cell.dir, best, median, solved_txt, steps_per_s
-            );
-            let meta = CellMeta {
-                dir: cell.dir.clone(),
-                env: spec.id.clone(),
-                arch: cell.arch_name.clone(),
-                hidden: cell.plan.arch.hidden.clone(),
-                bias: cell.plan.arch.bias,
-                n_weights: shape.n_weights(),
-                obs_dim: spec.obs_dim(),
-                max_episode_steps: spec.max_episode_steps.unwrap_or(0),
-                solved: cell.solved,
-                solved_source: cell.solved_source.clone(),
-                samples: m.samples,
-                episodes: m.episodes,
-                wall_s,
-                env_steps: steps,
-                steps_per_s,
-            };
-            Ok(CellDone { meta, line })
-        }
-    }
-    let runner = Runner {
-        m,
-        cell,
-        dir: out.join("cells").join(&cell.dir),
-        bar,
-        steps_before,
-        t_run,
-    };
-    visit(&cell.plan.env_id, &cell.opts, runner)?
-}
-
-/// What can stop a cell.
-#[derive(Debug, thiserror::Error)]
-enum RunError {
-    #[error(transparent)]
-    Sample(#[from] SampleError),
-    #[error("cannot write results: {0}")]
-    Io(std::io::Error),
 }

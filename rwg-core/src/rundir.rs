@@ -1,0 +1,274 @@
+//! Storage of a cell's results in a run directory, built for long runs.
+//!
+//! A cell's networks are computed in blocks of [`BLOCK_SAMPLES`] consecutive
+//! samples. Each finished block is committed atomically (temporary file, then
+//! rename) as `cells/<cell>/blocks/b<index>.csv`, so a run killed at any
+//! instant loses at most the blocks in flight, and a resumed run skips the
+//! blocks on disk. When every block of a cell is there, [`finalize_cell`]
+//! streams them into `scores.csv`, computes `samples.csv` and `cell.json`,
+//! and removes the blocks. The final files depend only on the blocks' rows,
+//! so they are byte-identical whether the cell ran in one go, was resumed, or
+//! was computed in shards and merged.
+
+use crate::export::{write_atomic, write_sample_rows, write_score_rows, AtomicFile, SCORES_HEADER};
+use crate::sampler::BlockResult;
+use crate::summary::{ranks_by_mean, SampleSummary};
+use std::io::{self, BufRead, BufReader, Write};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Samples per block: the unit of parallel work, of commits and of shards.
+pub const BLOCK_SAMPLES: u64 = 32;
+
+/// Errors reading or writing a cell's files.
+#[derive(Debug, Error)]
+pub enum RunDirError {
+    /// An I/O error on a file.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        source: io::Error,
+    },
+    /// A file's contents are not what rwg wrote.
+    #[error("{path}:{line}: {message}")]
+    Corrupt {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A block is missing when the cell is finalised.
+    #[error("{path}: missing (block {block} of the cell)")]
+    MissingBlock {
+        /// The block's file.
+        path: PathBuf,
+        /// Block index.
+        block: u64,
+    },
+}
+
+fn io_err(path: &Path) -> impl FnOnce(io::Error) -> RunDirError + '_ {
+    move |source| RunDirError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Number of blocks of a cell of `samples` networks.
+pub fn n_blocks(samples: u64) -> u64 {
+    samples.div_ceil(BLOCK_SAMPLES)
+}
+
+/// The samples of block `b`.
+pub fn block_samples(b: u64, samples: u64) -> Range<u64> {
+    let start = b * BLOCK_SAMPLES;
+    start..(start + BLOCK_SAMPLES).min(samples)
+}
+
+/// The file of block `b` of the cell in `cell_dir`.
+pub fn block_path(cell_dir: &Path, b: u64) -> PathBuf {
+    cell_dir.join("blocks").join(format!("b{b:07}.csv"))
+}
+
+/// Whether block `b` is committed.
+pub fn block_done(cell_dir: &Path, b: u64) -> bool {
+    block_path(cell_dir, b).is_file()
+}
+
+/// Whether the cell is finalised (`samples.csv`, written last, exists).
+pub fn cell_complete(cell_dir: &Path) -> bool {
+    cell_dir.join("samples.csv").is_file()
+}
+
+/// Commits a block atomically: its `scores.csv` rows, without header.
+pub fn write_block(cell_dir: &Path, block: &BlockResult, episodes: u32) -> Result<(), RunDirError> {
+    let b = block.samples.start / BLOCK_SAMPLES;
+    let path = block_path(cell_dir, b);
+    let dir = path.parent().expect("block path has a parent");
+    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let mut f = AtomicFile::create(&path).map_err(io_err(&path))?;
+    write_score_rows(&mut f, block, episodes).map_err(io_err(&path))?;
+    f.commit().map_err(io_err(&path))
+}
+
+/// What finalising a cell found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CellTotals {
+    /// Environment steps over all episodes of the cell.
+    pub env_steps: u64,
+    /// Mean score of every sample, in sample order.
+    pub means: Vec<f64>,
+}
+
+/// Parses one `sample,episode,score,steps` row, checking it is the expected one.
+fn parse_row(line: &str, sample: u64, episode: u32) -> Result<(f64, u64), String> {
+    let mut it = line.split(',');
+    let (s, e, score, steps) = (it.next(), it.next(), it.next(), it.next());
+    if it.next().is_some() {
+        return Err(format!("expected 4 columns: '{line}'"));
+    }
+    let (Some(s), Some(e), Some(score), Some(steps)) = (s, e, score, steps) else {
+        return Err(format!("expected 4 columns: '{line}'"));
+    };
+    if s.parse::<u64>().ok() != Some(sample) || e.parse::<u32>().ok() != Some(episode) {
+        return Err(format!(
+            "expected sample {sample}, episode {episode}: '{line}'"
+        ));
+    }
+    let score = score
+        .parse::<f64>()
+        .map_err(|_| format!("bad score '{score}'"))?;
+    let steps = steps
+        .parse::<u64>()
+        .map_err(|_| format!("bad steps '{steps}'"))?;
+    Ok((score, steps))
+}
+
+/// Streams the cell's blocks into `scores.csv`, writes `samples.csv` (and,
+/// before it, `cell.json` = `cell_json` if given), then removes the blocks.
+/// Memory: one sample's scores plus the per-sample summaries.
+pub fn finalize_cell(
+    cell_dir: &Path,
+    samples: u64,
+    episodes: u32,
+    cell_json: impl FnOnce(&CellTotals) -> Option<String>,
+) -> Result<CellTotals, RunDirError> {
+    for b in 0..n_blocks(samples) {
+        if !block_done(cell_dir, b) {
+            return Err(RunDirError::MissingBlock {
+                path: block_path(cell_dir, b),
+                block: b,
+            });
+        }
+    }
+    let scores_path = cell_dir.join("scores.csv");
+    let mut scores = AtomicFile::create(&scores_path).map_err(io_err(&scores_path))?;
+    writeln!(scores, "{SCORES_HEADER}").map_err(io_err(&scores_path))?;
+    let mut summaries = Vec::with_capacity(samples as usize);
+    let mut env_steps = 0u64;
+    let mut buf = Vec::with_capacity(episodes as usize);
+    let mut scratch = Vec::with_capacity(episodes as usize);
+    for b in 0..n_blocks(samples) {
+        let path = block_path(cell_dir, b);
+        let file = std::fs::File::open(&path).map_err(io_err(&path))?;
+        let mut lines = BufReader::new(file).lines();
+        let mut line_no = 0;
+        for sample in block_samples(b, samples) {
+            buf.clear();
+            for episode in 0..episodes {
+                line_no += 1;
+                let corrupt = |message: String| RunDirError::Corrupt {
+                    path: path.clone(),
+                    line: line_no,
+                    message,
+                };
+                let line = match lines.next() {
+                    Some(l) => l.map_err(io_err(&path))?,
+                    None => return Err(corrupt("file ends early".into())),
+                };
+                let (score, steps) = parse_row(&line, sample, episode).map_err(corrupt)?;
+                buf.push(score);
+                env_steps += steps;
+                writeln!(scores, "{line}").map_err(io_err(&scores_path))?;
+            }
+            summaries.push(SampleSummary::of(&buf, &mut scratch));
+        }
+        if let Some(extra) = lines.next() {
+            let message = format!(
+                "unexpected row after the block's last sample: '{}'",
+                extra.unwrap_or_default()
+            );
+            return Err(RunDirError::Corrupt {
+                path,
+                line: line_no + 1,
+                message,
+            });
+        }
+    }
+    scores.commit().map_err(io_err(&scores_path))?;
+    let means: Vec<f64> = summaries.iter().map(|s| s.mean).collect();
+    let totals = CellTotals { env_steps, means };
+    if let Some(json) = cell_json(&totals) {
+        let p = cell_dir.join("cell.json");
+        write_atomic(&p, json.as_bytes()).map_err(io_err(&p))?;
+    }
+    let ranks = ranks_by_mean(&totals.means);
+    let samples_path = cell_dir.join("samples.csv");
+    let mut f = AtomicFile::create(&samples_path).map_err(io_err(&samples_path))?;
+    write_sample_rows(&mut f, &summaries, &ranks).map_err(io_err(&samples_path))?;
+    f.commit().map_err(io_err(&samples_path))?;
+    let blocks = cell_dir.join("blocks");
+    std::fs::remove_dir_all(&blocks).map_err(io_err(&blocks))?;
+    Ok(totals)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::EpisodeResult;
+
+    fn block(b: u64, samples: u64, episodes: u32) -> BlockResult {
+        let r = block_samples(b, samples);
+        let n = (r.end - r.start) as usize * episodes as usize;
+        let episodes = (0..n)
+            .map(|i| EpisodeResult {
+                score: (r.start as f64) + i as f64 * 0.5,
+                steps: 10 + i as u32,
+            })
+            .collect();
+        BlockResult {
+            samples: r,
+            episodes,
+        }
+    }
+
+    #[test]
+    fn blocks_finalise_into_scores_and_samples_in_any_commit_order() {
+        let dir = std::env::temp_dir().join(format!("rwg-rundir-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let samples = 2 * BLOCK_SAMPLES + 5;
+        assert_eq!(n_blocks(samples), 3);
+        for b in [2, 0] {
+            write_block(&dir, &block(b, samples, 2), 2).unwrap();
+        }
+        let err = finalize_cell(&dir, samples, 2, |_| None).unwrap_err();
+        assert!(
+            matches!(err, RunDirError::MissingBlock { block: 1, .. }),
+            "{err}"
+        );
+        write_block(&dir, &block(1, samples, 2), 2).unwrap();
+        let totals = finalize_cell(&dir, samples, 2, |t| Some(format!("{}", t.env_steps))).unwrap();
+        assert_eq!(totals.means.len(), samples as usize);
+        let scores = std::fs::read_to_string(dir.join("scores.csv")).unwrap();
+        assert_eq!(scores.lines().count(), 1 + 2 * samples as usize);
+        assert!(scores.lines().nth(1 + 2 * 33).unwrap().starts_with("33,0,"));
+        assert_eq!(
+            std::fs::read_to_string(dir.join("cell.json")).unwrap(),
+            totals.env_steps.to_string()
+        );
+        assert!(cell_complete(&dir));
+        assert!(!dir.join("blocks").exists());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn corrupt_block_names_file_and_line() {
+        let dir = std::env::temp_dir().join(format!("rwg-rundir-bad-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        write_block(&dir, &block(0, 3, 2), 2).unwrap();
+        let p = block_path(&dir, 0);
+        let text = std::fs::read_to_string(&p).unwrap().replace("1,1,", "1,7,");
+        std::fs::write(&p, text).unwrap();
+        let err = finalize_cell(&dir, 3, 2, |_| None).unwrap_err().to_string();
+        assert!(
+            err.contains("b0000000.csv:4: expected sample 1, episode 1"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
