@@ -1,6 +1,7 @@
 //! `rwg`: Random Weight Guessing analysis of reinforcement-learning environments.
 
 mod cmd;
+mod step_lines;
 mod study;
 
 use anyhow::Result;
@@ -26,6 +27,10 @@ enum Command {
     Run(cmd::run::Args),
     /// Combine the shards of a study (`rwg run --shard K/N`) into one run directory.
     Merge(cmd::merge::Args),
+    /// Regenerate one network of a run from its seed, re-run it, or export its weights.
+    Replay(cmd::replay::Args),
+    /// List the best networks of each cell of a run, with the command that replays each.
+    Top(cmd::top::Args),
 }
 
 fn main() {
@@ -35,8 +40,18 @@ fn main() {
         Command::Rollout(a) => cmd::rollout::run(a),
         Command::Run(a) => cmd::run::run(a),
         Command::Merge(a) => cmd::merge::run(a),
+        Command::Replay(a) => cmd::replay::run(a),
+        Command::Top(a) => cmd::top::run(a),
     };
     if let Err(e) = result {
+        // `rwg ... | head` closes the pipe early: not an error.
+        let broken_pipe = e.chain().any(|c| {
+            c.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+        });
+        if broken_pipe {
+            std::process::exit(0);
+        }
         eprintln!("error: {e:#}");
         std::process::exit(1);
     }

@@ -139,6 +139,22 @@ pub struct CellPlan {
     pub dist: WeightDist,
 }
 
+impl CellPlan {
+    /// Network `sample` of this cell for an env with `spec`: the same weights
+    /// the sampler draws (for replay and export).
+    pub fn policy(&self, spec: &crate::EnvSpec, sample: u64) -> Policy {
+        let shape = NetShape::new(
+            spec.obs_dim(),
+            &self.arch,
+            NetShape::outputs_for(&spec.action_space),
+        );
+        let mut policy = Policy::new(shape, &spec.action_space);
+        let mut rng = weight_rng(self.seed, &self.env_id, &self.arch, sample);
+        draw_weights(&mut rng, self.dist, policy.weights_mut());
+        policy
+    }
+}
+
 /// Score and length of one episode.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EpisodeResult {

@@ -2,5 +2,7 @@
 
 pub mod envs;
 pub mod merge;
+pub mod replay;
 pub mod rollout;
 pub mod run;
+pub mod top;

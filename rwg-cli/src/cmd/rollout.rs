@@ -1,7 +1,7 @@
 //! `rwg rollout`: one episode with given actions, printed step by step.
 
+use crate::step_lines::StepLines;
 use anyhow::{bail, Context, Result};
-use rwg_core::float::fmt_f64;
 use rwg_core::{Action, ActionDtype, Environment, Space};
 use rwg_envs::{make, EnvOptions};
 use std::io::{BufWriter, Write};
@@ -152,15 +152,6 @@ fn parse_state(text: &str) -> Result<Vec<f64>> {
         .collect()
 }
 
-/// JSON number (shortest round-trip), or null for a non-finite value.
-fn json_num(x: f64) -> String {
-    if x.is_finite() {
-        fmt_f64(x)
-    } else {
-        "null".into()
-    }
-}
-
 /// Runs `rwg rollout`.
 pub fn run(args: Args) -> Result<()> {
     let dtype: ActionDtype = args.action_dtype.parse().map_err(anyhow::Error::msg)?;
@@ -192,76 +183,9 @@ pub fn run(args: Args) -> Result<()> {
 
     let stdout = std::io::stdout();
     let mut out = BufWriter::new(stdout.lock());
-    let csv = args.format == "csv";
-    let act_dim = spec.action_space.flat_dim();
-    if csv {
-        let mut cols = vec!["step".to_string()];
-        cols.extend((0..act_dim).map(|i| {
-            if act_dim == 1 {
-                "action".into()
-            } else {
-                format!("action_{i}")
-            }
-        }));
-        cols.extend((0..obs.len()).map(|i| format!("obs_{i}")));
-        cols.extend(["reward", "terminated", "truncated"].map(String::from));
-        writeln!(out, "{}", cols.join(","))?;
-    }
-    let write_line = |out: &mut dyn Write,
-                      step: usize,
-                      action: Option<&ParsedAction>,
-                      obs: &[f64],
-                      s: Option<rwg_core::Step>|
-     -> std::io::Result<()> {
-        if csv {
-            let mut cells = vec![step.to_string()];
-            match action {
-                Some(a) => cells.extend(a.values.iter().map(|v| match a.discrete {
-                    Some(d) => d.to_string(),
-                    None => fmt_f64(*v),
-                })),
-                None => cells.extend((0..act_dim).map(|_| String::new())),
-            }
-            cells.extend(obs.iter().map(|v| fmt_f64(*v)));
-            match s {
-                Some(s) => cells.extend([
-                    fmt_f64(s.reward),
-                    s.terminated.to_string(),
-                    s.truncated.to_string(),
-                ]),
-                None => cells.extend([String::new(), String::new(), String::new()]),
-            }
-            writeln!(out, "{}", cells.join(","))
-        } else {
-            let obs_json: Vec<String> = obs.iter().map(|v| json_num(*v)).collect();
-            let action_json = match action {
-                None => "null".to_string(),
-                Some(a) => match a.discrete {
-                    Some(d) => d.to_string(),
-                    None => format!(
-                        "[{}]",
-                        a.values
-                            .iter()
-                            .map(|v| json_num(*v))
-                            .collect::<Vec<_>>()
-                            .join(",")
-                    ),
-                },
-            };
-            match s {
-                Some(s) => writeln!(
-                    out,
-                    "{{\"step\":{step},\"action\":{action_json},\"obs\":[{}],\"reward\":{},\"terminated\":{},\"truncated\":{}}}",
-                    obs_json.join(","),
-                    json_num(s.reward),
-                    s.terminated,
-                    s.truncated
-                ),
-                None => writeln!(out, "{{\"step\":0,\"obs\":[{}]}}", obs_json.join(",")),
-            }
-        }
-    };
-    write_line(&mut out, 0, None, &obs, None)?;
+    let lines = StepLines::new(&args.format, spec.action_space.flat_dim(), obs.len());
+    lines.header(&mut out)?;
+    lines.reset(&mut out, &obs)?;
     for (i, a) in actions.iter().enumerate() {
         let action = match a.discrete {
             Some(d) => Action::Discrete(d),
@@ -270,7 +194,7 @@ pub fn run(args: Args) -> Result<()> {
         let s = env
             .step(action, &mut obs)
             .with_context(|| a.origin.clone())?;
-        write_line(&mut out, i + 1, Some(a), &obs, Some(s))?;
+        lines.step(&mut out, i + 1, action, &obs, s)?;
         if s.terminated || s.truncated {
             break;
         }

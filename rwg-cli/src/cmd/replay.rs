@@ -1,0 +1,267 @@
+//! `rwg replay`: regenerate one network of a run from the seed and re-run it.
+
+use crate::step_lines::StepLines;
+use crate::study::{plan_cells, Cell};
+use anyhow::{bail, Context, Result};
+use rwg_core::float::fmt_f64;
+use rwg_core::manifest::Manifest;
+use rwg_core::policy::Policy;
+use rwg_core::sampler::{reset_seed, run_episode};
+use rwg_core::{Environment, Space};
+use rwg_envs::make;
+use serde::Serialize;
+use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+/// Arguments of `rwg replay`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Without --episode: prints every episode's reset seed, score and steps, next to the
+stored score, and fails if any differs. With --episode: prints that episode step by
+step, like `rwg rollout`. --export-weights writes the network as JSON so it can be
+rebuilt in numpy and run in Gymnasium (see the README).
+
+Example:
+  rwg replay runs/quick --env CartPole-v0 --arch 0HL --sample 17 --episode 3")]
+pub struct Args {
+    /// Run directory.
+    run_dir: PathBuf,
+    /// Environment id.
+    #[arg(long)]
+    env: String,
+    /// Architecture name (as in the manifest).
+    #[arg(long)]
+    arch: String,
+    /// Bias setting (needed when the run has both).
+    #[arg(long)]
+    bias: Option<bool>,
+    /// Network index.
+    #[arg(long)]
+    sample: u64,
+    /// Print this episode step by step.
+    #[arg(long)]
+    episode: Option<u32>,
+    /// Output format of --episode.
+    #[arg(long, default_value = "jsonl", value_parser = ["jsonl", "csv"])]
+    format: String,
+    /// Write the network's weights, activation, action mapping and the
+    /// episodes' reset seeds to this JSON file.
+    #[arg(long, value_name = "FILE.json")]
+    export_weights: Option<PathBuf>,
+}
+
+/// Finds the cell of `env`, `arch`, `bias` in the run's manifest.
+pub fn find_cell<'a>(
+    cells: &'a [Cell],
+    m: &Manifest,
+    env: &str,
+    arch: &str,
+    bias: Option<bool>,
+) -> Result<&'a Cell> {
+    let matching: Vec<&Cell> = cells
+        .iter()
+        .filter(|c| {
+            c.plan.env_id == env
+                && c.arch_name == arch
+                && bias.is_none_or(|b| c.plan.arch.bias == b)
+        })
+        .collect();
+    match matching.as_slice() {
+        [c] => Ok(c),
+        [] => {
+            let envs: Vec<&str> = m.envs.iter().map(|e| e.id.as_str()).collect();
+            let archs: Vec<&str> = m.architectures.iter().map(|a| a.name.as_str()).collect();
+            bail!(
+                "the run has no cell {env} / {arch}{}; its envs: {}; its architectures: {}; bias: {:?}",
+                bias.map_or(String::new(), |b| format!(" / bias={b}")),
+                envs.join(", "),
+                archs.join(", "),
+                m.bias
+            )
+        }
+        _ => bail!("the run has both bias settings: add --bias true or --bias false"),
+    }
+}
+
+/// The stored scores of `sample` (one per episode) from a cell's scores.csv.
+fn stored_scores(path: &Path, sample: u64, episodes: u32) -> Result<Vec<f64>> {
+    let f = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let prefix = format!("{sample},");
+    let mut out = vec![];
+    for line in BufReader::new(f).lines().skip(1) {
+        let line = line?;
+        if let Some(rest) = line.strip_prefix(&prefix) {
+            let score = rest.split(',').nth(1).context("bad scores.csv row")?;
+            out.push(
+                score
+                    .parse::<f64>()
+                    .with_context(|| format!("{}: bad score '{score}'", path.display()))?,
+            );
+            if out.len() == episodes as usize {
+                break;
+            }
+        }
+    }
+    Ok(out)
+}
+
+#[derive(Serialize)]
+struct Layer {
+    /// `[out, in]`, `in` counting the bias input.
+    shape: [usize; 2],
+    /// Row-major, the bias weight last in each row.
+    weights: Vec<Vec<f64>>,
+}
+
+#[derive(Serialize)]
+struct Export<'a> {
+    env: &'a str,
+    arch: &'a str,
+    hidden: &'a [usize],
+    bias: bool,
+    sample: u64,
+    activation: &'static str,
+    forward: &'static str,
+    action: String,
+    layers: Vec<Layer>,
+    reset_seeds: Vec<u64>,
+}
+
+fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Export<'a> {
+    let mut rest = policy.weights();
+    let layers = policy
+        .shape()
+        .layers()
+        .iter()
+        .map(|&(o, i)| {
+            let (w, r) = rest.split_at(o * i);
+            rest = r;
+            Layer {
+                shape: [o, i],
+                weights: w.chunks(i).map(<[f64]>::to_vec).collect(),
+            }
+        })
+        .collect();
+    let action = match &cell.spec.action_space {
+        Space::Discrete { n } => format!("argmax over the {n} outputs (first index wins ties)"),
+        Space::Box(b) if b.low.iter().zip(&b.high).all(|(l, h)| *l == -*h) => {
+            format!("high * y with high = {:?}", b.high)
+        }
+        Space::Box(b) => format!(
+            "low + (y + 1) / 2 * (high - low) with low = {:?}, high = {:?}",
+            b.low, b.high
+        ),
+    };
+    Export {
+        env: &cell.plan.env_id,
+        arch: &cell.arch_name,
+        hidden: &cell.plan.arch.hidden,
+        bias: cell.plan.arch.bias,
+        sample,
+        activation: "tanh",
+        forward: "for W in layers: x = tanh(W @ (concat(x, [1.0]) if bias else x)); y = x",
+        action,
+        layers,
+        reset_seeds: (0..episodes)
+            .map(|e| reset_seed(cell.plan.seed, &cell.plan.env_id, sample, e))
+            .collect(),
+    }
+}
+
+/// Runs `rwg replay`.
+pub fn run(args: Args) -> Result<()> {
+    let m = Manifest::load(&args.run_dir.join("manifest.toml"))
+        .with_context(|| format!("{} is not an rwg run directory", args.run_dir.display()))?;
+    let cells = plan_cells(&m)?;
+    let cell = find_cell(&cells, &m, &args.env, &args.arch, args.bias)?;
+    if args.sample >= m.samples {
+        bail!(
+            "--sample {} is out of range: the run has samples 0..{}",
+            args.sample,
+            m.samples - 1
+        );
+    }
+    let mut env = make(&cell.plan.env_id, &cell.opts)?;
+    let mut policy = cell.plan.policy(&cell.spec, args.sample);
+    let mut obs = vec![0.0; cell.spec.obs_dim()];
+
+    if let Some(path) = &args.export_weights {
+        let e = export(cell, &policy, args.sample, m.episodes);
+        std::fs::write(path, serde_json::to_string_pretty(&e)?)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        eprintln!("wrote {}", path.display());
+    }
+
+    let stdout = std::io::stdout();
+    let mut out = BufWriter::new(stdout.lock());
+    if let Some(ep) = args.episode {
+        if ep >= m.episodes {
+            bail!(
+                "--episode {ep} is out of range: the run has episodes 0..{}",
+                m.episodes - 1
+            );
+        }
+        let lines = StepLines::new(&args.format, cell.spec.action_space.flat_dim(), obs.len());
+        env.reset(
+            reset_seed(cell.plan.seed, &cell.plan.env_id, args.sample, ep),
+            &mut obs,
+        )?;
+        lines.header(&mut out)?;
+        lines.reset(&mut out, &obs)?;
+        let mut t = 0;
+        loop {
+            t += 1;
+            let action = policy.act(&obs);
+            // copy the action out of the policy's buffer before stepping
+            let owned: Vec<f64>;
+            let action = match action {
+                rwg_core::Action::Continuous(a) => {
+                    owned = a.to_vec();
+                    rwg_core::Action::Continuous(&owned)
+                }
+                d => d,
+            };
+            let s = env
+                .step(action, &mut obs)
+                .with_context(|| format!("step {t}"))?;
+            lines.step(&mut out, t, action, &obs, s)?;
+            if s.terminated || s.truncated {
+                break;
+            }
+        }
+        out.flush()?;
+        return Ok(());
+    }
+
+    let stored = stored_scores(
+        &args
+            .run_dir
+            .join("cells")
+            .join(&cell.dir)
+            .join("scores.csv"),
+        args.sample,
+        m.episodes,
+    )?;
+    writeln!(out, "episode,reset_seed,score,steps,stored_score,same")?;
+    let mut differ = 0;
+    for e in 0..m.episodes {
+        let r = reset_seed(cell.plan.seed, &cell.plan.env_id, args.sample, e);
+        let res = run_episode(&mut env, &mut policy, &mut obs, r)
+            .map_err(|(step, err)| anyhow::anyhow!("episode {e}, step {step}: {err}"))?;
+        let st = stored.get(e as usize).copied();
+        let same = st.is_some_and(|s| s.to_bits() == res.score.to_bits());
+        differ += usize::from(!same);
+        writeln!(
+            out,
+            "{e},{r},{},{},{},{same}",
+            fmt_f64(res.score),
+            res.steps,
+            st.map_or("-".into(), fmt_f64)
+        )?;
+    }
+    out.flush()?;
+    if differ > 0 {
+        bail!("{differ} episode(s) differ from the stored scores");
+    }
+    Ok(())
+}

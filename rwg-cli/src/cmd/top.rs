@@ -1,0 +1,78 @@
+//! `rwg top`: the best networks of each cell, with the command that replays each.
+
+use crate::study::read_meta;
+use anyhow::{Context, Result};
+use rwg_core::float::fmt_f64;
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Arguments of `rwg top`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Run directory.
+    run_dir: PathBuf,
+    /// Networks per cell.
+    #[arg(short = 'n', default_value_t = 10)]
+    n: usize,
+}
+
+/// Runs `rwg top`.
+pub fn run(args: Args) -> Result<()> {
+    let meta = read_meta(&args.run_dir)?;
+    let run = args.run_dir.display().to_string();
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    for cell in &meta.cells {
+        let path = args
+            .run_dir
+            .join("cells")
+            .join(&cell.dir)
+            .join("samples.csv");
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let mut rows: Vec<(u64, f64, f64, f64, f64)> = vec![];
+        for (i, line) in text.lines().enumerate().skip(1) {
+            let f: Vec<&str> = line.split(',').collect();
+            let bad = || {
+                anyhow::anyhow!(
+                    "{}:{}: not a samples.csv row: '{line}'",
+                    path.display(),
+                    i + 1
+                )
+            };
+            if f.len() != 7 {
+                return Err(bad());
+            }
+            let num = |k: usize| f[k].parse::<f64>().map_err(|_| bad());
+            rows.push((
+                f[0].parse().map_err(|_| bad())?,
+                num(1)?,
+                num(3)?,
+                num(4)?,
+                num(5)?,
+            ));
+        }
+        // best first; ties keep sample order
+        rows.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        writeln!(
+            out,
+            "{} (solved at {})",
+            cell.dir,
+            cell.solved.map_or("-".into(), fmt_f64)
+        )?;
+        writeln!(
+            out,
+            "  {:>8} {:>12} {:>10} {:>10} {:>10}  replay",
+            "sample", "mean", "std", "min", "max"
+        )?;
+        for (s, mean, std, min, max) in rows.iter().take(args.n) {
+            writeln!(
+                out,
+                "  {s:>8} {mean:>12.3} {std:>10.3} {min:>10.3} {max:>10.3}  rwg replay {run} --env {} --arch {} --bias {} --sample {s}",
+                cell.env, cell.arch, cell.bias
+            )?;
+        }
+    }
+    out.flush()?;
+    Ok(())
+}
