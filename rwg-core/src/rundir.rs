@@ -85,6 +85,16 @@ pub fn cell_complete(cell_dir: &Path) -> bool {
     cell_dir.join("samples.csv").is_file()
 }
 
+/// Removes what a finalised cell no longer needs: the blocks, which remain
+/// when a run was killed between writing `samples.csv` and removing them.
+pub fn tidy_complete_cell(cell_dir: &Path) -> Result<(), RunDirError> {
+    let blocks = cell_dir.join("blocks");
+    if cell_complete(cell_dir) && blocks.exists() {
+        std::fs::remove_dir_all(&blocks).map_err(io_err(&blocks))?;
+    }
+    Ok(())
+}
+
 /// Commits a block atomically: its `scores.csv` rows, without header.
 pub fn write_block(cell_dir: &Path, block: &BlockResult, episodes: u32) -> Result<(), RunDirError> {
     let b = block.samples.start / BLOCK_SAMPLES;
@@ -252,6 +262,10 @@ mod tests {
             totals.env_steps.to_string()
         );
         assert!(cell_complete(&dir));
+        assert!(!dir.join("blocks").exists());
+        // a kill between samples.csv and the removal leaves blocks behind
+        write_block(&dir, &block(0, samples, 2), 2).unwrap();
+        tidy_complete_cell(&dir).unwrap();
         assert!(!dir.join("blocks").exists());
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -6,7 +6,9 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rwg_core::export::{rfc3339, write_atomic};
 use rwg_core::manifest::Manifest;
 use rwg_core::run_meta::{CellMeta, ShardMeta};
-use rwg_core::rundir::{block_done, block_samples, cell_complete, n_blocks, write_block};
+use rwg_core::rundir::{
+    block_done, block_samples, cell_complete, n_blocks, tidy_complete_cell, write_block,
+};
 use rwg_core::sampler::{run_blocks, BlockResult, SampleError};
 use rwg_core::Environment;
 use rwg_envs::{visit, EnvVisitor};
@@ -166,6 +168,7 @@ pub fn run(args: Args) -> Result<()> {
     for (ci, cell) in cells.iter().enumerate() {
         let dir = out.join("cells").join(&cell.dir);
         if args.shard.is_none() && cell_complete(&dir) {
+            tidy_complete_cell(&dir)?;
             let cm = read_cell_meta(&dir)?;
             meta.env_steps += cm.env_steps;
             meta.cells.push(cm);
