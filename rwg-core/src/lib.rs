@@ -10,6 +10,7 @@ pub mod export;
 pub mod float;
 pub mod manifest;
 pub mod mt19937;
+pub mod plugin;
 pub mod policy;
 pub mod run_meta;
 pub mod rundir;

@@ -19,7 +19,8 @@ pub struct TimeLimit<E> {
 
 impl<E: Environment> TimeLimit<E> {
     /// Wraps `inner`; `max_episode_steps = None` uses the inner spec's limit
-    /// (no limit at all if it has none).
+    /// (no limit at all if it has none). `Some(u32::MAX)` is no limit either:
+    /// the step count saturates there.
     pub fn new(inner: E, max_episode_steps: Option<u32>) -> Self {
         let mut spec = inner.spec().clone();
         if max_episode_steps.is_some() {
@@ -65,7 +66,7 @@ impl<E: Environment> Environment for TimeLimit<E> {
             return Err(EnvError::ResetNeeded);
         }
         let mut s = self.inner.step(action, obs)?;
-        self.elapsed += 1;
+        self.elapsed = self.elapsed.saturating_add(1);
         if self.elapsed >= self.max_steps {
             s.truncated = true;
         }

@@ -1,0 +1,712 @@
+//! Exporting Rust [`Environment`]s as a plugin through the C ABI.
+//!
+//! A plugin crate (`crate-type = ["cdylib"]`, built with `panic = "unwind"`)
+//! describes its environments with a [`PluginBuilder`] and hands the builder
+//! to [`export_plugin!`](crate::export_plugin), which defines the exported
+//! `rwg_plugin_entry_v1`:
+//!
+//! ```ignore
+//! rwg_core::export_plugin!(
+//!     rwg_core::plugin::PluginBuilder::new("example", env!("CARGO_PKG_VERSION"))
+//!         .env(PointMass::spec(), "move a point mass to a target", |config: &str| {
+//!             PointMass::from_config(config)
+//!         })
+//! );
+//! ```
+//!
+//! Every exported function catches panics (`catch_unwind`): a panic becomes
+//! `RWG_ERR_PANIC` with the panic message in `last_error`, and poisons the
+//! instance, so a buggy environment never aborts the host. Actions are checked
+//! against the action space before the environment sees them (a discrete
+//! action must be an integral double in `0..n`, a continuous one finite and of
+//! the right length).
+
+use std::any::Any;
+use std::collections::HashSet;
+use std::ffi::{c_char, CStr, CString};
+use std::fmt::Display;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::OnceLock;
+
+use super::abi::*;
+use crate::env::{Action, EnvError, EnvSpec, Environment};
+use crate::space::Space;
+
+/// An exported environment instance behind a trait object.
+pub type DynEnv = Box<dyn Environment + Send>;
+
+type Constructor = Box<dyn Fn(&str) -> Result<DynEnv, String> + Send + Sync>;
+
+struct EnvExport {
+    spec: EnvSpec,
+    summary: String,
+    make: Constructor,
+}
+
+/// Describes a plugin: its id, version and environments.
+///
+/// Each environment is given by the [`EnvSpec`] published in its descriptor
+/// (id, spaces, `max_episode_steps`, `reward_threshold`) and a constructor
+/// that builds an instance from the user's config string (`""` = defaults).
+/// The constructor must return an env *without* a time limit: the host
+/// applies `spec.max_episode_steps` itself. Constructors are called from any
+/// thread, concurrently.
+pub struct PluginBuilder {
+    id: String,
+    version: String,
+    envs: Vec<EnvExport>,
+}
+
+impl PluginBuilder {
+    /// A plugin named `id` (e.g. `"classic_control"`) at `version`.
+    pub fn new(id: impl Into<String>, version: impl Into<String>) -> Self {
+        PluginBuilder {
+            id: id.into(),
+            version: version.into(),
+            envs: Vec::new(),
+        }
+    }
+
+    /// Adds an environment built by `make(config)`.
+    pub fn env<E, Er, F>(self, spec: EnvSpec, summary: impl Into<String>, make: F) -> Self
+    where
+        E: Environment + Send + 'static,
+        Er: Display,
+        F: Fn(&str) -> Result<E, Er> + Send + Sync + 'static,
+    {
+        self.env_boxed(spec, summary, move |config: &str| {
+            make(config).map(|e| Box::new(e) as DynEnv)
+        })
+    }
+
+    /// Adds an environment whose constructor already returns a boxed env.
+    pub fn env_boxed<Er, F>(mut self, spec: EnvSpec, summary: impl Into<String>, make: F) -> Self
+    where
+        Er: Display,
+        F: Fn(&str) -> Result<DynEnv, Er> + Send + Sync + 'static,
+    {
+        self.envs.push(EnvExport {
+            spec,
+            summary: summary.into(),
+            make: Box::new(move |config: &str| make(config).map_err(|e| e.to_string())),
+        });
+        self
+    }
+
+    /// Number of environments added so far.
+    pub fn len(&self) -> usize {
+        self.envs.len()
+    }
+
+    /// Whether no environment was added.
+    pub fn is_empty(&self) -> bool {
+        self.envs.is_empty()
+    }
+}
+
+/// Where an exported plugin's tables live; implemented by
+/// [`export_plugin!`](crate::export_plugin) for a type private to the plugin
+/// crate. The generic `extern "C"` shims are instantiated per implementor, so
+/// one process (e.g. a test binary) can hold several exported plugins.
+pub trait PluginStatic: 'static {
+    /// The once-built tables.
+    fn cell() -> &'static OnceLock<ExportedPlugin>;
+    /// Describes the plugin; called once, on the first entry call.
+    fn build() -> PluginBuilder;
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum ActionKind {
+    Discrete(u64),
+    Box(usize),
+}
+
+struct ExportedEnv {
+    desc: RwgEnvDesc,
+    vtable: RwgEnvVtable,
+    make: Constructor,
+    obs_dim: usize,
+    action: ActionKind,
+    // Storage the descriptor points into (heap buffers do not move).
+    _id: CString,
+    _summary: CString,
+    _bounds: Vec<Vec<f64>>,
+}
+
+/// The C tables of an exported plugin. Built once by [`entry_v1`] and kept in
+/// a `static` for the life of the library.
+pub struct ExportedPlugin {
+    entry: RwgPluginEntry,
+    envs: Vec<ExportedEnv>,
+    _id: CString,
+    _version: CString,
+}
+
+// SAFETY: the raw pointers point into heap storage owned by the same value,
+// which is never mutated after construction.
+unsafe impl Send for ExportedPlugin {}
+// SAFETY: as above; all access is read-only.
+unsafe impl Sync for ExportedPlugin {}
+
+fn c_string(what: &str, s: &str) -> Result<CString, String> {
+    CString::new(s).map_err(|_| format!("{what} '{s}' contains a NUL byte"))
+}
+
+fn c_space(space: &Space, bounds: &mut Vec<Vec<f64>>) -> RwgSpace {
+    match space {
+        Space::Discrete { n } => RwgSpace {
+            kind: RWG_SPACE_DISCRETE,
+            reserved: 0,
+            n: *n as u64,
+            low: std::ptr::null(),
+            high: std::ptr::null(),
+        },
+        Space::Box(b) => {
+            let low = b.low.clone();
+            let high = b.high.clone();
+            let s = RwgSpace {
+                kind: RWG_SPACE_BOX,
+                reserved: 0,
+                n: b.dim() as u64,
+                low: low.as_ptr(),
+                high: high.as_ptr(),
+            };
+            bounds.push(low);
+            bounds.push(high);
+            s
+        }
+    }
+}
+
+impl ExportedPlugin {
+    /// Builds the tables, checking what the host would refuse anyway (so the
+    /// plugin author sees the reason): ids non-empty, unique and NUL-free,
+    /// observation spaces boxes, spaces non-empty.
+    pub fn new<P: PluginStatic>(b: PluginBuilder) -> Result<ExportedPlugin, String> {
+        if b.id.is_empty() {
+            return Err("the plugin id is empty".into());
+        }
+        if b.envs.is_empty() {
+            return Err(format!("plugin '{}' exports no environments", b.id));
+        }
+        let id = c_string("plugin id", &b.id)?;
+        let version = c_string("plugin version", &b.version)?;
+        let mut seen = HashSet::new();
+        let mut envs = Vec::with_capacity(b.envs.len());
+        for e in b.envs {
+            let spec = &e.spec;
+            if spec.id.is_empty() {
+                return Err(format!("plugin '{}': an environment id is empty", b.id));
+            }
+            if !seen.insert(spec.id.clone()) {
+                return Err(format!("plugin '{}': duplicate id '{}'", b.id, spec.id));
+            }
+            let obs_dim = match &spec.observation_space {
+                Space::Box(bx) if bx.dim() > 0 => bx.dim(),
+                s => {
+                    return Err(format!(
+                        "env '{}': the observation space must be a non-empty Box, not {}",
+                        spec.id,
+                        s.describe()
+                    ))
+                }
+            };
+            let action = match &spec.action_space {
+                Space::Discrete { n } if *n > 0 && (*n as u64) <= MAX_DISCRETE_N => {
+                    ActionKind::Discrete(*n as u64)
+                }
+                Space::Box(bx) if bx.dim() > 0 => ActionKind::Box(bx.dim()),
+                s => {
+                    return Err(format!(
+                        "env '{}': invalid action space {}",
+                        spec.id,
+                        s.describe()
+                    ))
+                }
+            };
+            let env_id = c_string("environment id", &spec.id)?;
+            let summary = c_string("summary", &e.summary)?;
+            let mut bounds = Vec::new();
+            let desc = RwgEnvDesc {
+                struct_size: ENV_DESC_SIZE_V1_0,
+                flags: 0,
+                id: env_id.as_ptr(),
+                summary: summary.as_ptr(),
+                observation_space: c_space(&spec.observation_space, &mut bounds),
+                action_space: c_space(&spec.action_space, &mut bounds),
+                max_episode_steps: spec.max_episode_steps.unwrap_or(0),
+                reserved: 0,
+                reward_threshold: spec.reward_threshold.unwrap_or(f64::NAN),
+            };
+            let vtable = RwgEnvVtable {
+                struct_size: ENV_VTABLE_SIZE_V1_0,
+                reserved: 0,
+                create: Some(create::<P>),
+                destroy: Some(destroy),
+                reset: Some(reset),
+                step: Some(step),
+                last_error: Some(last_error),
+            };
+            envs.push(ExportedEnv {
+                desc,
+                vtable,
+                make: e.make,
+                obs_dim,
+                action,
+                _id: env_id,
+                _summary: summary,
+                _bounds: bounds,
+            });
+        }
+        let entry = RwgPluginEntry {
+            struct_size: ENTRY_SIZE_V1_0,
+            abi_major: ABI_MAJOR,
+            abi_minor: ABI_MINOR,
+            reserved: 0,
+            abi_tag: ABI_TAG.as_ptr(),
+            plugin_id: id.as_ptr(),
+            plugin_version: version.as_ptr(),
+            init: Some(init::<P>),
+            deinit: Some(deinit),
+            env_count: Some(env_count::<P>),
+            env_desc: Some(env_desc::<P>),
+            env_vtable: Some(env_vtable::<P>),
+            get_extension: Some(get_extension),
+        };
+        Ok(ExportedPlugin {
+            entry,
+            envs,
+            _id: id,
+            _version: version,
+        })
+    }
+
+    /// The entry table.
+    pub fn entry(&self) -> &RwgPluginEntry {
+        &self.entry
+    }
+}
+
+/// The body of `rwg_plugin_entry_v1` for the plugin `P`: builds the tables on
+/// the first call and returns them; NULL if the host's major differs or
+/// building failed (the reason is printed to stderr by the panic hook).
+pub fn entry_v1<P: PluginStatic>(
+    host_abi_major: u32,
+    _host_abi_minor: u32,
+) -> *const RwgPluginEntry {
+    if host_abi_major != ABI_MAJOR {
+        return std::ptr::null();
+    }
+    let built = catch_unwind(|| {
+        P::cell().get_or_init(|| {
+            ExportedPlugin::new::<P>(P::build())
+                .unwrap_or_else(|e| panic!("rwg plugin cannot be exported: {e}"))
+        }) as *const ExportedPlugin
+    });
+    match built {
+        // SAFETY: the pointer comes from a live &'static reference.
+        Ok(p) => unsafe { &(*p).entry },
+        Err(_) => std::ptr::null(),
+    }
+}
+
+/// Defines `rwg_plugin_entry_v1`, exporting the plugin described by a
+/// [`PluginBuilder`] expression (evaluated once, on the first entry call).
+///
+/// Use it once, at the top level of a `cdylib` crate built with
+/// `panic = "unwind"` (the default; the macro refuses `panic = "abort"`,
+/// where a panic could not be caught).
+#[macro_export]
+macro_rules! export_plugin {
+    ($builder:expr $(,)?) => {
+        #[cfg(panic = "abort")]
+        compile_error!("rwg plugins must be built with panic = \"unwind\" so panics can be caught");
+
+        const _: () = {
+            struct RwgExportedPlugin;
+            static RWG_EXPORTED_PLUGIN: ::std::sync::OnceLock<
+                $crate::plugin::export::ExportedPlugin,
+            > = ::std::sync::OnceLock::new();
+            impl $crate::plugin::export::PluginStatic for RwgExportedPlugin {
+                fn cell() -> &'static ::std::sync::OnceLock<$crate::plugin::export::ExportedPlugin>
+                {
+                    &RWG_EXPORTED_PLUGIN
+                }
+                fn build() -> $crate::plugin::export::PluginBuilder {
+                    $builder
+                }
+            }
+
+            /// The rwg plugin entry point (ABI v1).
+            #[no_mangle]
+            pub extern "C" fn rwg_plugin_entry_v1(
+                host_abi_major: u32,
+                host_abi_minor: u32,
+            ) -> *const $crate::plugin::abi::RwgPluginEntry {
+                $crate::plugin::export::entry_v1::<RwgExportedPlugin>(
+                    host_abi_major,
+                    host_abi_minor,
+                )
+            }
+        };
+    };
+}
+
+fn panic_message(payload: &(dyn Any + Send)) -> String {
+    if let Some(s) = payload.downcast_ref::<&str>() {
+        (*s).to_string()
+    } else if let Some(s) = payload.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "panic with a non-string payload".to_string()
+    }
+}
+
+fn plugin<P: PluginStatic>() -> Option<&'static ExportedPlugin> {
+    P::cell().get()
+}
+
+unsafe extern "C" fn init<P: PluginStatic>(
+    host: *const RwgHost,
+    err_buf: *mut c_char,
+    err_len: usize,
+) -> Status {
+    let fail = |msg: &str| {
+        write_c_message(err_buf, err_len, msg);
+        RWG_ERR_INVALID_ARGUMENT
+    };
+    if host.is_null() {
+        return fail("init: host is NULL");
+    }
+    let host = &*host;
+    if host.struct_size < HOST_SIZE_V1_0 || host.abi_major != ABI_MAJOR {
+        return fail("init: incompatible host table");
+    }
+    if plugin::<P>().is_none() {
+        write_c_message(err_buf, err_len, "init: the entry function failed");
+        return RWG_ERR_INTERNAL;
+    }
+    RWG_OK
+}
+
+unsafe extern "C" fn deinit() {}
+
+unsafe extern "C" fn env_count<P: PluginStatic>() -> u32 {
+    plugin::<P>().map_or(0, |p| p.envs.len() as u32)
+}
+
+unsafe extern "C" fn env_desc<P: PluginStatic>(index: u32) -> *const RwgEnvDesc {
+    plugin::<P>()
+        .and_then(|p| p.envs.get(index as usize))
+        .map_or(std::ptr::null(), |e| &e.desc)
+}
+
+unsafe extern "C" fn env_vtable<P: PluginStatic>(index: u32) -> *const RwgEnvVtable {
+    plugin::<P>()
+        .and_then(|p| p.envs.get(index as usize))
+        .map_or(std::ptr::null(), |e| &e.vtable)
+}
+
+unsafe extern "C" fn get_extension(_id: *const c_char) -> *const () {
+    std::ptr::null()
+}
+
+/// An instance as the C side sees it (`rwg_env_t *`).
+struct Instance {
+    env: DynEnv,
+    obs_dim: usize,
+    action: ActionKind,
+    /// The message of the panic that poisoned the instance.
+    poisoned: Option<String>,
+    /// `last_error`'s text, always NUL-terminated ("" when the last call succeeded).
+    error: Vec<u8>,
+}
+
+impl Instance {
+    fn set_error(&mut self, msg: &str) {
+        self.error.clear();
+        self.error
+            .extend(msg.bytes().map(|b| if b == 0 { b' ' } else { b }));
+        self.error.push(0);
+    }
+}
+
+fn same_shape(spec: &EnvSpec, obs_dim: usize, action: ActionKind) -> bool {
+    let obs_ok = matches!(&spec.observation_space, Space::Box(b) if b.dim() == obs_dim);
+    let act_ok = match (&spec.action_space, action) {
+        (Space::Discrete { n }, ActionKind::Discrete(m)) => *n as u64 == m,
+        (Space::Box(b), ActionKind::Box(d)) => b.dim() == d,
+        _ => false,
+    };
+    obs_ok && act_ok
+}
+
+unsafe extern "C" fn create<P: PluginStatic>(
+    env_index: u32,
+    config: *const c_char,
+    out_env: *mut *mut RwgEnv,
+    err_buf: *mut c_char,
+    err_len: usize,
+) -> Status {
+    let result = catch_unwind(AssertUnwindSafe(
+        || -> Result<*mut RwgEnv, (Status, String)> {
+            let invalid = |m: String| (RWG_ERR_INVALID_ARGUMENT, m);
+            if out_env.is_null() {
+                return Err(invalid("create: out_env is NULL".into()));
+            }
+            let Some(e) = plugin::<P>().and_then(|p| p.envs.get(env_index as usize)) else {
+                return Err(invalid(format!(
+                    "create: no environment with index {env_index}"
+                )));
+            };
+            let config = if config.is_null() {
+                ""
+            } else {
+                CStr::from_ptr(config)
+                    .to_str()
+                    .map_err(|_| invalid("create: config is not UTF-8".into()))?
+            };
+            let env = (e.make)(config).map_err(invalid)?;
+            let spec = env.spec();
+            if !same_shape(spec, e.obs_dim, e.action) {
+                return Err((
+                    RWG_ERR_INTERNAL,
+                    format!(
+                        "create: the constructor built an env with spaces {} / {}, \
+                     but the descriptor says Box({}) / {}",
+                        spec.observation_space.describe(),
+                        spec.action_space.describe(),
+                        e.obs_dim,
+                        match e.action {
+                            ActionKind::Discrete(n) => format!("Discrete({n})"),
+                            ActionKind::Box(d) => format!("Box({d})"),
+                        }
+                    ),
+                ));
+            }
+            let inst = Box::new(Instance {
+                env,
+                obs_dim: e.obs_dim,
+                action: e.action,
+                poisoned: None,
+                error: vec![0],
+            });
+            Ok(Box::into_raw(inst).cast::<RwgEnv>())
+        },
+    ));
+    let (status, msg) = match result {
+        Ok(Ok(ptr)) => {
+            *out_env = ptr;
+            return RWG_OK;
+        }
+        Ok(Err(e)) => e,
+        Err(p) => (
+            RWG_ERR_PANIC,
+            format!("create panicked: {}", panic_message(&*p)),
+        ),
+    };
+    write_c_message(err_buf, err_len, &msg);
+    status
+}
+
+unsafe extern "C" fn destroy(env: *mut RwgEnv) {
+    if env.is_null() {
+        return;
+    }
+    let inst = Box::from_raw(env.cast::<Instance>());
+    // A panicking Drop must not unwind into C; whatever it left is leaked.
+    let _ = catch_unwind(AssertUnwindSafe(move || drop(inst)));
+}
+
+/// The status an [`EnvError`] crosses the boundary as.
+pub fn status_of(e: &EnvError) -> Status {
+    match e {
+        EnvError::InvalidAction(_) | EnvError::StateLength { .. } => RWG_ERR_INVALID_ARGUMENT,
+        EnvError::ResetNeeded => RWG_ERR_RESET_NEEDED,
+        EnvError::Unsupported(_) => RWG_ERR_UNSUPPORTED,
+        EnvError::Other(_) => RWG_ERR_INTERNAL,
+    }
+}
+
+/// Runs `f` on the instance behind `env`, catching panics and recording errors.
+unsafe fn with_instance(
+    env: *mut RwgEnv,
+    f: impl FnOnce(&mut DynEnv, usize, ActionKind) -> Result<(), (Status, String)>,
+) -> Status {
+    let Some(inst) = env.cast::<Instance>().as_mut() else {
+        return RWG_ERR_INVALID_ARGUMENT;
+    };
+    if let Some(p) = &inst.poisoned {
+        let msg = format!("the instance is poisoned by an earlier panic: {p}");
+        inst.set_error(&msg);
+        return RWG_ERR_PANIC;
+    }
+    let (obs_dim, action) = (inst.obs_dim, inst.action);
+    let env = &mut inst.env;
+    match catch_unwind(AssertUnwindSafe(|| f(env, obs_dim, action))) {
+        Ok(Ok(())) => {
+            inst.error.clear();
+            inst.error.push(0);
+            RWG_OK
+        }
+        Ok(Err((status, msg))) => {
+            inst.set_error(&msg);
+            status
+        }
+        Err(p) => {
+            let msg = panic_message(&*p);
+            inst.set_error(&format!("panic: {msg}"));
+            inst.poisoned = Some(msg);
+            RWG_ERR_PANIC
+        }
+    }
+}
+
+unsafe fn obs_slice<'a>(
+    obs: *mut f64,
+    obs_len: usize,
+    obs_dim: usize,
+) -> Result<&'a mut [f64], (Status, String)> {
+    if obs.is_null() || obs_len != obs_dim {
+        return Err((
+            RWG_ERR_BUFFER_SIZE,
+            format!("obs buffer has length {obs_len}, the observation space has {obs_dim}"),
+        ));
+    }
+    Ok(std::slice::from_raw_parts_mut(obs, obs_len))
+}
+
+fn env_err(e: EnvError) -> (Status, String) {
+    (status_of(&e), e.to_string())
+}
+
+unsafe extern "C" fn reset(
+    env: *mut RwgEnv,
+    has_seed: u8,
+    seed: u64,
+    obs: *mut f64,
+    obs_len: usize,
+) -> Status {
+    with_instance(env, |e, obs_dim, _| {
+        match has_seed {
+            1 => {}
+            0 => {
+                return Err((
+                    RWG_ERR_UNSUPPORTED,
+                    "reset without a seed is not supported: pass has_seed = 1".into(),
+                ))
+            }
+            x => {
+                return Err((
+                    RWG_ERR_INVALID_ARGUMENT,
+                    format!("has_seed is {x}, not 0 or 1"),
+                ))
+            }
+        }
+        let obs = obs_slice(obs, obs_len, obs_dim)?;
+        e.reset(seed, obs).map_err(env_err)
+    })
+}
+
+/// Converts the C action to an [`Action`], checking it against the space.
+fn action_of(a: &[f64], kind: ActionKind) -> Result<Action<'_>, String> {
+    match kind {
+        ActionKind::Discrete(n) => {
+            if a.len() != 1 {
+                return Err(format!(
+                    "a discrete action has length 1, got action_len {}",
+                    a.len()
+                ));
+            }
+            let v = a[0];
+            if !v.is_finite() || v.fract() != 0.0 {
+                return Err(format!("discrete action {v:?} is not an integer"));
+            }
+            if v < 0.0 || v >= n as f64 {
+                return Err(format!(
+                    "{v} is outside the action space Discrete({n}) (valid: 0..={})",
+                    n - 1
+                ));
+            }
+            Ok(Action::Discrete(v as i64))
+        }
+        ActionKind::Box(dim) => {
+            if a.len() != dim {
+                return Err(format!(
+                    "action has {} values, the action space has {dim}",
+                    a.len()
+                ));
+            }
+            if let Some(i) = a.iter().position(|x| !x.is_finite()) {
+                return Err(format!("action[{i}] is {:?}, not a finite number", a[i]));
+            }
+            Ok(Action::Continuous(a))
+        }
+    }
+}
+
+unsafe extern "C" fn step(
+    env: *mut RwgEnv,
+    action: *const f64,
+    action_len: usize,
+    obs: *mut f64,
+    obs_len: usize,
+    out: *mut RwgStepOut,
+) -> Status {
+    with_instance(env, |e, obs_dim, kind| {
+        let invalid = |m: String| (RWG_ERR_INVALID_ARGUMENT, m);
+        if out.is_null() {
+            return Err(invalid("step: out is NULL".into()));
+        }
+        let a: &[f64] = if action_len == 0 {
+            &[]
+        } else if action.is_null() {
+            return Err(invalid("step: action is NULL".into()));
+        } else {
+            std::slice::from_raw_parts(action, action_len)
+        };
+        let a = action_of(a, kind).map_err(invalid)?;
+        let obs = obs_slice(obs, obs_len, obs_dim)?;
+        let s = e.step(a, obs).map_err(env_err)?;
+        *out = RwgStepOut {
+            reward: s.reward,
+            terminated: u8::from(s.terminated),
+            truncated: u8::from(s.truncated),
+            reserved: [0; 6],
+        };
+        Ok(())
+    })
+}
+
+unsafe extern "C" fn last_error(env: *const RwgEnv) -> *const c_char {
+    match env.cast::<Instance>().as_ref() {
+        Some(inst) => inst.error.as_ptr().cast(),
+        None => c"last_error: env is NULL".as_ptr(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn discrete_actions_must_be_integral_and_in_range() {
+        let k = ActionKind::Discrete(3);
+        assert_eq!(action_of(&[2.0], k), Ok(Action::Discrete(2)));
+        for bad in [[3.0], [-1.0], [0.5], [f64::NAN], [f64::INFINITY]] {
+            assert!(action_of(&bad, k).is_err(), "{bad:?}");
+        }
+        assert!(action_of(&[0.0, 1.0], k).is_err());
+        assert!(action_of(&[], k).is_err());
+    }
+
+    #[test]
+    fn continuous_actions_must_be_finite_and_sized() {
+        let k = ActionKind::Box(2);
+        assert!(action_of(&[5.0, -7.0], k).is_ok());
+        assert!(action_of(&[0.0, f64::NAN], k)
+            .unwrap_err()
+            .contains("action[1]"));
+        assert!(action_of(&[0.0], k).is_err());
+    }
+}

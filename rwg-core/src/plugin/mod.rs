@@ -1,0 +1,27 @@
+//! Dynamic environment plugins: the stable C ABI v1 (`include/rwg_plugin.h`).
+//!
+//! - [`abi`]: `#[repr(C)]` mirrors of the header's structs and constants.
+//! - [`export`]: exporting Rust [`Environment`](crate::Environment)s as a
+//!   plugin ([`export_plugin!`](crate::export_plugin), [`PluginBuilder`]).
+//! - [`loader`]: the host side: [`load_plugin`], validation, [`PluginEnv`],
+//!   and the `RWG_PLUGIN_PATH` search ([`load_plugin_path`]).
+//! - [`check`]: the `rwg check` conformance checks as a library.
+//!
+//! Loading a plugin runs its code in this process; libraries are never
+//! unloaded. See the header for the full contract.
+
+pub mod abi;
+pub mod check;
+pub mod export;
+pub mod loader;
+
+pub use check::{check_env, check_plugin, check_plugin_env, CheckResult, CheckStatus};
+pub use export::{DynEnv, PluginBuilder};
+pub use loader::{
+    find_plugin_files, load_plugin, load_plugin_path, load_plugin_path_from_env, LoadError,
+    LoadErrorKind, Plugin, PluginEnv, PluginEnvType, PluginFiles, PluginInfo, PluginScan, Rejected,
+    PLUGIN_PATH_VAR,
+};
+
+#[cfg(test)]
+mod tests;
