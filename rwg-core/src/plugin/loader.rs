@@ -819,6 +819,17 @@ impl Environment for PluginEnv {
     }
 }
 
+/// The platform's file name for a shared library named `name`:
+/// `lib{name}.so` on Linux, `lib{name}.dylib` on macOS, `{name}.dll` on
+/// Windows. A cdylib crate `my-plugin` builds `library_file_name("my_plugin")`.
+pub fn library_file_name(name: &str) -> String {
+    format!(
+        "{}{name}{}",
+        std::env::consts::DLL_PREFIX,
+        std::env::consts::DLL_SUFFIX
+    )
+}
+
 /// A file or directory that [`find_plugin_files`] or [`load_plugin_path`]
 /// refused, with the reason.
 #[derive(Debug, Clone, PartialEq)]
