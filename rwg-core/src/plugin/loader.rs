@@ -357,7 +357,7 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, L
         }
         let d = d.read();
         let id = read_str(d.id, "id", false).map_err(|k| env_err(None, k.to_string()))?;
-        check_env_id(&id).map_err(|r| env_err(Some(&id), r))?;
+        check_env_id(&id).map_err(|r| env_err((!id.is_empty()).then_some(id.as_str()), r))?;
         if let Some(first) = envs.iter().find(|t| t.spec.id == id) {
             return Err(err(LoadErrorKind::DuplicateId {
                 id,

@@ -1,0 +1,225 @@
+/*
+ * An rwg environment plugin in plain C, written against rwg_plugin.h alone.
+ *
+ * c_example/Chain-v0: walk right along a slippery chain of `length` cells.
+ *   Observation (Box, 2 values in [0, 1]): the position as a fraction of the
+ *     chain, and 1 if the last move slipped (went the other way), else 0.
+ *   Actions (Discrete 2): 0 = left, 1 = right. Each move slips with
+ *     probability 0.1.
+ *   Reward: -0.01 per step, +1 on reaching the right end, which terminates
+ *     the episode. Time limit 100 steps (applied by the host).
+ *   Config: "" (length 10) or "length=N" with 2 <= N <= 1000.
+ *
+ * Build:  cc -std=c11 -O2 -shared -fPIC -fvisibility=hidden \
+ *            -I../../rwg-core/include chain.c -o libchain.so
+ */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "rwg_plugin.h"
+
+#define DEFAULT_LENGTH 10
+#define MAX_LENGTH 1000
+/* Slip probability 0.1 as a threshold on a 53-bit uniform integer. */
+#define SLIP_THRESHOLD ((uint64_t)(0.1 * 9007199254740992.0))
+
+/* The plugin defines the opaque instance type. */
+struct rwg_env {
+    int length;
+    int pos;
+    int started;    /* reset was called */
+    int terminated; /* reached the end */
+    uint64_t rng;   /* splitmix64 state: all randomness is per instance */
+    char error[256];
+};
+
+static uint64_t splitmix64(uint64_t *state) {
+    uint64_t z = (*state += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+static void write_error(char *buf, size_t len, const char *msg) {
+    if (buf != NULL && len > 0) {
+        snprintf(buf, len, "%s", msg);
+    }
+}
+
+static rwg_status_t fail(rwg_env_t *env, rwg_status_t status, const char *msg) {
+    snprintf(env->error, sizeof env->error, "%s", msg);
+    return status;
+}
+
+static void write_obs(const rwg_env_t *env, double *obs, int slipped) {
+    obs[0] = (double)env->pos / (double)(env->length - 1);
+    obs[1] = slipped ? 1.0 : 0.0;
+}
+
+/* ---- the function table ------------------------------------------------ */
+
+static rwg_status_t chain_create(uint32_t env_index, const char *config, rwg_env_t **out_env,
+                                 char *err_buf, size_t err_len) {
+    long length = DEFAULT_LENGTH;
+    if (env_index != 0 || out_env == NULL) {
+        write_error(err_buf, err_len, "chain: bad env_index or out_env");
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+    if (config != NULL && config[0] != '\0') {
+        char *end = NULL;
+        if (strncmp(config, "length=", 7) != 0) {
+            write_error(err_buf, err_len, "chain: unknown config (expected \"length=N\")");
+            return RWG_ERR_INVALID_ARGUMENT;
+        }
+        length = strtol(config + 7, &end, 10);
+        if (end == config + 7 || *end != '\0' || length < 2 || length > MAX_LENGTH) {
+            write_error(err_buf, err_len, "chain: length must be an integer in 2..1000");
+            return RWG_ERR_INVALID_ARGUMENT;
+        }
+    }
+    rwg_env_t *env = calloc(1, sizeof *env);
+    if (env == NULL) {
+        write_error(err_buf, err_len, "chain: out of memory");
+        return RWG_ERR_INTERNAL;
+    }
+    env->length = (int)length;
+    env->rng = 0x243f6a8885a308d3ull; /* the stream before the first seeded reset */
+    *out_env = env;
+    return RWG_OK;
+}
+
+static void chain_destroy(rwg_env_t *env) {
+    free(env); /* free(NULL) does nothing */
+}
+
+static rwg_status_t chain_reset(rwg_env_t *env, uint8_t has_seed, uint64_t seed, double *obs,
+                                size_t obs_len) {
+    if (env == NULL) {
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+    env->error[0] = '\0';
+    if (has_seed > 1) {
+        return fail(env, RWG_ERR_INVALID_ARGUMENT, "has_seed must be 0 or 1");
+    }
+    if (obs == NULL || obs_len != 2) {
+        return fail(env, RWG_ERR_BUFFER_SIZE, "the observation has 2 values");
+    }
+    if (has_seed) {
+        env->rng = seed;
+    } else {
+        env->rng = splitmix64(&env->rng); /* continue the instance's stream */
+    }
+    env->pos = 0;
+    env->started = 1;
+    env->terminated = 0;
+    write_obs(env, obs, 0);
+    return RWG_OK;
+}
+
+static rwg_status_t chain_step(rwg_env_t *env, const double *action, size_t action_len,
+                               double *obs, size_t obs_len, rwg_step_out_t *out) {
+    if (env == NULL) {
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+    env->error[0] = '\0';
+    if (!env->started) {
+        return fail(env, RWG_ERR_RESET_NEEDED, "step before reset");
+    }
+    if (action == NULL || action_len != 1) {
+        return fail(env, RWG_ERR_INVALID_ARGUMENT, "a Discrete(2) action has length 1");
+    }
+    /* Exactly 0.0 or 1.0; NaN, 0.5, -1 and 2 all fail this test. */
+    if (!(action[0] == 0.0 || action[0] == 1.0)) {
+        return fail(env, RWG_ERR_INVALID_ARGUMENT, "the action must be 0 (left) or 1 (right)");
+    }
+    if (obs == NULL || obs_len != 2) {
+        return fail(env, RWG_ERR_BUFFER_SIZE, "the observation has 2 values");
+    }
+    if (out == NULL) {
+        return fail(env, RWG_ERR_INVALID_ARGUMENT, "out is NULL");
+    }
+    if (env->terminated) { /* Gymnasium-style: stay at the end, reward 0 */
+        write_obs(env, obs, 0);
+        out->reward = 0.0;
+        out->terminated = 1;
+        out->truncated = 0;
+        return RWG_OK;
+    }
+    int right = action[0] == 1.0;
+    int slipped = (splitmix64(&env->rng) >> 11) < SLIP_THRESHOLD;
+    if (slipped) {
+        right = !right;
+    }
+    if (right) {
+        env->pos += 1;
+    } else if (env->pos > 0) {
+        env->pos -= 1;
+    }
+    env->terminated = env->pos == env->length - 1;
+    write_obs(env, obs, slipped);
+    out->reward = env->terminated ? 1.0 : -0.01;
+    out->terminated = (uint8_t)env->terminated;
+    out->truncated = 0;
+    return RWG_OK;
+}
+
+static const char *chain_last_error(const rwg_env_t *env) {
+    return env != NULL ? env->error : "env is NULL";
+}
+
+/* ---- static tables ----------------------------------------------------- */
+
+static const double OBS_LOW[2] = {0.0, 0.0};
+static const double OBS_HIGH[2] = {1.0, 1.0};
+
+static const rwg_env_desc_t CHAIN_DESC = {
+    .struct_size = sizeof(rwg_env_desc_t),
+    .flags = 0,
+    .id = "c_example/Chain-v0",
+    .summary = "walk right along a slippery chain (C plugin example)",
+    .observation_space = {.kind = RWG_SPACE_BOX, .n = 2, .low = OBS_LOW, .high = OBS_HIGH},
+    .action_space = {.kind = RWG_SPACE_DISCRETE, .n = 2, .low = NULL, .high = NULL},
+    .max_episode_steps = 100,
+    .reward_threshold = 0.8,
+};
+
+static const rwg_env_vtable_t CHAIN_VTABLE = {
+    .struct_size = sizeof(rwg_env_vtable_t),
+    .create = chain_create,
+    .destroy = chain_destroy,
+    .reset = chain_reset,
+    .step = chain_step,
+    .last_error = chain_last_error,
+};
+
+static uint32_t env_count(void) { return 1; }
+
+static const rwg_env_desc_t *env_desc(uint32_t index) {
+    return index == 0 ? &CHAIN_DESC : NULL;
+}
+
+static const rwg_env_vtable_t *env_vtable(uint32_t index) {
+    return index == 0 ? &CHAIN_VTABLE : NULL;
+}
+
+static const rwg_plugin_entry_t ENTRY = {
+    .struct_size = sizeof(rwg_plugin_entry_t),
+    .abi_major = RWG_PLUGIN_ABI_MAJOR,
+    .abi_minor = RWG_PLUGIN_ABI_MINOR,
+    .abi_tag = RWG_PLUGIN_ABI_TAG,
+    .plugin_id = "c_example",
+    .plugin_version = "1.0.0",
+    .init = NULL,   /* nothing to set up */
+    .deinit = NULL,
+    .env_count = env_count,
+    .env_desc = env_desc,
+    .env_vtable = env_vtable,
+    .get_extension = NULL,
+};
+
+RWG_PLUGIN_EXPORT const rwg_plugin_entry_t *rwg_plugin_entry_v1(uint32_t host_abi_major,
+                                                                uint32_t host_abi_minor) {
+    (void)host_abi_minor;
+    return host_abi_major == RWG_PLUGIN_ABI_MAJOR ? &ENTRY : NULL;
+}

@@ -1,0 +1,177 @@
+/*
+ * A minimal valid C plugin ("handshake/Ok-v0") whose handshake or descriptor
+ * is broken in one way when compiled with one of these defines:
+ *
+ *   BROKEN_NO_ENTRY      exports no rwg_plugin_entry_v1
+ *   BROKEN_NULL_ENTRY    the entry returns NULL
+ *   BROKEN_WRONG_MAJOR   abi_major = 2 (a plugin built for a future ABI)
+ *   BROKEN_SMALL_ENTRY   struct_size smaller than ABI 1.0's entry
+ *   BROKEN_BAD_TAG       abi_tag is not "rwg-env-plugin"
+ *   BROKEN_INIT_FAILS    init returns RWG_ERR_INTERNAL with a message
+ *   BROKEN_NO_ENVS       env_count() returns 0
+ *   BROKEN_EMPTY_ID      the env id is ""
+ *   BROKEN_BAD_UTF8_ID   the env id is not UTF-8
+ *   BROKEN_DUP_IDS       two envs with the same id
+ *   BROKEN_LOW_GT_HIGH   observation low > high
+ *   BROKEN_NULL_STEP     the vtable's step is NULL
+ *
+ * The tests in ../tests/c_plugins.rs compile each variant with cc.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "rwg_plugin.h"
+
+struct rwg_env {
+    int started;
+};
+
+static rwg_status_t create(uint32_t i, const char *config, rwg_env_t **out, char *err,
+                           size_t err_len) {
+    (void)i;
+    (void)config;
+    (void)err;
+    (void)err_len;
+    *out = calloc(1, sizeof **out);
+    return *out ? RWG_OK : RWG_ERR_INTERNAL;
+}
+
+static void destroy(rwg_env_t *env) { free(env); }
+
+static rwg_status_t reset(rwg_env_t *env, uint8_t has_seed, uint64_t seed, double *obs,
+                          size_t obs_len) {
+    (void)has_seed;
+    if (obs_len != 1) return RWG_ERR_BUFFER_SIZE;
+    env->started = 1;
+    obs[0] = (double)(seed % 5);
+    return RWG_OK;
+}
+
+static rwg_status_t step(rwg_env_t *env, const double *action, size_t action_len, double *obs,
+                         size_t obs_len, rwg_step_out_t *out) {
+    if (!env->started) return RWG_ERR_RESET_NEEDED;
+    if (action_len != 1 || !(action[0] == 0.0 || action[0] == 1.0)) return RWG_ERR_INVALID_ARGUMENT;
+    if (obs_len != 1) return RWG_ERR_BUFFER_SIZE;
+    obs[0] = action[0];
+    out->reward = 1.0;
+    out->terminated = 0;
+    out->truncated = 0;
+    return RWG_OK;
+}
+
+static const char *last_error(const rwg_env_t *env) {
+    (void)env;
+    return "";
+}
+
+#ifdef BROKEN_LOW_GT_HIGH
+static const double LOW[1] = {1.0};
+static const double HIGH[1] = {0.0};
+#else
+static const double LOW[1] = {0.0};
+static const double HIGH[1] = {10.0};
+#endif
+
+#if defined(BROKEN_EMPTY_ID)
+#define ENV_ID ""
+#elif defined(BROKEN_BAD_UTF8_ID)
+#define ENV_ID "handshake/\xff-v0"
+#else
+#define ENV_ID "handshake/Ok-v0"
+#endif
+
+static const rwg_env_desc_t DESC = {
+    .struct_size = sizeof(rwg_env_desc_t),
+    .id = ENV_ID,
+    .summary = "a valid minimal env",
+    .observation_space = {.kind = RWG_SPACE_BOX, .n = 1, .low = LOW, .high = HIGH},
+    .action_space = {.kind = RWG_SPACE_DISCRETE, .n = 2},
+    .max_episode_steps = 5,
+    .reward_threshold = NAN,
+};
+
+static const rwg_env_vtable_t VTABLE = {
+    .struct_size = sizeof(rwg_env_vtable_t),
+    .create = create,
+    .destroy = destroy,
+    .reset = reset,
+#ifndef BROKEN_NULL_STEP
+    .step = step,
+#endif
+    .last_error = last_error,
+};
+
+#ifdef BROKEN_NULL_STEP
+/* Keep step referenced so -Werror=unused-function stays quiet. */
+rwg_status_t (*const handshake_unused_step)(rwg_env_t *, const double *, size_t, double *, size_t,
+                                            rwg_step_out_t *) = step;
+#endif
+
+static uint32_t env_count(void) {
+#if defined(BROKEN_NO_ENVS)
+    return 0;
+#elif defined(BROKEN_DUP_IDS)
+    return 2;
+#else
+    return 1;
+#endif
+}
+
+static const rwg_env_desc_t *env_desc(uint32_t i) { return i < env_count() ? &DESC : NULL; }
+
+static const rwg_env_vtable_t *env_vtable(uint32_t i) { return i < env_count() ? &VTABLE : NULL; }
+
+static rwg_status_t init(const rwg_host_t *host, char *err_buf, size_t err_len) {
+    if (host == NULL || host->struct_size < sizeof(rwg_host_t) || host->abi_major != 1) {
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+#ifdef BROKEN_INIT_FAILS
+    snprintf(err_buf, err_len, "the simulator licence has expired");
+    return RWG_ERR_INTERNAL;
+#else
+    (void)err_buf;
+    (void)err_len;
+    return RWG_OK;
+#endif
+}
+
+static const rwg_plugin_entry_t ENTRY = {
+#ifdef BROKEN_SMALL_ENTRY
+    .struct_size = 24,
+#else
+    .struct_size = sizeof(rwg_plugin_entry_t),
+#endif
+#ifdef BROKEN_WRONG_MAJOR
+    .abi_major = 2,
+#else
+    .abi_major = RWG_PLUGIN_ABI_MAJOR,
+#endif
+    .abi_minor = RWG_PLUGIN_ABI_MINOR,
+#ifdef BROKEN_BAD_TAG
+    .abi_tag = "some-other-plugin-system",
+#else
+    .abi_tag = RWG_PLUGIN_ABI_TAG,
+#endif
+    .plugin_id = "handshake",
+    .plugin_version = "0",
+    .init = init,
+    .env_count = env_count,
+    .env_desc = env_desc,
+    .env_vtable = env_vtable,
+};
+
+#ifndef BROKEN_NO_ENTRY
+RWG_PLUGIN_EXPORT const rwg_plugin_entry_t *rwg_plugin_entry_v1(uint32_t major, uint32_t minor) {
+    (void)major;
+    (void)minor;
+#ifdef BROKEN_NULL_ENTRY
+    return major == 12345 ? &ENTRY : NULL; /* never serves a real host */
+#else
+    return &ENTRY;
+#endif
+}
+#else
+/* Something else is exported, so this is a valid library. */
+RWG_PLUGIN_EXPORT const void *not_an_rwg_plugin(void) { return &ENTRY; }
+#endif

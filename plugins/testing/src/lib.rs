@@ -1,0 +1,149 @@
+//! Deliberately broken environments, exported as one plugin
+//! (`librwg_testing_plugins.so`) for the loader's and `rwg check`'s tests.
+//! Do not use them for anything else.
+//!
+//! | id | what goes wrong |
+//! |----|-----------------|
+//! | `broken/PanicInStep-v0` | panics on the 3rd step (caught by the export shim) |
+//! | `broken/NaNObservation-v0` | a NaN observation on the 2nd step |
+//! | `broken/NaNReward-v0` | a NaN reward on the 2nd step |
+//! | `broken/HiddenGlobalState-v0` | observations depend on a process-global counter |
+//! | `broken/SegfaultInStep-v0` | **segfaults** on the first step: kills the process that steps it |
+//!
+//! Broken handshakes (wrong ABI version, bad descriptors, ...) are C
+//! variants of `c/handshake.c`, compiled by the tests.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use rwg_core::env::discrete_action;
+use rwg_core::plugin::PluginBuilder;
+use rwg_core::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
+
+/// How an environment misbehaves.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    /// Panics on the 3rd step.
+    PanicInStep,
+    /// NaN observation on the 2nd step.
+    NanObservation,
+    /// NaN reward on the 2nd step.
+    NanReward,
+    /// Adds a process-global counter to the observation.
+    HiddenGlobalState,
+    /// Writes to an unmapped address on the first step.
+    SegfaultInStep,
+}
+
+impl Fault {
+    /// Every fault, in export order.
+    pub const ALL: [Fault; 5] = [
+        Fault::PanicInStep,
+        Fault::NanObservation,
+        Fault::NanReward,
+        Fault::HiddenGlobalState,
+        Fault::SegfaultInStep,
+    ];
+
+    /// The exported id.
+    pub fn id(self) -> &'static str {
+        match self {
+            Fault::PanicInStep => "broken/PanicInStep-v0",
+            Fault::NanObservation => "broken/NaNObservation-v0",
+            Fault::NanReward => "broken/NaNReward-v0",
+            Fault::HiddenGlobalState => "broken/HiddenGlobalState-v0",
+            Fault::SegfaultInStep => "broken/SegfaultInStep-v0",
+        }
+    }
+}
+
+static GLOBAL: AtomicU64 = AtomicU64::new(0);
+
+/// A counter (obs = steps taken, reward 1, ends after 50 steps) with a fault.
+#[derive(Debug, Clone)]
+pub struct Broken {
+    spec: EnvSpec,
+    fault: Fault,
+    t: u32,
+    started: bool,
+}
+
+impl Broken {
+    /// The spec of `fault`'s environment.
+    pub fn spec(fault: Fault) -> EnvSpec {
+        EnvSpec {
+            id: fault.id().into(),
+            observation_space: Space::Box(BoxSpace::new(vec![0.0], vec![1e6])),
+            action_space: Space::Discrete { n: 2 },
+            max_episode_steps: Some(20),
+            reward_threshold: None,
+        }
+    }
+
+    /// A new instance.
+    pub fn new(fault: Fault) -> Broken {
+        Broken {
+            spec: Broken::spec(fault),
+            fault,
+            t: 0,
+            started: false,
+        }
+    }
+}
+
+impl Environment for Broken {
+    fn spec(&self) -> &EnvSpec {
+        &self.spec
+    }
+
+    fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+        self.t = 0;
+        self.started = true;
+        obs[0] = (seed % 3) as f64;
+        Ok(())
+    }
+
+    fn step(&mut self, action: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+        if !self.started {
+            return Err(EnvError::ResetNeeded);
+        }
+        discrete_action(action, 2)?;
+        self.t += 1;
+        obs[0] = self.t as f64;
+        let mut reward = 1.0;
+        match self.fault {
+            Fault::PanicInStep if self.t >= 3 => panic!("broken/PanicInStep-v0 panics on step 3"),
+            Fault::NanObservation if self.t >= 2 => obs[0] = f64::NAN,
+            Fault::NanReward if self.t >= 2 => reward = f64::NAN,
+            Fault::HiddenGlobalState => {
+                obs[0] += (GLOBAL.fetch_add(1, Ordering::Relaxed) % 2) as f64;
+            }
+            Fault::SegfaultInStep => {
+                // A real segfault, as from a C plugin following a bad pointer:
+                // address 16 is never mapped (the zero page).
+                // SAFETY: none; this is the point of the environment.
+                unsafe { std::ptr::write_volatile(16 as *mut u8, 1) };
+            }
+            _ => {}
+        }
+        Ok(Step {
+            reward,
+            terminated: self.t >= 50,
+            truncated: false,
+        })
+    }
+}
+
+/// The plugin: one environment per [`Fault`].
+pub fn plugin() -> PluginBuilder {
+    let mut b = PluginBuilder::new("broken", env!("CARGO_PKG_VERSION"));
+    for fault in Fault::ALL {
+        b = b.env(
+            Broken::spec(fault),
+            "deliberately broken",
+            move |_: &str| Ok::<_, String>(Broken::new(fault)),
+        );
+    }
+    b
+}
+
+rwg_core::export_plugin!(plugin());
