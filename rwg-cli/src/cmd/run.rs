@@ -174,7 +174,8 @@ pub fn run(args: Args) -> Result<()> {
             meta.cells.push(cm);
             continue;
         }
-        bar.set_message(format!("cell {}/{}: {}", ci + 1, cells.len(), cell.dir));
+        let label = format!("cell {}/{} ({} done): {}", ci + 1, cells.len(), ci, cell.dir);
+        bar.set_message(label.clone());
         let blocks: Vec<_> = (0..nb)
             .filter(|&b| owned(ci, b) && !block_done(&dir, b))
             .map(|b| block_samples(b, m.samples))
@@ -188,9 +189,7 @@ pub fn run(args: Args) -> Result<()> {
                 steps_now += s;
                 bar.inc(b.samples.end - b.samples.start);
                 let rate = steps_now as f64 / t0.elapsed().as_secs_f64();
-                let msg = bar.message();
-                let head = msg.split("  ").next().unwrap_or("").to_string();
-                bar.set_message(format!("{head}  {rate:.3e} env steps/s"));
+                bar.set_message(format!("{label}  {rate:.3e} env steps/s"));
             })
         });
         if let Err(e) = result {
