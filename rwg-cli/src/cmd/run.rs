@@ -174,7 +174,13 @@ pub fn run(args: Args) -> Result<()> {
             meta.cells.push(cm);
             continue;
         }
-        let label = format!("cell {}/{} ({} done): {}", ci + 1, cells.len(), ci, cell.dir);
+        let label = format!(
+            "cell {}/{} ({} done): {}",
+            ci + 1,
+            cells.len(),
+            ci,
+            cell.dir
+        );
         bar.set_message(label.clone());
         let blocks: Vec<_> = (0..nb)
             .filter(|&b| owned(ci, b) && !block_done(&dir, b))
@@ -188,8 +194,12 @@ pub fn run(args: Args) -> Result<()> {
                 cell_steps += s;
                 steps_now += s;
                 bar.inc(b.samples.end - b.samples.start);
-                let rate = steps_now as f64 / t0.elapsed().as_secs_f64();
-                bar.set_message(format!("{label}  {rate:.3e} env steps/s"));
+                let secs = t0.elapsed().as_secs_f64();
+                let nets = bar.position() as f64 / secs;
+                let rate = steps_now as f64 / secs;
+                bar.set_message(format!(
+                    "{label}  {nets:.0} networks/s, {rate:.3e} env steps/s"
+                ));
             })
         });
         if let Err(e) = result {
@@ -402,7 +412,7 @@ fn progress_bar(total: u64) -> ProgressBar {
     let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
     bar.set_style(
         ProgressStyle::with_template(
-            "{msg}\n[{elapsed_precise}] {wide_bar} {pos}/{len} networks ({per_sec}, ETA {eta})",
+            "{msg}\n[{elapsed_precise}] {wide_bar} {pos}/{len} networks (ETA {eta})",
         )
         .expect("valid template"),
     );
