@@ -18,6 +18,7 @@ pub mod sampler;
 pub mod seeding;
 pub mod sha512;
 pub mod space;
+pub mod stats;
 pub mod suggest;
 pub mod summary;
 pub mod time_limit;
