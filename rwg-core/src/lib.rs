@@ -12,6 +12,7 @@ pub mod manifest;
 pub mod mt19937;
 pub mod plugin;
 pub mod policy;
+pub mod run_data;
 pub mod run_meta;
 pub mod rundir;
 pub mod sampler;

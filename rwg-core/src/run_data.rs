@@ -1,0 +1,694 @@
+//! Reading a run directory for analysis, and writing its derived files
+//! (`samples.csv`, `stats.json`, `stats.csv`).
+//!
+//! [`Run::open`] reads `run.json` (and `manifest.toml` if present);
+//! [`Run::load_cell`] reads one cell's `scores.csv` (and checks its
+//! `samples.csv` against the scores when present), one cell at a time so a
+//! large run never has to fit in memory at once; [`Run::summarize`] gives
+//! every cell's [`CellSummary`].
+//!
+//! Malformed files give a [`LoadError`] naming the file and, for CSV, the
+//! 1-based line.
+
+use crate::float::fmt_f64;
+use crate::run_meta::{CellMeta, RunMeta, RUN_FORMAT};
+use crate::stats::{self, CellSummary, ExpectedGuesses, SampleStats, MEAN_PERCENTILES};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::fs::File;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+
+/// Name of the run metadata file.
+pub const RUN_JSON: &str = "run.json";
+/// Name of the resolved manifest file.
+pub const MANIFEST: &str = "manifest.toml";
+/// Name of the statistics file (JSON, [`RunStats`]).
+pub const STATS_JSON: &str = "stats.json";
+/// Name of the statistics file (CSV, one row per cell).
+pub const STATS_CSV: &str = "stats.csv";
+/// Header of a cell's `scores.csv`.
+pub const SCORES_HEADER: &str = "sample,episode,score,steps";
+/// Header of a cell's `samples.csv`.
+pub const SAMPLES_HEADER: &str = "sample,mean,variance,std,min,max,rank";
+
+/// Why a run directory could not be read.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// A file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// `run.json` is not valid.
+    #[error("{path}: invalid run metadata: {source}")]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: serde_json::Error,
+    },
+    /// The run was written in a layout this rwg does not read.
+    #[error("{path}: run format {found}, this rwg reads format {expected}")]
+    Format {
+        /// The file.
+        path: PathBuf,
+        /// Format found.
+        found: u32,
+        /// Format supported ([`RUN_FORMAT`]).
+        expected: u32,
+    },
+    /// A CSV line is malformed.
+    #[error("{path}:{line}: {message}")]
+    Csv {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A file disagrees with `run.json` or with another file.
+    #[error("{path}: {message}")]
+    Mismatch {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> LoadError + '_ {
+    move |source| LoadError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// An opened run directory: its metadata, cells not loaded yet.
+#[derive(Debug, Clone)]
+pub struct Run {
+    /// The run directory.
+    pub dir: PathBuf,
+    /// Contents of `run.json`.
+    pub meta: RunMeta,
+    /// Contents of `manifest.toml`, if present.
+    pub manifest: Option<String>,
+}
+
+/// One cell's scores with the per-sample statistics derived from them.
+#[derive(Debug, Clone)]
+pub struct CellData {
+    /// The cell's entry in `run.json`.
+    pub meta: CellMeta,
+    /// Episodes per sample `E`.
+    pub episodes: usize,
+    /// Episode scores, row-major `N × E` (sample, then episode).
+    pub scores: Vec<f64>,
+    /// Episode lengths in steps, same layout as `scores`.
+    pub steps: Vec<u32>,
+    /// Per-sample statistics ([`stats::per_sample`]).
+    pub stats: Vec<SampleStats>,
+    /// Per-sample rank by mean ([`stats::ranks`]).
+    pub ranks: Vec<usize>,
+}
+
+impl CellData {
+    /// Builds a cell from its scores and steps (row-major `N × episodes`),
+    /// computing the per-sample statistics.
+    ///
+    /// # Panics
+    /// If the lengths are not a positive multiple of `episodes` or differ.
+    pub fn new(meta: CellMeta, episodes: usize, scores: Vec<f64>, steps: Vec<u32>) -> Self {
+        assert_eq!(
+            scores.len(),
+            steps.len(),
+            "scores and steps differ in length"
+        );
+        let stats = stats::per_sample(&scores, episodes);
+        let ranks = stats::ranks(&stats.iter().map(|s| s.mean).collect::<Vec<_>>());
+        CellData {
+            meta,
+            episodes,
+            scores,
+            steps,
+            stats,
+            ranks,
+        }
+    }
+
+    /// Number of samples `N`.
+    pub fn samples(&self) -> usize {
+        self.stats.len()
+    }
+
+    /// The episode scores of sample `i`.
+    pub fn sample_scores(&self, i: usize) -> &[f64] {
+        &self.scores[i * self.episodes..(i + 1) * self.episodes]
+    }
+
+    /// The sample means `M`.
+    pub fn means(&self) -> Vec<f64> {
+        self.stats.iter().map(|s| s.mean).collect()
+    }
+
+    /// The sample variances `V`.
+    pub fn variances(&self) -> Vec<f64> {
+        self.stats.iter().map(|s| s.variance).collect()
+    }
+
+    /// The cell's summary ([`stats::summarize_cell`]).
+    pub fn summary(&self) -> CellSummary {
+        stats::summarize_cell(
+            &self.meta,
+            self.episodes,
+            &self.scores,
+            &self.steps,
+            &self.stats,
+        )
+    }
+}
+
+/// The statistics of a whole run: contents of `stats.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunStats {
+    /// The run's metadata (`run.json`).
+    pub run: RunMeta,
+    /// One summary per cell, in `run.json` order.
+    pub cells: Vec<CellSummary>,
+}
+
+impl Run {
+    /// Opens a run directory: reads and checks `run.json`, reads
+    /// `manifest.toml` if present.
+    pub fn open(dir: impl AsRef<Path>) -> Result<Run, LoadError> {
+        let dir = dir.as_ref().to_path_buf();
+        let path = dir.join(RUN_JSON);
+        let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+        let meta: RunMeta = serde_json::from_str(&text).map_err(|source| LoadError::Json {
+            path: path.clone(),
+            source,
+        })?;
+        if meta.format != RUN_FORMAT {
+            return Err(LoadError::Format {
+                path,
+                found: meta.format,
+                expected: RUN_FORMAT,
+            });
+        }
+        let mpath = dir.join(MANIFEST);
+        let manifest = match std::fs::read_to_string(&mpath) {
+            Ok(m) => Some(m),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+            Err(e) => return Err(io_err(&mpath)(e)),
+        };
+        Ok(Run {
+            dir,
+            meta,
+            manifest,
+        })
+    }
+
+    /// The directory of a cell.
+    pub fn cell_dir(&self, cell: &CellMeta) -> PathBuf {
+        self.dir.join("cells").join(&cell.dir)
+    }
+
+    /// Reads one cell's `scores.csv`, checks its shape against `run.json`,
+    /// and checks `samples.csv` (when present) against the scores.
+    pub fn load_cell(&self, cell: &CellMeta) -> Result<CellData, LoadError> {
+        let dir = self.cell_dir(cell);
+        let episodes = cell.episodes as usize;
+        let spath = dir.join("scores.csv");
+        if episodes == 0 || cell.samples == 0 {
+            return Err(LoadError::Mismatch {
+                path: self.dir.join(RUN_JSON),
+                message: format!("cell {} has no episodes to analyse", cell.dir),
+            });
+        }
+        let (scores, steps) = read_scores_csv(&spath, episodes)?;
+        let expected = cell.samples as usize * episodes;
+        if scores.len() != expected {
+            return Err(LoadError::Mismatch {
+                path: spath,
+                message: format!(
+                    "{} episode rows, but run.json says {} samples × {} episodes = {expected}",
+                    scores.len(),
+                    cell.samples,
+                    episodes
+                ),
+            });
+        }
+        let data = CellData::new(cell.clone(), episodes, scores, steps);
+        let path = dir.join("samples.csv");
+        if path.exists() {
+            check_samples_csv(&path, &data)?;
+        }
+        Ok(data)
+    }
+
+    /// Loads every cell in turn and summarises it.
+    pub fn summarize(&self) -> Result<RunStats, LoadError> {
+        let cells = self
+            .meta
+            .cells
+            .iter()
+            .map(|c| self.load_cell(c).map(|d| d.summary()))
+            .collect::<Result<_, _>>()?;
+        Ok(RunStats {
+            run: self.meta.clone(),
+            cells,
+        })
+    }
+}
+
+/// Splits one CSV line into its fields, checking the count.
+fn fields<'a, const K: usize>(
+    line: &'a str,
+    path: &Path,
+    lineno: usize,
+) -> Result<[&'a str; K], LoadError> {
+    let mut out = [""; K];
+    let mut n = 0;
+    for f in line.split(',') {
+        if n < K {
+            out[n] = f.trim();
+        }
+        n += 1;
+    }
+    if n != K {
+        return Err(LoadError::Csv {
+            path: path.to_path_buf(),
+            line: lineno,
+            message: format!("expected {K} fields, found {n}"),
+        });
+    }
+    Ok(out)
+}
+
+fn parse<T: std::str::FromStr>(
+    s: &str,
+    what: &str,
+    path: &Path,
+    lineno: usize,
+) -> Result<T, LoadError> {
+    s.parse().map_err(|_| LoadError::Csv {
+        path: path.to_path_buf(),
+        line: lineno,
+        message: format!("{what} {s:?} is not a valid number"),
+    })
+}
+
+/// Reads a CSV file line by line: checks the header, then calls `row` with
+/// each non-empty data line and its 1-based line number.
+fn read_csv(
+    path: &Path,
+    header: &str,
+    mut row: impl FnMut(&str, usize) -> Result<(), LoadError>,
+) -> Result<(), LoadError> {
+    let file = File::open(path).map_err(io_err(path))?;
+    let mut reader = BufReader::with_capacity(1 << 16, file);
+    let mut line = String::new();
+    let mut lineno = 0;
+    loop {
+        line.clear();
+        if reader.read_line(&mut line).map_err(io_err(path))? == 0 {
+            break;
+        }
+        lineno += 1;
+        let l = line.trim_end_matches(['\n', '\r']);
+        if lineno == 1 {
+            if l.trim_start_matches('\u{feff}') != header {
+                return Err(LoadError::Csv {
+                    path: path.to_path_buf(),
+                    line: 1,
+                    message: format!("header is {l:?}, expected {header:?}"),
+                });
+            }
+            continue;
+        }
+        if l.is_empty() {
+            continue;
+        }
+        row(l, lineno)?;
+    }
+    if lineno == 0 {
+        return Err(LoadError::Csv {
+            path: path.to_path_buf(),
+            line: 1,
+            message: format!("empty file, expected header {header:?}"),
+        });
+    }
+    Ok(())
+}
+
+/// Reads a `scores.csv` (`sample,episode,score,steps`, rows ordered by
+/// sample then episode, `episodes` rows per sample) into row-major score and
+/// step vectors.
+pub fn read_scores_csv(path: &Path, episodes: usize) -> Result<(Vec<f64>, Vec<u32>), LoadError> {
+    let mut scores = Vec::new();
+    let mut steps = Vec::new();
+    read_csv(path, SCORES_HEADER, |l, lineno| {
+        let [s, e, score, st] = fields::<4>(l, path, lineno)?;
+        let sample: u64 = parse(s, "sample", path, lineno)?;
+        let episode: u64 = parse(e, "episode", path, lineno)?;
+        let i = scores.len();
+        let (want_s, want_e) = ((i / episodes) as u64, (i % episodes) as u64);
+        if (sample, episode) != (want_s, want_e) {
+            return Err(LoadError::Csv {
+                path: path.to_path_buf(),
+                line: lineno,
+                message: format!(
+                    "expected sample {want_s} episode {want_e} (rows ordered by sample, then \
+                     episode, {episodes} episodes each), found sample {sample} episode {episode}"
+                ),
+            });
+        }
+        scores.push(parse::<f64>(score, "score", path, lineno)?);
+        steps.push(parse::<u32>(st, "steps", path, lineno)?);
+        Ok(())
+    })?;
+    if scores.len() % episodes != 0 {
+        return Err(LoadError::Mismatch {
+            path: path.to_path_buf(),
+            message: format!(
+                "the last sample has {} of {episodes} episodes",
+                scores.len() % episodes
+            ),
+        });
+    }
+    Ok((scores, steps))
+}
+
+/// One row of `samples.csv`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SampleRow {
+    /// Sample index.
+    pub sample: u64,
+    /// The sample's statistics.
+    pub stats: SampleStats,
+    /// Rank by mean.
+    pub rank: usize,
+}
+
+/// Reads a `samples.csv`.
+pub fn read_samples_csv(path: &Path) -> Result<Vec<SampleRow>, LoadError> {
+    let mut rows = Vec::new();
+    read_csv(path, SAMPLES_HEADER, |l, lineno| {
+        let f = fields::<7>(l, path, lineno)?;
+        let num = |i: usize, what: &str| parse::<f64>(f[i], what, path, lineno);
+        rows.push(SampleRow {
+            sample: parse(f[0], "sample", path, lineno)?,
+            stats: SampleStats {
+                mean: num(1, "mean")?,
+                variance: num(2, "variance")?,
+                std: num(3, "std")?,
+                min: num(4, "min")?,
+                max: num(5, "max")?,
+            },
+            rank: parse(f[6], "rank", path, lineno)?,
+        });
+        Ok(())
+    })?;
+    Ok(rows)
+}
+
+/// Whether two floats agree to ~1e-9 relative (the same value computed with a
+/// different summation order), `NaN` matching `NaN`.
+fn close(a: f64, b: f64, scale: f64) -> bool {
+    a == b || (a.is_nan() && b.is_nan()) || (a - b).abs() <= 1e-9 * scale.max(1.0)
+}
+
+/// Checks a `samples.csv` against the statistics recomputed from the scores:
+/// one row per sample in order; mean, min, max and variance agree (to 1e-9
+/// relative, allowing another summation order); and the ranks order the
+/// file's own means as a stable argsort does.
+fn check_samples_csv(path: &Path, data: &CellData) -> Result<(), LoadError> {
+    let rows = read_samples_csv(path)?;
+    if rows.len() != data.samples() {
+        return Err(LoadError::Mismatch {
+            path: path.to_path_buf(),
+            message: format!(
+                "{} rows, but scores.csv has {} samples",
+                rows.len(),
+                data.samples()
+            ),
+        });
+    }
+    for (i, (row, s)) in rows.iter().zip(&data.stats).enumerate() {
+        let bad = |what: &str, got: f64, want: f64| LoadError::Csv {
+            path: path.to_path_buf(),
+            line: i + 2,
+            message: format!("{what} {got} disagrees with scores.csv ({want})"),
+        };
+        if row.sample != i as u64 {
+            return Err(LoadError::Csv {
+                path: path.to_path_buf(),
+                line: i + 2,
+                message: format!("expected sample {i}, found {}", row.sample),
+            });
+        }
+        let scale = s.min.abs().max(s.max.abs());
+        let r = &row.stats;
+        for (what, got, want, sc) in [
+            ("mean", r.mean, s.mean, scale),
+            ("min", r.min, s.min, scale),
+            ("max", r.max, s.max, scale),
+            ("variance", r.variance, s.variance, scale * scale),
+        ] {
+            if !close(got, want, sc) {
+                return Err(bad(what, got, want));
+            }
+        }
+    }
+    let file_means: Vec<f64> = rows.iter().map(|r| r.stats.mean).collect();
+    let want = stats::ranks(&file_means);
+    if let Some(i) = (0..rows.len()).find(|&i| rows[i].rank != want[i]) {
+        return Err(LoadError::Csv {
+            path: path.to_path_buf(),
+            line: i + 2,
+            message: format!(
+                "rank {} but sample {i} is at position {} when sorted by mean (stable)",
+                rows[i].rank, want[i]
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The text of a `samples.csv` for the given per-sample statistics and ranks
+/// (floats in shortest round-trip form).
+pub fn samples_csv(stats: &[SampleStats], ranks: &[usize]) -> String {
+    let mut out = String::with_capacity(64 * (stats.len() + 1));
+    out.push_str(SAMPLES_HEADER);
+    out.push('\n');
+    for (i, (s, r)) in stats.iter().zip(ranks).enumerate() {
+        let _ = writeln!(
+            out,
+            "{i},{},{},{},{},{},{r}",
+            fmt_f64(s.mean),
+            fmt_f64(s.variance),
+            fmt_f64(s.std),
+            fmt_f64(s.min),
+            fmt_f64(s.max)
+        );
+    }
+    out
+}
+
+/// Writes `samples.csv` for a row-major `N × episodes` score matrix: what the
+/// run writer calls so the file matches the analysis bit for bit.
+pub fn write_samples_csv(path: &Path, scores: &[f64], episodes: usize) -> std::io::Result<()> {
+    let st = stats::per_sample(scores, episodes);
+    let ranks = stats::ranks(&st.iter().map(|s| s.mean).collect::<Vec<_>>());
+    std::fs::write(path, samples_csv(&st, &ranks))
+}
+
+/// The text of a `scores.csv` for row-major `N × episodes` scores and steps.
+pub fn scores_csv(scores: &[f64], steps: &[u32], episodes: usize) -> String {
+    let mut out = String::with_capacity(24 * (scores.len() + 1));
+    out.push_str(SCORES_HEADER);
+    out.push('\n');
+    for (i, (s, st)) in scores.iter().zip(steps).enumerate() {
+        let _ = writeln!(
+            out,
+            "{},{},{},{st}",
+            i / episodes,
+            i % episodes,
+            fmt_f64(*s)
+        );
+    }
+    out
+}
+
+/// Writes `run.json` into `dir`.
+pub fn write_run_json(dir: &Path, meta: &RunMeta) -> std::io::Result<()> {
+    let json = serde_json::to_string_pretty(meta).map_err(std::io::Error::other)?;
+    std::fs::write(dir.join(RUN_JSON), json + "\n")
+}
+
+/// Writes one cell's `scores.csv` and `samples.csv` under
+/// `run_dir/cells/<cell.dir>/`, from row-major `N × cell.episodes` scores
+/// and steps.
+pub fn write_cell_files(
+    run_dir: &Path,
+    cell: &CellMeta,
+    scores: &[f64],
+    steps: &[u32],
+) -> std::io::Result<()> {
+    let dir = run_dir.join("cells").join(&cell.dir);
+    std::fs::create_dir_all(&dir)?;
+    let e = cell.episodes as usize;
+    std::fs::write(dir.join("scores.csv"), scores_csv(scores, steps, e))?;
+    write_samples_csv(&dir.join("samples.csv"), scores, e)
+}
+
+fn opt(x: Option<f64>) -> String {
+    x.map(fmt_f64).unwrap_or_default()
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The columns of `stats.csv`.
+pub fn stats_csv_header() -> Vec<String> {
+    let mut h: Vec<String> = [
+        "dir",
+        "env",
+        "arch",
+        "hidden",
+        "bias",
+        "n_weights",
+        "samples",
+        "episodes",
+        "solved",
+        "best_mean",
+        "best_sample",
+        "best_variance",
+        "worst_mean",
+        "mean_of_means",
+        "median_mean",
+        "p99.9_mean",
+    ]
+    .map(String::from)
+    .to_vec();
+    h.extend(MEAN_PERCENTILES.iter().map(|q| format!("mean_p{q}")));
+    h.extend(
+        [
+            "mean_variance",
+            "solved_count",
+            "p_solved",
+            "p_solved_lo",
+            "p_solved_hi",
+            "expected_guesses",
+            "expected_guesses_lo",
+            "expected_guesses_hi",
+        ]
+        .map(String::from),
+    );
+    h.extend(
+        stats::GUESS_COUNTS
+            .iter()
+            .map(|n| format!("p_success_in_{n}")),
+    );
+    h.extend(
+        [
+            "top_episode_threshold",
+            "top_episodes",
+            "best_episode",
+            "mean_episode_length",
+            "max_episode_length",
+        ]
+        .map(String::from),
+    );
+    h
+}
+
+/// One `stats.csv` row (columns of [`stats_csv_header`]; empty fields for
+/// values that do not apply, e.g. p(solved) without a solved score;
+/// `expected_guesses` is empty and `expected_guesses_lo` is the 95% lower
+/// bound when no sample solved).
+pub fn stats_csv_row(s: &CellSummary) -> Vec<String> {
+    let hidden: Vec<String> = s.hidden.iter().map(|h| h.to_string()).collect();
+    let mut r = vec![
+        csv_field(&s.dir),
+        csv_field(&s.env),
+        csv_field(&s.arch),
+        hidden.join(" "),
+        s.bias.to_string(),
+        s.n_weights.to_string(),
+        s.samples.to_string(),
+        s.episodes.to_string(),
+        opt(s.solved),
+        fmt_f64(s.best_mean),
+        s.best_sample.to_string(),
+        fmt_f64(s.best_variance),
+        fmt_f64(s.worst_mean),
+        fmt_f64(s.mean_of_means),
+        fmt_f64(s.median_mean),
+        fmt_f64(s.p99_9_mean),
+    ];
+    r.extend(MEAN_PERCENTILES.iter().map(|&q| opt(s.mean_percentile(q))));
+    r.push(fmt_f64(s.mean_variance));
+    let p = s.solved_fraction;
+    r.push(p.map(|p| p.successes.to_string()).unwrap_or_default());
+    r.push(opt(p.map(|p| p.p)));
+    r.push(opt(p.map(|p| p.lo)));
+    r.push(opt(p.map(|p| p.hi)));
+    let (g, lo, hi) = match s.expected_guesses {
+        Some(ExpectedGuesses::Estimate {
+            value,
+            lo_bound,
+            hi_bound,
+        }) => (Some(value), Some(lo_bound), hi_bound),
+        Some(ExpectedGuesses::NoneSeen { at_least }) => (None, Some(at_least), None),
+        None => (None, None, None),
+    };
+    r.extend([opt(g), opt(lo), opt(hi)]);
+    for n in stats::GUESS_COUNTS {
+        r.push(opt(s
+            .success_odds
+            .iter()
+            .find(|o| o.guesses == n)
+            .map(|o| o.p)));
+    }
+    r.extend([
+        fmt_f64(s.top_episode_threshold),
+        s.top_episodes.to_string(),
+        fmt_f64(s.best_episode),
+        fmt_f64(s.mean_episode_length),
+        s.max_episode_length.to_string(),
+    ]);
+    r
+}
+
+/// The text of `stats.csv`: one row per cell.
+pub fn stats_csv(stats: &RunStats) -> String {
+    let mut out = stats_csv_header().join(",");
+    out.push('\n');
+    for c in &stats.cells {
+        out.push_str(&stats_csv_row(c).join(","));
+        out.push('\n');
+    }
+    out
+}
+
+/// Writes `stats.json` and `stats.csv` into `dir`.
+pub fn write_stats(dir: &Path, stats: &RunStats) -> std::io::Result<()> {
+    let json = serde_json::to_string_pretty(stats).map_err(std::io::Error::other)?;
+    std::fs::write(dir.join(STATS_JSON), json + "\n")?;
+    std::fs::write(dir.join(STATS_CSV), stats_csv(stats))
+}
+
+pub mod synthetic;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,216 @@
+//! Loader tests on run directories written here.
+
+use super::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
+use super::*;
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("rwg-core-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn small_run(name: &str) -> (PathBuf, RunMeta) {
+    let dir = temp_dir(name);
+    let meta = write_synthetic_run(
+        &dir,
+        &SyntheticRun {
+            samples: 50,
+            episodes: 4,
+            seed: 7,
+            cells: vec![
+                SyntheticCell::cartpole("0HL", &[], false),
+                SyntheticCell::pendulum("1HL-4", &[4], true),
+            ],
+        },
+    )
+    .unwrap();
+    (dir, meta)
+}
+
+fn scores_path(dir: &Path, meta: &RunMeta) -> PathBuf {
+    dir.join("cells")
+        .join(&meta.cells[0].dir)
+        .join("scores.csv")
+}
+
+#[test]
+fn load_round_trips_written_run() {
+    let (dir, meta) = small_run("roundtrip");
+    let run = Run::open(&dir).unwrap();
+    assert_eq!(run.meta, meta);
+    assert!(run.manifest.is_none());
+    let cell = run.load_cell(&meta.cells[0]).unwrap();
+    assert_eq!((cell.samples(), cell.episodes), (50, 4));
+    assert_eq!(cell.scores.len(), 200);
+    assert_eq!(cell.sample_scores(1), &cell.scores[4..8]);
+    let best = cell.ranks.iter().position(|&r| r == 49).unwrap();
+    let means = cell.means();
+    assert!(means.iter().all(|&m| m <= means[best]));
+    let stats = run.summarize().unwrap();
+    assert_eq!(stats.cells.len(), 2);
+    assert_eq!(stats.cells[0].best_mean, means[best]);
+    assert!(stats.cells[1].solved_fraction.is_none());
+
+    write_stats(&dir, &stats).unwrap();
+    let back: RunStats =
+        serde_json::from_str(&std::fs::read_to_string(dir.join(STATS_JSON)).unwrap()).unwrap();
+    assert_eq!(back, stats);
+    let csv = std::fs::read_to_string(dir.join(STATS_CSV)).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3);
+    let header: Vec<&str> = lines[0].split(',').collect();
+    assert_eq!(header.len(), stats_csv_header().len());
+    for l in &lines[1..] {
+        assert_eq!(l.split(',').count(), header.len(), "{l}");
+    }
+    let col = header.iter().position(|&h| h == "best_mean").unwrap();
+    let best_field = lines[1].split(',').nth(col).unwrap();
+    assert_eq!(best_field.parse::<f64>().unwrap(), stats.cells[0].best_mean);
+}
+
+#[test]
+fn samples_csv_matches_numpy_layout() {
+    let text = samples_csv(
+        &crate::stats::per_sample(&[1.0, 2.0, 3.0, 4.0, 0.5, 0.5], 2),
+        &[1, 2, 0],
+    );
+    assert_eq!(
+        text,
+        "sample,mean,variance,std,min,max,rank\n\
+         0,1.5,0.25,0.5,1.0,2.0,1\n\
+         1,3.5,0.25,0.5,3.0,4.0,2\n\
+         2,0.5,0.0,0.0,0.5,0.5,0\n"
+    );
+}
+
+#[test]
+fn manifest_is_read_when_present() {
+    let (dir, _) = small_run("manifest");
+    std::fs::write(dir.join(MANIFEST), "samples = 50\n").unwrap();
+    assert_eq!(
+        Run::open(&dir).unwrap().manifest.as_deref(),
+        Some("samples = 50\n")
+    );
+}
+
+fn load_err(dir: &Path, meta: &RunMeta) -> String {
+    Run::open(dir)
+        .and_then(|r| r.load_cell(&meta.cells[0]))
+        .unwrap_err()
+        .to_string()
+}
+
+#[test]
+fn malformed_scores_name_file_and_line() {
+    let (dir, meta) = small_run("malformed");
+    let path = scores_path(&dir, &meta);
+    let good = std::fs::read_to_string(&path).unwrap();
+    let mut lines: Vec<String> = good.lines().map(String::from).collect();
+
+    lines[3] = "0,2,abc,12".into();
+    std::fs::write(&path, lines.join("\n")).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(
+        e.contains("scores.csv:4:") && e.contains("score \"abc\""),
+        "{e}"
+    );
+
+    lines[3] = "0,2,12".into();
+    std::fs::write(&path, lines.join("\n")).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(
+        e.contains("scores.csv:4: expected 4 fields, found 3"),
+        "{e}"
+    );
+
+    lines[3] = "0,3,12.0,12".into();
+    std::fs::write(&path, lines.join("\n")).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(
+        e.contains("scores.csv:4: expected sample 0 episode 2")
+            && e.contains("found sample 0 episode 3"),
+        "{e}"
+    );
+
+    std::fs::write(
+        &path,
+        good.replace("sample,episode,score,steps", "s,e,score,steps"),
+    )
+    .unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(e.contains("scores.csv:1: header is"), "{e}");
+
+    let short: Vec<&str> = good.lines().take(1 + 4 * 49).collect();
+    std::fs::write(&path, short.join("\n")).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(
+        e.contains("196 episode rows, but run.json says 50 samples × 4 episodes"),
+        "{e}"
+    );
+
+    let short: Vec<&str> = good.lines().take(1 + 4 * 49 + 2).collect();
+    std::fs::write(&path, short.join("\n")).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(e.contains("the last sample has 2 of 4 episodes"), "{e}");
+
+    std::fs::remove_file(&path).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(
+        e.starts_with("cannot read ") && e.contains("scores.csv"),
+        "{e}"
+    );
+}
+
+#[test]
+fn inconsistent_samples_csv_is_refused() {
+    let (dir, meta) = small_run("samples");
+    let path = dir
+        .join("cells")
+        .join(&meta.cells[0].dir)
+        .join("samples.csv");
+    let good = std::fs::read_to_string(&path).unwrap();
+    let mut lines: Vec<String> = good.lines().map(String::from).collect();
+    let f: Vec<&str> = lines[5].split(',').collect();
+    let mean: f64 = f[1].parse().unwrap();
+    lines[5] = format!("{},{},{}", f[0], mean + 1.0, f[2..].join(","));
+    std::fs::write(&path, lines.join("\n")).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(
+        e.contains("samples.csv:6: mean") && e.contains("disagrees"),
+        "{e}"
+    );
+
+    // swap two ranks
+    let mut lines: Vec<String> = good.lines().map(String::from).collect();
+    let rank = |l: &str| l.rsplit(',').next().unwrap().to_string();
+    let (r1, r2) = (rank(&lines[1]), rank(&lines[2]));
+    let swap = |l: &str, r: &str| format!("{},{r}", l.rsplit_once(',').unwrap().0);
+    lines[1] = swap(&lines[1], &r2);
+    lines[2] = swap(&lines[2], &r1);
+    std::fs::write(&path, lines.join("\n")).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(e.contains("samples.csv:2: rank"), "{e}");
+
+    // a missing samples.csv is recomputed, not an error
+    std::fs::remove_file(&path).unwrap();
+    assert!(Run::open(&dir).unwrap().load_cell(&meta.cells[0]).is_ok());
+}
+
+#[test]
+fn bad_run_json() {
+    let dir = temp_dir("badjson");
+    let e = Run::open(&dir).unwrap_err().to_string();
+    assert!(
+        e.starts_with("cannot read") && e.contains("run.json"),
+        "{e}"
+    );
+    std::fs::write(dir.join(RUN_JSON), "{\"format\": 1}").unwrap();
+    let e = Run::open(&dir).unwrap_err().to_string();
+    assert!(e.contains("run.json: invalid run metadata"), "{e}");
+    let (dir, mut meta) = small_run("format");
+    meta.format = 99;
+    write_run_json(&dir, &meta).unwrap();
+    let e = Run::open(&dir).unwrap_err().to_string();
+    assert!(e.contains("run format 99"), "{e}");
+}
