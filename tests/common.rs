@@ -48,3 +48,28 @@ pub fn temp_dir(name: &str) -> PathBuf {
     std::fs::create_dir_all(&d).unwrap();
     d
 }
+
+/// Writes a synthetic run (CartPole-like and Pendulum-like cells, each
+/// architecture with and without bias) into a fresh directory.
+pub fn synthetic_run(name: &str, samples: u64, episodes: u32) -> PathBuf {
+    use rwg_core::run_data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
+    let dir = temp_dir(name);
+    let mut cells = Vec::new();
+    for bias in [false, true] {
+        cells.push(SyntheticCell::cartpole("0HL", &[], bias));
+        cells.push(SyntheticCell::cartpole("1HL-4", &[4], bias));
+        cells.push(SyntheticCell::pendulum("0HL", &[], bias));
+        cells.push(SyntheticCell::pendulum("1HL-4", &[4], bias));
+    }
+    write_synthetic_run(
+        &dir,
+        &SyntheticRun {
+            samples,
+            episodes,
+            seed: 3,
+            cells,
+        },
+    )
+    .unwrap();
+    dir
+}

@@ -31,6 +31,8 @@ enum Command {
     Replay(cmd::replay::Args),
     /// List the best networks of each cell of a run, with the command that replays each.
     Top(cmd::top::Args),
+    /// Statistics of a run: the paper's Table 3, p(solved), expected guesses.
+    Stats(cmd::stats::Args),
 }
 
 fn main() {
@@ -42,6 +44,7 @@ fn main() {
         Command::Merge(a) => cmd::merge::run(a),
         Command::Replay(a) => cmd::replay::run(a),
         Command::Top(a) => cmd::top::run(a),
+        Command::Stats(a) => cmd::stats::run(a),
     };
     if let Err(e) = result {
         // `rwg ... | head` closes the pipe early: not an error.

@@ -6,3 +6,4 @@ pub mod replay;
 pub mod rollout;
 pub mod run;
 pub mod top;
+pub mod stats;

@@ -160,6 +160,8 @@ pub fn write_synthetic_run(dir: &Path, spec: &SyntheticRun) -> std::io::Result<R
         env_steps: total_steps,
         steps_per_s: total_steps as f64 / cells.len().max(1) as f64,
         cells,
+        block_samples: spec.samples,
+        shard: None,
     };
     write_run_json(dir, &meta)?;
     Ok(meta)

@@ -1,0 +1,18 @@
+//! # rwg-analysis
+//!
+//! Everything rwg shows about finished runs: the paper's tables
+//! ([`tables`]), rendered as text, Markdown, LaTeX or CSV ([`table`]).
+//! The statistics themselves and the run loader live in
+//! [`rwg_core::stats`] and [`rwg_core::run_data`].
+
+pub mod fmt;
+pub mod table;
+pub mod tables;
+
+pub use table::{Table, TableFormat};
+
+/// Renders several tables one after another, separated by blank lines.
+pub fn render_tables(tables: &[Table], format: TableFormat) -> String {
+    let parts: Vec<String> = tables.iter().map(|t| t.render(format)).collect();
+    parts.join("\n")
+}

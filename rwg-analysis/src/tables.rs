@@ -1,0 +1,239 @@
+//! The tables of a run: the paper's Table 3 (best mean and 99.9th percentile
+//! of the sample means), p(solved), expected guesses, and a per-cell detail
+//! table.
+
+use crate::fmt::{prob, prob_ci, score, sig, sig_latex};
+use crate::table::{Cell, Table};
+use rwg_core::run_data::RunStats;
+use rwg_core::stats::{CellSummary, ExpectedGuesses, GUESS_COUNTS};
+
+/// "with bias" / "no bias".
+pub fn bias_label(bias: bool) -> &'static str {
+    if bias {
+        "with bias"
+    } else {
+        "no bias"
+    }
+}
+
+/// Distinct values in order of first appearance.
+fn distinct<T: PartialEq + Clone>(xs: impl IntoIterator<Item = T>) -> Vec<T> {
+    let mut out = Vec::new();
+    for x in xs {
+        if !out.contains(&x) {
+            out.push(x);
+        }
+    }
+    out
+}
+
+/// The bias settings present, in order of appearance.
+pub fn bias_settings(cells: &[CellSummary]) -> Vec<bool> {
+    distinct(cells.iter().map(|c| c.bias))
+}
+
+/// A grid: rows envs, columns architectures, for one bias setting; `None`
+/// when no cell has that bias.
+fn grid(
+    cells: &[CellSummary],
+    bias: bool,
+    title: String,
+    notes: Vec<String>,
+    value: impl Fn(&CellSummary) -> Cell,
+) -> Option<Table> {
+    let cells: Vec<&CellSummary> = cells.iter().filter(|c| c.bias == bias).collect();
+    if cells.is_empty() {
+        return None;
+    }
+    let envs = distinct(cells.iter().map(|c| c.env.clone()));
+    let archs = distinct(cells.iter().map(|c| c.arch.clone()));
+    let mut header = vec![Cell::plain("env")];
+    header.extend(archs.iter().map(|a| Cell::plain(a.clone())));
+    let rows = envs
+        .iter()
+        .map(|env| {
+            let mut row = vec![Cell::plain(env.clone())];
+            row.extend(archs.iter().map(|arch| {
+                cells
+                    .iter()
+                    .find(|c| &c.env == env && &c.arch == arch)
+                    .map_or_else(|| Cell::plain("–"), |c| value(c))
+            }));
+            row
+        })
+        .collect();
+    Some(Table {
+        title,
+        header,
+        rows,
+        notes,
+    })
+}
+
+fn shape(cells: &[CellSummary]) -> String {
+    match cells.first() {
+        Some(c) => format!("{} samples × {} episodes", c.samples, c.episodes),
+        None => String::new(),
+    }
+}
+
+/// The paper's Table 3 for one bias setting: "best mean (99.9th percentile)"
+/// of the sample means `M`, rows envs, columns architectures.
+pub fn best_mean_table(cells: &[CellSummary], bias: bool) -> Option<Table> {
+    grid(
+        cells,
+        bias,
+        format!(
+            "Best sample mean (99.9th percentile of sample means), {}, {}",
+            bias_label(bias),
+            shape(cells)
+        ),
+        vec![],
+        |c| Cell::plain(format!("{} ({})", score(c.best_mean), score(c.p99_9_mean))),
+    )
+}
+
+/// p(solved) with its 95% Wilson interval for one bias setting.
+pub fn solved_table(cells: &[CellSummary], bias: bool) -> Option<Table> {
+    grid(
+        cells,
+        bias,
+        format!(
+            "Fraction of samples with mean ≥ solved score, 95% Wilson interval, {}",
+            bias_label(bias)
+        ),
+        vec![],
+        |c| match c.solved_fraction {
+            Some(p) => prob_ci(p.p, p.lo, p.hi),
+            None => Cell::plain("no solved score"),
+        },
+    )
+}
+
+/// The expected-guesses cell: `1/p [lo, hi]`, or `none seen (≥ x)`.
+pub fn guesses_cell(g: Option<ExpectedGuesses>) -> Cell {
+    match g {
+        None => Cell::plain("–"),
+        Some(ExpectedGuesses::Estimate {
+            value,
+            lo_bound,
+            hi_bound,
+        }) => {
+            let (hi_t, hi_l) = match hi_bound {
+                Some(h) => (sig(h, 3), sig_latex(h, 3)),
+                None => ("∞".into(), "$\\infty$".into()),
+            };
+            Cell {
+                text: format!("{} [{}, {}]", sig(value, 3), sig(lo_bound, 3), hi_t),
+                latex: format!(
+                    "{} [{}, {}]",
+                    sig_latex(value, 3),
+                    sig_latex(lo_bound, 3),
+                    hi_l
+                ),
+            }
+        }
+        Some(ExpectedGuesses::NoneSeen { at_least }) => Cell {
+            text: format!("none seen (≥ {})", sig(at_least, 3)),
+            latex: format!("none seen ($\\geq$ {})", sig_latex(at_least, 3)),
+        },
+    }
+}
+
+/// Expected guesses to the first solving network `1/p` for one bias setting.
+pub fn guesses_table(cells: &[CellSummary], bias: bool) -> Option<Table> {
+    grid(
+        cells,
+        bias,
+        format!(
+            "Expected random guesses to the first solving network (1/p, 95% interval), {}",
+            bias_label(bias)
+        ),
+        if cells.iter().any(|c| {
+            c.bias == bias && matches!(c.expected_guesses, Some(ExpectedGuesses::NoneSeen { .. }))
+        }) {
+            vec![
+                "none seen: no sample solved; the bound is 1 / (upper end of p's interval).".into(),
+            ]
+        } else {
+            vec![]
+        },
+        |c| guesses_cell(c.expected_guesses),
+    )
+}
+
+/// One row per cell with every headline number.
+pub fn detail_table(cells: &[CellSummary]) -> Table {
+    let mut header: Vec<Cell> = [
+        "env",
+        "arch",
+        "bias",
+        "best mean",
+        "p99.9 M",
+        "median M",
+        "p(solved)",
+        "1/p",
+    ]
+    .into_iter()
+    .map(Cell::from)
+    .collect();
+    header.extend(
+        GUESS_COUNTS
+            .iter()
+            .map(|n| Cell::plain(format!("P(≥1 in {n})"))),
+    );
+    header.extend(["top 0.1% ep.", "mean len"].into_iter().map(Cell::from));
+    let rows = cells
+        .iter()
+        .map(|c| {
+            let mut r = vec![
+                Cell::plain(c.env.clone()),
+                Cell::plain(c.arch.clone()),
+                Cell::plain(if c.bias { "yes" } else { "no" }),
+                Cell::plain(score(c.best_mean)),
+                Cell::plain(score(c.p99_9_mean)),
+                Cell::plain(score(c.median_mean)),
+                c.solved_fraction
+                    .map_or_else(|| Cell::plain("–"), |p| prob(p.p)),
+                guesses_cell(c.expected_guesses),
+            ];
+            r.extend(GUESS_COUNTS.iter().map(|&n| {
+                c.success_odds
+                    .iter()
+                    .find(|o| o.guesses == n)
+                    .map_or_else(|| Cell::plain("–"), |o| prob(o.p))
+            }));
+            r.push(Cell::plain(score(c.top_episode_threshold)));
+            r.push(Cell::plain(sig(c.mean_episode_length, 4)));
+            r
+        })
+        .collect();
+    Table {
+        title: format!("Per cell, {}", shape(cells)),
+        header,
+        rows,
+        notes: vec![],
+    }
+}
+
+/// Every table of a run, in order: Table 3 per bias setting, p(solved) per
+/// bias setting, expected guesses per bias setting, the detail table.
+pub fn run_tables(stats: &RunStats) -> Vec<Table> {
+    let cells = &stats.cells;
+    let biases = bias_settings(cells);
+    let mut out = Vec::new();
+    for &b in &biases {
+        out.extend(best_mean_table(cells, b));
+    }
+    let any_solved = cells.iter().any(|c| c.solved.is_some());
+    if any_solved {
+        for &b in &biases {
+            out.extend(solved_table(cells, b));
+        }
+        for &b in &biases {
+            out.extend(guesses_table(cells, b));
+        }
+    }
+    out.push(detail_table(cells));
+    out
+}
