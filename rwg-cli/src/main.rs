@@ -33,6 +33,8 @@ enum Command {
     Top(cmd::top::Args),
     /// Statistics of a run: the paper's Table 3, p(solved), expected guesses.
     Stats(cmd::stats::Args),
+    /// Figures of a run: per cell histogram, scores by rank, variance; overview grids.
+    Plot(cmd::plot::Args),
 }
 
 fn main() {
@@ -45,6 +47,7 @@ fn main() {
         Command::Replay(a) => cmd::replay::run(a),
         Command::Top(a) => cmd::top::run(a),
         Command::Stats(a) => cmd::stats::run(a),
+        Command::Plot(a) => cmd::plot::run(a),
     };
     if let Err(e) = result {
         // `rwg ... | head` closes the pipe early: not an error.

@@ -1,0 +1,160 @@
+//! Dense scatter layers drawn as a raster.
+//!
+//! A cell's scatter plots have up to `N × E` points (10⁵–10⁷): as SVG
+//! elements that would be megabytes per figure. Dots are therefore
+//! rasterised at the plot's pixel size into an RGBA buffer; an SVG figure
+//! embeds that buffer as one PNG `<image>` in the plot area (axes, curves
+//! and text stay vector), a PNG figure paints its pixels directly.
+
+use super::PlotError;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+/// A pixel buffer covering one plot area, straight-alpha RGBA.
+pub struct Raster {
+    /// Left edge in backend pixels.
+    pub x0: i32,
+    /// Top edge in backend pixels.
+    pub y0: i32,
+    /// Width in pixels.
+    pub w: u32,
+    /// Height in pixels.
+    pub h: u32,
+    rgba: Vec<u8>,
+}
+
+impl Raster {
+    /// An empty (transparent) raster over the pixel rectangle of `area`.
+    pub fn over<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>) -> Self {
+        let (xr, yr) = area.get_pixel_range();
+        let (w, h) = (
+            (xr.end - xr.start).max(1) as u32,
+            (yr.end - yr.start).max(1) as u32,
+        );
+        Raster {
+            x0: xr.start,
+            y0: yr.start,
+            w,
+            h,
+            rgba: vec![0; (w * h * 4) as usize],
+        }
+    }
+
+    /// Paints a `size × size` dot centred at backend pixel `(x, y)` with
+    /// `color` (alpha composited over what is there).
+    pub fn dot(&mut self, (x, y): (i32, i32), size: i32, color: RGBAColor) {
+        let half = size / 2;
+        for py in y - half..y - half + size {
+            for px in x - half..x - half + size {
+                self.blend(px - self.x0, py - self.y0, color);
+            }
+        }
+    }
+
+    fn blend(&mut self, x: i32, y: i32, RGBAColor(r, g, b, a): RGBAColor) {
+        if x < 0 || y < 0 || x >= self.w as i32 || y >= self.h as i32 {
+            return;
+        }
+        let i = ((y as u32 * self.w + x as u32) * 4) as usize;
+        let p = &mut self.rgba[i..i + 4];
+        let da = f64::from(p[3]) / 255.0;
+        let oa = a + da * (1.0 - a);
+        if oa <= 0.0 {
+            return;
+        }
+        for (c, s) in p[..3].iter_mut().zip([r, g, b]) {
+            let v = (f64::from(s) * a + f64::from(*c) * da * (1.0 - a)) / oa;
+            *c = v.round().clamp(0.0, 255.0) as u8;
+        }
+        p[3] = (oa * 255.0).round() as u8;
+    }
+
+    /// Encodes the raster as an RGBA PNG.
+    pub fn png(&self) -> Result<Vec<u8>, PlotError> {
+        encode_png(&self.rgba, self.w, self.h, png::ColorType::Rgba)
+    }
+
+    /// Paints the raster onto the drawing area it was created over.
+    pub fn paint<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+    ) -> Result<(), PlotError> {
+        for y in 0..self.h {
+            for x in 0..self.w {
+                let i = ((y * self.w + x) * 4) as usize;
+                let p = &self.rgba[i..i + 4];
+                if p[3] > 0 {
+                    let c = RGBAColor(p[0], p[1], p[2], f64::from(p[3]) / 255.0);
+                    area.draw_pixel((x as i32, y as i32), &c)
+                        .map_err(super::draw_err)?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Encodes 8-bit pixels as PNG.
+pub fn encode_png(
+    pixels: &[u8],
+    w: u32,
+    h: u32,
+    color: png::ColorType,
+) -> Result<Vec<u8>, PlotError> {
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, w, h);
+        enc.set_color(color);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_compression(png::Compression::Best);
+        let mut writer = enc
+            .write_header()
+            .map_err(|e| PlotError::Png(e.to_string()))?;
+        writer
+            .write_image_data(pixels)
+            .map_err(|e| PlotError::Png(e.to_string()))?;
+    }
+    Ok(out)
+}
+
+/// Standard base64 (RFC 4648, with padding).
+pub fn base64(data: &[u8]) -> String {
+    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::with_capacity(data.len().div_ceil(3) * 4);
+    for chunk in data.chunks(3) {
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
+        let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
+        for k in 0..4 {
+            if k <= chunk.len() {
+                out.push(T[((n >> (18 - 6 * k)) & 63) as usize] as char);
+            } else {
+                out.push('=');
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn base64_rfc4648_vectors() {
+        for (i, o) in [
+            ("", ""),
+            ("f", "Zg=="),
+            ("fo", "Zm8="),
+            ("foo", "Zm9v"),
+            ("foob", "Zm9vYg=="),
+            ("fooba", "Zm9vYmE="),
+            ("foobar", "Zm9vYmFy"),
+        ] {
+            assert_eq!(base64(i.as_bytes()), o);
+        }
+    }
+}

@@ -1,0 +1,119 @@
+//! Figure tests on a synthetic run: every figure renders, SVGs embed their
+//! scatter layers as PNG images, PNGs decode to the expected size.
+
+use super::*;
+use rwg_core::run_data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
+use rwg_core::run_data::Run;
+
+fn cells(name: &str, both_bias: bool) -> Vec<(CellData, CellSummary)> {
+    let dir = std::env::temp_dir().join(format!("rwg-plot-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut cells = vec![
+        SyntheticCell::cartpole("0HL", &[], false),
+        SyntheticCell::pendulum("1HL-4", &[4], false),
+    ];
+    if both_bias {
+        cells.push(SyntheticCell::cartpole("0HL", &[], true));
+    }
+    write_synthetic_run(
+        &dir,
+        &SyntheticRun {
+            samples: 60,
+            episodes: 5,
+            seed: 11,
+            cells,
+        },
+    )
+    .unwrap();
+    crate::load_cells(&Run::open(&dir).unwrap()).unwrap()
+}
+
+fn svg_text(f: &Figure) -> &str {
+    assert_eq!(f.format, ImageFormat::Svg);
+    std::str::from_utf8(&f.bytes).unwrap()
+}
+
+#[test]
+fn run_figures_svg() {
+    let cells = cells("svg", true);
+    let figs = run_figures(&cells, ImageFormat::Svg).unwrap();
+    let names: Vec<String> = figs.iter().map(Figure::file_name).collect();
+    assert_eq!(
+        names,
+        [
+            "overview_nobias.svg",
+            "overview_bias.svg",
+            "bias_histograms.svg",
+            "CartPole-v0__0HL__nobias.hist.svg",
+            "CartPole-v0__0HL__nobias.scores.svg",
+            "CartPole-v0__0HL__nobias.variance.svg",
+            "Pendulum-v1__1HL-4__nobias.hist.svg",
+            "Pendulum-v1__1HL-4__nobias.scores.svg",
+            "Pendulum-v1__1HL-4__nobias.variance.svg",
+            "CartPole-v0__0HL__bias.hist.svg",
+            "CartPole-v0__0HL__bias.scores.svg",
+            "CartPole-v0__0HL__bias.variance.svg",
+        ]
+    );
+    for f in &figs {
+        let svg = svg_text(f);
+        assert!(
+            svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"),
+            "{}",
+            f.name
+        );
+        assert!(!svg.contains("fill=\"#0100"), "sentinel left in {}", f.name);
+    }
+    let scores = svg_text(&figs[4]);
+    assert_eq!(scores.matches("<image ").count(), 1);
+    assert!(scores.contains("href=\"data:image/png;base64,iVBORw0KGgo"));
+    for label in [
+        "CartPole-v0 · 0HL · no bias: episode scores by sample rank",
+        "sample rank by mean score M",
+        "episode score",
+        "top 0.1% of episodes",
+        "sample mean M",
+        "solved (195)",
+    ] {
+        assert!(scores.contains(label), "missing {label:?}");
+    }
+    let hist = svg_text(&figs[3]);
+    assert!(hist.contains("samples (log scale)") && hist.contains("sample mean score M"));
+    assert_eq!(hist.matches("<image ").count(), 0);
+    assert!(svg_text(&figs[5]).contains("variance V of episode scores"));
+    // overview: 2 envs × (1 scores panel + V over M) rasters
+    assert_eq!(svg_text(&figs[0]).matches("<image ").count(), 4);
+    assert!(svg_text(&figs[2]).contains("with bias") && svg_text(&figs[2]).contains("no bias"));
+}
+
+#[test]
+fn no_bias_figure_without_both_settings() {
+    let cells = cells("nobias", false);
+    assert!(bias_figure(&cells, ImageFormat::Svg).unwrap().is_none());
+    assert!(overview_figure(&cells, true, ImageFormat::Svg)
+        .unwrap()
+        .is_none());
+}
+
+#[test]
+fn png_figures_decode() {
+    let cells = cells("png", false);
+    let (c, s) = &cells[0];
+    for f in cell_figures(c, s, ImageFormat::Png).unwrap() {
+        assert!(f.file_name().ends_with(".png"));
+        let dec = png::Decoder::new(std::io::Cursor::new(&f.bytes));
+        let reader = dec.read_info().unwrap();
+        let info = reader.info();
+        assert_eq!((info.width, info.height), (760, 480));
+        // text is drawn: the title row is not blank
+        let mut reader = reader;
+        let mut buf = vec![0; reader.output_buffer_size()];
+        reader.next_frame(&mut buf).unwrap();
+        let row = 20 * 760 * 3;
+        assert!(
+            buf[row..row + 760 * 3].iter().any(|&b| b < 128),
+            "no title text in {}",
+            f.name
+        );
+    }
+}
