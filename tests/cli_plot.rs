@@ -12,7 +12,10 @@ fn plot_writes_svg_then_png() {
     // 2 overviews + bias comparison + 8 cells × 3
     assert_eq!(files.len(), 27, "{out}");
     for f in &files {
-        assert!(f.starts_with(&format!("{d}/figures/")) && f.ends_with(".svg"), "{f}");
+        assert!(
+            f.starts_with(&format!("{d}/figures/")) && f.ends_with(".svg"),
+            "{f}"
+        );
         let text = std::fs::read_to_string(f).unwrap();
         assert!(text.starts_with("<svg"), "{f}");
     }

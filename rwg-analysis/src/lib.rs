@@ -1,14 +1,24 @@
 //! # rwg-analysis
 //!
 //! Everything rwg shows about finished runs: the paper's tables
-//! ([`tables`]), rendered as text, Markdown, LaTeX or CSV ([`table`]).
+//! ([`tables`]), rendered as text, Markdown, LaTeX, CSV or HTML ([`table`]);
+//! its figures ([`plot`]); the self-contained HTML report ([`report`]).
 //! The statistics themselves and the run loader live in
 //! [`rwg_core::stats`] and [`rwg_core::run_data`].
+//!
+//! [`write_analysis`] writes all of it into a run directory: what `rwg run`
+//! calls when it finishes.
 
 pub mod fmt;
 pub mod plot;
+pub mod report;
 pub mod table;
 pub mod tables;
+
+use plot::{ImageFormat, PlotError};
+use rwg_core::run_data::{write_stats, CellData, LoadError, Run, RunStats};
+use rwg_core::stats::CellSummary;
+use std::path::{Path, PathBuf};
 
 pub use table::{Table, TableFormat};
 
@@ -18,15 +28,37 @@ pub fn render_tables(tables: &[Table], format: TableFormat) -> String {
     parts.join("\n")
 }
 
+/// Why an analysis could not be written.
+#[derive(Debug, thiserror::Error)]
+pub enum AnalysisError {
+    /// The run directory could not be read.
+    #[error(transparent)]
+    Load(#[from] LoadError),
+    /// A figure could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// An output file could not be written.
+    #[error("cannot write {path}: {source}")]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
+
+fn write_file(path: PathBuf, bytes: &[u8]) -> Result<PathBuf, AnalysisError> {
+    std::fs::write(&path, bytes).map_err(|source| AnalysisError::Write {
+        path: path.clone(),
+        source,
+    })?;
+    Ok(path)
+}
+
 /// Loads every cell of a run with its summary, in `run.json` order.
 ///
 /// All cells are held in memory at once (12 bytes per episode).
-pub fn load_cells(
-    run: &rwg_core::run_data::Run,
-) -> Result<
-    Vec<(rwg_core::run_data::CellData, rwg_core::stats::CellSummary)>,
-    rwg_core::run_data::LoadError,
-> {
+pub fn load_cells(run: &Run) -> Result<Vec<(CellData, CellSummary)>, LoadError> {
     run.meta
         .cells
         .iter()
@@ -36,4 +68,50 @@ pub fn load_cells(
             Ok((data, summary))
         })
         .collect()
+}
+
+/// The statistics of loaded cells.
+pub fn run_stats(run: &Run, cells: &[(CellData, CellSummary)]) -> RunStats {
+    RunStats {
+        run: run.meta.clone(),
+        cells: cells.iter().map(|(_, s)| s.clone()).collect(),
+    }
+}
+
+/// Writes the whole analysis of a finished run into its directory:
+/// `stats.json`, `stats.csv`, `figures/*.svg` (plus `figures/*.png` with
+/// `png`), and `report.html`. Returns the files written. This is what
+/// `rwg run` calls at the end.
+pub fn write_analysis(run_dir: &Path, png: bool) -> Result<Vec<PathBuf>, AnalysisError> {
+    let run = Run::open(run_dir)?;
+    let cells = load_cells(&run)?;
+    let stats = run_stats(&run, &cells);
+    write_stats(run_dir, &stats).map_err(|source| AnalysisError::Write {
+        path: run_dir.to_path_buf(),
+        source,
+    })?;
+    let mut written = vec![
+        run_dir.join(rwg_core::run_data::STATS_JSON),
+        run_dir.join(rwg_core::run_data::STATS_CSV),
+    ];
+    let fig_dir = run_dir.join("figures");
+    std::fs::create_dir_all(&fig_dir).map_err(|source| AnalysisError::Write {
+        path: fig_dir.clone(),
+        source,
+    })?;
+    let svgs = plot::run_figures(&cells, ImageFormat::Svg)?;
+    for f in &svgs {
+        written.push(write_file(fig_dir.join(f.file_name()), &f.bytes)?);
+    }
+    if png {
+        for f in plot::run_figures(&cells, ImageFormat::Png)? {
+            written.push(write_file(fig_dir.join(f.file_name()), &f.bytes)?);
+        }
+    }
+    let html = report::report_html(&run, &stats, &svgs);
+    written.push(write_file(
+        run_dir.join(report::REPORT_HTML),
+        html.as_bytes(),
+    )?);
+    Ok(written)
 }

@@ -79,6 +79,23 @@ pub enum TableFormat {
     Latex,
     /// CSV, a title line as a `#` comment.
     Csv,
+    /// An HTML `<table>` with a `<caption>`.
+    Html,
+}
+
+/// Escapes `&`, `<`, `>` and `"` for HTML text and attribute values.
+pub fn html_escape(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        match c {
+            '&' => out.push_str("&amp;"),
+            '<' => out.push_str("&lt;"),
+            '>' => out.push_str("&gt;"),
+            '"' => out.push_str("&quot;"),
+            _ => out.push(c),
+        }
+    }
+    out
 }
 
 fn csv_field(s: &str) -> String {
@@ -97,6 +114,7 @@ impl Table {
             TableFormat::Markdown => self.markdown(),
             TableFormat::Latex => self.latex(),
             TableFormat::Csv => self.csv(),
+            TableFormat::Html => self.html(),
         }
     }
 
@@ -194,6 +212,30 @@ impl Table {
         out
     }
 
+    fn html(&self) -> String {
+        let mut out = format!(
+            "<table>\n<caption>{}</caption>\n<thead><tr>",
+            html_escape(&self.title)
+        );
+        for c in &self.header {
+            out.push_str(&format!("<th>{}</th>", html_escape(&c.text)));
+        }
+        out.push_str("</tr></thead>\n<tbody>\n");
+        for r in &self.rows {
+            out.push_str("<tr>");
+            for (i, c) in r.iter().enumerate() {
+                let tag = if i == 0 { "th" } else { "td" };
+                out.push_str(&format!("<{tag}>{}</{tag}>", html_escape(&c.text)));
+            }
+            out.push_str("</tr>\n");
+        }
+        out.push_str("</tbody>\n</table>\n");
+        for n in &self.notes {
+            out.push_str(&format!("<p class=\"note\">{}</p>\n", html_escape(n)));
+        }
+        out
+    }
+
     fn csv(&self) -> String {
         let row = |cells: &[Cell]| -> String {
             let parts: Vec<String> = cells.iter().map(|c| csv_field(&c.text)).collect();
@@ -239,6 +281,14 @@ mod tests {
             t().render(TableFormat::Csv),
             "# Best mean_x\nenv,0HL\nCartPole-v0,200.00 (200.00)\n"
         );
+    }
+
+    #[test]
+    fn html_table() {
+        let h = t().render(TableFormat::Html);
+        assert!(h.starts_with("<table>\n<caption>Best mean_x</caption>"));
+        assert!(h.contains("<tr><th>CartPole-v0</th><td>200.00 (200.00)</td></tr>"));
+        assert_eq!(html_escape("<a & \"b\">"), "&lt;a &amp; &quot;b&quot;&gt;");
     }
 
     #[test]

@@ -35,6 +35,8 @@ enum Command {
     Stats(cmd::stats::Args),
     /// Figures of a run: per cell histogram, scores by rank, variance; overview grids.
     Plot(cmd::plot::Args),
+    /// One self-contained HTML report of a run: metadata, tables, figures, manifest.
+    Report(cmd::report::Args),
 }
 
 fn main() {
@@ -48,6 +50,7 @@ fn main() {
         Command::Top(a) => cmd::top::run(a),
         Command::Stats(a) => cmd::stats::run(a),
         Command::Plot(a) => cmd::plot::run(a),
+        Command::Report(a) => cmd::report::run(a),
     };
     if let Err(e) = result {
         // `rwg ... | head` closes the pipe early: not an error.

@@ -4,6 +4,7 @@ pub mod envs;
 pub mod merge;
 pub mod replay;
 pub mod plot;
+pub mod report;
 pub mod rollout;
 pub mod run;
 pub mod top;

@@ -1,0 +1,30 @@
+//! `rwg report`: one self-contained HTML page for a run.
+
+use anyhow::{Context, Result};
+use rwg_analysis::plot::{run_figures, ImageFormat};
+use rwg_analysis::report::{report_html, REPORT_HTML};
+use rwg_core::run_data::Run;
+use std::path::PathBuf;
+
+/// Arguments of `rwg report`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Run directory, as written by `rwg run`.
+    run_dir: PathBuf,
+    /// Output file [default: RUN_DIR/report.html].
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+/// Runs `rwg report`.
+pub fn run(args: Args) -> Result<()> {
+    let run = Run::open(&args.run_dir)?;
+    let cells = rwg_analysis::load_cells(&run)?;
+    let stats = rwg_analysis::run_stats(&run, &cells);
+    let figures = run_figures(&cells, ImageFormat::Svg)?;
+    let html = report_html(&run, &stats, &figures);
+    let out = args.out.unwrap_or_else(|| args.run_dir.join(REPORT_HTML));
+    std::fs::write(&out, html).with_context(|| format!("cannot write {}", out.display()))?;
+    println!("{}", out.display());
+    Ok(())
+}
