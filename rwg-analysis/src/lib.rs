@@ -9,6 +9,7 @@
 //! [`write_analysis`] writes all of it into a run directory: what `rwg run`
 //! calls when it finishes.
 
+pub mod compare;
 pub mod fmt;
 pub mod plot;
 pub mod report;

@@ -37,6 +37,8 @@ enum Command {
     Plot(cmd::plot::Args),
     /// One self-contained HTML report of a run: metadata, tables, figures, manifest.
     Report(cmd::report::Args),
+    /// Compare envs across runs: p(solved), 1/p, best mean, normalised scores.
+    Compare(cmd::compare::Args),
 }
 
 fn main() {
@@ -51,6 +53,7 @@ fn main() {
         Command::Stats(a) => cmd::stats::run(a),
         Command::Plot(a) => cmd::plot::run(a),
         Command::Report(a) => cmd::report::run(a),
+        Command::Compare(a) => cmd::compare::run(a),
     };
     if let Err(e) = result {
         // `rwg ... | head` closes the pipe early: not an error.

@@ -515,5 +515,38 @@ pub fn run_figures(
     Ok(out)
 }
 
+struct ComparePaint<'a> {
+    series: &'a [(String, Vec<f64>)],
+}
+
+impl Paint for ComparePaint<'_> {
+    fn paint<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        _layers: &mut Layers,
+    ) -> Result<(), PlotError> {
+        panels::survival_panel(root, self.series, PanelText::LARGE)
+    }
+}
+
+/// The combined figure of `rwg compare`: for every cell with a solved score,
+/// the fraction of samples whose normalised mean (median random network 0,
+/// solved score 1) is at least x, on a log scale; the solved score is the
+/// dashed line at 1.
+pub fn compare_figure(
+    series: &[(String, Vec<f64>)],
+    format: ImageFormat,
+) -> Result<Figure, PlotError> {
+    let height = 520 + 18 * series.len() as u32;
+    Ok(Figure {
+        name: "compare".into(),
+        caption: "Fraction of random networks whose normalised mean score reaches x \
+                  (0: median random network, 1: solved)"
+            .into(),
+        format,
+        bytes: render(&ComparePaint { series }, (1000, height), format)?,
+    })
+}
+
 #[cfg(test)]
 mod tests;

@@ -360,6 +360,84 @@ pub(crate) fn variance_panel<DB: DrawingBackend>(
     legend_style(&mut chart, SeriesLabelPosition::UpperLeft, t)
 }
 
+/// Survival curves of normalised sample means: for each series, the
+/// fraction of samples with normalised mean ≥ x (log scale) for x ≥ 0, the
+/// solved score (1) as a dashed line.
+pub(crate) fn survival_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    series: &[(String, Vec<f64>)],
+    t: PanelText,
+) -> Result<(), PlotError> {
+    let xmax = series
+        .iter()
+        .flat_map(|(_, v)| v.iter().copied())
+        .filter(|v| v.is_finite())
+        .fold(1.1f64, f64::max);
+    let nmax = series
+        .iter()
+        .map(|(_, v)| v.len())
+        .max()
+        .unwrap_or(1)
+        .max(1);
+    let (y0, y1) = (0.5 / nmax as f64, 1.0);
+    let mut chart = ChartBuilder::on(area)
+        .caption(
+            "Fraction of random networks with normalised mean ≥ x",
+            ("sans-serif", t.title),
+        )
+        .margin(t.margin)
+        .x_label_area_size(t.x_area)
+        .y_label_area_size(t.y_area)
+        .build_cartesian_2d(0.0..xmax * 1.02, (y0..y1).log_scale())
+        .map_err(draw_err)?;
+    chart
+        .configure_mesh()
+        .x_desc("normalised mean score (0: median random network, 1: solved)")
+        .y_desc("fraction of samples (log scale)")
+        .label_style(("sans-serif", t.tick))
+        .axis_desc_style(("sans-serif", t.label))
+        .light_line_style(BLACK.mix(0.03))
+        .bold_line_style(BLACK.mix(0.12))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&|v| tick(v))
+        .draw()
+        .map_err(draw_err)?;
+    for (k, (label, values)) in series.iter().enumerate() {
+        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        v.sort_by(|a, b| b.partial_cmp(a).expect("finite"));
+        let n = v.len().max(1) as f64;
+        // (x_k, (k+1)/n): the fraction of samples at or above the k-th largest
+        let step = (v.len() / CURVE_POINTS).max(1);
+        let mut pts: Vec<(f64, f64)> = v
+            .iter()
+            .enumerate()
+            .filter(|&(i, &x)| x >= 0.0 && (i % step == 0 || i + 1 == v.len()))
+            .map(|(i, &x)| (x, (i + 1) as f64 / n))
+            .collect();
+        if pts.is_empty() {
+            continue;
+        }
+        pts.sort_by(|a, b| a.0.partial_cmp(&b.0).expect("finite"));
+        let color = Palette99::pick(k).to_rgba();
+        chart
+            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
+            .map_err(draw_err)?
+            .label(label.clone())
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], color.stroke_width(2)));
+    }
+    chart
+        .draw_series(DashedLineSeries::new(
+            [(1.0, y0), (1.0, y1)],
+            8,
+            5,
+            RED.stroke_width(2),
+        ))
+        .map_err(draw_err)?
+        .label("solved (1)")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], RED.stroke_width(2)));
+    legend_style(&mut chart, SeriesLabelPosition::UpperRight, t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,5 +1,6 @@
 //! One module per `rwg` subcommand.
 
+pub mod compare;
 pub mod envs;
 pub mod merge;
 pub mod replay;

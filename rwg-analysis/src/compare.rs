@@ -1,0 +1,350 @@
+//! Comparing runs: envs from several runs side by side, one row per env ×
+//! architecture × bias, with a score normalised so the median random
+//! network is 0 and the solved score is 1.
+//!
+//! Runs are comparable when they used the same episodes per sample, the same
+//! weight distribution and scale, and the same architectures;
+//! [`settings_differences`] names every difference (the CLI refuses such
+//! runs unless forced). The number of samples may differ.
+
+use crate::fmt::{prob_ci, score};
+use crate::table::{Cell, Table};
+use crate::tables::{bias_label, guesses_cell};
+use rwg_core::float::fmt_f64;
+use rwg_core::run_data::{CellData, Run};
+use rwg_core::run_meta::RunMeta;
+use rwg_core::stats::{CellSummary, ExpectedGuesses};
+use serde::Serialize;
+
+/// One run to compare: a label, its metadata, and per cell its summary and
+/// sample means.
+#[derive(Debug, Clone)]
+pub struct CompareRun {
+    /// Label of the run in tables and legends (its directory name).
+    pub label: String,
+    /// The run's `run.json`.
+    pub meta: RunMeta,
+    /// Per cell: summary and sample means `M`.
+    pub cells: Vec<(CellSummary, Vec<f64>)>,
+}
+
+impl CompareRun {
+    /// Builds the comparison input from an opened run and its loaded cells.
+    pub fn new(label: String, run: &Run, cells: &[(CellData, CellSummary)]) -> Self {
+        CompareRun {
+            label,
+            meta: run.meta.clone(),
+            cells: cells.iter().map(|(c, s)| (s.clone(), c.means())).collect(),
+        }
+    }
+}
+
+/// The architectures of a run as `name [hidden] bias|nobias`, sorted.
+fn architectures(meta: &RunMeta) -> Vec<String> {
+    let mut a: Vec<String> = meta
+        .cells
+        .iter()
+        .map(|c| {
+            format!(
+                "{} {:?} {}",
+                c.arch,
+                c.hidden,
+                if c.bias { "bias" } else { "nobias" }
+            )
+        })
+        .collect();
+    a.sort();
+    a.dedup();
+    a
+}
+
+/// Every setting in which a run differs from the first: episodes per
+/// sample, weight distribution, weight scale, architectures. Empty when the
+/// runs are comparable.
+pub fn settings_differences(runs: &[(&str, &RunMeta)]) -> Vec<String> {
+    let Some(&(first, m0)) = runs.first() else {
+        return vec![];
+    };
+    let mut out = Vec::new();
+    for &(label, m) in &runs[1..] {
+        if m.episodes != m0.episodes {
+            out.push(format!(
+                "episodes per sample differ: {first} has {}, {label} has {}",
+                m0.episodes, m.episodes
+            ));
+        }
+        if m.weights.distribution != m0.weights.distribution {
+            out.push(format!(
+                "weight distributions differ: {first} has {}, {label} has {}",
+                m0.weights.distribution, m.weights.distribution
+            ));
+        }
+        if m.weights.scale != m0.weights.scale {
+            out.push(format!(
+                "weight scales differ: {first} has {}, {label} has {}",
+                fmt_f64(m0.weights.scale),
+                fmt_f64(m.weights.scale)
+            ));
+        }
+        let (a0, a) = (architectures(m0), architectures(m));
+        if a0 != a {
+            out.push(format!(
+                "architectures differ: {first} has {}; {label} has {}",
+                a0.join(", "),
+                a.join(", ")
+            ));
+        }
+    }
+    out
+}
+
+/// One row of a comparison.
+#[derive(Debug, Clone, Serialize)]
+pub struct CompareRow {
+    /// Run label.
+    pub run: String,
+    /// The cell's statistics.
+    #[serde(flatten)]
+    pub summary: CellSummary,
+    /// Best mean, normalised ([`CellSummary::normalise`]).
+    pub normalised_best: Option<f64>,
+    /// 99.9th percentile of `M`, normalised.
+    pub normalised_p99_9: Option<f64>,
+}
+
+/// The rows of a comparison, the runs of each env × architecture × bias
+/// side by side: ordered by env, architecture (each in order of first
+/// appearance), bias (without first), then run.
+pub fn compare_rows(runs: &[CompareRun]) -> Vec<CompareRow> {
+    let mut rows: Vec<CompareRow> = runs
+        .iter()
+        .flat_map(|r| {
+            r.cells.iter().map(|(s, _)| CompareRow {
+                run: r.label.clone(),
+                normalised_best: s.normalise(s.best_mean),
+                normalised_p99_9: s.normalise(s.p99_9_mean),
+                summary: s.clone(),
+            })
+        })
+        .collect();
+    let mut envs: Vec<String> = Vec::new();
+    let mut archs: Vec<String> = Vec::new();
+    for r in &rows {
+        if !envs.contains(&r.summary.env) {
+            envs.push(r.summary.env.clone());
+        }
+        if !archs.contains(&r.summary.arch) {
+            archs.push(r.summary.arch.clone());
+        }
+    }
+    let pos = |v: &[String], x: &str| v.iter().position(|y| y == x);
+    // stable: runs keep their argument order within a group
+    rows.sort_by_key(|r| {
+        (
+            pos(&envs, &r.summary.env),
+            pos(&archs, &r.summary.arch),
+            r.summary.bias,
+        )
+    });
+    rows
+}
+
+fn opt_sig(x: Option<f64>) -> Cell {
+    x.map_or_else(|| Cell::plain("–"), |v| Cell::plain(format!("{v:.3}")))
+}
+
+/// The comparison table.
+pub fn compare_table(rows: &[CompareRow]) -> Table {
+    let header = [
+        "env",
+        "run",
+        "arch",
+        "bias",
+        "samples",
+        "p(solved) [95% CI]",
+        "1/p",
+        "best mean",
+        "p99.9 M",
+        "median M",
+        "norm. best",
+        "norm. p99.9",
+    ]
+    .into_iter()
+    .map(Cell::from)
+    .collect();
+    let body = rows
+        .iter()
+        .map(|r| {
+            let s = &r.summary;
+            vec![
+                Cell::plain(s.env.clone()),
+                Cell::plain(r.run.clone()),
+                Cell::plain(s.arch.clone()),
+                Cell::plain(if s.bias { "yes" } else { "no" }),
+                Cell::plain(s.samples.to_string()),
+                s.solved_fraction.map_or_else(
+                    || Cell::plain("no solved score"),
+                    |p| prob_ci(p.p, p.lo, p.hi),
+                ),
+                guesses_cell(s.expected_guesses),
+                Cell::plain(score(s.best_mean)),
+                Cell::plain(score(s.p99_9_mean)),
+                Cell::plain(score(s.median_mean)),
+                opt_sig(r.normalised_best),
+                opt_sig(r.normalised_p99_9),
+            ]
+        })
+        .collect();
+    let episodes = rows.first().map_or(0, |r| r.summary.episodes);
+    Table {
+        title: format!("Comparison of {} cells, {episodes} episodes per sample", rows.len()),
+        header,
+        rows: body,
+        notes: vec![
+            "norm.: (x − median M) / (solved − median M): 0 is the median random network, 1 the solved score."
+                .into(),
+        ],
+    }
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The comparison as CSV, one row per cell, floats in shortest round-trip
+/// form.
+pub fn compare_csv(rows: &[CompareRow]) -> String {
+    let opt = |x: Option<f64>| x.map(fmt_f64).unwrap_or_default();
+    let mut out = String::from(
+        "run,env,arch,bias,samples,episodes,solved,p_solved,p_solved_lo,p_solved_hi,\
+         expected_guesses,expected_guesses_lo,best_mean,p99.9_mean,median_mean,\
+         normalised_best,normalised_p99.9\n",
+    );
+    for r in rows {
+        let s = &r.summary;
+        let p = s.solved_fraction;
+        let (g, glo) = match s.expected_guesses {
+            Some(ExpectedGuesses::Estimate {
+                value, lo_bound, ..
+            }) => (Some(value), Some(lo_bound)),
+            Some(ExpectedGuesses::NoneSeen { at_least }) => (None, Some(at_least)),
+            None => (None, None),
+        };
+        let fields = [
+            csv_field(&r.run),
+            csv_field(&s.env),
+            csv_field(&s.arch),
+            s.bias.to_string(),
+            s.samples.to_string(),
+            s.episodes.to_string(),
+            opt(s.solved),
+            opt(p.map(|p| p.p)),
+            opt(p.map(|p| p.lo)),
+            opt(p.map(|p| p.hi)),
+            opt(g),
+            opt(glo),
+            fmt_f64(s.best_mean),
+            fmt_f64(s.p99_9_mean),
+            fmt_f64(s.median_mean),
+            opt(r.normalised_best),
+            opt(r.normalised_p99_9),
+        ];
+        out.push_str(&fields.join(","));
+        out.push('\n');
+    }
+    out
+}
+
+/// The curves of the combined figure: per cell with a solved score, its
+/// label and its normalised sample means.
+pub fn normalised_series(runs: &[CompareRun]) -> Vec<(String, Vec<f64>)> {
+    let multi = runs.len() > 1;
+    runs.iter()
+        .flat_map(|r| {
+            r.cells.iter().filter_map(move |(s, means)| {
+                s.normalise(0.0)?;
+                let label = format!(
+                    "{}{} · {} · {}",
+                    if multi {
+                        format!("{}: ", r.label)
+                    } else {
+                        String::new()
+                    },
+                    s.env,
+                    s.arch,
+                    bias_label(s.bias)
+                );
+                Some((
+                    label,
+                    means.iter().filter_map(|&m| s.normalise(m)).collect(),
+                ))
+            })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rwg_core::run_meta::{CellMeta, WeightsMeta};
+
+    fn meta(episodes: u32, dist: &str, archs: &[&str]) -> RunMeta {
+        RunMeta {
+            format: 1,
+            rwg_version: "t".into(),
+            seed: 0,
+            samples: 10,
+            episodes,
+            weights: WeightsMeta {
+                distribution: dist.into(),
+                scale: 1.0,
+            },
+            threads: 1,
+            start_time: String::new(),
+            end_time: None,
+            wall_s: 0.0,
+            env_steps: 0,
+            steps_per_s: 0.0,
+            cells: archs
+                .iter()
+                .map(|a| CellMeta {
+                    dir: format!("E__{a}__nobias"),
+                    env: "E".into(),
+                    arch: a.to_string(),
+                    hidden: vec![],
+                    bias: false,
+                    n_weights: 1,
+                    obs_dim: 1,
+                    max_episode_steps: 1,
+                    solved: None,
+                    solved_source: None,
+                    samples: 10,
+                    episodes,
+                    wall_s: 0.0,
+                    env_steps: 0,
+                    steps_per_s: 0.0,
+                })
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn differences_are_named() {
+        let a = meta(20, "normal", &["0HL"]);
+        assert!(settings_differences(&[("a", &a), ("b", &a.clone())]).is_empty());
+        let b = meta(10, "uniform", &["0HL", "1HL-4"]);
+        let d = settings_differences(&[("a", &a), ("b", &b)]);
+        assert_eq!(d.len(), 3, "{d:?}");
+        assert_eq!(d[0], "episodes per sample differ: a has 20, b has 10");
+        assert_eq!(
+            d[1],
+            "weight distributions differ: a has normal, b has uniform"
+        );
+        assert!(d[2]
+            .starts_with("architectures differ: a has 0HL [] nobias; b has 0HL [] nobias, 1HL-4"));
+    }
+}
