@@ -329,6 +329,8 @@ mod tests {
                     steps_per_s: 0.0,
                 })
                 .collect(),
+            block_samples: 10,
+            shard: None,
         }
     }
 

@@ -272,7 +272,10 @@ pub(crate) fn scores_panel<DB: DrawingBackend>(
     chart
         .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
         .map_err(draw_err)?
-        .label(format!("top 0.1% of episodes (≥ {})", tick(&threshold)))
+        .label(format!(
+            "top 0.1% of episodes (≥ {})",
+            crate::fmt::sig(threshold, 4)
+        ))
         .legend(|(x, y)| Circle::new((x + 6, y), 3, GREEN.filled()));
     chart
         .draw_series(LineSeries::new(curve, DARK_RED.stroke_width(2)))
