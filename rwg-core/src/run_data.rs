@@ -199,6 +199,16 @@ impl Run {
                 expected: RUN_FORMAT,
             });
         }
+        if let Some(sh) = meta.shard {
+            return Err(LoadError::Mismatch {
+                path,
+                message: format!(
+                    "this directory holds shard {}/{} of a study, not every network: \
+                     combine the shards with `rwg merge` first",
+                    sh.index, sh.count
+                ),
+            });
+        }
         let mpath = dir.join(MANIFEST);
         let manifest = match std::fs::read_to_string(&mpath) {
             Ok(m) => Some(m),

@@ -1,0 +1,69 @@
+//! The analysis commands on a real `rwg run` directory: statistics agree with
+//! the run's own samples.csv, and stats, plot, report and compare all work.
+
+mod common;
+use common::*;
+use serde_json::Value;
+
+const MANIFEST: &str = r#"
+seed = 5
+samples = 50
+episodes = 3
+bias = [false, true]
+[[architectures]]
+name = "0HL"
+hidden = []
+[[architectures]]
+name = "1HL-2"
+hidden = [2]
+[[envs]]
+id = "CartPole-v0"
+[[envs]]
+id = "MountainCarContinuous-v0"
+solved = 90
+"#;
+
+#[test]
+fn analysis_of_a_real_run() {
+    let dir = temp_dir("analysis-run");
+    let m = dir.join("m.toml");
+    std::fs::write(&m, MANIFEST).unwrap();
+    let run = dir.join("run");
+    let r = run.to_str().unwrap();
+    rwg_ok(&["run", m.to_str().unwrap(), "--out", r, "--threads", "1"]);
+
+    let stats: Value = serde_json::from_str(&rwg_ok(&["stats", r, "--format", "json"])).unwrap();
+    let cells = stats["cells"].as_array().unwrap();
+    assert_eq!(cells.len(), 8);
+    for c in cells {
+        // best mean and solved count agree with the run's samples.csv
+        let samples = std::fs::read_to_string(
+            run.join("cells")
+                .join(c["dir"].as_str().unwrap())
+                .join("samples.csv"),
+        )
+        .unwrap();
+        let means: Vec<f64> = samples
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+            .collect();
+        assert_eq!(means.len(), 50);
+        let best = means.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        assert_eq!(c["best_mean"].as_f64().unwrap(), best, "{}", c["dir"]);
+        let solved = c["solved"].as_f64().unwrap();
+        let k = means.iter().filter(|&&x| x >= solved).count() as u64;
+        assert_eq!(c["solved_fraction"]["successes"].as_u64().unwrap(), k);
+    }
+    assert!(run.join("stats.json").exists() && run.join("stats.csv").exists());
+
+    let table = rwg_ok(&["stats", r]);
+    assert!(table.contains("MountainCarContinuous-v0") && table.contains("1HL-2"));
+    let figs = rwg_ok(&["plot", r]);
+    assert_eq!(figs.lines().count(), 3 + 8 * 3);
+    rwg_ok(&["report", r]);
+    let html = std::fs::read_to_string(run.join("report.html")).unwrap();
+    assert!(html.contains("seed = 5"), "the manifest is in the report");
+    let cmp = rwg_ok(&["compare", r, r]);
+    assert!(cmp.contains("Comparison of 16 cells"));
+}
