@@ -116,3 +116,49 @@ pub fn write_analysis(run_dir: &Path, png: bool) -> Result<Vec<PathBuf>, Analysi
     )?);
     Ok(written)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rwg_core::run_data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
+
+    #[test]
+    fn write_analysis_writes_everything() {
+        let dir = std::env::temp_dir().join(format!("rwg-analysis-all-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        write_synthetic_run(
+            &dir,
+            &SyntheticRun {
+                samples: 30,
+                episodes: 3,
+                seed: 2,
+                cells: vec![SyntheticCell::cartpole("0HL", &[], false)],
+            },
+        )
+        .unwrap();
+        let files = write_analysis(&dir, true).unwrap();
+        let names: Vec<String> = files
+            .iter()
+            .map(|p| p.strip_prefix(&dir).unwrap().display().to_string())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "stats.json",
+                "stats.csv",
+                "figures/overview_nobias.svg",
+                "figures/CartPole-v0__0HL__nobias.hist.svg",
+                "figures/CartPole-v0__0HL__nobias.scores.svg",
+                "figures/CartPole-v0__0HL__nobias.variance.svg",
+                "figures/overview_nobias.png",
+                "figures/CartPole-v0__0HL__nobias.hist.png",
+                "figures/CartPole-v0__0HL__nobias.scores.png",
+                "figures/CartPole-v0__0HL__nobias.variance.png",
+                "report.html",
+            ]
+        );
+        assert!(files.iter().all(|f| f.is_file()));
+        let e = write_analysis(&dir.join("missing"), false).unwrap_err();
+        assert!(matches!(e, AnalysisError::Load(_)), "{e}");
+    }
+}

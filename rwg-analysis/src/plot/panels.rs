@@ -190,7 +190,20 @@ pub(crate) fn histogram_panel<DB: DrawingBackend>(
             .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], RED.stroke_width(2)));
     }
     if legend {
-        legend_style(&mut chart, SeriesLabelPosition::UpperLeft, t)?;
+        // the legend goes to the upper corner over the lower bars
+        let side_max = |range: std::ops::Range<usize>| {
+            counts
+                .iter()
+                .flat_map(|c| c[range.clone()].iter().copied())
+                .max()
+                .unwrap_or(0)
+        };
+        let pos = if side_max(0..BINS / 3) > side_max(BINS - BINS / 3..BINS) {
+            SeriesLabelPosition::UpperRight
+        } else {
+            SeriesLabelPosition::UpperLeft
+        };
+        legend_style(&mut chart, pos, t)?;
     }
     Ok(())
 }
