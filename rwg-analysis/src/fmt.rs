@@ -2,10 +2,16 @@
 
 use crate::table::Cell;
 
-/// A score with two decimals (`195.35`); `NaN`, `inf` as such.
+/// A score with two decimals (`195.35`), a negative value that rounds to
+/// zero as `0.00`; `NaN`, `inf` as such.
 pub fn score(x: f64) -> String {
     if x.is_finite() {
-        format!("{x:.2}")
+        let s = format!("{x:.2}");
+        if s == "-0.00" {
+            "0.00".into()
+        } else {
+            s
+        }
     } else {
         format!("{x}")
     }
@@ -67,7 +73,8 @@ mod tests {
     #[test]
     fn formats() {
         assert_eq!(score(195.349), "195.35");
-        assert_eq!(score(-0.004), "-0.00");
+        assert_eq!(score(-0.004), "0.00");
+        assert_eq!(score(-0.006), "-0.01");
         assert_eq!(sig(0.012345, 3), "0.0123");
         assert_eq!(sig(0.5, 3), "0.500");
         assert_eq!(sig(81.234, 3), "81.2");
