@@ -7,7 +7,7 @@
 
 use crate::float::fmt_f64;
 use crate::sampler::BlockResult;
-use crate::summary::SampleSummary;
+use crate::stats::SampleStats;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -83,8 +83,8 @@ pub fn write_score_rows<W: Write>(
 /// Writes `samples.csv` rows for samples `0..summaries.len()`.
 pub fn write_sample_rows<W: Write>(
     out: &mut W,
-    summaries: &[SampleSummary],
-    ranks: &[u64],
+    summaries: &[SampleStats],
+    ranks: &[usize],
 ) -> io::Result<()> {
     writeln!(out, "{SAMPLES_HEADER}")?;
     for (i, (s, r)) in summaries.iter().zip(ranks).enumerate() {

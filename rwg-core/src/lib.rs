@@ -21,7 +21,6 @@ pub mod sha512;
 pub mod space;
 pub mod stats;
 pub mod suggest;
-pub mod summary;
 pub mod time_limit;
 
 pub use env::{Action, ActionDtype, EnvError, EnvSpec, Environment, Step};

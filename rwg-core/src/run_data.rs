@@ -490,23 +490,11 @@ fn check_samples_csv(path: &Path, data: &CellData) -> Result<(), LoadError> {
 }
 
 /// The text of a `samples.csv` for the given per-sample statistics and ranks
-/// (floats in shortest round-trip form).
+/// (the run writer's own format, [`crate::export::write_sample_rows`]).
 pub fn samples_csv(stats: &[SampleStats], ranks: &[usize]) -> String {
-    let mut out = String::with_capacity(64 * (stats.len() + 1));
-    out.push_str(SAMPLES_HEADER);
-    out.push('\n');
-    for (i, (s, r)) in stats.iter().zip(ranks).enumerate() {
-        let _ = writeln!(
-            out,
-            "{i},{},{},{},{},{},{r}",
-            fmt_f64(s.mean),
-            fmt_f64(s.variance),
-            fmt_f64(s.std),
-            fmt_f64(s.min),
-            fmt_f64(s.max)
-        );
-    }
-    out
+    let mut out = Vec::with_capacity(64 * (stats.len() + 1));
+    crate::export::write_sample_rows(&mut out, stats, ranks).expect("writing to memory");
+    String::from_utf8(out).expect("ASCII")
 }
 
 /// Writes `samples.csv` for a row-major `N × episodes` score matrix: what the

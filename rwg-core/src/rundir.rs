@@ -12,7 +12,7 @@
 
 use crate::export::{write_atomic, write_sample_rows, write_score_rows, AtomicFile, SCORES_HEADER};
 use crate::sampler::BlockResult;
-use crate::summary::{ranks_by_mean, SampleSummary};
+use crate::stats::{ranks, sample_stats};
 use std::io::{self, BufRead, BufReader, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -162,7 +162,6 @@ pub fn finalize_cell(
     let mut summaries = Vec::with_capacity(samples as usize);
     let mut env_steps = 0u64;
     let mut buf = Vec::with_capacity(episodes as usize);
-    let mut scratch = Vec::with_capacity(episodes as usize);
     for b in 0..n_blocks(samples) {
         let path = block_path(cell_dir, b);
         let file = std::fs::File::open(&path).map_err(io_err(&path))?;
@@ -186,7 +185,7 @@ pub fn finalize_cell(
                 env_steps += steps;
                 writeln!(scores, "{line}").map_err(io_err(&scores_path))?;
             }
-            summaries.push(SampleSummary::of(&buf, &mut scratch));
+            summaries.push(sample_stats(&buf));
         }
         if let Some(extra) = lines.next() {
             let message = format!(
@@ -207,7 +206,7 @@ pub fn finalize_cell(
         let p = cell_dir.join("cell.json");
         write_atomic(&p, json.as_bytes()).map_err(io_err(&p))?;
     }
-    let ranks = ranks_by_mean(&totals.means);
+    let ranks = ranks(&totals.means);
     let samples_path = cell_dir.join("samples.csv");
     let mut f = AtomicFile::create(&samples_path).map_err(io_err(&samples_path))?;
     write_sample_rows(&mut f, &summaries, &ranks).map_err(io_err(&samples_path))?;
