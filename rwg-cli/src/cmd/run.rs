@@ -60,6 +60,26 @@ pub struct Args {
     /// a different study).
     #[arg(long)]
     force_new: bool,
+    /// Skip the analysis at the end (stats.json, stats.csv, figures/, report.html;
+    /// `rwg report` writes them later). The analysis holds the run's scores in
+    /// memory, 12 bytes per episode.
+    #[arg(long)]
+    no_report: bool,
+}
+
+/// Writes stats, figures and report.html into a finished run directory.
+fn write_report(out: &Path) -> Result<()> {
+    let written = rwg_analysis::write_analysis(out, false)
+        .with_context(|| format!("cannot analyse {}", out.display()))?;
+    let figures = written
+        .iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "svg"))
+        .count();
+    println!(
+        "Report: {}  (stats.json, stats.csv, {figures} figures in figures/)",
+        out.join("report.html").display()
+    );
+    Ok(())
 }
 
 /// Set by Ctrl-C; checked after every wave of blocks.
@@ -126,6 +146,9 @@ pub fn run(args: Args) -> Result<()> {
             "{} already holds this study, complete; nothing to do.",
             out.display()
         );
+        if args.shard.is_none() && !args.no_report && !out.join("report.html").exists() {
+            write_report(&out)?;
+        }
         return Ok(());
     }
     write_atomic(&out.join("manifest.toml"), m.to_toml().as_bytes())?;
@@ -268,10 +291,15 @@ pub fn run(args: Args) -> Result<()> {
         threads
     );
     match args.shard {
-        None => println!(
-            "Results: {}  (run.json, cells/*/scores.csv, cells/*/samples.csv)",
-            out.display()
-        ),
+        None => {
+            println!(
+                "Results: {}  (run.json, cells/*/scores.csv, cells/*/samples.csv)",
+                out.display()
+            );
+            if !args.no_report {
+                write_report(&out)?;
+            }
+        }
         Some(s) => println!(
             "Shard {}/{} done: {}. Combine all shards with: rwg merge DIR... --out DIR",
             s.index,
