@@ -1,6 +1,7 @@
 //! `rwg`: Random Weight Guessing analysis of reinforcement-learning environments.
 
 mod cmd;
+mod plugins;
 mod step_lines;
 mod study;
 
@@ -39,6 +40,11 @@ enum Command {
     Report(cmd::report::Args),
     /// Compare envs across runs: p(solved), 1/p, best mean, normalised scores.
     Compare(cmd::compare::Args),
+    /// Check that a plugin's environments keep the contract (each in a child process).
+    Check(cmd::check::Args),
+    /// Internal: one environment's checks for `rwg check`, as JSON lines.
+    #[command(name = "__check-child", hide = true)]
+    CheckChild(cmd::check::ChildArgs),
 }
 
 fn main() {
@@ -54,6 +60,8 @@ fn main() {
         Command::Plot(a) => cmd::plot::run(a),
         Command::Report(a) => cmd::report::run(a),
         Command::Compare(a) => cmd::compare::run(a),
+        Command::Check(a) => cmd::check::run(a),
+        Command::CheckChild(a) => cmd::check::run_child(a),
     };
     if let Err(e) = result {
         // `rwg ... | head` closes the pipe early: not an error.

@@ -1,14 +1,48 @@
 //! A manifest expanded into cells, and what `run` and `merge` share about them.
 
+use crate::plugins::{describe, is_builtin, Found, Plugins};
 use anyhow::{Context, Result};
-use rwg_core::manifest::Manifest;
+use rwg_core::manifest::{EnvEntry, Manifest, ManifestError};
+use rwg_core::plugin::{PluginEnv, PluginEnvType};
 use rwg_core::policy::{Architecture, NetShape};
 use rwg_core::run_meta::{cell_dir_name, CellMeta, RunMeta, ShardMeta, WeightsMeta, RUN_FORMAT};
 use rwg_core::rundir::{finalize_cell, CellTotals, BLOCK_SAMPLES};
 use rwg_core::sampler::CellPlan;
-use rwg_core::{EnvSpec, Environment};
+use rwg_core::{ActionDtype, EnvError, EnvSpec, Environment, TimeLimit};
 use rwg_envs::{visit, EnvOptions, EnvVisitor};
 use std::path::Path;
+
+/// Where a cell's environment comes from.
+#[derive(Debug, Clone)]
+pub enum EnvSource {
+    /// Built in: statically dispatched through [`rwg_envs::visit`].
+    Builtin(EnvOptions),
+    /// From a plugin library (given with `plugin =` or found on `RWG_PLUGIN_PATH`).
+    Plugin(PluginSource),
+}
+
+/// A plugin environment as a cell builds it.
+#[derive(Debug, Clone)]
+pub struct PluginSource {
+    /// The environment type (its plugin, spec and constructor).
+    pub ty: PluginEnvType,
+    /// The manifest's `config` (`""` if not given).
+    pub config: String,
+    /// The manifest's time limit override.
+    pub max_episode_steps: Option<u32>,
+}
+
+impl PluginSource {
+    /// A new instance with the cell's config and time limit.
+    pub fn make(&self) -> Result<TimeLimit<PluginEnv>, EnvError> {
+        self.ty.make(&self.config, self.max_episode_steps)
+    }
+
+    /// The plugin library file.
+    pub fn path(&self) -> &Path {
+        &self.ty.plugin().path
+    }
+}
 
 /// One cell (env × architecture × bias) with everything resolved.
 pub struct Cell {
@@ -17,7 +51,7 @@ pub struct Cell {
     /// Architecture name from the manifest.
     pub arch_name: String,
     /// How the env is built.
-    pub opts: EnvOptions,
+    pub source: EnvSource,
     /// The env's description (with overrides applied).
     pub spec: EnvSpec,
     /// Solved score and where it came from.
@@ -37,28 +71,132 @@ impl EnvVisitor for SpecOf {
     }
 }
 
+/// Finds where env `i` of the manifest comes from and checks that it builds
+/// (errors point into the manifest). Returns the source and the spec with
+/// the manifest's overrides applied.
+fn resolve_env(
+    m: &Manifest,
+    i: usize,
+    plugins: &mut Plugins,
+) -> Result<(EnvSource, EnvSpec), ManifestError> {
+    let e: &EnvEntry = &m.envs[i];
+    let key = format!("envs[{i}]");
+    let id_err = |msg: String| m.error_at(e.id_span.clone(), msg);
+    let ty = match &e.plugin {
+        Some(path) => {
+            let at = e.plugin_span.clone().unwrap_or(e.id_span.clone());
+            if is_builtin(&e.id) {
+                return Err(id_err(format!(
+                    "{key}.id: '{}' is a built-in environment; remove `plugin` to run it \
+                     (a plugin cannot replace a built-in id)",
+                    e.id
+                )));
+            }
+            if !path.is_file() {
+                return Err(m.error_at(
+                    at,
+                    format!("{key}.plugin: no such file: {}", path.display()),
+                ));
+            }
+            let plugin = plugins
+                .file(path)
+                .map_err(|err| m.error_at(at, format!("{key}.plugin: {err}")))?;
+            match plugin.env(&e.id) {
+                Some(ty) => ty.clone(),
+                None => {
+                    let ids: Vec<&str> = plugin.envs().iter().map(|t| t.id()).collect();
+                    let hint = rwg_core::suggest::nearest(&e.id, ids.iter().copied())
+                        .map(|s| format!(" (did you mean '{s}'?)"))
+                        .unwrap_or_default();
+                    return Err(id_err(format!(
+                        "{key}.id: plugin '{}' ({}) has no environment '{}'{hint}; its environments: {}",
+                        plugin.id(),
+                        path.display(),
+                        e.id,
+                        ids.join(", ")
+                    )));
+                }
+            }
+        }
+        None => match plugins.find(&e.id) {
+            Found::Builtin => {
+                if let Some(at) = e.config_span.clone() {
+                    return Err(m.error_at(
+                        at,
+                        format!(
+                            "{key}.config: '{}' is built in; only plugin environments take a config string",
+                            e.id
+                        ),
+                    ));
+                }
+                let opts = EnvOptions {
+                    action_dtype: e.action_dtype,
+                    max_episode_steps: e.max_episode_steps,
+                };
+                let spec = visit(&e.id, &opts, SpecOf).expect("a built-in id");
+                return Ok((EnvSource::Builtin(opts), spec));
+            }
+            Found::OnPath(ty) => ty,
+            Found::Unknown(msg) => return Err(id_err(format!("envs: {msg}"))),
+        },
+    };
+    if e.action_dtype != ActionDtype::default() {
+        return Err(id_err(format!(
+            "{key}.action_dtype: applies to built-in environments only; {} takes its settings \
+             through `config`",
+            describe(&ty)
+        )));
+    }
+    let source = PluginSource {
+        ty,
+        config: e.config.clone().unwrap_or_default(),
+        max_episode_steps: e.max_episode_steps,
+    };
+    // Create one instance now, so that running the cells cannot fail to.
+    let env = source.make().map_err(|err| {
+        m.error_at(
+            e.config_span.clone().unwrap_or(e.id_span.clone()),
+            format!(
+                "{key}: cannot create '{}' with config {:?}: {err}",
+                e.id, source.config
+            ),
+        )
+    })?;
+    let spec = env.spec().clone();
+    Ok((EnvSource::Plugin(source), spec))
+}
+
 /// Expands the manifest into cells (env, then architecture, then bias),
-/// checking env ids (errors point into the manifest).
-pub fn plan_cells(m: &Manifest) -> Result<Vec<Cell>> {
+/// finding every env (errors point into the manifest).
+///
+/// An id is built in, or comes from the `plugin =` file given with it, or
+/// else from the plugins on `RWG_PLUGIN_PATH`; such an entry gets that
+/// file's path written into `m.envs[i].plugin`, so the resolved manifest
+/// (`manifest.toml` of a run) names the file that provided the env and a run
+/// resumed with another file is a different study. Plugins are loaded (their
+/// code runs) and one instance of each plugin env is created.
+pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>> {
     let mut cells = vec![];
-    for e in &m.envs {
-        if e.plugin.is_some() {
+    let mut plugins = Plugins::default();
+    for i in 0..m.envs.len() {
+        let (source, spec) = resolve_env(m, i, &mut plugins)?;
+        if let EnvSource::Plugin(p) = &source {
+            if m.envs[i].plugin.is_none() {
+                m.envs[i].plugin = Some(std::path::absolute(p.path())?);
+            }
+        }
+        let e = &m.envs[i];
+        if spec.max_episode_steps.is_none() {
             return Err(m
                 .error_at(
                     e.id_span.clone(),
                     format!(
-                        "env '{}': plugin environments are not supported by this build",
+                        "envs[{i}]: '{}' has no time limit; set max_episode_steps",
                         e.id
                     ),
                 )
                 .into());
         }
-        let opts = EnvOptions {
-            action_dtype: e.action_dtype,
-            max_episode_steps: e.max_episode_steps,
-        };
-        let spec = visit(&e.id, &opts, SpecOf)
-            .map_err(|err| m.error_at(e.id_span.clone(), format!("envs: {err}")))?;
         let (solved, solved_source) = match (e.solved, spec.reward_threshold) {
             (Some(s), _) => (Some(s), Some("manifest".to_string())),
             (None, Some(t)) => (Some(t), Some("env".to_string())),
@@ -78,7 +216,7 @@ pub fn plan_cells(m: &Manifest) -> Result<Vec<Cell>> {
                         dist: m.weights,
                     },
                     arch_name: a.name.clone(),
-                    opts,
+                    source: source.clone(),
                     spec: spec.clone(),
                     solved,
                     solved_source: solved_source.clone(),
@@ -91,6 +229,25 @@ pub fn plan_cells(m: &Manifest) -> Result<Vec<Cell>> {
 }
 
 impl Cell {
+    /// The dtype the env's continuous actions are computed in: the manifest's
+    /// for a built-in env; float64 for a plugin env (actions cross the ABI as
+    /// doubles; what the plugin does with them is up to it and its config).
+    pub fn action_dtype(&self) -> ActionDtype {
+        match &self.source {
+            EnvSource::Builtin(opts) => opts.action_dtype,
+            EnvSource::Plugin(_) => ActionDtype::F64,
+        }
+    }
+
+    /// A new instance of the cell's env behind a trait object (for code
+    /// outside the sampler's hot loop).
+    pub fn make_env(&self) -> Result<Box<dyn Environment + Send>> {
+        Ok(match &self.source {
+            EnvSource::Builtin(opts) => rwg_envs::make(&self.plan.env_id, opts)?,
+            EnvSource::Plugin(p) => Box::new(p.make()?),
+        })
+    }
+
     /// The cell's metadata for `run.json` / `cell.json`.
     pub fn meta(&self, m: &Manifest, env_steps: u64, wall_s: f64) -> CellMeta {
         let shape = NetShape::new(

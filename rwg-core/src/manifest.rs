@@ -21,6 +21,12 @@
 //! solved = 195             # optional, overrides the env's reward threshold
 //! max_episode_steps = 200  # optional, overrides the env's time limit
 //! action_dtype = "float64" # optional: float64 (default) or float32
+//!
+//! [[envs]]
+//! id = "acme/Maze-v0"
+//! plugin = "plugins/libacme.so"  # optional: the plugin library providing the env
+//!                                # (relative to the manifest's folder)
+//! config = "size=9"              # optional, plugin envs only: given to the plugin verbatim
 //! ```
 //!
 //! Unknown keys and bad values are errors that name the file, line, column
@@ -117,6 +123,7 @@ struct RawEnv {
     max_episode_steps: Option<Spanned<i64>>,
     action_dtype: Option<Spanned<String>>,
     plugin: Option<Spanned<String>>,
+    config: Option<Spanned<String>>,
 }
 
 /// A named architecture of the manifest.
@@ -141,12 +148,22 @@ pub struct EnvEntry {
     pub max_episode_steps: Option<u32>,
     /// dtype of continuous actions.
     pub action_dtype: ActionDtype,
-    /// Plugin library providing the env (absolute, resolved against the manifest's folder).
+    /// Plugin library providing the env (resolved against the manifest's
+    /// folder; absolute when the manifest was read with [`Manifest::load`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub plugin: Option<PathBuf>,
+    /// Config string given verbatim to a plugin env's `create`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub config: Option<String>,
     /// Where the id stands in the manifest (byte range), for error messages.
     #[serde(skip)]
     pub id_span: Range<usize>,
+    /// Where the `plugin` value stands, if given.
+    #[serde(skip)]
+    pub plugin_span: Option<Range<usize>>,
+    /// Where the `config` value stands, if given.
+    #[serde(skip)]
+    pub config_span: Option<Range<usize>>,
 }
 
 /// A validated manifest.
@@ -186,15 +203,24 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
 }
 
 impl Manifest {
-    /// Reads and validates a manifest file.
+    /// Reads and validates a manifest file. Plugin paths become absolute
+    /// (resolved against the manifest's folder), so the resolved manifest
+    /// ([`Manifest::to_toml`]) names the same files wherever it is written.
     pub fn load(path: &Path) -> Result<Manifest, LoadError> {
         let file = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
             file: file.clone(),
             source,
         })?;
-        let base = path.parent().unwrap_or(Path::new("."));
-        Ok(Manifest::parse(&text, &file, base)?)
+        let base = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        let base = std::path::absolute(base).map_err(|source| LoadError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        Ok(Manifest::parse(&text, &file, &base)?)
     }
 
     /// An error located at `span` of this manifest's text.
@@ -381,7 +407,10 @@ impl Manifest {
                 max_episode_steps,
                 action_dtype,
                 plugin,
+                config: e.config.as_ref().map(|c| c.get_ref().clone()),
                 id_span: e.id.span(),
+                plugin_span: e.plugin.as_ref().map(|p| p.span()),
+                config_span: e.config.as_ref().map(|c| c.span()),
             });
         }
 
@@ -505,6 +534,7 @@ id = "Pendulum-v0"
 solved = -140.5
 action_dtype = "float32"
 plugin = "libs/x.so"
+config = "a=1"
 "#;
 
     fn parse(text: &str) -> Result<Manifest, ManifestError> {
@@ -525,6 +555,12 @@ plugin = "libs/x.so"
             Some(Path::new("/base/libs/x.so"))
         );
         assert_eq!(&GOOD[m.envs[1].id_span.clone()], "\"Pendulum-v0\"");
+        assert_eq!(
+            &GOOD[m.envs[1].plugin_span.clone().unwrap()],
+            "\"libs/x.so\""
+        );
+        assert_eq!(m.envs[1].config.as_deref(), Some("a=1"));
+        assert_eq!(m.envs[0].plugin_span, None);
     }
 
     #[test]
@@ -539,6 +575,8 @@ plugin = "libs/x.so"
         assert_eq!(again.architectures, m.architectures);
         assert_eq!(again.bias, m.bias);
         assert_eq!(again.envs[1].solved, Some(-140.5));
+        assert_eq!(again.envs[1].config.as_deref(), Some("a=1"));
+        assert_eq!(again.envs[1].plugin, m.envs[1].plugin);
         assert!(m.study_differences(&again).is_empty());
         let other = parse(&GOOD.replace("episodes = 2", "episodes = 3")).unwrap();
         assert_eq!(m.study_differences(&other), ["episodes: 2 vs 3"]);

@@ -164,9 +164,11 @@ pub struct EpisodeResult {
     pub steps: u32,
 }
 
-/// An environment failure while sampling, with where it happened.
+/// An environment failure while sampling, with where it happened. The
+/// message includes the environment's error (which is therefore not also
+/// given as the error's `source()`, so error chains print it once).
 #[derive(Debug, Error, Clone, PartialEq)]
-#[error("{env}: sample {sample}, episode {episode}, step {step}: {source}")]
+#[error("{env}: sample {sample}, episode {episode}, step {step}: {error}")]
 pub struct SampleError {
     /// Environment id.
     pub env: String,
@@ -177,7 +179,7 @@ pub struct SampleError {
     /// Step (0 = reset).
     pub step: u32,
     /// What the environment reported.
-    pub source: EnvError,
+    pub error: EnvError,
 }
 
 /// Per-worker buffers: a policy and an observation buffer.
@@ -215,12 +217,12 @@ impl<E: Environment> Worker<E> {
             let episode = episode as u32;
             let r = reset_seed(plan.seed, &plan.env_id, sample, episode);
             *slot = run_episode(&mut self.env, &mut self.policy, &mut self.obs, r).map_err(
-                |(step, source)| SampleError {
+                |(step, error)| SampleError {
                     env: plan.env_id.clone(),
                     sample,
                     episode,
                     step,
-                    source,
+                    error,
                 },
             )?;
         }

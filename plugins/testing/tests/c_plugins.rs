@@ -5,7 +5,8 @@ mod common;
 
 use common::{c_out_dir, compile_c};
 use rwg_core::plugin::{
-    check_plugin, find_plugin_files, load_plugin, load_plugin_path, CheckStatus, LoadErrorKind,
+    check_plugin, find_plugin_files, load_plugin, load_plugin_path, load_plugin_path_reserving,
+    CheckStatus, LoadErrorKind,
 };
 use rwg_core::{Action, EnvError, Environment, Space};
 
@@ -214,4 +215,21 @@ fn plugin_path_scan_reports_every_rejected_file() {
         "environment id 'c_example/Chain-v0' is already provided by {}",
         a.join(so("chain")).display()
     )));
+
+    // Ids the host reserves (its built-ins) reject every file exporting them.
+    let scan = load_plugin_path_reserving(&path, &|id| id == "c_example/Chain-v0");
+    let ids: Vec<&str> = scan.plugins.iter().map(|p| p.id()).collect();
+    assert_eq!(ids, ["handshake"]);
+    for f in ["chain", "chain_copy"] {
+        let r = scan
+            .rejected
+            .iter()
+            .find(|r| r.path.ends_with(so(f)))
+            .unwrap();
+        assert_eq!(
+            r.reason,
+            "environment id 'c_example/Chain-v0' is built into rwg \
+             (plugin ids must differ from built-in ones)"
+        );
+    }
 }

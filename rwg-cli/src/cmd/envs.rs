@@ -1,48 +1,92 @@
 //! `rwg envs`: list the environments.
 
+use crate::plugins::scan_plugin_path;
 use anyhow::Result;
 use rwg_core::float::fmt_f64;
+use rwg_core::plugin::{load_plugin, Plugin, PLUGIN_PATH_VAR};
 use rwg_envs::{make, EnvOptions, REGISTRY};
 use serde::Serialize;
+use std::path::PathBuf;
 
 /// Arguments of `rwg envs`.
 #[derive(clap::Args)]
+#[command(after_help = "\
+Without --plugin: the built-in environments, then those of the plugins found in the
+folders of RWG_PLUGIN_PATH (colon-separated, like PATH). Plugin files found there
+but rejected (not loadable, an id already taken) are listed on stderr with the reason.
+
+Examples:
+  rwg envs
+  rwg envs --plugin target/release/librwg_plugin_classic_control.so --json
+  RWG_PLUGIN_PATH=~/rwg-plugins rwg envs")]
 pub struct Args {
     /// Print a JSON array instead of a table.
     #[arg(long)]
     json: bool,
+    /// List only the environments of this plugin library (repeatable).
+    #[arg(long, value_name = "LIBRARY")]
+    plugin: Vec<PathBuf>,
 }
 
 #[derive(Serialize)]
 struct Row {
     #[serde(flatten)]
     spec: rwg_core::EnvSpec,
-    summary: &'static str,
+    summary: String,
     /// Whether `--action-dtype` changes the env's arithmetic.
     action_dtype_sensitive: bool,
+    /// The plugin library providing the env (`null`: built in).
+    plugin: Option<PathBuf>,
+}
+
+fn plugin_rows(p: &Plugin) -> impl Iterator<Item = Row> + '_ {
+    p.envs().iter().map(|ty| Row {
+        spec: ty.spec().clone(),
+        summary: ty.summary().to_string(),
+        action_dtype_sensitive: false,
+        plugin: Some(ty.plugin().path.clone()),
+    })
 }
 
 /// Runs `rwg envs`.
 pub fn run(args: Args) -> Result<()> {
-    let rows: Vec<Row> = REGISTRY
-        .iter()
-        .map(|r| Row {
-            spec: make(r.id, &EnvOptions::default())
-                .expect("registered env")
-                .spec()
-                .clone(),
-            summary: r.summary,
-            action_dtype_sensitive: r.dtype_sensitive,
-        })
-        .collect();
+    let mut rows: Vec<Row> = vec![];
+    if args.plugin.is_empty() {
+        rows.extend(REGISTRY.iter().map(|r| {
+            Row {
+                spec: make(r.id, &EnvOptions::default())
+                    .expect("registered env")
+                    .spec()
+                    .clone(),
+                summary: r.summary.to_string(),
+                action_dtype_sensitive: r.dtype_sensitive,
+                plugin: None,
+            }
+        }));
+        let scan = scan_plugin_path();
+        for p in &scan.plugins {
+            rows.extend(plugin_rows(p));
+        }
+        if !scan.rejected.is_empty() {
+            eprintln!("rejected on {PLUGIN_PATH_VAR}:");
+            for r in &scan.rejected {
+                eprintln!("  {r}");
+            }
+        }
+    } else {
+        for path in &args.plugin {
+            rows.extend(plugin_rows(&load_plugin(path)?));
+        }
+    }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());
     }
-    let table: Vec<[String; 5]> = rows
+    let with_plugins = rows.iter().any(|r| r.plugin.is_some());
+    let table: Vec<Vec<String>> = rows
         .iter()
         .map(|r| {
-            [
+            let mut cells = vec![
                 r.spec.id.clone(),
                 r.spec.observation_space.short(),
                 r.spec.action_space.short(),
@@ -50,27 +94,38 @@ pub fn run(args: Args) -> Result<()> {
                     .max_episode_steps
                     .map_or("-".into(), |m| m.to_string()),
                 r.spec.reward_threshold.map_or("-".into(), fmt_f64),
-            ]
+            ];
+            if with_plugins {
+                cells.push(
+                    r.plugin
+                        .as_ref()
+                        .map_or("(built in)".into(), |p| p.display().to_string()),
+                );
+            }
+            cells
         })
         .collect();
-    let header = ["id", "observation", "action", "time limit", "solved at"];
-    let mut width = header.map(str::len);
+    let mut header = vec!["id", "observation", "action", "time limit", "solved at"];
+    if with_plugins {
+        header.push("plugin");
+    }
+    let mut width: Vec<usize> = header.iter().map(|h| h.len()).collect();
     for row in &table {
         for (w, c) in width.iter_mut().zip(row) {
             *w = (*w).max(c.len());
         }
     }
-    let line = |cells: [&str; 5]| {
+    let line = |cells: &[&str]| {
         let parts: Vec<String> = cells
             .iter()
-            .zip(width)
+            .zip(&width)
             .map(|(c, w)| format!("{c:<w$}"))
             .collect();
         println!("{}", parts.join("  ").trim_end());
     };
-    line(header);
+    line(&header);
     for row in &table {
-        line([&row[0], &row[1], &row[2], &row[3], &row[4]]);
+        line(&row.iter().map(String::as_str).collect::<Vec<_>>());
     }
     Ok(())
 }

@@ -85,7 +85,8 @@ pub fn run(args: Args) -> Result<()> {
         bail!("missing shard(s) {} of {count}", missing.join(", "));
     }
 
-    let cells = plan_cells(m)?;
+    // The shards' manifests name their plugin files already: nothing to fill in.
+    let cells = plan_cells(&mut m.clone())?;
     let nb = n_blocks(m.samples);
     // Every block must be in the shard that owns it.
     for (ci, cell) in cells.iter().enumerate() {

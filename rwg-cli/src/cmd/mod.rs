@@ -1,5 +1,6 @@
 //! One module per `rwg` subcommand.
 
+pub mod check;
 pub mod compare;
 pub mod envs;
 pub mod merge;

@@ -8,7 +8,6 @@ use rwg_core::manifest::Manifest;
 use rwg_core::policy::Policy;
 use rwg_core::sampler::{reset_seed, run_episode};
 use rwg_core::{Environment, Space};
-use rwg_envs::make;
 use serde::Serialize;
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -163,7 +162,7 @@ fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Ex
         sample,
         max_episode_steps: cell.spec.max_episode_steps,
         action_space: &cell.spec.action_space,
-        action_dtype: cell.opts.action_dtype.name(),
+        action_dtype: cell.action_dtype().name(),
         activation: "tanh",
         forward: "for W in layers: x = tanh(W @ (concat(x, [1.0]) if bias else x)); y = x",
         action,
@@ -176,9 +175,9 @@ fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Ex
 
 /// Runs `rwg replay`.
 pub fn run(args: Args) -> Result<()> {
-    let m = Manifest::load(&args.run_dir.join("manifest.toml"))
+    let mut m = Manifest::load(&args.run_dir.join("manifest.toml"))
         .with_context(|| format!("{} is not an rwg run directory", args.run_dir.display()))?;
-    let cells = plan_cells(&m)?;
+    let cells = plan_cells(&mut m)?;
     let cell = find_cell(&cells, &m, &args.env, &args.arch, args.bias)?;
     if args.sample >= m.samples {
         bail!(
@@ -187,7 +186,7 @@ pub fn run(args: Args) -> Result<()> {
             m.samples - 1
         );
     }
-    let mut env = make(&cell.plan.env_id, &cell.opts)?;
+    let mut env = cell.make_env()?;
     let mut policy = cell.plan.policy(&cell.spec, args.sample);
     let mut obs = vec![0.0; cell.spec.obs_dim()];
 

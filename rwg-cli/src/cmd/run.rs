@@ -1,6 +1,6 @@
 //! `rwg run`: the RWG study described by a manifest, resumable and shardable.
 
-use crate::study::{new_meta, plan_cells, read_meta, summary_header, write_meta, Cell};
+use crate::study::{new_meta, plan_cells, read_meta, summary_header, write_meta, Cell, EnvSource};
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rwg_core::export::{rfc3339, write_atomic};
@@ -136,7 +136,7 @@ pub fn run(args: Args) -> Result<()> {
             PathBuf::from("runs").join(stem)
         }
     };
-    let cells = plan_cells(&m)?;
+    let cells = plan_cells(&mut m)?;
     let threads = m
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
@@ -244,8 +244,12 @@ pub fn run(args: Args) -> Result<()> {
                     std::process::exit(130)
                 }
                 e => Err(anyhow::Error::new(e).context(format!(
-                    "cell {} failed; the blocks and cells finished before are saved in {}",
+                    "cell {}{} failed; the blocks and cells finished before are saved in {}",
                     cell.dir,
+                    match &cell.source {
+                        EnvSource::Plugin(p) => format!(" (plugin {})", p.path().display()),
+                        EnvSource::Builtin(_) => String::new(),
+                    },
                     out.display()
                 ))),
             };
@@ -316,7 +320,9 @@ fn shard_flag(s: Option<ShardMeta>) -> String {
     })
 }
 
-/// Runs the given blocks of a cell, committing each; statically dispatched.
+/// Runs the given blocks of a cell, committing each. Built-in envs are
+/// statically dispatched (the sampler is monomorphised for each); plugin envs
+/// run through the same generic sampler with `TimeLimit<PluginEnv>`.
 fn run_cell_blocks(
     cell: &Cell,
     blocks: &[std::ops::Range<u64>],
@@ -331,9 +337,11 @@ fn run_cell_blocks(
         episodes: u32,
         on_done: F,
     }
-    impl<F: FnMut(&BlockResult)> EnvVisitor for Runner<'_, F> {
-        type Output = Result<(), StopError>;
-        fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
+    impl<F: FnMut(&BlockResult)> Runner<'_, F> {
+        fn run<E: Environment + Send>(
+            self,
+            make_env: impl Fn() -> E + Sync,
+        ) -> Result<(), StopError> {
             let Runner {
                 cell,
                 blocks,
@@ -346,7 +354,7 @@ fn run_cell_blocks(
                 &cell.plan,
                 blocks,
                 wave,
-                || env.clone(),
+                make_env,
                 |b: BlockResult| -> Result<(), StopError> {
                     write_block(dir, &b, episodes)?;
                     on_done(&b);
@@ -358,6 +366,12 @@ fn run_cell_blocks(
             )
         }
     }
+    impl<F: FnMut(&BlockResult)> EnvVisitor for Runner<'_, F> {
+        type Output = Result<(), StopError>;
+        fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
+            self.run(|| env.clone())
+        }
+    }
     let runner = Runner {
         cell,
         blocks,
@@ -365,8 +379,14 @@ fn run_cell_blocks(
         episodes,
         on_done,
     };
-    visit(&cell.plan.env_id, &cell.opts, runner)
-        .expect("env ids are checked when cells are planned")
+    match &cell.source {
+        EnvSource::Builtin(opts) => visit(&cell.plan.env_id, opts, runner)
+            .expect("env ids are checked when cells are planned"),
+        EnvSource::Plugin(p) => runner.run(|| {
+            p.make()
+                .expect("an instance was created when the cells were planned")
+        }),
+    }
 }
 
 fn read_cell_meta(dir: &Path) -> Result<CellMeta> {

@@ -17,7 +17,7 @@
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::Path;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::loader::{check_env_id, load_plugin, PluginEnvType};
 use crate::env::{Action, EnvError, EnvSpec, Environment};
@@ -25,7 +25,7 @@ use crate::space::Space;
 use crate::time_limit::TimeLimit;
 
 /// The verdict of one check.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum CheckStatus {
     /// The check passed.
@@ -37,7 +37,7 @@ pub enum CheckStatus {
 }
 
 /// One check's outcome.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CheckResult {
     /// The environment id, or `None` for a check of the plugin file itself.
     pub env: Option<String>,
@@ -75,12 +75,45 @@ const ROLLOUT_STEPS: usize = 1000;
 /// Time limits above this are not run to the end by the truncation check.
 const MAX_TRUNCATION_RUN: u32 = 100_000;
 
-struct Report {
-    env: Option<String>,
-    results: Vec<CheckResult>,
+/// The progress of the checks, reported as they run by the `*_observed`
+/// functions. A host that runs the checks in a child process streams these,
+/// so that when the plugin crashes the child it knows which check did it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CheckEvent<'a> {
+    /// A check is about to run (`env` is `None` before the first instance
+    /// of a [`check_env`] run exists).
+    Started {
+        /// The environment id, if known yet.
+        env: Option<&'a str>,
+        /// The check's name.
+        name: &'a str,
+    },
+    /// A check finished with this result.
+    Finished(&'a CheckResult),
 }
 
-impl Report {
+struct Report<'o> {
+    env: Option<String>,
+    results: Vec<CheckResult>,
+    observe: &'o mut dyn FnMut(CheckEvent<'_>),
+}
+
+impl<'o> Report<'o> {
+    fn new(env: Option<String>, observe: &'o mut dyn FnMut(CheckEvent<'_>)) -> Self {
+        Report {
+            env,
+            results: Vec::new(),
+            observe,
+        }
+    }
+
+    fn start(&mut self, name: &str) {
+        (self.observe)(CheckEvent::Started {
+            env: self.env.as_deref(),
+            name,
+        });
+    }
+
     fn add(&mut self, name: &str, status: CheckStatus, message: impl Into<String>) {
         self.results.push(CheckResult {
             env: self.env.clone(),
@@ -88,10 +121,14 @@ impl Report {
             status,
             message: message.into(),
         });
+        (self.observe)(CheckEvent::Finished(
+            self.results.last().expect("just pushed"),
+        ));
     }
 
     /// Runs a check, turning a panic into a failure.
     fn run(&mut self, name: &str, f: impl FnOnce() -> (CheckStatus, String)) {
+        self.start(name);
         let (status, msg) = match catch_unwind(AssertUnwindSafe(f)) {
             Ok(r) => r,
             Err(p) => (
@@ -272,10 +309,21 @@ where
     Er: std::fmt::Display,
     F: Fn() -> Result<E, Er> + Sync,
 {
-    let mut r = Report {
-        env: None,
-        results: Vec::new(),
-    };
+    check_env_observed(make, &mut |_| {})
+}
+
+/// [`check_env`], reporting every check to `observe` as it starts and ends.
+pub fn check_env_observed<E, Er, F>(
+    make: F,
+    observe: &mut dyn FnMut(CheckEvent<'_>),
+) -> Vec<CheckResult>
+where
+    E: Environment,
+    Er: std::fmt::Display,
+    F: Fn() -> Result<E, Er> + Sync,
+{
+    let mut r = Report::new(None, observe);
+    r.start("create");
     let first = match catch_unwind(AssertUnwindSafe(&make)) {
         Ok(Ok(e)) => e,
         Ok(Err(e)) => {
@@ -727,11 +775,18 @@ fn check_truncation<E: Environment>(
 /// ABI: id style, non-integral and wrongly sized discrete actions, and reset
 /// without a seed. Instances are created with `config`.
 pub fn check_plugin_env(ty: &PluginEnvType, config: &str) -> Vec<CheckResult> {
-    let mut results = check_env(|| ty.create(config));
-    let mut r = Report {
-        env: Some(ty.id().to_string()),
-        results: Vec::new(),
-    };
+    check_plugin_env_observed(ty, config, &mut |_| {})
+}
+
+/// [`check_plugin_env`], reporting every check to `observe` as it starts and
+/// ends (what `rwg check`'s child process streams to its parent).
+pub fn check_plugin_env_observed(
+    ty: &PluginEnvType,
+    config: &str,
+    observe: &mut dyn FnMut(CheckEvent<'_>),
+) -> Vec<CheckResult> {
+    let mut results = check_env_observed(|| ty.create(config), &mut *observe);
+    let mut r = Report::new(Some(ty.id().to_string()), observe);
     let id = ty.id();
     r.run("id", || {
         if let Err(e) = check_env_id(id) {
@@ -808,10 +863,9 @@ pub fn check_plugin_env(ty: &PluginEnvType, config: &str) -> Vec<CheckResult> {
 /// A file that does not load gives one failed `"load"` result with the reason.
 /// Runs in this process: a crashing plugin crashes it (see the module docs).
 pub fn check_plugin(path: &Path) -> Vec<CheckResult> {
-    let mut r = Report {
-        env: None,
-        results: Vec::new(),
-    };
+    let mut quiet = |_: CheckEvent<'_>| {};
+    let mut r = Report::new(None, &mut quiet);
+    r.start("load");
     let plugin = match load_plugin(path) {
         Ok(p) => p,
         Err(e) => {

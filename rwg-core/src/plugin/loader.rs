@@ -142,6 +142,13 @@ pub enum LoadErrorKind {
         /// The file that provides it.
         other: PathBuf,
     },
+    /// An id belongs to the host (a built-in environment; see
+    /// [`load_plugin_path_reserving`]).
+    #[error("environment id '{id}' is built into rwg (plugin ids must differ from built-in ones)")]
+    IdReserved {
+        /// The id.
+        id: String,
+    },
 }
 
 /// Facts about a loaded plugin file.
@@ -908,6 +915,16 @@ pub struct PluginScan {
 /// already provides, is rejected as a whole, with its reason; nothing is
 /// silently skipped. Loading runs the plugins' code (see the module docs).
 pub fn load_plugin_path(search_path: &OsStr) -> PluginScan {
+    load_plugin_path_reserving(search_path, &|_| false)
+}
+
+/// [`load_plugin_path`], also rejecting every file that exports an id for
+/// which `reserved` is true (the host's built-in environments: a plugin on
+/// the search path never shadows them).
+pub fn load_plugin_path_reserving(
+    search_path: &OsStr,
+    reserved: &dyn Fn(&str) -> bool,
+) -> PluginScan {
     let found = find_plugin_files(search_path);
     let mut scan = PluginScan {
         plugins: Vec::new(),
@@ -916,6 +933,16 @@ pub fn load_plugin_path(search_path: &OsStr) -> PluginScan {
     for path in found.files {
         match load_plugin(&path) {
             Ok(p) => {
+                if let Some(e) = p.envs.iter().find(|e| reserved(e.id())) {
+                    scan.rejected.push(Rejected {
+                        reason: LoadErrorKind::IdReserved {
+                            id: e.id().to_string(),
+                        }
+                        .to_string(),
+                        path,
+                    });
+                    continue;
+                }
                 let taken = p.envs.iter().find_map(|e| {
                     scan.plugins
                         .iter()
@@ -942,8 +969,14 @@ pub fn load_plugin_path(search_path: &OsStr) -> PluginScan {
 /// [`load_plugin_path`] on the `RWG_PLUGIN_PATH` environment variable (an
 /// empty scan if it is unset).
 pub fn load_plugin_path_from_env() -> PluginScan {
+    load_plugin_path_from_env_reserving(&|_| false)
+}
+
+/// [`load_plugin_path_reserving`] on the `RWG_PLUGIN_PATH` environment
+/// variable (an empty scan if it is unset).
+pub fn load_plugin_path_from_env_reserving(reserved: &dyn Fn(&str) -> bool) -> PluginScan {
     match std::env::var_os(PLUGIN_PATH_VAR) {
-        Some(p) => load_plugin_path(&p),
+        Some(p) => load_plugin_path_reserving(&p, reserved),
         None => PluginScan::default(),
     }
 }

@@ -15,12 +15,16 @@ pub mod check;
 pub mod export;
 pub mod loader;
 
-pub use check::{check_env, check_plugin, check_plugin_env, CheckResult, CheckStatus};
+pub use check::{
+    check_env, check_env_observed, check_plugin, check_plugin_env, check_plugin_env_observed,
+    CheckEvent, CheckResult, CheckStatus,
+};
 pub use export::{DynEnv, PluginBuilder};
 pub use loader::{
     find_plugin_files, library_file_name, load_plugin, load_plugin_path, load_plugin_path_from_env,
-    LoadError, LoadErrorKind, Plugin, PluginEnv, PluginEnvType, PluginFiles, PluginInfo,
-    PluginScan, Rejected, PLUGIN_PATH_VAR,
+    load_plugin_path_from_env_reserving, load_plugin_path_reserving, LoadError, LoadErrorKind,
+    Plugin, PluginEnv, PluginEnvType, PluginFiles, PluginInfo, PluginScan, Rejected,
+    PLUGIN_PATH_VAR,
 };
 
 #[cfg(test)]

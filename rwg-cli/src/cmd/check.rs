@@ -1,0 +1,361 @@
+//! `rwg check`: the plugin conformance checks, each environment in a child
+//! process, so that a plugin that crashes (segfault, abort) is reported as a
+//! failed check instead of taking rwg down.
+//!
+//! The parent re-executes the current binary as `rwg __check-child PLUGIN`
+//! (load the plugin, list its envs) and then `rwg __check-child PLUGIN --env
+//! ID` per environment. The child writes one JSON object per line:
+//! `{"loaded": ...}` or `{"load_error": ...}`; then `{"started": NAME}`
+//! before each check, `{"result": CheckResult}` after it, and `{"done":
+//! true}` at the end. A child that dies before `done` failed the check it had
+//! started.
+
+use anyhow::{bail, Context, Result};
+use rwg_core::plugin::{
+    check_plugin_env_observed, load_plugin, CheckEvent, CheckResult, CheckStatus,
+};
+use serde::{Deserialize, Serialize};
+use std::io::{Read, Write};
+use std::path::PathBuf;
+use std::process::{Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+/// Arguments of `rwg check`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Checks, after Gymnasium's env checker: instances can be created; the spaces are sane;
+step before reset is refused; reset is deterministic and uses its seed; random
+rollouts give finite rewards and observations inside the observation space; the same
+seed and actions give the same trajectory, also with two instances interleaved or on
+two threads (no hidden shared state); the time limit truncates; invalid actions are
+refused; plus the ABI's own checks (id style, malformed raw actions, unseeded reset).
+
+Each environment is checked in a child process: a plugin that crashes it is reported
+as a failed check with the signal. Exits non-zero if any check failed.
+
+Examples:
+  rwg check target/release/librwg_example_plugin.so
+  rwg check examples/plugin-c/libchain.so --env c_example/Chain-v0 --config length=20
+  rwg check libmine.so --json > checks.json")]
+pub struct Args {
+    /// The plugin library (`.so`, `.dylib`, `.dll`).
+    plugin: PathBuf,
+    /// Check only this environment.
+    #[arg(long, value_name = "ID")]
+    env: Option<String>,
+    /// The config string instances are created with.
+    #[arg(long, default_value = "")]
+    config: String,
+    /// Print the results as a JSON array.
+    #[arg(long)]
+    json: bool,
+    /// Seconds an environment's checks may take before they count as hung.
+    #[arg(long, default_value_t = 300, value_name = "SECONDS")]
+    timeout: u64,
+}
+
+/// Arguments of the hidden `rwg __check-child` (run by `rwg check`).
+#[derive(clap::Args)]
+pub struct ChildArgs {
+    /// The plugin library.
+    plugin: PathBuf,
+    /// The environment to check; without it, load the plugin and list its envs.
+    #[arg(long)]
+    env: Option<String>,
+    /// The config string.
+    #[arg(long, default_value = "")]
+    config: String,
+}
+
+/// What the child reports after loading the plugin.
+#[derive(Debug, Serialize, Deserialize)]
+struct Loaded {
+    id: String,
+    version: String,
+    abi: (u32, u32),
+    envs: Vec<String>,
+}
+
+/// One line of the child's output.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+enum Line {
+    Loaded(Loaded),
+    LoadError(String),
+    Started(String),
+    Result(CheckResult),
+    Done(bool),
+}
+
+fn emit(out: &mut impl Write, line: &Line) {
+    // The parent reads what was written before a crash: flush every line.
+    let text = serde_json::to_string(line).expect("serialisable");
+    let _ = writeln!(out, "{text}").and_then(|_| out.flush());
+}
+
+/// Runs `rwg __check-child`.
+pub fn run_child(args: ChildArgs) -> Result<()> {
+    let stdout = std::io::stdout();
+    let mut out = stdout.lock();
+    let plugin = match load_plugin(&args.plugin) {
+        Ok(p) => p,
+        Err(e) => {
+            emit(&mut out, &Line::LoadError(e.to_string()));
+            return Ok(());
+        }
+    };
+    let Some(id) = args.env else {
+        let info = plugin.info();
+        emit(
+            &mut out,
+            &Line::Loaded(Loaded {
+                id: info.id.clone(),
+                version: info.version.clone(),
+                abi: info.abi,
+                envs: plugin.envs().iter().map(|e| e.id().to_string()).collect(),
+            }),
+        );
+        return Ok(());
+    };
+    let ty = plugin
+        .env(&id)
+        .with_context(|| format!("plugin '{}' has no environment '{id}'", plugin.id()))?;
+    check_plugin_env_observed(ty, &args.config, &mut |ev| match ev {
+        CheckEvent::Started { name, .. } => emit(&mut out, &Line::Started(name.to_string())),
+        CheckEvent::Finished(r) => emit(&mut out, &Line::Result(r.clone())),
+    });
+    emit(&mut out, &Line::Done(true));
+    Ok(())
+}
+
+/// How a child process ended.
+struct ChildRun {
+    lines: Vec<Line>,
+    stderr: String,
+    /// `None`: killed after the timeout.
+    status: Option<ExitStatus>,
+}
+
+/// Runs `rwg __check-child` with `args`, killing it after `timeout`.
+fn spawn_child(args: &[&std::ffi::OsStr], timeout: Duration) -> Result<ChildRun> {
+    let exe = std::env::current_exe().context("cannot find the rwg executable")?;
+    let mut child = Command::new(&exe)
+        .arg("__check-child")
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .with_context(|| format!("cannot run {}", exe.display()))?;
+    let drain = |mut r: Box<dyn Read + Send>| {
+        std::thread::spawn(move || {
+            let mut buf = Vec::new();
+            let _ = r.read_to_end(&mut buf);
+            String::from_utf8_lossy(&buf).into_owned()
+        })
+    };
+    let out = drain(Box::new(child.stdout.take().expect("piped")));
+    let err = drain(Box::new(child.stderr.take().expect("piped")));
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait()? {
+            break Some(s);
+        }
+        if t0.elapsed() >= timeout {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    let stdout = out.join().unwrap_or_default();
+    let stderr = err.join().unwrap_or_default();
+    // A line cut short by a crash is dropped.
+    let lines = stdout
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    Ok(ChildRun {
+        lines,
+        stderr,
+        status,
+    })
+}
+
+/// How a child ended, to follow "the checking process": "was killed by
+/// signal 11 (SIGSEGV)", "exited with status 3", ...
+fn describe_exit(status: Option<ExitStatus>, timeout: Duration) -> String {
+    let Some(status) = status else {
+        return format!(
+            "did not finish within {} s (hung?) and was killed",
+            timeout.as_secs()
+        );
+    };
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        if let Some(sig) = status.signal() {
+            let name = match sig {
+                4 => " (SIGILL)",
+                6 => " (SIGABRT)",
+                7 => " (SIGBUS)",
+                8 => " (SIGFPE)",
+                9 => " (SIGKILL)",
+                11 => " (SIGSEGV)",
+                15 => " (SIGTERM)",
+                _ => "",
+            };
+            return format!("was killed by signal {sig}{name}");
+        }
+    }
+    match status.code() {
+        Some(c) => format!("exited with status {c}"),
+        None => format!("ended: {status}"),
+    }
+}
+
+/// The last few lines of a child's stderr, for a crash report.
+fn stderr_tail(stderr: &str) -> String {
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    let tail = &lines[lines.len().saturating_sub(3)..];
+    if tail.is_empty() {
+        String::new()
+    } else {
+        format!("; its stderr ended with: {}", tail.join(" | "))
+    }
+}
+
+/// Runs `rwg check`.
+pub fn run(args: Args) -> Result<()> {
+    let timeout = Duration::from_secs(args.timeout.max(1));
+    let plugin_arg = args.plugin.as_os_str();
+    let mut results: Vec<CheckResult> = vec![];
+    let report = |r: CheckResult, results: &mut Vec<CheckResult>| {
+        if !args.json {
+            println!("{r}");
+        }
+        results.push(r);
+    };
+    let load_result = |status, message: String| CheckResult {
+        env: None,
+        name: "load".into(),
+        status,
+        message,
+    };
+
+    let listing = spawn_child(&[plugin_arg], timeout)?;
+    let loaded = listing.lines.into_iter().find_map(|l| match l {
+        Line::Loaded(l) => Some(Ok(l)),
+        Line::LoadError(e) => Some(Err(e)),
+        _ => None,
+    });
+    let loaded = match loaded {
+        Some(Ok(l)) if listing.status.is_some_and(|s| s.success()) => l,
+        Some(Err(e)) => {
+            report(load_result(CheckStatus::Failed, e), &mut results);
+            return finish(&args, &results);
+        }
+        _ => {
+            let msg = format!(
+                "loading {}: the checking process {}{}",
+                args.plugin.display(),
+                describe_exit(listing.status, timeout),
+                stderr_tail(&listing.stderr)
+            );
+            report(load_result(CheckStatus::Failed, msg), &mut results);
+            return finish(&args, &results);
+        }
+    };
+    report(
+        load_result(
+            CheckStatus::Passed,
+            format!(
+                "plugin '{}' {} (ABI {}.{}), {} environment(s)",
+                loaded.id,
+                loaded.version,
+                loaded.abi.0,
+                loaded.abi.1,
+                loaded.envs.len()
+            ),
+        ),
+        &mut results,
+    );
+    let envs: Vec<&String> = match &args.env {
+        None => loaded.envs.iter().collect(),
+        Some(id) => match loaded.envs.iter().find(|e| *e == id) {
+            Some(e) => vec![e],
+            None => bail!(
+                "plugin '{}' has no environment '{id}'; its environments: {}",
+                loaded.id,
+                loaded.envs.join(", ")
+            ),
+        },
+    };
+
+    for id in envs {
+        let run = spawn_child(
+            &[
+                plugin_arg,
+                "--env".as_ref(),
+                id.as_ref(),
+                "--config".as_ref(),
+                args.config.as_ref(),
+            ],
+            timeout,
+        )?;
+        let mut started: Option<String> = None;
+        let mut done = false;
+        for line in run.lines {
+            match line {
+                Line::Started(name) => started = Some(name),
+                Line::Result(r) => {
+                    started = None;
+                    report(r, &mut results);
+                }
+                Line::Done(_) => done = true,
+                Line::Loaded(_) | Line::LoadError(_) => {}
+            }
+        }
+        if !done || !run.status.is_some_and(|s| s.success()) {
+            let during = match &started {
+                Some(name) => format!("during the '{name}' check"),
+                None => "between checks".into(),
+            };
+            report(
+                CheckResult {
+                    env: Some(id.clone()),
+                    name: started.unwrap_or_else(|| "process".into()),
+                    status: CheckStatus::Failed,
+                    message: format!(
+                        "the checking process {} {during}: the plugin would take rwg \
+                         down with it{}",
+                        describe_exit(run.status, timeout),
+                        stderr_tail(&run.stderr)
+                    ),
+                },
+                &mut results,
+            );
+        }
+    }
+    finish(&args, &results)
+}
+
+/// Prints the JSON or the summary; fails if any check failed.
+fn finish(args: &Args, results: &[CheckResult]) -> Result<()> {
+    let count = |s| results.iter().filter(|r| r.status == s).count();
+    let failed = count(CheckStatus::Failed);
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(results)?);
+    } else {
+        println!(
+            "\n{}: {} passed, {} warned, {failed} failed",
+            args.plugin.display(),
+            count(CheckStatus::Passed),
+            count(CheckStatus::Warned)
+        );
+    }
+    if failed > 0 {
+        bail!("{failed} check(s) failed for {}", args.plugin.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,107 @@
+//! Plugin environments as the commands see them: the `RWG_PLUGIN_PATH` scan
+//! (which never shadows a built-in id), explicit plugin files, and where a
+//! manifest's env id comes from.
+
+use rwg_core::plugin::{
+    load_plugin, load_plugin_path_from_env_reserving, LoadError, Plugin, PluginEnvType, PluginScan,
+    PLUGIN_PATH_VAR,
+};
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+/// Whether `id` is a built-in environment.
+pub fn is_builtin(id: &str) -> bool {
+    rwg_envs::registry::registration(id).is_some()
+}
+
+/// Loads every plugin on `RWG_PLUGIN_PATH`. Files that fail to load, repeat
+/// an id of an earlier file, or export a built-in id are rejected with the
+/// reason. Runs the plugins' code in this process.
+pub fn scan_plugin_path() -> PluginScan {
+    load_plugin_path_from_env_reserving(&is_builtin)
+}
+
+/// Plugins loaded so far by one command: explicit files (each loaded once)
+/// and, when first needed, the `RWG_PLUGIN_PATH` scan.
+#[derive(Default)]
+pub struct Plugins {
+    files: HashMap<PathBuf, Result<Plugin, LoadError>>,
+    scan: Option<PluginScan>,
+}
+
+/// Where an env id was found.
+pub enum Found {
+    /// A built-in environment.
+    Builtin,
+    /// An environment of a plugin on `RWG_PLUGIN_PATH`.
+    OnPath(PluginEnvType),
+    /// Nowhere: the message says what was searched.
+    Unknown(String),
+}
+
+impl Plugins {
+    /// The plugin in file `path`, loaded on first use.
+    pub fn file(&mut self, path: &Path) -> Result<&Plugin, &LoadError> {
+        self.files
+            .entry(path.to_path_buf())
+            .or_insert_with(|| load_plugin(path))
+            .as_ref()
+    }
+
+    /// The `RWG_PLUGIN_PATH` scan, done on first use.
+    pub fn scan(&mut self) -> &PluginScan {
+        self.scan.get_or_insert_with(scan_plugin_path)
+    }
+
+    /// Finds an env id given without a plugin file: built in, else on
+    /// `RWG_PLUGIN_PATH` (scanned only then).
+    pub fn find(&mut self, id: &str) -> Found {
+        if is_builtin(id) {
+            return Found::Builtin;
+        }
+        let scan = self.scan();
+        if let Some(ty) = scan.plugins.iter().find_map(|p| p.env(id)) {
+            return Found::OnPath(ty.clone());
+        }
+        let builtin: Vec<&str> = rwg_envs::registry::known_ids().collect();
+        let on_path: Vec<&str> = scan
+            .plugins
+            .iter()
+            .flat_map(|p| p.envs().iter().map(|e| e.id()))
+            .collect();
+        let suggestion = rwg_core::suggest::nearest(id, builtin.iter().chain(&on_path).copied())
+            .map(|s| format!(" (did you mean '{s}'?)"))
+            .unwrap_or_default();
+        let mut msg = format!(
+            "unknown environment '{id}'{suggestion}; known environments: {}",
+            builtin.join(", ")
+        );
+        match std::env::var_os(PLUGIN_PATH_VAR) {
+            None => msg.push_str(&format!(
+                "; for a plugin environment, give its library with `plugin = \"path\"` \
+                 or list its folder in {PLUGIN_PATH_VAR}"
+            )),
+            Some(_) if on_path.is_empty() => {
+                msg.push_str(&format!("; no plugin environments on {PLUGIN_PATH_VAR}"))
+            }
+            Some(_) => msg.push_str(&format!("; on {PLUGIN_PATH_VAR}: {}", on_path.join(", "))),
+        }
+        if !scan.rejected.is_empty() {
+            let why: Vec<String> = scan.rejected.iter().map(|r| r.to_string()).collect();
+            msg.push_str(&format!(
+                "; rejected on {PLUGIN_PATH_VAR}: {}",
+                why.join("; ")
+            ));
+        }
+        Found::Unknown(msg)
+    }
+}
+
+/// "plugin 'id' (file)": how messages name a plugin.
+pub fn describe(ty: &PluginEnvType) -> String {
+    format!(
+        "plugin '{}' ({})",
+        ty.plugin().id,
+        ty.plugin().path.display()
+    )
+}
