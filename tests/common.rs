@@ -73,3 +73,85 @@ pub fn synthetic_run(name: &str, samples: u64, episodes: u32) -> PathBuf {
     .unwrap();
     dir
 }
+
+/// `<target>/<profile>/deps`, where the test binaries (and the plugin
+/// cdylibs cargo builds for rwg-cli's dev-dependencies) are.
+pub fn deps_dir() -> PathBuf {
+    std::env::current_exe()
+        .unwrap()
+        .parent()
+        .unwrap()
+        .to_path_buf()
+}
+
+/// The Rust plugin library `name` (e.g. `rwg_plugin_classic_control`), built
+/// by cargo because the plugin packages are dev-dependencies of rwg-cli.
+pub fn rust_plugin(name: &str) -> PathBuf {
+    let deps = deps_dir();
+    let file = rwg_core::plugin::library_file_name(name);
+    [deps.clone(), deps.parent().unwrap().to_path_buf()]
+        .iter()
+        .map(|d| d.join(&file))
+        .find(|p| p.is_file())
+        .unwrap_or_else(|| panic!("{file} not found near {}", deps.display()))
+}
+
+/// The reference plugin (the built-ins as `classic_control/<id>`).
+pub fn classic_control_plugin() -> PathBuf {
+    rust_plugin("rwg_plugin_classic_control")
+}
+
+/// The deliberately broken plugins (`broken/<fault>-v0`).
+pub fn broken_plugin() -> PathBuf {
+    rust_plugin("rwg_testing_plugins")
+}
+
+/// Compiles the C file `src` (relative to the repository root) into
+/// `lib<name>.so` in a fresh folder for `test`, with `-D` defines and
+/// warnings as errors, using `$CC` or `cc`.
+pub fn compile_c(test: &str, src: &str, name: &str, defines: &[&str]) -> PathBuf {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let dir = deps_dir()
+        .parent()
+        .unwrap()
+        .join("rwg-c-plugins")
+        .join(format!("cli-{test}"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join(rwg_core::plugin::library_file_name(name));
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    let res = Command::new(&cc)
+        .args([
+            "-std=c11",
+            "-O1",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-pedantic",
+        ])
+        .args(["-shared", "-fPIC", "-fvisibility=hidden"])
+        .arg("-I")
+        .arg(root.join("rwg-core/include"))
+        .args(defines.iter().map(|d| format!("-D{d}")))
+        .arg(root.join(src))
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run the C compiler '{cc}': {e}"));
+    assert!(
+        res.status.success(),
+        "compiling {src} failed:\n{}",
+        String::from_utf8_lossy(&res.stderr)
+    );
+    out
+}
+
+/// Runs `rwg` with `args` and environment variables `vars`;
+/// `RWG_PLUGIN_PATH` is unset unless `vars` sets it.
+pub fn rwg_env(args: &[&str], vars: &[(&str, &std::ffi::OsStr)]) -> Output {
+    let mut cmd = Command::new(rwg_bin());
+    cmd.args(args).env_remove("RWG_PLUGIN_PATH");
+    for (k, v) in vars {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("cannot run rwg")
+}

@@ -18,7 +18,7 @@ pub enum EnvSource {
     /// Built in: statically dispatched through [`rwg_envs::visit`].
     Builtin(EnvOptions),
     /// From a plugin library (given with `plugin =` or found on `RWG_PLUGIN_PATH`).
-    Plugin(PluginSource),
+    Plugin(Box<PluginSource>),
 }
 
 /// A plugin environment as a cell builds it.
@@ -163,7 +163,7 @@ fn resolve_env(
         )
     })?;
     let spec = env.spec().clone();
-    Ok((EnvSource::Plugin(source), spec))
+    Ok((EnvSource::Plugin(Box::new(source)), spec))
 }
 
 /// Expands the manifest into cells (env, then architecture, then bias),

@@ -15,6 +15,8 @@
  *   BROKEN_LOW_GT_HIGH   observation low > high
  *   BROKEN_NULL_STEP     the vtable's step is NULL
  *
+ * ENV_ID (e.g. -DENV_ID='"CartPole-v0"') replaces the id "handshake/Ok-v0".
+ *
  * The tests in ../tests/c_plugins.rs compile each variant with cc.
  */
 #include <math.h>
@@ -77,7 +79,7 @@ static const double HIGH[1] = {10.0};
 #define ENV_ID ""
 #elif defined(BROKEN_BAD_UTF8_ID)
 #define ENV_ID "handshake/\xff-v0"
-#else
+#elif !defined(ENV_ID)
 #define ENV_ID "handshake/Ok-v0"
 #endif
 

@@ -785,7 +785,21 @@ pub fn check_plugin_env_observed(
     config: &str,
     observe: &mut dyn FnMut(CheckEvent<'_>),
 ) -> Vec<CheckResult> {
-    let mut results = check_env_observed(|| ty.create(config), &mut *observe);
+    // The id is known before any instance exists: name it in every result.
+    let mut results = check_env_observed(|| ty.create(config), &mut |ev| match ev {
+        CheckEvent::Started { name, .. } => observe(CheckEvent::Started {
+            env: Some(ty.id()),
+            name,
+        }),
+        CheckEvent::Finished(r) if r.env.is_none() => observe(CheckEvent::Finished(&CheckResult {
+            env: Some(ty.id().to_string()),
+            ..r.clone()
+        })),
+        ev => observe(ev),
+    });
+    for r in &mut results {
+        r.env.get_or_insert_with(|| ty.id().to_string());
+    }
     let mut r = Report::new(Some(ty.id().to_string()), observe);
     let id = ty.id();
     r.run("id", || {
