@@ -404,6 +404,31 @@ fn rwg_plugin_path_provides_envs_to_run_and_to_list() {
     );
     let cell = "cells/example_PointMass-v0__0HL__nobias/scores.csv";
     assert_eq!(read(out.join(cell)), read(again.join(cell)));
+    // Replay regenerates a plugin env's episodes from the run's manifest.
+    let res = rwg_env(
+        &[
+            "replay",
+            out.to_str().unwrap(),
+            "--env",
+            "example/PointMass-v0",
+            "--arch",
+            "0HL",
+            "--sample",
+            "3",
+        ],
+        &[],
+    );
+    let replay = String::from_utf8_lossy(&res.stdout);
+    assert!(
+        res.status.success(),
+        "{}",
+        String::from_utf8_lossy(&res.stderr)
+    );
+    assert_eq!(
+        replay.lines().filter(|l| l.ends_with(",true")).count(),
+        2,
+        "{replay}"
+    );
 
     // Without the variable the id is unknown, and the message says where to look.
     let res = rwg_env(&["run", &m, "--out", dir.join("no").to_str().unwrap()], &[]);

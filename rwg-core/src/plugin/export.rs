@@ -545,8 +545,11 @@ unsafe fn with_instance(
     let env = &mut inst.env;
     match catch_unwind(AssertUnwindSafe(|| f(env, obs_dim, action))) {
         Ok(Ok(())) => {
-            inst.error.clear();
-            inst.error.push(0);
+            if inst.error.len() != 1 {
+                // The last call failed: its message is no longer current.
+                inst.error.clear();
+                inst.error.push(0);
+            }
             RWG_OK
         }
         Ok(Err((status, msg))) => {
@@ -619,6 +622,14 @@ fn action_of(a: &[f64], kind: ActionKind) -> Result<Action<'_>, String> {
                 ));
             }
             let v = a[0];
+            // The common case first, without `fract` (a libm call on
+            // baseline x86-64): in range (false for NaN) and integral.
+            if v >= 0.0 && v < n as f64 {
+                let i = v as u64;
+                if i as f64 == v {
+                    return Ok(Action::Discrete(i as i64));
+                }
+            }
             if !v.is_finite() || v.fract() != 0.0 {
                 return Err(format!("discrete action {v:?} is not an integer"));
             }
@@ -698,6 +709,9 @@ mod tests {
         }
         assert!(action_of(&[0.0, 1.0], k).is_err());
         assert!(action_of(&[], k).is_err());
+        assert_eq!(action_of(&[-0.0], k), Ok(Action::Discrete(0)));
+        assert!(action_of(&[1e300], k).unwrap_err().contains("outside"));
+        assert!(action_of(&[1.5], k).unwrap_err().contains("not an integer"));
     }
 
     #[test]

@@ -590,6 +590,8 @@ impl PluginEnvType {
             handle: out,
             poisoned: false,
             discrete,
+            obs_dim: self.spec.obs_dim(),
+            step_fn: self.vt.step,
         })
     }
 
@@ -620,6 +622,9 @@ pub struct PluginEnv {
     handle: *mut RwgEnv,
     poisoned: bool,
     discrete: bool,
+    /// `spec.obs_dim()` and the table's `step`, kept at hand for the step loop.
+    obs_dim: usize,
+    step_fn: StepFn,
 }
 
 // SAFETY: the ABI allows an instance to move between threads between calls;
@@ -702,7 +707,7 @@ impl PluginEnv {
                 self.prefix
             )));
         }
-        let dim = self.ty.spec.obs_dim();
+        let dim = self.obs_dim;
         if obs.len() != dim {
             return Err(EnvError::Other(format!(
                 "{}: obs buffer has length {}, the observation space has {dim}",
@@ -751,7 +756,7 @@ impl PluginEnv {
         };
         // SAFETY: valid handle; the buffers are live for the call.
         let status = unsafe {
-            (self.ty.vt.step)(
+            (self.step_fn)(
                 self.handle,
                 if action.is_empty() {
                     std::ptr::null()
