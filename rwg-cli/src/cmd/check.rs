@@ -230,11 +230,13 @@ pub fn run(args: Args) -> Result<()> {
     let timeout = Duration::from_secs(args.timeout.max(1));
     let plugin_arg = args.plugin.as_os_str();
     let mut results: Vec<CheckResult> = vec![];
-    let report = |r: CheckResult, results: &mut Vec<CheckResult>| {
+    // (writeln, not println: `rwg check ... | head` must not panic.)
+    let report = |r: CheckResult, results: &mut Vec<CheckResult>| -> std::io::Result<()> {
         if !args.json {
-            println!("{r}");
+            writeln!(std::io::stdout(), "{r}")?;
         }
         results.push(r);
+        Ok(())
     };
     let load_result = |status, message: String| CheckResult {
         env: None,
@@ -252,7 +254,7 @@ pub fn run(args: Args) -> Result<()> {
     let loaded = match loaded {
         Some(Ok(l)) if listing.status.is_some_and(|s| s.success()) => l,
         Some(Err(e)) => {
-            report(load_result(CheckStatus::Failed, e), &mut results);
+            report(load_result(CheckStatus::Failed, e), &mut results)?;
             return finish(&args, &results);
         }
         _ => {
@@ -262,7 +264,7 @@ pub fn run(args: Args) -> Result<()> {
                 describe_exit(listing.status, timeout),
                 stderr_tail(&listing.stderr)
             );
-            report(load_result(CheckStatus::Failed, msg), &mut results);
+            report(load_result(CheckStatus::Failed, msg), &mut results)?;
             return finish(&args, &results);
         }
     };
@@ -279,7 +281,7 @@ pub fn run(args: Args) -> Result<()> {
             ),
         ),
         &mut results,
-    );
+    )?;
     let envs: Vec<&String> = match &args.env {
         None => loaded.envs.iter().collect(),
         Some(id) => match loaded.envs.iter().find(|e| *e == id) {
@@ -310,7 +312,7 @@ pub fn run(args: Args) -> Result<()> {
                 Line::Started(name) => started = Some(name),
                 Line::Result(r) => {
                     started = None;
-                    report(r, &mut results);
+                    report(r, &mut results)?;
                 }
                 Line::Done(_) => done = true,
                 Line::Loaded(_) | Line::LoadError(_) => {}
@@ -334,7 +336,7 @@ pub fn run(args: Args) -> Result<()> {
                     ),
                 },
                 &mut results,
-            );
+            )?;
         }
     }
     finish(&args, &results)
@@ -345,14 +347,19 @@ fn finish(args: &Args, results: &[CheckResult]) -> Result<()> {
     let count = |s| results.iter().filter(|r| r.status == s).count();
     let failed = count(CheckStatus::Failed);
     if args.json {
-        println!("{}", serde_json::to_string_pretty(results)?);
+        writeln!(
+            std::io::stdout(),
+            "{}",
+            serde_json::to_string_pretty(results)?
+        )?;
     } else {
-        println!(
+        writeln!(
+            std::io::stdout(),
             "\n{}: {} passed, {} warned, {failed} failed",
             args.plugin.display(),
             count(CheckStatus::Passed),
             count(CheckStatus::Warned)
-        );
+        )?;
     }
     if failed > 0 {
         bail!("{failed} check(s) failed for {}", args.plugin.display());

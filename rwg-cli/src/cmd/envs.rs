@@ -6,6 +6,7 @@ use rwg_core::float::fmt_f64;
 use rwg_core::plugin::{load_plugin, Plugin, PLUGIN_PATH_VAR};
 use rwg_envs::{make, EnvOptions, REGISTRY};
 use serde::Serialize;
+use std::io::Write;
 use std::path::PathBuf;
 
 /// Arguments of `rwg envs`.
@@ -79,7 +80,11 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        writeln!(
+            std::io::stdout(),
+            "{}",
+            serde_json::to_string_pretty(&rows)?
+        )?;
         return Ok(());
     }
     let with_plugins = rows.iter().any(|r| r.plugin.is_some());
@@ -115,17 +120,19 @@ pub fn run(args: Args) -> Result<()> {
             *w = (*w).max(c.len());
         }
     }
-    let line = |cells: &[&str]| {
+    // (writeln, not println: `rwg envs | head` must not panic.)
+    let mut out = std::io::stdout().lock();
+    let mut line = |cells: &[&str]| -> std::io::Result<()> {
         let parts: Vec<String> = cells
             .iter()
             .zip(&width)
             .map(|(c, w)| format!("{c:<w$}"))
             .collect();
-        println!("{}", parts.join("  ").trim_end());
+        writeln!(out, "{}", parts.join("  ").trim_end())
     };
-    line(&header);
+    line(&header)?;
     for row in &table {
-        line(&row.iter().map(String::as_str).collect::<Vec<_>>());
+        line(&row.iter().map(String::as_str).collect::<Vec<_>>())?;
     }
     Ok(())
 }
