@@ -44,7 +44,7 @@ for arch in "0HL:" "1HL-4:4" "2HL-4-4:4, 4"; do
     for _ in $(seq "$RUNS"); do
         for env in builtin plugin; do
             TIMEFORMAT="%U %R"
-            { time "$RWG" run "$tmp/$env.toml" --threads 1 --out "$tmp/$env" --force-new >/dev/null 2>&1; } 2>>"$tmp/$env.times"
+            { time "$RWG" run "$tmp/$env.toml" --threads 1 --no-report --out "$tmp/$env" --force-new >/dev/null 2>&1; } 2>>"$tmp/$env.times"
         done
     done
     base=
