@@ -45,6 +45,8 @@ enum Command {
     /// Internal: one environment's checks for `rwg check`, as JSON lines.
     #[command(name = "__check-child", hide = true)]
     CheckChild(cmd::check::ChildArgs),
+    /// Measure env steps/s: raw environments, or the RWG sampler vs the peer implementations.
+    Bench(cmd::bench::Args),
 }
 
 fn main() {
@@ -62,6 +64,7 @@ fn main() {
         Command::Compare(a) => cmd::compare::run(a),
         Command::Check(a) => cmd::check::run(a),
         Command::CheckChild(a) => cmd::check::run_child(a),
+        Command::Bench(a) => cmd::bench::run(a),
     };
     if let Err(e) = result {
         // `rwg ... | head` closes the pipe early: not an error.

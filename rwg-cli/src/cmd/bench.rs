@@ -1,0 +1,559 @@
+//! `rwg bench`: throughput of the built-in environments and of the RWG sampler.
+//!
+//! Two measurements, both statically dispatched through [`rwg_envs::visit`]
+//! (the step loop is monomorphised for each concrete env type):
+//!
+//! - `rwg bench envs`: raw `Environment::step` throughput under a fixed,
+//!   pre-generated pseudo-random action sequence, resetting with successive
+//!   seeds whenever an episode ends;
+//! - `rwg bench sampler`: the whole RWG workload (weight draws, reset seed
+//!   derivation, resets, policy forward pass, env steps) through
+//!   [`rwg_core::sampler::run_cell`], for the configurations the peer
+//!   implementations were measured on.
+//!
+//! Every figure comes from one timed run; the machine's noise is not averaged
+//! out. Env steps are counted exactly: every step of every episode.
+
+use anyhow::{bail, Context, Result};
+use rwg_core::policy::Architecture;
+use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError, WeightDist};
+use rwg_core::seeding::Pcg64;
+use rwg_core::{Action, Environment, Space};
+use rwg_envs::{visit, EnvOptions, EnvVisitor, REGISTRY};
+use serde::Serialize;
+use std::time::Instant;
+
+/// Arguments of `rwg bench`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Both benchmarks run in this process on this machine and report one timed run; \
+repeat them to see the noise. Build with --release for meaningful figures.")]
+pub struct Args {
+    #[command(subcommand)]
+    what: What,
+}
+
+#[derive(clap::Subcommand)]
+enum What {
+    /// Raw environment steps per second under a fixed pseudo-random action sequence.
+    #[command(after_help = "\
+Measures Environment::step alone (plus the resets between episodes): for each env, a \
+sequence of 4096 pseudo-random actions (discrete: uniform integers; continuous: uniform \
+within the action bounds) is generated before timing and replayed cyclically. When an \
+episode terminates or is truncated by the time limit, the env is reset with the next \
+seed (0, 1, 2, ...); the resets are inside the timed span. No policy is evaluated.
+
+Columns: steps = env steps timed, episodes = resets, steps/s, ns/step, and the sum of \
+all rewards (a checksum: it is the same on every machine for the same --steps).")]
+    Envs(EnvsArgs),
+    /// The RWG workload (env + policy) through the sampler, compared with gymnax.
+    #[command(after_help = "\
+Measures what `rwg` spends its time on: for each configuration, SAMPLES networks with \
+i.i.d. N(0,1) weights (no bias) each run EPISODES episodes through rwg_core's sampler \
+(weight draws, reset seeds, resets, policy forward passes and env steps, on a rayon \
+pool of THREADS threads). Reported: env steps (every step of every episode), wall \
+time, env steps/s in total and per thread, and the per-thread figure divided by the \
+per-core figure of the strongest peer, gymnax-raw (JAX, jit(vmap) rollouts with \
+env.step_env; measured pinned to one core on the shared 2-core machine, 1000 samples x \
+20 episodes, see shared/peers/results/table_pinned_1core.md). Use --threads 1 for a \
+per-core comparison.
+
+Configurations (the peers' workload): CartPole-v0 0HL, CartPole-v0 [4,4], Acrobot-v1 \
+0HL, MountainCarContinuous-v0 [4,4], Pendulum-v1 [4].")]
+    Sampler(SamplerArgs),
+}
+
+/// Arguments of `rwg bench envs`.
+#[derive(clap::Args)]
+struct EnvsArgs {
+    /// Env steps per environment.
+    #[arg(long, value_name = "N", default_value_t = 5_000_000)]
+    steps: u64,
+    /// Benchmark only this environment (repeatable; default: every built-in env).
+    #[arg(long = "env", value_name = "ID")]
+    envs: Vec<String>,
+    /// Print a JSON array instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Arguments of `rwg bench sampler`.
+#[derive(clap::Args)]
+struct SamplerArgs {
+    /// Networks per configuration.
+    #[arg(long, value_name = "N", default_value_t = 1000)]
+    samples: u64,
+    /// Episodes per network.
+    #[arg(long, value_name = "E", default_value_t = 20)]
+    episodes: u32,
+    /// Worker threads (default: the number of available cores).
+    #[arg(long, value_name = "T")]
+    threads: Option<usize>,
+    /// Run only the configurations of this environment (repeatable).
+    #[arg(long = "env", value_name = "ID")]
+    envs: Vec<String>,
+    /// Seed of the weights and reset seeds.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Print a JSON array instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// Runs `rwg bench`.
+pub fn run(args: Args) -> Result<()> {
+    match args.what {
+        What::Envs(a) => run_envs(a),
+        What::Sampler(a) => run_sampler(a),
+    }
+}
+
+// ---------------------------------------------------------------------------
+// rwg bench envs
+
+/// Length of the cyclic action sequence (a power of two).
+const ACTION_CYCLE: usize = 4096;
+
+/// The pre-generated actions of one env.
+enum Actions {
+    Discrete(Vec<i64>),
+    /// `ACTION_CYCLE` vectors of `dim` components, back to back.
+    Continuous {
+        values: Vec<f64>,
+        dim: usize,
+    },
+}
+
+impl Actions {
+    /// Uniform actions over `space`, from a fixed generator.
+    fn generate(space: &Space) -> Actions {
+        let mut rng = Pcg64::from_seed(0x5eed);
+        match space {
+            Space::Discrete { n } => Actions::Discrete(
+                (0..ACTION_CYCLE)
+                    .map(|_| (rng.next_f64() * *n as f64) as i64)
+                    .collect(),
+            ),
+            Space::Box(b) => Actions::Continuous {
+                values: (0..ACTION_CYCLE)
+                    .flat_map(|_| {
+                        b.low
+                            .iter()
+                            .zip(&b.high)
+                            .map(|(&l, &h)| rng.uniform(l, h))
+                            .collect::<Vec<_>>()
+                    })
+                    .collect(),
+                dim: b.dim(),
+            },
+        }
+    }
+}
+
+/// Result of one env's raw-step benchmark.
+#[derive(Serialize)]
+struct EnvRow {
+    env: String,
+    steps: u64,
+    episodes: u64,
+    seconds: f64,
+    steps_per_s: f64,
+    ns_per_step: f64,
+    reward_sum: f64,
+}
+
+/// The timed loop: `steps` steps with `action(i)`, resetting on episode end.
+/// Returns (episodes started, reward sum).
+#[inline(always)]
+fn step_loop<'a, E: Environment>(
+    env: &mut E,
+    obs: &mut [f64],
+    steps: u64,
+    action: impl Fn(usize) -> Action<'a>,
+) -> Result<(u64, f64)> {
+    let mut seed = 0u64;
+    env.reset(seed, obs)?;
+    let mut reward_sum = 0.0;
+    for i in 0..steps {
+        let s = env.step(action(i as usize % ACTION_CYCLE), obs)?;
+        reward_sum += s.reward;
+        if s.terminated || s.truncated {
+            seed += 1;
+            env.reset(seed, obs)?;
+        }
+    }
+    Ok((seed + 1, reward_sum))
+}
+
+struct EnvBench {
+    steps: u64,
+}
+
+impl EnvVisitor for EnvBench {
+    type Output = Result<EnvRow>;
+    fn visit<E: Environment + Clone + Send + Sync + 'static>(self, mut env: E) -> Result<EnvRow> {
+        let spec = env.spec().clone();
+        let actions = Actions::generate(&spec.action_space);
+        let mut obs = vec![0.0; spec.obs_dim()];
+        let start = Instant::now();
+        let (episodes, reward_sum) = match &actions {
+            Actions::Discrete(a) => {
+                step_loop(&mut env, &mut obs, self.steps, |i| Action::Discrete(a[i]))?
+            }
+            Actions::Continuous { values, dim } => {
+                let dim = *dim;
+                step_loop(&mut env, &mut obs, self.steps, |i| {
+                    Action::Continuous(&values[i * dim..(i + 1) * dim])
+                })?
+            }
+        };
+        let seconds = start.elapsed().as_secs_f64();
+        std::hint::black_box(&obs);
+        Ok(EnvRow {
+            env: spec.id,
+            steps: self.steps,
+            episodes,
+            seconds,
+            steps_per_s: self.steps as f64 / seconds,
+            ns_per_step: seconds * 1e9 / self.steps as f64,
+            reward_sum,
+        })
+    }
+}
+
+/// Checks `--env` ids against the registry (with a suggestion for typos).
+fn check_ids(ids: &[String]) -> Result<()> {
+    for id in ids {
+        rwg_envs::make(id, &EnvOptions::default())?;
+    }
+    Ok(())
+}
+
+fn run_envs(args: EnvsArgs) -> Result<()> {
+    if args.steps == 0 {
+        bail!("--steps must be at least 1");
+    }
+    check_ids(&args.envs)?;
+    let ids: Vec<&str> = if args.envs.is_empty() {
+        REGISTRY.iter().map(|r| r.id).collect()
+    } else {
+        args.envs.iter().map(String::as_str).collect()
+    };
+    let mut rows = Vec::new();
+    for id in ids {
+        let bench = EnvBench { steps: args.steps };
+        let row = visit(id, &EnvOptions::default(), bench)?
+            .with_context(|| format!("benchmarking {id}"))?;
+        if !args.json {
+            if rows.is_empty() {
+                print_row(&ENV_COLUMNS, &ENV_COLUMNS.map(|c| c.0.to_string()));
+            }
+            print_row(&ENV_COLUMNS, &env_cells(&row));
+        }
+        rows.push(row);
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    }
+    Ok(())
+}
+
+/// Columns of `rwg bench envs`: header and width (negative: left-aligned).
+const ENV_COLUMNS: [(&str, i32); 6] = [
+    ("env", -24),
+    ("steps", 11),
+    ("episodes", 9),
+    ("steps/s", 12),
+    ("ns/step", 7),
+    ("reward sum", 13),
+];
+
+fn env_cells(r: &EnvRow) -> [String; 6] {
+    [
+        r.env.clone(),
+        group(r.steps),
+        group(r.episodes),
+        group(r.steps_per_s.round() as u64),
+        format!("{:.1}", r.ns_per_step),
+        format!("{:.6e}", r.reward_sum),
+    ]
+}
+
+// ---------------------------------------------------------------------------
+// rwg bench sampler
+
+/// A peer configuration with gymnax-raw's env steps per core-second.
+struct PeerConfig {
+    env: &'static str,
+    hidden: &'static [usize],
+    gymnax_raw_per_core: f64,
+}
+
+/// The peers' workload and gymnax-raw's figures for it: useful env steps per
+/// second, pinned to one core (`taskset -c 0`), 1000 samples x 20 episodes, no
+/// bias, on the shared 2-core machine. Reference data copied from
+/// `shared/peers/results/table_pinned_1core.md` (`steps/s` of the `gymnax-raw`
+/// rows), not measured by rwg.
+const PEER_CONFIGS: [PeerConfig; 5] = [
+    PeerConfig {
+        env: "CartPole-v0",
+        hidden: &[],
+        gymnax_raw_per_core: 8_774_515.0,
+    },
+    PeerConfig {
+        env: "CartPole-v0",
+        hidden: &[4, 4],
+        gymnax_raw_per_core: 6_122_573.0,
+    },
+    PeerConfig {
+        env: "Acrobot-v1",
+        hidden: &[],
+        gymnax_raw_per_core: 4_689_590.0,
+    },
+    PeerConfig {
+        env: "MountainCarContinuous-v0",
+        hidden: &[4, 4],
+        gymnax_raw_per_core: 19_718_695.0,
+    },
+    PeerConfig {
+        env: "Pendulum-v1",
+        hidden: &[4],
+        gymnax_raw_per_core: 13_294_122.0,
+    },
+];
+
+/// Result of one sampler configuration.
+#[derive(Serialize)]
+struct SamplerRow {
+    env: String,
+    hidden: Vec<usize>,
+    bias: bool,
+    samples: u64,
+    episodes: u32,
+    threads: usize,
+    env_steps: u64,
+    seconds: f64,
+    steps_per_s: f64,
+    steps_per_s_per_thread: f64,
+    gymnax_raw_per_core: f64,
+    ratio_vs_gymnax_raw: f64,
+    mean_score: f64,
+}
+
+/// Samples per block handed to a rayon task.
+const BLOCK: u64 = 8;
+
+struct SamplerBench<'p> {
+    plan: CellPlan,
+    samples: u64,
+    pool: &'p rayon::ThreadPool,
+}
+
+impl EnvVisitor for SamplerBench<'_> {
+    /// (env steps, score sum, seconds).
+    type Output = Result<(u64, f64, f64), SampleError>;
+    fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
+        let threads = self.pool.current_num_threads();
+        let mut steps = 0u64;
+        let mut score = 0.0;
+        let start = Instant::now();
+        self.pool.install(|| {
+            run_cell(
+                &self.plan,
+                0..self.samples,
+                BLOCK,
+                64 * threads,
+                || env.clone(),
+                |b: BlockResult| -> Result<(), SampleError> {
+                    for e in &b.episodes {
+                        steps += e.steps as u64;
+                        score += e.score;
+                    }
+                    Ok(())
+                },
+            )
+        })?;
+        Ok((steps, score, start.elapsed().as_secs_f64()))
+    }
+}
+
+fn run_sampler(args: SamplerArgs) -> Result<()> {
+    if args.samples == 0 || args.episodes == 0 {
+        bail!("--samples and --episodes must be at least 1");
+    }
+    check_ids(&args.envs)?;
+    let threads = match args.threads {
+        Some(0) => bail!("--threads must be at least 1"),
+        Some(t) => t,
+        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start the thread pool")?;
+    let configs: Vec<&PeerConfig> = PEER_CONFIGS
+        .iter()
+        .filter(|c| args.envs.is_empty() || args.envs.iter().any(|e| e == c.env))
+        .collect();
+    if configs.is_empty() {
+        bail!(
+            "no benchmark configuration uses {}; configurations: {}",
+            args.envs.join(", "),
+            PEER_CONFIGS.map(|c| c.env).join(", ")
+        );
+    }
+    let mut rows = Vec::new();
+    for c in configs {
+        let arch = Architecture {
+            hidden: c.hidden.to_vec(),
+            bias: false,
+        };
+        let plan = CellPlan {
+            seed: args.seed,
+            env_id: c.env.to_string(),
+            arch: arch.clone(),
+            episodes: args.episodes,
+            dist: WeightDist::Normal { std: 1.0 },
+        };
+        let bench = SamplerBench {
+            plan,
+            samples: args.samples,
+            pool: &pool,
+        };
+        let (env_steps, score, seconds) = visit(c.env, &EnvOptions::default(), bench)??;
+        let steps_per_s = env_steps as f64 / seconds;
+        let per_thread = steps_per_s / threads as f64;
+        let row = SamplerRow {
+            env: c.env.to_string(),
+            hidden: arch.hidden,
+            bias: false,
+            samples: args.samples,
+            episodes: args.episodes,
+            threads,
+            env_steps,
+            seconds,
+            steps_per_s,
+            steps_per_s_per_thread: per_thread,
+            gymnax_raw_per_core: c.gymnax_raw_per_core,
+            ratio_vs_gymnax_raw: per_thread / c.gymnax_raw_per_core,
+            mean_score: score / (args.samples * args.episodes as u64) as f64,
+        };
+        if !args.json {
+            if rows.is_empty() {
+                print_row(&SAMPLER_COLUMNS, &SAMPLER_COLUMNS.map(|c| c.0.to_string()));
+            }
+            print_row(&SAMPLER_COLUMNS, &sampler_cells(&row));
+        }
+        rows.push(row);
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    }
+    Ok(())
+}
+
+/// Columns of `rwg bench sampler`: header and width (negative: left-aligned).
+const SAMPLER_COLUMNS: [(&str, i32); 8] = [
+    ("env", -24),
+    ("hidden", -6),
+    ("env steps", 11),
+    ("seconds", 7),
+    ("steps/s", 11),
+    ("steps/s/thread", 14),
+    ("gymnax-raw/core", 15),
+    ("ratio", 5),
+];
+
+fn sampler_cells(r: &SamplerRow) -> [String; 8] {
+    let hidden = if r.hidden.is_empty() {
+        "0HL".to_string()
+    } else {
+        let h: Vec<String> = r.hidden.iter().map(|h| h.to_string()).collect();
+        format!("[{}]", h.join(","))
+    };
+    [
+        r.env.clone(),
+        hidden,
+        group(r.env_steps),
+        format!("{:.3}", r.seconds),
+        group(r.steps_per_s.round() as u64),
+        group(r.steps_per_s_per_thread.round() as u64),
+        group(r.gymnax_raw_per_core.round() as u64),
+        format!("{:.2}", r.ratio_vs_gymnax_raw),
+    ]
+}
+
+// ---------------------------------------------------------------------------
+// table output
+
+/// Prints one table line: each cell padded to its column's width (a negative
+/// width left-aligns), columns separated by two spaces. Rows are printed as
+/// soon as they are measured, so the widths are fixed in advance.
+fn print_row<const N: usize>(columns: &[(&str, i32); N], cells: &[String; N]) {
+    let parts: Vec<String> = columns
+        .iter()
+        .zip(cells)
+        .map(|(&(_, w), c)| {
+            let width = w.unsigned_abs() as usize;
+            if w < 0 {
+                format!("{c:<width$}")
+            } else {
+                format!("{c:>width$}")
+            }
+        })
+        .collect();
+    println!("{}", parts.join("  ").trim_end());
+}
+
+/// `1234567` -> `1,234,567`.
+fn group(n: u64) -> String {
+    let s = n.to_string();
+    let mut out = String::with_capacity(s.len() + s.len() / 3);
+    for (i, ch) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(ch);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn digit_grouping() {
+        assert_eq!(group(0), "0");
+        assert_eq!(group(999), "999");
+        assert_eq!(group(1000), "1,000");
+        assert_eq!(group(8_774_515), "8,774,515");
+    }
+
+    #[test]
+    fn peer_configs_name_builtin_envs() {
+        for c in PEER_CONFIGS {
+            assert!(
+                rwg_envs::registry::registration(c.env).is_some(),
+                "{}",
+                c.env
+            );
+        }
+    }
+
+    #[test]
+    fn generated_actions_lie_in_the_space() {
+        let env = rwg_envs::make("Pendulum-v1", &EnvOptions::default()).unwrap();
+        let Actions::Continuous { values, dim } = Actions::generate(&env.spec().action_space)
+        else {
+            panic!("Pendulum has a box action space")
+        };
+        assert_eq!((values.len(), dim), (ACTION_CYCLE, 1));
+        assert!(values.iter().all(|a| (-2.0..2.0).contains(a)));
+        let Actions::Discrete(a) = Actions::generate(&Space::Discrete { n: 3 }) else {
+            panic!()
+        };
+        assert!(a.iter().all(|a| (0..3).contains(a)));
+        assert!((0..3).all(|k| a.contains(&k)));
+    }
+}
