@@ -43,8 +43,8 @@ within the action bounds) is generated before timing and replayed cyclically. Wh
 episode terminates or is truncated by the time limit, the env is reset with the next \
 seed (0, 1, 2, ...); the resets are inside the timed span. No policy is evaluated.
 
-Columns: steps = env steps timed, episodes = resets, steps/s, ns/step, and the sum of \
-all rewards (a checksum: it is the same on every machine for the same --steps).")]
+Columns: steps = env steps timed, episodes = resets, steps/s and ns/step (wall clock), \
+steps/CPU-s (process CPU time: steadier on a busy machine), and the sum of all rewards (a checksum: it is the same on every machine for the same --steps).")]
     Envs(EnvsArgs),
     /// The RWG workload (env + policy) through the sampler, compared with gymnax.
     #[command(after_help = "\
@@ -52,7 +52,8 @@ Measures what `rwg` spends its time on: for each configuration, SAMPLES networks
 i.i.d. N(0,1) weights (no bias) each run EPISODES episodes through rwg_core's sampler \
 (weight draws, reset seeds, resets, policy forward passes and env steps, on a rayon \
 pool of THREADS threads). Reported: env steps (every step of every episode), wall \
-time, env steps/s in total and per thread, and the per-thread figure divided by the \
+time, env steps/s in total and per thread, env steps per CPU-second of the process \
+(steadier than wall time on a busy machine), and the per-thread figure divided by the \
 per-core figure of the strongest peer, gymnax-raw (JAX, jit(vmap) rollouts with \
 env.step_env; measured pinned to one core on the shared 2-core machine, 1000 samples x \
 20 episodes, see shared/peers/results/table_pinned_1core.md). Use --threads 1 for a \
@@ -159,6 +160,11 @@ struct EnvRow {
     seconds: f64,
     steps_per_s: f64,
     ns_per_step: f64,
+    /// Process CPU time over the timed span (`null` where not measurable).
+    cpu_s: Option<f64>,
+    /// Env steps per CPU-second: less sensitive than `steps_per_s` to other
+    /// processes on a busy machine.
+    steps_per_cpu_s: Option<f64>,
     reward_sum: f64,
 }
 
@@ -195,7 +201,7 @@ impl EnvVisitor for EnvBench {
         let spec = env.spec().clone();
         let actions = Actions::generate(&spec.action_space);
         let mut obs = vec![0.0; spec.obs_dim()];
-        let start = Instant::now();
+        let clock = Clock::start();
         let (episodes, reward_sum) = match &actions {
             Actions::Discrete(a) => {
                 step_loop(&mut env, &mut obs, self.steps, |i| Action::Discrete(a[i]))?
@@ -207,7 +213,7 @@ impl EnvVisitor for EnvBench {
                 })?
             }
         };
-        let seconds = start.elapsed().as_secs_f64();
+        let (seconds, cpu_s) = clock.stop();
         std::hint::black_box(&obs);
         Ok(EnvRow {
             env: spec.id,
@@ -216,6 +222,8 @@ impl EnvVisitor for EnvBench {
             seconds,
             steps_per_s: self.steps as f64 / seconds,
             ns_per_step: seconds * 1e9 / self.steps as f64,
+            cpu_s,
+            steps_per_cpu_s: cpu_s.map(|c| self.steps as f64 / c),
             reward_sum,
         })
     }
@@ -259,22 +267,25 @@ fn run_envs(args: EnvsArgs) -> Result<()> {
 }
 
 /// Columns of `rwg bench envs`: header and width (negative: left-aligned).
-const ENV_COLUMNS: [(&str, i32); 6] = [
+const ENV_COLUMNS: [(&str, i32); 7] = [
     ("env", -24),
     ("steps", 11),
     ("episodes", 9),
     ("steps/s", 12),
     ("ns/step", 7),
+    ("steps/CPU-s", 12),
     ("reward sum", 13),
 ];
 
-fn env_cells(r: &EnvRow) -> [String; 6] {
+fn env_cells(r: &EnvRow) -> [String; 7] {
     [
         r.env.clone(),
         group(r.steps),
         group(r.episodes),
         group(r.steps_per_s.round() as u64),
         format!("{:.1}", r.ns_per_step),
+        r.steps_per_cpu_s
+            .map_or("-".into(), |v| group(v.round() as u64)),
         format!("{:.6e}", r.reward_sum),
     ]
 }
@@ -335,6 +346,10 @@ struct SamplerRow {
     seconds: f64,
     steps_per_s: f64,
     steps_per_s_per_thread: f64,
+    /// Process CPU time (all threads; `null` where not measurable).
+    cpu_s: Option<f64>,
+    /// Env steps per CPU-second.
+    steps_per_cpu_s: Option<f64>,
     gymnax_raw_per_core: f64,
     ratio_vs_gymnax_raw: f64,
     mean_score: f64,
@@ -350,13 +365,13 @@ struct SamplerBench<'p> {
 }
 
 impl EnvVisitor for SamplerBench<'_> {
-    /// (env steps, score sum, seconds).
-    type Output = Result<(u64, f64, f64), SampleError>;
+    /// (env steps, score sum, wall seconds, CPU seconds).
+    type Output = Result<(u64, f64, f64, Option<f64>), SampleError>;
     fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
         let threads = self.pool.current_num_threads();
         let mut steps = 0u64;
         let mut score = 0.0;
-        let start = Instant::now();
+        let clock = Clock::start();
         self.pool.install(|| {
             run_cell(
                 &self.plan,
@@ -373,7 +388,8 @@ impl EnvVisitor for SamplerBench<'_> {
                 },
             )
         })?;
-        Ok((steps, score, start.elapsed().as_secs_f64()))
+        let (seconds, cpu_s) = clock.stop();
+        Ok((steps, score, seconds, cpu_s))
     }
 }
 
@@ -420,7 +436,7 @@ fn run_sampler(args: SamplerArgs) -> Result<()> {
             samples: args.samples,
             pool: &pool,
         };
-        let (env_steps, score, seconds) = visit(c.env, &EnvOptions::default(), bench)??;
+        let (env_steps, score, seconds, cpu_s) = visit(c.env, &EnvOptions::default(), bench)??;
         let steps_per_s = env_steps as f64 / seconds;
         let per_thread = steps_per_s / threads as f64;
         let row = SamplerRow {
@@ -434,6 +450,8 @@ fn run_sampler(args: SamplerArgs) -> Result<()> {
             seconds,
             steps_per_s,
             steps_per_s_per_thread: per_thread,
+            cpu_s,
+            steps_per_cpu_s: cpu_s.map(|c| env_steps as f64 / c),
             gymnax_raw_per_core: c.gymnax_raw_per_core,
             ratio_vs_gymnax_raw: per_thread / c.gymnax_raw_per_core,
             mean_score: score / (args.samples * args.episodes as u64) as f64,
@@ -453,18 +471,19 @@ fn run_sampler(args: SamplerArgs) -> Result<()> {
 }
 
 /// Columns of `rwg bench sampler`: header and width (negative: left-aligned).
-const SAMPLER_COLUMNS: [(&str, i32); 8] = [
+const SAMPLER_COLUMNS: [(&str, i32); 9] = [
     ("env", -24),
     ("hidden", -6),
     ("env steps", 11),
     ("seconds", 7),
     ("steps/s", 11),
     ("steps/s/thread", 14),
+    ("steps/CPU-s", 11),
     ("gymnax-raw/core", 15),
     ("ratio", 5),
 ];
 
-fn sampler_cells(r: &SamplerRow) -> [String; 8] {
+fn sampler_cells(r: &SamplerRow) -> [String; 9] {
     let hidden = if r.hidden.is_empty() {
         "0HL".to_string()
     } else {
@@ -478,9 +497,54 @@ fn sampler_cells(r: &SamplerRow) -> [String; 8] {
         format!("{:.3}", r.seconds),
         group(r.steps_per_s.round() as u64),
         group(r.steps_per_s_per_thread.round() as u64),
+        r.steps_per_cpu_s
+            .map_or("-".into(), |v| group(v.round() as u64)),
         group(r.gymnax_raw_per_core.round() as u64),
         format!("{:.2}", r.ratio_vs_gymnax_raw),
     ]
+}
+
+// ---------------------------------------------------------------------------
+// timing
+
+/// Wall clock and process CPU time of a timed span.
+struct Clock {
+    wall: Instant,
+    cpu: Option<f64>,
+}
+
+impl Clock {
+    fn start() -> Clock {
+        Clock {
+            cpu: process_cpu_seconds(),
+            wall: Instant::now(),
+        }
+    }
+
+    /// (wall seconds, CPU seconds) since `start`.
+    fn stop(self) -> (f64, Option<f64>) {
+        let wall = self.wall.elapsed().as_secs_f64();
+        let cpu = process_cpu_seconds().zip(self.cpu).map(|(b, a)| b - a);
+        (wall, cpu)
+    }
+}
+
+/// CPU time of this process (all threads) in seconds, where measurable.
+fn process_cpu_seconds() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `ts` is a valid, writable timespec for the call's duration.
+        let rc = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+        (rc == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
 }
 
 // ---------------------------------------------------------------------------
