@@ -43,8 +43,11 @@ within the action bounds) is generated before timing and replayed cyclically. Wh
 episode terminates or is truncated by the time limit, the env is reset with the next \
 seed (0, 1, 2, ...); the resets are inside the timed span. No policy is evaluated.
 
-Columns: steps = env steps timed, episodes = resets, steps/s and ns/step (wall clock), \
-steps/CPU-s (process CPU time: steadier on a busy machine), and the sum of all rewards (a checksum: it is the same on every machine for the same --steps).")]
+Columns: steps = env steps timed, episodes = episodes started, steps/s and ns/step (wall \
+clock), steps/CPU-s (process CPU time: steadier on a busy machine), and the sum of all \
+rewards. With --hash, a hash of the bits of every observation and reward follows: it \
+must be the same for every build and machine for the same --steps (the envs are \
+bit-exact), so it checks that an optimisation changed no result.")]
     Envs(EnvsArgs),
     /// The RWG workload (env + policy) through the sampler, compared with gymnax.
     #[command(after_help = "\
@@ -73,6 +76,10 @@ struct EnvsArgs {
     /// Benchmark only this environment (repeatable; default: every built-in env).
     #[arg(long = "env", value_name = "ID")]
     envs: Vec<String>,
+    /// Also hash the bits of every observation and reward (a bit-exactness
+    /// check between builds; costs a little time per step).
+    #[arg(long)]
+    hash: bool,
     /// Print a JSON array instead of a table.
     #[arg(long)]
     json: bool,
@@ -166,33 +173,82 @@ struct EnvRow {
     /// processes on a busy machine.
     steps_per_cpu_s: Option<f64>,
     reward_sum: f64,
+    /// With `--hash`: FNV-1a hash of the bits of every observation and reward.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    obs_hash: Option<String>,
 }
 
-/// The timed loop: `steps` steps with `action(i)`, resetting on episode end.
-/// Returns (episodes started, reward sum).
+/// What the timed loop returns.
+struct LoopOutcome {
+    /// Episodes started (the first reset included).
+    episodes: u64,
+    reward_sum: f64,
+    /// Hash of every observation's bits (0 unless `HASH`).
+    obs_hash: u64,
+}
+
+/// The timed loop: `steps` steps with `action(i)`, resetting with the next
+/// seed whenever an episode ends. With `HASH`, every observation (resets
+/// included) is folded into a hash of its bits.
 #[inline(always)]
-fn step_loop<'a, E: Environment>(
+fn step_loop<'a, E: Environment, const HASH: bool>(
     env: &mut E,
     obs: &mut [f64],
     steps: u64,
     action: impl Fn(usize) -> Action<'a>,
-) -> Result<(u64, f64)> {
+) -> Result<LoopOutcome> {
+    fn fold(h: &mut u64, obs: &[f64]) {
+        for x in obs {
+            *h = (*h ^ x.to_bits()).wrapping_mul(0x0000_0100_0000_01b3); // FNV-1a prime
+        }
+    }
+    let mut h = 0xcbf2_9ce4_8422_2325; // FNV offset basis
     let mut seed = 0u64;
     env.reset(seed, obs)?;
+    if HASH {
+        fold(&mut h, obs);
+    }
     let mut reward_sum = 0.0;
     for i in 0..steps {
         let s = env.step(action(i as usize % ACTION_CYCLE), obs)?;
         reward_sum += s.reward;
+        if HASH {
+            fold(&mut h, obs);
+            h = (h ^ s.reward.to_bits()).wrapping_mul(0x0000_0100_0000_01b3);
+        }
         if s.terminated || s.truncated {
             seed += 1;
             env.reset(seed, obs)?;
+            if HASH {
+                fold(&mut h, obs);
+            }
         }
     }
-    Ok((seed + 1, reward_sum))
+    Ok(LoopOutcome {
+        episodes: seed + 1,
+        reward_sum,
+        obs_hash: if HASH { h } else { 0 },
+    })
+}
+
+/// Runs [`step_loop`] with or without hashing.
+fn run_loop<'a, E: Environment>(
+    env: &mut E,
+    obs: &mut [f64],
+    steps: u64,
+    hash: bool,
+    action: impl Fn(usize) -> Action<'a>,
+) -> Result<LoopOutcome> {
+    if hash {
+        step_loop::<E, true>(env, obs, steps, action)
+    } else {
+        step_loop::<E, false>(env, obs, steps, action)
+    }
 }
 
 struct EnvBench {
     steps: u64,
+    hash: bool,
 }
 
 impl EnvVisitor for EnvBench {
@@ -202,13 +258,13 @@ impl EnvVisitor for EnvBench {
         let actions = Actions::generate(&spec.action_space);
         let mut obs = vec![0.0; spec.obs_dim()];
         let clock = Clock::start();
-        let (episodes, reward_sum) = match &actions {
-            Actions::Discrete(a) => {
-                step_loop(&mut env, &mut obs, self.steps, |i| Action::Discrete(a[i]))?
-            }
+        let out = match &actions {
+            Actions::Discrete(a) => run_loop(&mut env, &mut obs, self.steps, self.hash, |i| {
+                Action::Discrete(a[i])
+            })?,
             Actions::Continuous { values, dim } => {
                 let dim = *dim;
-                step_loop(&mut env, &mut obs, self.steps, |i| {
+                run_loop(&mut env, &mut obs, self.steps, self.hash, |i| {
                     Action::Continuous(&values[i * dim..(i + 1) * dim])
                 })?
             }
@@ -218,13 +274,14 @@ impl EnvVisitor for EnvBench {
         Ok(EnvRow {
             env: spec.id,
             steps: self.steps,
-            episodes,
+            episodes: out.episodes,
             seconds,
             steps_per_s: self.steps as f64 / seconds,
             ns_per_step: seconds * 1e9 / self.steps as f64,
             cpu_s,
             steps_per_cpu_s: cpu_s.map(|c| self.steps as f64 / c),
-            reward_sum,
+            reward_sum: out.reward_sum,
+            obs_hash: self.hash.then(|| format!("{:016x}", out.obs_hash)),
         })
     }
 }
@@ -249,7 +306,10 @@ fn run_envs(args: EnvsArgs) -> Result<()> {
     };
     let mut rows = Vec::new();
     for id in ids {
-        let bench = EnvBench { steps: args.steps };
+        let bench = EnvBench {
+            steps: args.steps,
+            hash: args.hash,
+        };
         let row = visit(id, &EnvOptions::default(), bench)?
             .with_context(|| format!("benchmarking {id}"))?;
         if !args.json {
@@ -286,7 +346,10 @@ fn env_cells(r: &EnvRow) -> [String; 7] {
         format!("{:.1}", r.ns_per_step),
         r.steps_per_cpu_s
             .map_or("-".into(), |v| group(v.round() as u64)),
-        format!("{:.6e}", r.reward_sum),
+        match &r.obs_hash {
+            Some(h) => format!("{:.6e}  {h}", r.reward_sum),
+            None => format!("{:.6e}", r.reward_sum),
+        },
     ]
 }
 
