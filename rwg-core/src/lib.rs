@@ -21,6 +21,7 @@ pub mod sha512;
 pub mod space;
 pub mod stats;
 pub mod suggest;
+pub mod tanh;
 pub mod time_limit;
 
 pub use env::{Action, ActionDtype, EnvError, EnvSpec, Environment, Step};

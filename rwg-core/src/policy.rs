@@ -7,9 +7,13 @@
 //! argmax of the outputs (first index wins ties, like `numpy.argmax`);
 //! continuous boxes map `tanh(output)` onto the bounds (`high · tanh` for
 //! symmetric bounds, `low + (tanh + 1)/2 · (high − low)` otherwise).
+//!
+//! `tanh` is rwg's own [`crate::tanh::tanh`] (within 2 ulp of libm's, several
+//! times faster), everywhere in the network and the action mapping.
 
 use crate::env::Action;
 use crate::space::Space;
+use crate::tanh::tanh;
 use serde::Serialize;
 
 /// The hidden-layer sizes and bias setting of a network family.
@@ -156,7 +160,7 @@ impl Policy {
                     s += row[n_x];
                 }
                 // The output layer's tanh is applied by the action mapping.
-                *o = if last { s } else { s.tanh() };
+                *o = if last { s } else { tanh(s) };
             }
             std::mem::swap(&mut cur, &mut next);
             input = &next[..n_out];
@@ -166,13 +170,13 @@ impl Policy {
             ActionMap::Argmax => Action::Discrete(argmax_tanh(y) as i64),
             ActionMap::Symmetric(high) => {
                 for ((a, h), v) in self.action.iter_mut().zip(high).zip(y) {
-                    *a = h * v.tanh();
+                    *a = h * tanh(*v);
                 }
                 Action::Continuous(&self.action)
             }
             ActionMap::Affine(low, high) => {
                 for (((a, l), h), v) in self.action.iter_mut().zip(low).zip(high).zip(y) {
-                    *a = l + (v.tanh() + 1.0) / 2.0 * (h - l);
+                    *a = l + (tanh(*v) + 1.0) / 2.0 * (h - l);
                 }
                 Action::Continuous(&self.action)
             }
@@ -180,14 +184,18 @@ impl Policy {
     }
 }
 
-/// `numpy.argmax(tanh(z))`: the first index whose tanh is the largest.
+/// `numpy.argmax(tanh(z))` with rwg's [`tanh`]: the first index whose tanh
+/// is the largest.
 ///
-/// tanh is non-decreasing, so the first maximum of `z` is a maximum of
-/// `tanh(z)`; an earlier index can tie with it only where tanh rounds two
-/// different inputs to the same double (saturation near ±1, or inputs closer
-/// than tanh's rounding). Those cases are settled with tanh itself; elsewhere
-/// (both inputs in [-5, 5], where tanh' ≥ 1.8e-4, and at least 1e-6 apart) the
-/// outputs differ by far more than tanh's error, and no tanh is computed.
+/// Computed without evaluating tanh in the common case. Let `b` be the first
+/// maximum of `z`. An index `j` can have `tanh(z[j]) >= tanh(z[b])` only if
+/// it is "close" to `b`: `z[b] - z[j] < 1e-6`, or `z[b] > 5`, or
+/// `z[j] < -5`. Otherwise both lie in [-5, 5], where the exact tanh' is at
+/// least 1.8e-4, so the exact values differ by more than 1.8e-10, far more
+/// than the 2 ulp (< 4.5e-16) each computed value may be off: `tanh(z[j]) <
+/// tanh(z[b])` whatever the rounding. The close indices (before or after
+/// `b`: the computed tanh need not be monotonic) are settled by computing
+/// tanh, first index winning ties.
 #[inline]
 pub fn argmax_tanh(z: &[f64]) -> usize {
     let mut best = 0;
@@ -197,13 +205,23 @@ pub fn argmax_tanh(z: &[f64]) -> usize {
         }
     }
     let zb = z[best];
-    for (j, &zj) in z[..best].iter().enumerate() {
-        let may_tie = zb - zj < 1e-6 || zb > 5.0 || zj < -5.0;
-        if may_tie && zj.tanh() == zb.tanh() {
-            return j;
+    let close = |zj: f64| zb - zj < 1e-6 || zb > 5.0 || zj < -5.0;
+    if !z.iter().enumerate().any(|(j, &zj)| j != best && close(zj)) {
+        return best;
+    }
+    // numpy's argmax over `best` and the close indices (the others lose).
+    let mut arg = best;
+    let mut max = tanh(zb);
+    for (j, &zj) in z.iter().enumerate() {
+        if j != best && close(zj) {
+            let t = tanh(zj);
+            if t > max || (t == max && j < arg) {
+                arg = j;
+                max = t;
+            }
         }
     }
-    best
+    arg
 }
 
 #[cfg(test)]
@@ -266,9 +284,9 @@ mod tests {
         p.weights_mut()
             .copy_from_slice(&[0.5, -1.0, 0.25, 2.0, 0.0, -0.5, 1.5, -0.75, 0.1]);
         let x = [0.3, 0.7];
-        let h0 = (0.5 * 0.3 - 0.7 + 0.25f64).tanh();
-        let h1 = (2.0 * 0.3 + 0.0 * 0.7 + -0.5f64).tanh();
-        let y = (1.5 * h0 - 0.75 * h1 + 0.1f64).tanh();
+        let h0 = tanh(0.5 * 0.3 - 0.7 + 0.25f64);
+        let h1 = tanh(2.0 * 0.3 + 0.0 * 0.7 + -0.5f64);
+        let y = tanh(1.5 * h0 - 0.75 * h1 + 0.1f64);
         match p.act(&x) {
             Action::Continuous(a) => assert_eq!(a, &[2.0 * y]),
             _ => panic!("expected a continuous action"),
@@ -287,12 +305,24 @@ mod tests {
         let Action::Continuous(a) = p.act(&[0.5]) else {
             panic!()
         };
-        assert_eq!(a[0], 0.0 + (0.5f64.tanh() + 1.0) / 2.0 * 1.0);
+        assert_eq!(a[0], 0.0 + (tanh(0.5) + 1.0) / 2.0 * 1.0);
+    }
+
+    /// numpy's argmax of the computed tanh values: the first maximum.
+    fn numpy_argmax_of_tanh(z: &[f64]) -> usize {
+        let t: Vec<f64> = z.iter().map(|v| tanh(*v)).collect();
+        let mut expect = 0;
+        for i in 1..t.len() {
+            if t[i] > t[expect] {
+                expect = i;
+            }
+        }
+        expect
     }
 
     #[test]
     fn argmax_is_numpy_argmax_of_tanh() {
-        let cases: [&[f64]; 7] = [
+        let cases: [&[f64]; 9] = [
             &[0.1, 0.2],
             &[0.3, -0.3, 0.3],
             &[25.0, 30.0],       // both saturate to 1.0: first wins
@@ -300,16 +330,35 @@ mod tests {
             &[1.0, 1.0 + 1e-17], // equal after rounding
             &[4.0, 4.0 + 1e-12], // distinct tanh values? decided by tanh
             &[-1.0, 0.0, 19.5, 22.0],
+            &[19.5, 22.0, 19.0], // a later, smaller z ties after saturation
+            &[0.7, 0.7 + 2e-16, 0.7 + 1e-16],
         ];
         for z in cases {
-            let t: Vec<f64> = z.iter().map(|v| v.tanh()).collect();
-            let mut expect = 0;
-            for i in 1..t.len() {
-                if t[i] > t[expect] {
-                    expect = i;
-                }
-            }
-            assert_eq!(argmax_tanh(z), expect, "{z:?}");
+            assert_eq!(argmax_tanh(z), numpy_argmax_of_tanh(z), "{z:?}");
+        }
+    }
+
+    #[test]
+    fn argmax_matches_numpy_on_near_ties() {
+        // Random vectors whose entries are often within a few ulps of each
+        // other or saturated, where the shortcut must hand over to tanh.
+        let mut s: u64 = 3;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            s
+        };
+        for _ in 0..200_000 {
+            let r = next();
+            let base = ((r >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 50.0;
+            let z: Vec<f64> = (0..3)
+                .map(|_| {
+                    let k = (next() % 7) as i64 - 3;
+                    f64::from_bits((base.to_bits() as i64 + k) as u64)
+                })
+                .collect();
+            assert_eq!(argmax_tanh(&z), numpy_argmax_of_tanh(&z), "{z:?}");
         }
     }
 
