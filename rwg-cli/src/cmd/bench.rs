@@ -418,8 +418,8 @@ struct SamplerRow {
     mean_score: f64,
 }
 
-/// Samples per block handed to a rayon task.
-const BLOCK: u64 = 8;
+/// Samples per block handed to a rayon task: as in `rwg run`.
+const BLOCK: u64 = 32;
 
 struct SamplerBench<'p> {
     plan: CellPlan,
@@ -440,7 +440,7 @@ impl EnvVisitor for SamplerBench<'_> {
                 &self.plan,
                 0..self.samples,
                 BLOCK,
-                64 * threads,
+                2 * threads, // blocks per wave: as in `rwg run`
                 || env.clone(),
                 |b: BlockResult| -> Result<(), SampleError> {
                     for e in &b.episodes {
