@@ -16,7 +16,7 @@
 //! user can replay any episode in Gymnasium with `env.reset(seed=r)`.
 
 use crate::env::{EnvError, Environment};
-use crate::policy::{Architecture, NetShape, Policy};
+use crate::policy::{Architecture, NetShape, Policy, PolicyLanes};
 use crate::seeding::{Pcg64, SeedSequence};
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
@@ -235,6 +235,223 @@ impl<E: Environment> Worker<E> {
     }
 }
 
+/// Number of episodes [`run_blocks`] runs side by side in each worker
+/// ([`LaneWorker`]).
+pub const LANES: usize = 16;
+
+/// What one lane of a [`LaneWorker`] is doing.
+#[derive(Debug, Clone, Copy)]
+struct Lane {
+    /// Whether the lane is running an episode.
+    active: bool,
+    /// The episode: `sample_in_block * episodes + episode`.
+    item: usize,
+    /// Which sample of the block the lane's weights belong to.
+    weights_of: usize,
+    score: f64,
+    steps: u32,
+}
+
+/// A worker that runs `K` episodes side by side, each on its own environment
+/// instance, with one [`PolicyLanes`] for their networks.
+///
+/// The results are exactly those of [`Worker::run_sample`] (same weights,
+/// reset seeds and arithmetic), only computed faster: one episode is a chain
+/// of dependent operations (policy, then env step, then policy, ...) whose
+/// latency leaves the CPU mostly idle, and `K` independent chains overlap.
+/// The episodes of a block are handed out in order (sample-major) to the
+/// lanes as they become free, so lanes stay busy until the block's last
+/// episodes.
+pub struct LaneWorker<E, const K: usize> {
+    envs: Vec<E>,
+    policy: PolicyLanes<K>,
+    /// `K` observations, lane-major.
+    obs: Vec<f64>,
+    obs_dim: usize,
+    /// The weights of every sample of the current block, one after the other.
+    block_weights: Vec<f64>,
+}
+
+impl<E: Environment, const K: usize> LaneWorker<E, K> {
+    /// A worker for `plan` with `K` environments from `make_env`.
+    pub fn new(mut make_env: impl FnMut() -> E, plan: &CellPlan) -> Self {
+        let envs: Vec<E> = (0..K).map(|_| make_env()).collect();
+        let spec = envs[0].spec();
+        let shape = NetShape::new(
+            spec.obs_dim(),
+            &plan.arch,
+            NetShape::outputs_for(&spec.action_space),
+        );
+        let obs_dim = spec.obs_dim();
+        let policy = PolicyLanes::new(shape, &spec.action_space);
+        LaneWorker {
+            obs: vec![0.0; K * obs_dim],
+            obs_dim,
+            policy,
+            envs,
+            block_weights: Vec::new(),
+        }
+    }
+
+    /// Runs every episode of the samples `samples` into `out` (length
+    /// `samples × plan.episodes`, sample-major), as [`Worker::run_sample`]
+    /// would one sample after the other. On failure returns the error of the
+    /// first failing episode in that order (the episodes before it are
+    /// finished first), as the sequential loop would.
+    pub fn run_block(
+        &mut self,
+        plan: &CellPlan,
+        samples: Range<u64>,
+        out: &mut [EpisodeResult],
+    ) -> Result<(), SampleError> {
+        let e = plan.episodes as usize;
+        let n = (samples.end - samples.start) as usize;
+        assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
+        let total = n * e;
+        let nw = self.policy.shape().n_weights();
+        self.block_weights.resize(n * nw, 0.0);
+        for k in 0..n {
+            let mut rng = weight_rng(
+                plan.seed,
+                &plan.env_id,
+                &plan.arch,
+                samples.start + k as u64,
+            );
+            draw_weights(
+                &mut rng,
+                plan.dist,
+                &mut self.block_weights[k * nw..(k + 1) * nw],
+            );
+        }
+        let idle = Lane {
+            active: false,
+            item: 0,
+            weights_of: usize::MAX,
+            score: 0.0,
+            steps: 0,
+        };
+        let mut lanes = [idle; K];
+        let mut next = 0;
+        // The first failure in episode order: (item, step, error).
+        let mut failure: Option<(usize, u32, EnvError)> = None;
+        let d = self.obs_dim;
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            self.start_next(plan, &samples, i, lane, &mut next, total, &mut failure);
+        }
+        while lanes.iter().any(|l| l.active) {
+            self.policy.forward(&self.obs);
+            for (i, lane) in lanes.iter_mut().enumerate() {
+                if !lane.active {
+                    continue;
+                }
+                let action = self.policy.action(i);
+                match self.envs[i].step(action, &mut self.obs[i * d..(i + 1) * d]) {
+                    Ok(s) => {
+                        lane.score += s.reward;
+                        lane.steps += 1;
+                        if s.terminated || s.truncated {
+                            out[lane.item] = EpisodeResult {
+                                score: lane.score,
+                                steps: lane.steps,
+                            };
+                            lane.active = false;
+                            self.start_next(
+                                plan,
+                                &samples,
+                                i,
+                                lane,
+                                &mut next,
+                                total,
+                                &mut failure,
+                            );
+                        }
+                    }
+                    Err(err) => {
+                        lane.active = false;
+                        record_failure(&mut failure, lane.item, lane.steps + 1, err);
+                    }
+                }
+            }
+            if let Some((first, _, _)) = &failure {
+                // Episodes after the failing one do not matter any more.
+                for lane in lanes.iter_mut().filter(|l| l.item > *first) {
+                    lane.active = false;
+                }
+            }
+        }
+        match failure {
+            None => Ok(()),
+            Some((item, step, error)) => Err(SampleError {
+                env: plan.env_id.clone(),
+                sample: samples.start + (item / e) as u64,
+                episode: (item % e) as u32,
+                step,
+                error,
+            }),
+        }
+    }
+
+    /// Starts the next episode of the block on lane `i` (resetting its env,
+    /// loading its network's weights), unless all have started or one failed.
+    #[allow(clippy::too_many_arguments)]
+    fn start_next(
+        &mut self,
+        plan: &CellPlan,
+        samples: &Range<u64>,
+        i: usize,
+        lane: &mut Lane,
+        next: &mut usize,
+        total: usize,
+        failure: &mut Option<(usize, u32, EnvError)>,
+    ) {
+        if failure.is_some() || *next >= total {
+            return;
+        }
+        let item = *next;
+        *next += 1;
+        let e = plan.episodes as usize;
+        let (k, episode) = (item / e, item % e);
+        if lane.weights_of != k {
+            let nw = self.policy.shape().n_weights();
+            self.policy
+                .set_weights(i, &self.block_weights[k * nw..(k + 1) * nw]);
+            lane.weights_of = k;
+        }
+        let r = reset_seed(
+            plan.seed,
+            &plan.env_id,
+            samples.start + k as u64,
+            episode as u32,
+        );
+        let d = self.obs_dim;
+        match self.envs[i].reset(r, &mut self.obs[i * d..(i + 1) * d]) {
+            Ok(()) => {
+                lane.active = true;
+                lane.item = item;
+                lane.score = 0.0;
+                lane.steps = 0;
+            }
+            Err(err) => record_failure(failure, item, 0, err),
+        }
+    }
+}
+
+/// Keeps the failure of the earliest episode.
+fn record_failure(
+    failure: &mut Option<(usize, u32, EnvError)>,
+    item: usize,
+    step: u32,
+    err: EnvError,
+) {
+    let earlier = match failure {
+        Some((first, _, _)) => item < *first,
+        None => true,
+    };
+    if earlier {
+        *failure = Some((item, step, err));
+    }
+}
+
 /// Runs one episode from `env.reset(seed=reset_seed)` until it terminates or
 /// is truncated. The loop allocates nothing. On failure returns the step
 /// (0 = reset) and the error.
@@ -317,7 +534,7 @@ where
         let results: Vec<Result<BlockResult, SampleError>> = wave_blocks
             .par_iter()
             .map_init(
-                || Worker::new(make_env(), plan),
+                || LaneWorker::<E, LANES>::new(&make_env, plan),
                 |worker, range| {
                     let n = (range.end - range.start) as usize;
                     let mut episodes = vec![
@@ -327,9 +544,7 @@ where
                         };
                         n * e
                     ];
-                    for (k, out) in episodes.chunks_exact_mut(e.max(1)).enumerate().take(n) {
-                        worker.run_sample(plan, range.start + k as u64, out)?;
-                    }
+                    worker.run_block(plan, range.clone(), &mut episodes)?;
                     Ok(BlockResult {
                         samples: range.clone(),
                         episodes,
@@ -347,6 +562,142 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    use crate::env::{Action, EnvSpec, Step};
+    use crate::space::{BoxSpace, Space};
+
+    /// A toy env: episodes of 1 + (seed % 9) steps, reward = obs; fails at
+    /// step 2 of episodes whose reset seed is a multiple of `fail_every`
+    /// (and at reset when it is also a multiple of 3).
+    struct Flaky {
+        spec: EnvSpec,
+        seed: u64,
+        t: u64,
+        fail_every: u64,
+    }
+
+    impl Flaky {
+        fn new(fail_every: u64) -> Self {
+            Flaky {
+                spec: EnvSpec {
+                    id: "Flaky-v0".into(),
+                    observation_space: Space::Box(BoxSpace::symmetric(&[1e9])),
+                    action_space: Space::Discrete { n: 2 },
+                    max_episode_steps: None,
+                    reward_threshold: None,
+                },
+                seed: 0,
+                t: 0,
+                fail_every,
+            }
+        }
+    }
+
+    impl Environment for Flaky {
+        fn spec(&self) -> &EnvSpec {
+            &self.spec
+        }
+        fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+            if seed % self.fail_every == 0 && seed % 3 == 0 {
+                return Err(EnvError::Other(format!("reset {seed}")));
+            }
+            self.seed = seed;
+            self.t = 0;
+            obs[0] = (seed % 1000) as f64 / 1000.0;
+            Ok(())
+        }
+        fn step(&mut self, a: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+            let a = crate::env::discrete_action(a, 2)?;
+            self.t += 1;
+            if self.seed % self.fail_every == 0 && self.t == 2 {
+                return Err(EnvError::Other(format!("step {}", self.seed)));
+            }
+            obs[0] = obs[0] * 0.5 + a as f64;
+            Ok(Step {
+                reward: obs[0],
+                terminated: self.t > self.seed % 9,
+                truncated: false,
+            })
+        }
+    }
+
+    fn flaky_plan(episodes: u32) -> CellPlan {
+        CellPlan {
+            seed: 1,
+            env_id: "Flaky-v0".into(),
+            arch: Architecture {
+                hidden: vec![3],
+                bias: true,
+            },
+            episodes,
+            dist: WeightDist::Normal { std: 1.0 },
+        }
+    }
+
+    /// The sequential loop's results (or first error) for `samples`.
+    fn sequential(
+        plan: &CellPlan,
+        fail_every: u64,
+        samples: Range<u64>,
+    ) -> Result<Vec<EpisodeResult>, SampleError> {
+        let mut w = Worker::new(Flaky::new(fail_every), plan);
+        let e = plan.episodes as usize;
+        let mut out = vec![
+            EpisodeResult {
+                score: 0.0,
+                steps: 0
+            };
+            (samples.end - samples.start) as usize * e
+        ];
+        for (k, s) in samples.enumerate() {
+            w.run_sample(plan, s, &mut out[k * e..(k + 1) * e])?;
+        }
+        Ok(out)
+    }
+
+    #[test]
+    fn lanes_give_the_sequential_results_and_first_error() {
+        let (mut oks, mut step_errs, mut reset_errs) = (0, 0, 0);
+        for episodes in [1, 2, 5] {
+            let plan = flaky_plan(episodes);
+            // fail_every 1 << 40: no failure; small values: failures in
+            // various positions of the block.
+            for fail_every in [1 << 40, 2, 5, 11, 37] {
+                for samples in [0..1, 0..6, 7..20] {
+                    let want = sequential(&plan, fail_every, samples.clone());
+                    let mut lw = LaneWorker::<_, 3>::new(|| Flaky::new(fail_every), &plan);
+                    let n = (samples.end - samples.start) as usize * episodes as usize;
+                    let mut got = vec![
+                        EpisodeResult {
+                            score: f64::NAN,
+                            steps: 0
+                        };
+                        n
+                    ];
+                    let res = lw.run_block(&plan, samples.clone(), &mut got);
+                    match want {
+                        Ok(want) => {
+                            assert_eq!(res, Ok(()), "{episodes} {fail_every} {samples:?}");
+                            assert_eq!(got, want, "{episodes} {fail_every} {samples:?}");
+                            oks += 1;
+                        }
+                        Err(e) => {
+                            if e.step == 0 {
+                                reset_errs += 1;
+                            } else {
+                                step_errs += 1;
+                            }
+                            assert_eq!(res, Err(e), "{episodes} {fail_every} {samples:?}");
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            oks > 0 && step_errs > 0 && reset_errs > 0,
+            "{oks} {step_errs} {reset_errs}"
+        );
+    }
 
     #[test]
     fn env_key_is_int_from_bytes_little() {

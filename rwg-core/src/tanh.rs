@@ -238,6 +238,59 @@ pub fn tanh(x: f64) -> f64 {
     t.copysign(x)
 }
 
+/// [`tanh`] of every element of `x`, bit for bit, written element-wise op by
+/// op so that the compiler turns each step into SIMD instructions (the table
+/// lookups stay scalar). Used by the policy's side-by-side lanes
+/// ([`crate::policy::PolicyLanes`]).
+#[inline(always)]
+pub fn tanh_lanes<const K: usize>(x: [f64; K]) -> [f64; K] {
+    let a = x.map(f64::abs);
+    let mut small = [0.0; K];
+    let p = &TANH_P;
+    for l in 0..K {
+        let s = a[l] * a[l];
+        let s2 = s * s;
+        let s4 = s2 * s2;
+        let q0 = (p[0] + p[1] * s) + (p[2] + p[3] * s) * s2;
+        let q1 = (p[4] + p[5] * s) + (p[6] + p[7] * s) * s2;
+        let q2 = (p[8] + p[9] * s) + p[10] * s2;
+        small[l] = a[l] + a[l] * (s * (q0 + (q1 + q2 * s4) * s4));
+    }
+    // exp_small(2 * clamp(a)), one step at a time.
+    let mut y = [0.0; K];
+    for l in 0..K {
+        y[l] = 2.0 * (if a[l] > CLAMP { CLAMP } else { a[l] });
+    }
+    let mut kd = [0.0; K];
+    let mut k = [0u64; K];
+    for l in 0..K {
+        kd[l] = y[l] * INV_L + SHIFT;
+        k[l] = kd[l].to_bits().wrapping_sub(SHIFT.to_bits());
+        kd[l] -= SHIFT;
+    }
+    let mut r = [0.0; K];
+    for l in 0..K {
+        r[l] = (y[l] - kd[l] * L_HI) - kd[l] * L_LO;
+    }
+    let mut scale = [0.0; K];
+    let mut tail = [0.0; K];
+    for l in 0..K {
+        let j = (k[l] & 63) as usize;
+        scale[l] = f64::from_bits(EXP2_HI[j].wrapping_add((k[l] >> 6) << 52));
+        tail[l] = EXP2_TAIL[j];
+    }
+    let [c2, c3, c4, c5] = EXPM1_C;
+    let mut out = [0.0; K];
+    for l in 0..K {
+        let r2 = r[l] * r[l];
+        let tmp = tail[l] + r[l] + r2 * (c2 + r[l] * c3) + r2 * r2 * (c4 + r[l] * c5);
+        let big = 1.0 - 2.0 / ((scale[l] + scale[l] * tmp) + 1.0);
+        let t = if a[l] < SMALL { small[l] } else { big };
+        out[l] = t.copysign(x[l]);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -310,6 +363,43 @@ mod tests {
         assert_eq!(tanh(19.0), 19.0f64.tanh());
         for x in [1e-310, -5e-324, 1e-300, 2.0f64.powi(-30)] {
             assert_eq!(tanh(x), x, "{x:?}");
+        }
+    }
+
+    #[test]
+    fn lanes_equal_scalar() {
+        let mut s: u64 = 11;
+        for _ in 0..20_000 {
+            let x: [f64; 8] = std::array::from_fn(|_| {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let u = (s >> 11) as f64 / (1u64 << 53) as f64;
+                (u * 2.0 - 1.0) * [0.7, 3.0, 30.0][(s % 3) as usize]
+            });
+            let t = tanh_lanes(x);
+            for l in 0..8 {
+                assert_eq!(t[l].to_bits(), tanh(x[l]).to_bits(), "{:?}", x[l]);
+            }
+        }
+        let special = [
+            0.0,
+            -0.0,
+            f64::NAN,
+            f64::INFINITY,
+            -1e-310,
+            SMALL,
+            -CLAMP,
+            1e300,
+        ];
+        let t = tanh_lanes(special);
+        for l in 0..8 {
+            assert_eq!(
+                t[l].to_bits(),
+                tanh(special[l]).to_bits(),
+                "{:?}",
+                special[l]
+            );
         }
     }
 
