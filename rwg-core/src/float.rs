@@ -79,6 +79,42 @@ pub fn square_error(x: f64, p: f64) -> f64 {
     }
 }
 
+/// C's `fmod(x, d)` (Rust's `x % d`, Python's `math.fmod`): the exact
+/// remainder of `x / d` truncated, with the sign of `x`; for `d > 0`.
+///
+/// `fmod` is exact, but the library version (a bit-by-bit long division in
+/// Rust's runtime) is slow. For `|x| < 2^20 d` the result is computed here
+/// as `(|x| - q d_hi) - q d_lo` with `q = trunc(|x| / d)` (corrected by one
+/// when the division rounded across an integer) and `d = d_hi + d_lo`,
+/// `d_hi` holding `d`'s top 26 bits: both products are exact, the first
+/// subtraction is exact (its result is a multiple of ulp(|x|) below 2d), and
+/// the second rounds a value that `fmod`'s exactness says is representable,
+/// so it is that value. Larger or non-finite `x` and `d` that is not a
+/// positive normal number go to `x % d`.
+#[inline]
+pub fn fmod_pos(x: f64, d: f64) -> f64 {
+    let ax = x.abs();
+    if !(d.is_normal() && d > 0.0 && ax < d * 1048576.0) {
+        return x % d;
+    }
+    if ax < d {
+        return x;
+    }
+    let d_hi = f64::from_bits(d.to_bits() & !((1u64 << 27) - 1));
+    let d_lo = d - d_hi;
+    let rem = |q: f64| (ax - q * d_hi) - q * d_lo;
+    let mut q = (ax / d).trunc();
+    let mut r = rem(q);
+    if r < 0.0 {
+        q -= 1.0;
+        r = rem(q);
+    } else if r >= d {
+        q += 1.0;
+        r = rem(q);
+    }
+    r.copysign(x)
+}
+
 /// libm `pow(x, 2.0)` without the fast path.
 #[inline(never)]
 pub fn pow2_libm(x: f64) -> f64 {
@@ -186,6 +222,50 @@ mod tests {
             let x = (m * 2.0 - 1.0) * 2f64.powi(exp);
             let p = x * x;
             assert_eq!(square_error(x, p), x.mul_add(x, -p), "x = {x:?}");
+        }
+    }
+
+    #[test]
+    fn fmod_pos_is_fmod() {
+        let two_pi = 2.0 * std::f64::consts::PI;
+        let mut s: u64 = 77;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            s
+        };
+        for d in [two_pi, 1.0, 0.1, 3.0, 1e-3, 7.25e10] {
+            for _ in 0..200_000 {
+                let r = next();
+                let u = (r >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0;
+                let x = match r % 4 {
+                    0 => u * 30.0 * d,
+                    1 => u * 2.0 * d,
+                    2 => u * 1048576.0 * d * 1.5, // beyond the fast range too
+                    _ => {
+                        // Within a few ulps of a multiple of d.
+                        let k = ((next() % 2000) as f64 - 1000.0) * d;
+                        f64::from_bits((k.to_bits() as i64 + (next() % 9) as i64 - 4) as u64)
+                    }
+                };
+                assert_eq!(fmod_pos(x, d).to_bits(), (x % d).to_bits(), "{x:?} % {d:?}");
+            }
+        }
+        for x in [
+            0.0,
+            -0.0,
+            f64::NAN,
+            f64::INFINITY,
+            -f64::INFINITY,
+            1e300,
+            -5e-324,
+        ] {
+            let (a, b) = (fmod_pos(x, two_pi), x % two_pi);
+            assert!(
+                a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                "{x:?}"
+            );
         }
     }
 

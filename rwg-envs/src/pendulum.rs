@@ -13,7 +13,7 @@
 //!   with gym 0.17.2's SHA-512 + MT19937 scheme.
 
 use rwg_core::env::{check_state_len, continuous_action};
-use rwg_core::float::{f32r, pow2, pow2_f32};
+use rwg_core::float::{f32r, fmod_pos, pow2, pow2_f32};
 use rwg_core::seeding::{gym_np_random, Pcg64};
 use rwg_core::{Action, ActionDtype, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 use std::f64::consts::PI;
@@ -30,7 +30,8 @@ const L: f64 = 1.0;
 #[inline]
 pub fn angle_normalize(x: f64) -> f64 {
     let two_pi = 2.0 * PI;
-    let mut r = (x + PI) % two_pi;
+    // `%`, computed exactly but faster than the library's fmod.
+    let mut r = fmod_pos(x + PI, two_pi);
     if r < 0.0 {
         r += two_pi;
     } else if r == 0.0 {
