@@ -63,6 +63,10 @@ pub struct Pendulum {
     dtype: ActionDtype,
     /// `[theta, theta_dot]`.
     state: [f64; 2],
+    /// `sin(theta)` of the current state: the observation's value, which
+    /// v1's next step needs again (glibc's `sin`, whether computed alone or
+    /// with `cos` by `sincos`, gives the same bits).
+    sin_th: f64,
 }
 
 impl Pendulum {
@@ -104,6 +108,7 @@ impl Pendulum {
             version,
             dtype,
             state: [0.0; 2],
+            sin_th: 0.0,
         }
     }
 
@@ -113,9 +118,10 @@ impl Pendulum {
     }
 
     /// `[cos theta, sin theta, theta_dot]`: cast to float32 in v1, float64 in v0.
-    fn write_obs(&self, obs: &mut [f64]) {
+    fn write_obs(&mut self, obs: &mut [f64]) {
         let [th, thdot] = self.state;
-        let o = [th.cos(), th.sin(), thdot];
+        self.sin_th = th.sin();
+        let o = [th.cos(), self.sin_th, thdot];
         for (dst, v) in obs.iter_mut().zip(o) {
             *dst = match self.version {
                 Version::V1 => f32r(v),
@@ -143,7 +149,8 @@ impl Pendulum {
             }
         };
         let costs = pow2(angle_normalize(th)) + 0.1 * pow2(thdot) + u_cost;
-        let newthdot = thdot + (3.0 * G / (2.0 * L) * th.sin() + torque_term) * DT;
+        // sin(th), computed for the observation of this state.
+        let newthdot = thdot + (3.0 * G / (2.0 * L) * self.sin_th + torque_term) * DT;
         let newthdot = clip(newthdot, -MAX_SPEED, MAX_SPEED);
         let newth = th + newthdot * DT;
         ([newth, newthdot], costs)
