@@ -57,6 +57,9 @@ pub struct Acrobot {
     spec: EnvSpec,
     /// `[θ1, θ2, θ̇1, θ̇2]`.
     state: [f64; 4],
+    /// `(sin θ2, cos θ2)` of the current state: computed for the observation
+    /// and needed again by the first RK4 stage of the next step.
+    sin_cos_t2: (f64, f64),
 }
 
 impl Default for Acrobot {
@@ -79,15 +82,17 @@ impl Acrobot {
         Acrobot {
             spec,
             state: [0.0; 4],
+            sin_cos_t2: (0.0, 1.0),
         }
     }
 
     /// Writes `f32` of `[cos θ1, sin θ1, cos θ2, sin θ2, θ̇1, θ̇2]` for the
     /// current state, given `cos θ1` (which the caller already has).
     #[inline(always)]
-    fn write_obs(&self, cos_t1: f64, obs: &mut [f64]) {
+    fn write_obs(&mut self, cos_t1: f64, obs: &mut [f64]) {
         let [t1, t2, dt1, dt2] = self.state;
-        let (sin_t2, cos_t2) = t2.sin_cos();
+        self.sin_cos_t2 = t2.sin_cos();
+        let (sin_t2, cos_t2) = self.sin_cos_t2;
         let out = [cos_t1, t1.sin(), cos_t2, sin_t2, dt1, dt2];
         for (o, v) in obs.iter_mut().zip(out) {
             *o = f32r(v);
@@ -99,6 +104,13 @@ impl Acrobot {
 /// `[θ̇1, θ̇2, θ̈1, θ̈2, 0]`, every operation in source order.
 #[inline(always)]
 fn dsdt(y: &[f64; 5]) -> [f64; 5] {
+    // sin θ2 and cos θ2 each occur several times; evaluate them once.
+    dsdt_with(y, y[1].sin_cos())
+}
+
+/// [`dsdt`] given `(sin θ2, cos θ2)` of `y`.
+#[inline(always)]
+fn dsdt_with(y: &[f64; 5], (sin_t2, cos_t2): (f64, f64)) -> [f64; 5] {
     const M1: f64 = LINK_MASS_1;
     const M2: f64 = LINK_MASS_2;
     const L1: f64 = LINK_LENGTH_1;
@@ -111,8 +123,6 @@ fn dsdt(y: &[f64; 5]) -> [f64; 5] {
     const LC2_SQ: f64 = LC2 * LC2;
     const L1_SQ: f64 = L1 * L1;
     let [theta1, theta2, dtheta1, dtheta2, a] = *y;
-    // sin θ2 and cos θ2 each occur several times; evaluate them once.
-    let (sin_t2, cos_t2) = theta2.sin_cos();
 
     // d1 = m1·lc1² + m2·(l1² + lc2² + 2·l1·lc2·cos θ2) + I1 + I2
     let d1 = M1 * LC1_SQ + M2 * (L1_SQ + LC2_SQ + 2.0 * L1 * LC2 * cos_t2) + I1 + I2;
@@ -141,11 +151,11 @@ fn axpy(y: &[f64; 5], h: f64, k: &[f64; 5]) -> [f64; 5] {
 }
 
 /// One classical RK4 step of [`dsdt`] over `[0, DT]` (Gymnasium's `rk4` with
-/// `t = [0, dt]`).
+/// `t = [0, dt]`), given `(sin θ2, cos θ2)` of `y0`.
 #[inline(always)]
-fn rk4(y0: &[f64; 5]) -> [f64; 5] {
+fn rk4(y0: &[f64; 5], sin_cos_t2: (f64, f64)) -> [f64; 5] {
     let dt2 = DT / 2.0;
-    let k1 = dsdt(y0);
+    let k1 = dsdt_with(y0, sin_cos_t2);
     let k2 = dsdt(&axpy(y0, dt2, &k1));
     let k3 = dsdt(&axpy(y0, dt2, &k2));
     let k4 = dsdt(&axpy(y0, DT, &k3));
@@ -204,7 +214,8 @@ impl Environment for Acrobot {
     fn step(&mut self, action: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
         let a = discrete_action(action, 3)?;
         let [t1, t2, dt1, dt2] = self.state;
-        let ns = rk4(&[t1, t2, dt1, dt2, AVAIL_TORQUE[a]]);
+        // sin/cos of θ2 were computed for the current state's observation.
+        let ns = rk4(&[t1, t2, dt1, dt2, AVAIL_TORQUE[a]], self.sin_cos_t2);
         self.state = [
             wrap(ns[0]),
             wrap(ns[1]),
