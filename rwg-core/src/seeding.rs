@@ -42,9 +42,10 @@ const MIX_MULT_R: u32 = 0x4973_f715;
 impl SeedSequence {
     /// `SeedSequence(s)` for an integer seed.
     pub fn new(seed: u64) -> Self {
-        let mut w = Vec::with_capacity(2);
-        int_to_words(seed, &mut w);
-        Self::from_words(&w)
+        // int_to_words without a Vec: resets call this once per episode.
+        let words = [seed as u32, (seed >> 32) as u32];
+        let n = if words[1] == 0 { 1 } else { 2 };
+        Self::from_words(&words[..n])
     }
 
     /// `SeedSequence([a, b, ...])` for a list of integers.
@@ -265,6 +266,13 @@ mod tests {
     }
 
     // np.random.SeedSequence([1, 2, 3, 4, 5, 2**40]).generate_state(4, np.uint64)
+    #[test]
+    fn seed_sequence_new_is_from_ints() {
+        for seed in [0, 1, 0xffff_ffff, 1 << 32, 0x1234_5678_9abc_def0, u64::MAX] {
+            assert_eq!(SeedSequence::new(seed), SeedSequence::from_ints(&[seed]));
+        }
+    }
+
     #[test]
     fn seed_sequence_of_many_words_matches_numpy() {
         let v: [u64; 4] = SeedSequence::from_ints(&[1, 2, 3, 4, 5, 1 << 40]).generate_u64();
