@@ -100,6 +100,8 @@ fn bench_sampler_json_counts_every_step() {
         assert!((8..=8 * 999).contains(&steps), "{r}");
         assert!(r["ratio_vs_gymnax_raw"].as_f64().unwrap() > 0.0);
         assert_eq!(r["threads"], 2);
+        assert!(r["lanes"].as_u64().unwrap() >= 1);
+        assert!(r["mean_score"].as_f64().unwrap().is_finite());
     }
     // Pendulum never terminates: every episode lasts its 200-step limit.
     let pendulum = rows.iter().find(|r| r["env"] == "Pendulum-v1").unwrap();

@@ -232,6 +232,15 @@ enum Simd {
     Avx2,
 }
 
+/// The instruction set [`PolicyLanes::forward`] uses on this CPU: `"avx2"`
+/// or `"baseline"` (for benchmark reports; the results are the same).
+pub fn lanes_isa() -> &'static str {
+    match Simd::detect() {
+        Simd::Avx2 => "avx2",
+        Simd::Baseline => "baseline",
+    }
+}
+
 impl Simd {
     /// The widest set this CPU has.
     fn detect() -> Simd {

@@ -46,8 +46,8 @@ seed (0, 1, 2, ...); the resets are inside the timed span. No policy is evaluate
 Columns: steps = env steps timed, episodes = episodes started, steps/s and ns/step (wall \
 clock), steps/CPU-s (process CPU time: steadier on a busy machine), and the sum of all \
 rewards. With --hash, a hash of the bits of every observation and reward follows: it \
-must be the same for every build and machine for the same --steps (the envs are \
-bit-exact), so it checks that an optimisation changed no result.")]
+must be the same for every build (on the same libm) for the same --steps (the envs \
+are bit-exact), so it checks that an optimisation changed no result.")]
     Envs(EnvsArgs),
     /// The RWG workload (env + policy) through the sampler, compared with gymnax.
     #[command(after_help = "\
@@ -60,7 +60,9 @@ time, env steps/s in total and per thread, env steps per CPU-second of the proce
 per-core figure of the strongest peer, gymnax-raw (JAX, jit(vmap) rollouts with \
 env.step_env; measured pinned to one core on the shared 2-core machine, 1000 samples x \
 20 episodes, see shared/peers/results/table_pinned_1core.md). Use --threads 1 for a \
-per-core comparison.
+per-core comparison. Each thread runs several episodes side by side (the JSON's \
+`lanes`); the results are those of running them one by one (`mean_score` does not \
+depend on the build, the thread count or the lanes).
 
 Configurations (the peers' workload): CartPole-v0 0HL, CartPole-v0 [4,4], Acrobot-v1 \
 0HL, MountainCarContinuous-v0 [4,4], Pendulum-v1 [4].")]
@@ -314,7 +316,11 @@ fn run_envs(args: EnvsArgs) -> Result<()> {
             .with_context(|| format!("benchmarking {id}"))?;
         if !args.json {
             if rows.is_empty() {
-                print_row(&ENV_COLUMNS, &ENV_COLUMNS.map(|c| c.0.to_string()));
+                let mut header = ENV_COLUMNS.map(|c| c.0.to_string());
+                if args.hash {
+                    header[6] = format!("{:>13}  obs hash", header[6]);
+                }
+                print_row(&ENV_COLUMNS, &header);
             }
             print_row(&ENV_COLUMNS, &env_cells(&row));
         }
@@ -347,7 +353,7 @@ fn env_cells(r: &EnvRow) -> [String; 7] {
         r.steps_per_cpu_s
             .map_or("-".into(), |v| group(v.round() as u64)),
         match &r.obs_hash {
-            Some(h) => format!("{:.6e}  {h}", r.reward_sum),
+            Some(h) => format!("{:>13}  {h}", format!("{:.6e}", r.reward_sum)),
             None => format!("{:.6e}", r.reward_sum),
         },
     ]
@@ -415,7 +421,12 @@ struct SamplerRow {
     steps_per_cpu_s: Option<f64>,
     gymnax_raw_per_core: f64,
     ratio_vs_gymnax_raw: f64,
+    /// Mean episode score: independent of the build, threads and lanes (a check).
     mean_score: f64,
+    /// Episodes each worker runs side by side (`rwg_core::sampler::LANES`).
+    lanes: usize,
+    /// Instruction set of the policy's forward pass on this CPU.
+    forward_isa: &'static str,
 }
 
 /// Samples per block handed to a rayon task: as in `rwg run`.
@@ -518,6 +529,8 @@ fn run_sampler(args: SamplerArgs) -> Result<()> {
             gymnax_raw_per_core: c.gymnax_raw_per_core,
             ratio_vs_gymnax_raw: per_thread / c.gymnax_raw_per_core,
             mean_score: score / (args.samples * args.episodes as u64) as f64,
+            lanes: rwg_core::sampler::LANES,
+            forward_isa: rwg_core::policy::lanes_isa(),
         };
         if !args.json {
             if rows.is_empty() {
