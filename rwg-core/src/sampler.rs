@@ -512,9 +512,12 @@ where
 /// Runs the given blocks of samples of a cell in parallel (on the current
 /// rayon pool) and hands the finished blocks to `on_block` in the order given.
 /// Blocks are computed `wave` at a time, so memory stays bounded by
-/// `wave × block × episodes` results. `make_env` is called once per worker
-/// task (an instance is used by one thread at a time). Stops at the first
-/// error, or the first error `on_block` returns (e.g. on an interrupt);
+/// `wave × block × episodes` results. Each worker task runs [`LANES`]
+/// episodes side by side ([`LaneWorker`]), so `make_env` is called `LANES`
+/// times per worker task (an instance is used by one thread at a time); the
+/// results are exactly those of running the episodes one after the other.
+/// Stops at the first error (the first failing episode of a block, in
+/// order), or the first error `on_block` returns (e.g. on an interrupt);
 /// everything handed to `on_block` before stays valid.
 pub fn run_blocks<E, F, G, X>(
     plan: &CellPlan,
