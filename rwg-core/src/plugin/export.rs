@@ -664,6 +664,88 @@ unsafe extern "C" fn step(
     obs_len: usize,
     out: *mut RwgStepOut,
 ) -> Status {
+    // Fast path: a well-formed call on a healthy instance. Anything unusual
+    // goes to `step_checked`, which finds and reports the problem; nothing has
+    // been done to the env before that, so the two paths behave the same.
+    if let Some(inst) = env.cast::<Instance>().as_mut() {
+        if inst.poisoned.is_none()
+            && !out.is_null()
+            && !obs.is_null()
+            && obs_len == inst.obs_dim
+            && action_len != 0
+            && !action.is_null()
+        {
+            let a = std::slice::from_raw_parts(action, action_len);
+            if let Some(a) = action_fast(a, inst.action) {
+                let o = std::slice::from_raw_parts_mut(obs, obs_len);
+                let env = &mut inst.env;
+                return match catch_unwind(AssertUnwindSafe(|| env.step(a, o))) {
+                    Ok(Ok(s)) => {
+                        *out = RwgStepOut {
+                            reward: s.reward,
+                            terminated: u8::from(s.terminated),
+                            truncated: u8::from(s.truncated),
+                            reserved: [0; 6],
+                        };
+                        if inst.error.len() != 1 {
+                            inst.error.clear();
+                            inst.error.push(0);
+                        }
+                        RWG_OK
+                    }
+                    Ok(Err(e)) => step_error(inst, e),
+                    Err(p) => step_panic(inst, p),
+                };
+            }
+        }
+    }
+    step_checked(env, action, action_len, obs, obs_len, out)
+}
+
+/// The action if it is valid, for the fast path (no message on failure).
+#[inline]
+fn action_fast(a: &[f64], kind: ActionKind) -> Option<Action<'_>> {
+    match kind {
+        ActionKind::Discrete(n) => {
+            let v = *a.first()?;
+            let i = v as u64; // saturating; NaN gives 0, caught by the comparison
+            (a.len() == 1 && v >= 0.0 && v < n as f64 && i as f64 == v)
+                .then_some(Action::Discrete(i as i64))
+        }
+        ActionKind::Box(dim) => {
+            (a.len() == dim && a.iter().all(|x| x.is_finite())).then_some(Action::Continuous(a))
+        }
+    }
+}
+
+#[cold]
+#[inline(never)]
+fn step_error(inst: &mut Instance, e: EnvError) -> Status {
+    let (status, msg) = env_err(e);
+    inst.set_error(&msg);
+    status
+}
+
+#[cold]
+#[inline(never)]
+fn step_panic(inst: &mut Instance, p: Box<dyn std::any::Any + Send>) -> Status {
+    let msg = panic_message(&*p);
+    inst.set_error(&format!("panic: {msg}"));
+    inst.poisoned = Some(msg);
+    RWG_ERR_PANIC
+}
+
+/// `step` with every argument checked and every problem reported.
+#[cold]
+#[inline(never)]
+unsafe fn step_checked(
+    env: *mut RwgEnv,
+    action: *const f64,
+    action_len: usize,
+    obs: *mut f64,
+    obs_len: usize,
+    out: *mut RwgStepOut,
+) -> Status {
     with_instance(env, |e, obs_dim, kind| {
         let invalid = |m: String| (RWG_ERR_INVALID_ARGUMENT, m);
         if out.is_null() {

@@ -745,7 +745,9 @@ impl PluginEnv {
     /// (a discrete action is one integral double). Nothing is checked before
     /// the call: `rwg check` uses this to probe the plugin's own checks.
     pub fn step_raw(&mut self, action: &[f64], obs: &mut [f64]) -> Result<Step, EnvError> {
-        self.check_usable(obs)?;
+        if self.poisoned || obs.len() != self.obs_dim {
+            return Err(self.unusable(obs));
+        }
         obs.fill(f64::NAN);
         // Values a plugin cannot leave there by accident unnoticed.
         let mut out = RwgStepOut {
@@ -769,31 +771,58 @@ impl PluginEnv {
                 &mut out,
             )
         };
-        if status != RWG_OK {
-            return Err(self.fail("step", status));
+        // One test for everything that can be wrong; the message is built
+        // out of line, so the step loop stays small.
+        if status != RWG_OK
+            || (out.terminated | out.truncated) > 1
+            || !out.reward.is_finite()
+            || !obs.iter().all(|x| x.is_finite())
+        {
+            return Err(self.step_failure(status, &out, obs));
         }
-        let flag = |name: &str, v: u8| match v {
-            0 => Ok(false),
-            1 => Ok(true),
-            v => Err(EnvError::Other(format!(
-                "{}: step returned {name} = {v} (must be 0 or 1)",
-                self.prefix
-            ))),
-        };
-        let terminated = flag("terminated", out.terminated)?;
-        let truncated = flag("truncated", out.truncated)?;
-        if !out.reward.is_finite() {
-            return Err(EnvError::Other(format!(
-                "{}: step returned a non-finite reward: {}",
-                self.prefix, out.reward
-            )));
-        }
-        self.check_obs("step", obs)?;
         Ok(Step {
             reward: out.reward,
-            terminated,
-            truncated,
+            terminated: out.terminated == 1,
+            truncated: out.truncated == 1,
         })
+    }
+
+    /// The error of a step whose status, flags, reward or observation is bad,
+    /// checked in that order.
+    #[cold]
+    #[inline(never)]
+    fn step_failure(&mut self, status: Status, out: &RwgStepOut, obs: &[f64]) -> EnvError {
+        if status != RWG_OK {
+            return self.fail("step", status);
+        }
+        for (name, v) in [("terminated", out.terminated), ("truncated", out.truncated)] {
+            if v > 1 {
+                return EnvError::Other(format!(
+                    "{}: step returned {name} = {v} (must be 0 or 1)",
+                    self.prefix
+                ));
+            }
+        }
+        if !out.reward.is_finite() {
+            return EnvError::Other(format!(
+                "{}: step returned a non-finite reward: {}",
+                self.prefix, out.reward
+            ));
+        }
+        match self.check_obs("step", obs) {
+            Err(e) => e,
+            Ok(()) => EnvError::Other(format!("{}: step failed", self.prefix)),
+        }
+    }
+
+    /// The error of [`PluginEnv::check_usable`], out of line.
+    #[cold]
+    #[inline(never)]
+    fn unusable(&self, obs: &[f64]) -> EnvError {
+        match self.check_usable(obs) {
+            Err(e) => e,
+            Ok(()) => EnvError::Other(format!("{}: unusable instance", self.prefix)),
+        }
     }
 }
 
