@@ -492,3 +492,64 @@ fn envs_plugin_lists_one_plugins_envs_with_the_file() {
         "{err}"
     );
 }
+
+#[test]
+fn rollout_looks_inside_a_plugin_env() {
+    let plugin = classic_control_plugin();
+    let p = plugin.to_str().unwrap();
+    // the reference plugin's CartPole starts and steps exactly as the built-in
+    let ours = rwg_ok(&[
+        "rollout",
+        "classic_control/CartPole-v0",
+        "--plugin",
+        p,
+        "--seed",
+        "3",
+        "--actions",
+        "0,1,1",
+    ]);
+    let builtin = rwg_ok(&[
+        "rollout",
+        "CartPole-v0",
+        "--seed",
+        "3",
+        "--actions",
+        "0,1,1",
+    ]);
+    assert_eq!(ours, builtin);
+    // found on RWG_PLUGIN_PATH too
+    let dir = plugin.parent().unwrap().as_os_str();
+    let out = rwg_env(
+        &[
+            "rollout",
+            "classic_control/CartPole-v0",
+            "--seed",
+            "3",
+            "--actions",
+            "0,1,1",
+        ],
+        &[("RWG_PLUGIN_PATH", dir)],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(String::from_utf8(out.stdout).unwrap(), builtin);
+    // errors: an id the plugin lacks, and --state (not in ABI v1)
+    let err = rwg_err(&["rollout", "classic_control/Nope-v0", "--plugin", p]);
+    assert!(
+        err.contains("has no environment 'classic_control/Nope-v0'")
+            && err.contains("classic_control/Acrobot-v1"),
+        "{err}"
+    );
+    let err = rwg_err(&[
+        "rollout",
+        "classic_control/CartPole-v0",
+        "--plugin",
+        p,
+        "--state",
+        "0,0,0,0",
+    ]);
+    assert!(err.contains("does not expose its internal state"), "{err}");
+}

@@ -1,5 +1,6 @@
 //! `rwg rollout`: one episode with given actions, printed step by step.
 
+use crate::plugins::{describe, Found, Plugins};
 use crate::step_lines::StepLines;
 use anyhow::{bail, Context, Result};
 use rwg_core::{Action, ActionDtype, Environment, Space};
@@ -23,7 +24,8 @@ actions run out.
 Examples:
   rwg rollout CartPole-v0 --seed 3 --actions 0,1,1,0
   rwg rollout Pendulum-v1 --seed 4 --actions 0.5,-2.5 --action-dtype float32
-  rwg rollout Pendulum-v0 --state 3.0,0.5 --actions-file actions.txt --format csv")]
+  rwg rollout Pendulum-v0 --state 3.0,0.5 --actions-file actions.txt --format csv
+  rwg rollout example/PointMass-v0 --plugin target/release/librwg_example_plugin.so --actions \"0.5 -0.5\"")]
 pub struct Args {
     /// Environment id (see `rwg envs`).
     env: String,
@@ -52,6 +54,13 @@ pub struct Args {
     /// Override the registered time limit.
     #[arg(long, value_name = "N")]
     max_episode_steps: Option<u32>,
+    /// Plugin library providing ENV (otherwise ENV is built in, or found on
+    /// RWG_PLUGIN_PATH).
+    #[arg(long, value_name = "FILE")]
+    plugin: Option<PathBuf>,
+    /// Configuration string handed to the plugin's `create` (plugin envs only).
+    #[arg(long, value_name = "TEXT", requires = "plugin")]
+    config: Option<String>,
     /// Output format.
     #[arg(long, default_value = "jsonl", value_parser = ["jsonl", "csv"])]
     format: String,
@@ -152,6 +161,35 @@ fn parse_state(text: &str) -> Result<Vec<f64>> {
         .collect()
 }
 
+/// The env to roll out: from `--plugin`, built in, or on `RWG_PLUGIN_PATH`.
+fn make_env(args: &Args, opts: &EnvOptions) -> Result<Box<dyn Environment + Send>> {
+    let plugin_env = |ty: &rwg_core::plugin::PluginEnvType| -> Result<Box<dyn Environment + Send>> {
+        let env = ty
+            .make(args.config.as_deref().unwrap_or(""), args.max_episode_steps)
+            .with_context(|| format!("cannot create {} from {}", args.env, describe(ty)))?;
+        Ok(Box::new(env))
+    };
+    let mut plugins = Plugins::default();
+    if let Some(path) = &args.plugin {
+        let p = plugins.file(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let Some(ty) = p.env(&args.env) else {
+            let ids: Vec<&str> = p.envs().iter().map(|e| e.id()).collect();
+            bail!(
+                "{} has no environment '{}'; it has: {}",
+                path.display(),
+                args.env,
+                ids.join(", ")
+            );
+        };
+        return plugin_env(ty);
+    }
+    match plugins.find(&args.env) {
+        Found::Builtin => Ok(make(&args.env, opts)?),
+        Found::OnPath(ty) => plugin_env(&ty),
+        Found::Unknown(msg) => bail!(msg),
+    }
+}
+
 /// Runs `rwg rollout`.
 pub fn run(args: Args) -> Result<()> {
     let dtype: ActionDtype = args.action_dtype.parse().map_err(anyhow::Error::msg)?;
@@ -159,7 +197,7 @@ pub fn run(args: Args) -> Result<()> {
         action_dtype: dtype,
         max_episode_steps: args.max_episode_steps,
     };
-    let mut env = make(&args.env, &opts)?;
+    let mut env = make_env(&args, &opts)?;
     let spec = env.spec().clone();
     let actions = parse_actions(&args, &spec.action_space)?;
 
@@ -167,6 +205,13 @@ pub fn run(args: Args) -> Result<()> {
     match &args.state {
         Some(text) => {
             let state = parse_state(text)?;
+            if env.state_len() == 0 {
+                bail!(
+                    "--state: {} does not expose its internal state (plugin environments \
+                     cannot start from a given state in ABI v1); use --seed",
+                    spec.id
+                );
+            }
             if state.len() != env.state_len() {
                 bail!(
                     "--state has {} values; {} expects {} (its internal state, in Gymnasium's order)",
