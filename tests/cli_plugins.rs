@@ -553,3 +553,38 @@ fn rollout_looks_inside_a_plugin_env() {
     ]);
     assert!(err.contains("does not expose its internal state"), "{err}");
 }
+
+#[test]
+fn bench_compares_a_plugin_env_with_the_builtin_it_reexports() {
+    let plugin = classic_control_plugin();
+    let out = rwg_ok(&[
+        "bench",
+        "envs",
+        "--plugin",
+        plugin.to_str().unwrap(),
+        "--env",
+        "classic_control/CartPole-v0",
+        "--steps",
+        "2000",
+        "--json",
+    ]);
+    let rows: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 1);
+    assert_eq!(rows[0]["env"], "classic_control/CartPole-v0");
+    assert_eq!(rows[0]["vs_builtin"]["builtin"], "CartPole-v0");
+    assert!(rows[0]["vs_builtin"]["ratio"].as_f64().unwrap() > 0.0);
+    // the same steps and actions: the plugin's rewards are the built-in's
+    let builtin = rwg_ok(&[
+        "bench",
+        "envs",
+        "--env",
+        "CartPole-v0",
+        "--steps",
+        "2000",
+        "--json",
+    ]);
+    let b: serde_json::Value = serde_json::from_str(&builtin).unwrap();
+    assert_eq!(rows[0]["reward_sum"], b[0]["reward_sum"]);
+    assert_eq!(rows[0]["episodes"], b[0]["episodes"]);
+}

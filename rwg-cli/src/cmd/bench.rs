@@ -82,6 +82,12 @@ struct EnvsArgs {
     /// check between builds; costs a little time per step).
     #[arg(long)]
     hash: bool,
+    /// Benchmark the environments of this plugin library instead (repeatable;
+    /// --env picks among them). A plugin env whose id is `namespace/<built-in
+    /// id>`, like the reference plugin's, is also compared with the built-in:
+    /// what the plugin ABI costs per step.
+    #[arg(long = "plugin", value_name = "FILE")]
+    plugins: Vec<std::path::PathBuf>,
     /// Print a JSON array instead of a table.
     #[arg(long)]
     json: bool,
@@ -178,6 +184,18 @@ struct EnvRow {
     /// With `--hash`: FNV-1a hash of the bits of every observation and reward.
     #[serde(skip_serializing_if = "Option::is_none")]
     obs_hash: Option<String>,
+    /// For a plugin env that re-exports a built-in one: the built-in id and
+    /// this env's time per step over the built-in's (same steps, same actions).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    vs_builtin: Option<VsBuiltin>,
+}
+
+/// A plugin env compared with the built-in env it re-exports.
+#[derive(Serialize)]
+struct VsBuiltin {
+    builtin: String,
+    builtin_ns_per_step: f64,
+    ratio: f64,
 }
 
 /// What the timed loop returns.
@@ -255,7 +273,14 @@ struct EnvBench {
 
 impl EnvVisitor for EnvBench {
     type Output = Result<EnvRow>;
-    fn visit<E: Environment + Clone + Send + Sync + 'static>(self, mut env: E) -> Result<EnvRow> {
+    fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Result<EnvRow> {
+        self.bench(env)
+    }
+}
+
+impl EnvBench {
+    /// Times `steps` raw steps of `env` (statically dispatched for `E`).
+    fn bench<E: Environment>(self, mut env: E) -> Result<EnvRow> {
         let spec = env.spec().clone();
         let actions = Actions::generate(&spec.action_space);
         let mut obs = vec![0.0; spec.obs_dim()];
@@ -284,6 +309,7 @@ impl EnvVisitor for EnvBench {
             steps_per_cpu_s: cpu_s.map(|c| self.steps as f64 / c),
             reward_sum: out.reward_sum,
             obs_hash: self.hash.then(|| format!("{:016x}", out.obs_hash)),
+            vs_builtin: None,
         })
     }
 }
@@ -299,6 +325,9 @@ fn check_ids(ids: &[String]) -> Result<()> {
 fn run_envs(args: EnvsArgs) -> Result<()> {
     if args.steps == 0 {
         bail!("--steps must be at least 1");
+    }
+    if !args.plugins.is_empty() {
+        return run_plugin_envs(args);
     }
     check_ids(&args.envs)?;
     let ids: Vec<&str> = if args.envs.is_empty() {
@@ -328,6 +357,67 @@ fn run_envs(args: EnvsArgs) -> Result<()> {
     }
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rows)?);
+    }
+    Ok(())
+}
+
+/// `rwg bench envs --plugin`: the plugins' envs, each compared with the
+/// built-in env it re-exports, if any.
+fn run_plugin_envs(args: EnvsArgs) -> Result<()> {
+    let mut rows = Vec::new();
+    for path in &args.plugins {
+        let plugin = rwg_core::plugin::load_plugin(path)?;
+        for ty in plugin.envs() {
+            if !args.envs.is_empty() && !args.envs.iter().any(|e| e == ty.id()) {
+                continue;
+            }
+            let bench = || EnvBench {
+                steps: args.steps,
+                hash: args.hash,
+            };
+            let env = ty
+                .make("", None)
+                .with_context(|| format!("cannot create {}", ty.id()))?;
+            let mut row = bench()
+                .bench(env)
+                .with_context(|| format!("benchmarking {}", ty.id()))?;
+            let builtin = ty
+                .id()
+                .split_once('/')
+                .map(|(_, b)| b)
+                .filter(|b| crate::plugins::is_builtin(b));
+            if let Some(b) = builtin {
+                let base = visit(b, &EnvOptions::default(), bench())??;
+                row.vs_builtin = Some(VsBuiltin {
+                    builtin: b.to_string(),
+                    builtin_ns_per_step: base.ns_per_step,
+                    ratio: row.ns_per_step / base.ns_per_step,
+                });
+            }
+            rows.push(row);
+        }
+    }
+    if rows.is_empty() {
+        bail!("no environment to benchmark (check --env against `rwg envs --plugin FILE`)");
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+        return Ok(());
+    }
+    let mut columns = ENV_COLUMNS;
+    let widest = rows.iter().map(|r| r.env.len()).max().unwrap_or(0) as i32;
+    columns[0].1 = columns[0].1.min(-widest);
+    print_row(&columns, &columns.map(|c| c.0.to_string()));
+    for r in &rows {
+        print_row(&columns, &env_cells(r));
+    }
+    for r in &rows {
+        if let Some(v) = &r.vs_builtin {
+            println!(
+                "{}: {:.1} ns/step vs {:.1} for the built-in {} ({:.2}x)",
+                r.env, r.ns_per_step, v.builtin_ns_per_step, v.builtin, v.ratio
+            );
+        }
     }
     Ok(())
 }
