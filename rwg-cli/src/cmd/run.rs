@@ -37,7 +37,7 @@ Examples:
 pub struct Args {
     /// The study's TOML manifest.
     manifest: PathBuf,
-    /// Run directory (default: the manifest's `out`, else runs/<manifest name>).
+    /// Run directory (default: the manifest's `out`, else runs/NAME for a manifest NAME.toml).
     #[arg(long)]
     out: Option<PathBuf>,
     /// Networks per cell (overrides the manifest).
