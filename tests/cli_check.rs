@@ -153,8 +153,9 @@ fn panicking_nan_and_hidden_state_plugins_fail_the_right_checks() {
     );
     assert!(!names.contains(&"rollout".to_string()), "{names:?}");
 
-    // The whole plugin: every env is checked, the segfault included, once each.
-    let (code, results) = check_json(&[lib]);
+    // The whole plugin: every env is checked, the segfault and the hang
+    // included, once each.
+    let (code, results) = check_json(&[lib, "--timeout", "3"]);
     assert_eq!(code, Some(1));
     for id in [
         "broken/PanicInStep-v0",
@@ -162,6 +163,7 @@ fn panicking_nan_and_hidden_state_plugins_fail_the_right_checks() {
         "broken/NaNReward-v0",
         "broken/HiddenGlobalState-v0",
         "broken/SegfaultInStep-v0",
+        "broken/HangInStep-v0",
     ] {
         assert!(
             results
@@ -210,5 +212,29 @@ fn unloadable_files_and_unknown_envs() {
     assert!(
         err.contains("plugin 'classic_control' has no environment 'classic_control/Nope-v0'; its environments: classic_control/CartPole-v0,"),
         "{err}"
+    );
+}
+
+#[test]
+fn a_hanging_plugin_is_killed_after_the_timeout() {
+    let lib = broken_plugin();
+    let t0 = std::time::Instant::now();
+    let (code, results) = check_json(&[
+        lib.to_str().unwrap(),
+        "--env",
+        "broken/HangInStep-v0",
+        "--timeout",
+        "2",
+    ]);
+    assert_eq!(code, Some(1));
+    assert!(t0.elapsed() < std::time::Duration::from_secs(30));
+    let hung = results
+        .iter()
+        .find(|r| r["status"] == "failed")
+        .unwrap_or_else(|| panic!("{results:#?}"));
+    let msg = hung["message"].as_str().unwrap();
+    assert!(
+        msg.contains("did not finish within 2 s (hung?) and was killed"),
+        "{msg}"
     );
 }

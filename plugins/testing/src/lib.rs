@@ -9,6 +9,7 @@
 //! | `broken/NaNReward-v0` | a NaN reward on the 2nd step |
 //! | `broken/HiddenGlobalState-v0` | observations depend on a process-global counter |
 //! | `broken/SegfaultInStep-v0` | **segfaults** on the first step: kills the process that steps it |
+//! | `broken/HangInStep-v0` | **never returns** from the first step (for `rwg check --timeout`) |
 //!
 //! Broken handshakes (wrong ABI version, bad descriptors, ...) are C
 //! variants of `c/handshake.c`, compiled by the tests.
@@ -32,16 +33,19 @@ pub enum Fault {
     HiddenGlobalState,
     /// Writes to an unmapped address on the first step.
     SegfaultInStep,
+    /// Never returns from the first step.
+    HangInStep,
 }
 
 impl Fault {
     /// Every fault, in export order.
-    pub const ALL: [Fault; 5] = [
+    pub const ALL: [Fault; 6] = [
         Fault::PanicInStep,
         Fault::NanObservation,
         Fault::NanReward,
         Fault::HiddenGlobalState,
         Fault::SegfaultInStep,
+        Fault::HangInStep,
     ];
 
     /// The exported id.
@@ -52,6 +56,7 @@ impl Fault {
             Fault::NanReward => "broken/NaNReward-v0",
             Fault::HiddenGlobalState => "broken/HiddenGlobalState-v0",
             Fault::SegfaultInStep => "broken/SegfaultInStep-v0",
+            Fault::HangInStep => "broken/HangInStep-v0",
         }
     }
 }
@@ -123,6 +128,10 @@ impl Environment for Broken {
                 // SAFETY: none; this is the point of the environment.
                 unsafe { std::ptr::write_volatile(16 as *mut u8, 1) };
             }
+            Fault::HangInStep => loop {
+                // Like a plugin stuck in an endless loop or a deadlock.
+                std::thread::sleep(std::time::Duration::from_secs(1));
+            },
             _ => {}
         }
         Ok(Step {
