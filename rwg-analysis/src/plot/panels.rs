@@ -2,6 +2,7 @@
 
 use super::raster::Raster;
 use super::{draw_err, Layers, PlotError};
+use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use rwg_core::run_data::CellData;
@@ -111,6 +112,52 @@ fn legend_style<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate
         .map_err(draw_err)
 }
 
+/// A panel's chart: f64 axes of the coordinate types `X` and `Y` make.
+type Chart<'a, DB, X, Y> = ChartContext<
+    'a,
+    DB,
+    Cartesian2d<<X as AsRangedCoord>::CoordDescType, <Y as AsRangedCoord>::CoordDescType>,
+>;
+
+/// A chart with what every panel shares: caption, margins, label areas, the
+/// mesh's line and text styles, and [`tick`] labels on both axes.
+fn chart<'a, DB, X, Y>(
+    area: &'a DrawingArea<DB, Shift>,
+    title: &str,
+    t: PanelText,
+    x: X,
+    y: Y,
+    (x_desc, y_desc): (&str, &str),
+) -> Result<Chart<'a, DB, X, Y>, PlotError>
+where
+    DB: DrawingBackend,
+    X: AsRangedCoord<Value = f64>,
+    Y: AsRangedCoord<Value = f64>,
+    X::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y::CoordDescType: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    let mut chart = ChartBuilder::on(area)
+        .caption(title, ("sans-serif", t.title))
+        .margin(t.margin)
+        .x_label_area_size(t.x_area)
+        .y_label_area_size(t.y_area)
+        .build_cartesian_2d(x, y)
+        .map_err(draw_err)?;
+    chart
+        .configure_mesh()
+        .x_desc(x_desc)
+        .y_desc(y_desc)
+        .label_style(("sans-serif", t.tick))
+        .axis_desc_style(("sans-serif", t.label))
+        .light_line_style(BLACK.mix(0.03))
+        .bold_line_style(BLACK.mix(0.12))
+        .x_label_formatter(&tick)
+        .y_label_formatter(&tick)
+        .draw()
+        .map_err(draw_err)?;
+    Ok(chart)
+}
+
 /// Histogram(s) of sample means over shared bins, log-scale count axis, the
 /// solved score as a dashed line.
 pub(crate) fn histogram_panel<DB: DrawingBackend>(
@@ -140,25 +187,14 @@ pub(crate) fn histogram_panel<DB: DrawingBackend>(
     let max_count = counts.iter().flatten().copied().max().unwrap_or(1).max(1);
     let (y0, y1) = (0.5, max_count as f64 * 2.5);
     let pad = (hi - lo) * 0.02;
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", t.title))
-        .margin(t.margin)
-        .x_label_area_size(t.x_area)
-        .y_label_area_size(t.y_area)
-        .build_cartesian_2d(lo - pad..hi + pad, (y0..y1).log_scale())
-        .map_err(draw_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("sample mean score M")
-        .y_desc("samples (log scale)")
-        .label_style(("sans-serif", t.tick))
-        .axis_desc_style(("sans-serif", t.label))
-        .light_line_style(BLACK.mix(0.03))
-        .bold_line_style(BLACK.mix(0.12))
-        .x_label_formatter(&tick)
-        .y_label_formatter(&|v| tick(v))
-        .draw()
-        .map_err(draw_err)?;
+    let mut chart = chart(
+        area,
+        title,
+        t,
+        lo - pad..hi + pad,
+        (y0..y1).log_scale(),
+        ("sample mean score M", "samples (log scale)"),
+    )?;
     let alpha = if series.len() > 1 { 0.55 } else { 0.85 };
     let mut legend = false;
     for (s, c) in series.iter().zip(&counts) {
@@ -229,25 +265,14 @@ pub(crate) fn scores_panel<DB: DrawingBackend>(
     let n = cell.samples();
     let (ylo, yhi) = padded_range(cell.scores.iter().copied(), s.solved, 0.04);
     let (xlo, xhi) = (-0.5, n as f64 - 0.5);
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", t.title))
-        .margin(t.margin)
-        .x_label_area_size(t.x_area)
-        .y_label_area_size(t.y_area)
-        .build_cartesian_2d(xlo..xhi, ylo..yhi)
-        .map_err(draw_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("sample rank by mean score M")
-        .y_desc("episode score")
-        .label_style(("sans-serif", t.tick))
-        .axis_desc_style(("sans-serif", t.label))
-        .light_line_style(BLACK.mix(0.03))
-        .bold_line_style(BLACK.mix(0.12))
-        .x_label_formatter(&tick)
-        .y_label_formatter(&tick)
-        .draw()
-        .map_err(draw_err)?;
+    let mut chart = chart(
+        area,
+        title,
+        t,
+        xlo..xhi,
+        ylo..yhi,
+        ("sample rank by mean score M", "episode score"),
+    )?;
 
     let plot = chart.plotting_area().strip_coord_spec();
     let mut raster = Raster::over(&plot);
@@ -329,25 +354,14 @@ pub(crate) fn variance_panel<DB: DrawingBackend>(
         .fold(0.0, f64::max);
     let yhi = if vmax > 0.0 { vmax * 1.05 } else { 1.0 };
     let ylo = -yhi * 0.02;
-    let mut chart = ChartBuilder::on(area)
-        .caption(title, ("sans-serif", t.title))
-        .margin(t.margin)
-        .x_label_area_size(t.x_area)
-        .y_label_area_size(t.y_area)
-        .build_cartesian_2d(xlo..xhi, ylo..yhi)
-        .map_err(draw_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("sample mean score M")
-        .y_desc("variance V of episode scores")
-        .label_style(("sans-serif", t.tick))
-        .axis_desc_style(("sans-serif", t.label))
-        .light_line_style(BLACK.mix(0.03))
-        .bold_line_style(BLACK.mix(0.12))
-        .x_label_formatter(&tick)
-        .y_label_formatter(&tick)
-        .draw()
-        .map_err(draw_err)?;
+    let mut chart = chart(
+        area,
+        title,
+        t,
+        xlo..xhi,
+        ylo..yhi,
+        ("sample mean score M", "variance V of episode scores"),
+    )?;
     let plot = chart.plotting_area().strip_coord_spec();
     let mut raster = Raster::over(&plot);
     let (alpha, size) = dot_style(cell.samples(), raster.w);
@@ -396,28 +410,17 @@ pub(crate) fn survival_panel<DB: DrawingBackend>(
         .unwrap_or(1)
         .max(1);
     let (y0, y1) = (0.5 / nmax as f64, 1.0);
-    let mut chart = ChartBuilder::on(area)
-        .caption(
-            "Fraction of random networks with normalised mean ≥ x",
-            ("sans-serif", t.title),
-        )
-        .margin(t.margin)
-        .x_label_area_size(t.x_area)
-        .y_label_area_size(t.y_area)
-        .build_cartesian_2d(0.0..xmax * 1.02, (y0..y1).log_scale())
-        .map_err(draw_err)?;
-    chart
-        .configure_mesh()
-        .x_desc("normalised mean score (0: median random network, 1: solved)")
-        .y_desc("fraction of samples (log scale)")
-        .label_style(("sans-serif", t.tick))
-        .axis_desc_style(("sans-serif", t.label))
-        .light_line_style(BLACK.mix(0.03))
-        .bold_line_style(BLACK.mix(0.12))
-        .x_label_formatter(&tick)
-        .y_label_formatter(&|v| tick(v))
-        .draw()
-        .map_err(draw_err)?;
+    let mut chart = chart(
+        area,
+        "Fraction of random networks with normalised mean ≥ x",
+        t,
+        0.0..xmax * 1.02,
+        (y0..y1).log_scale(),
+        (
+            "normalised mean score (0: median random network, 1: solved)",
+            "fraction of samples (log scale)",
+        ),
+    )?;
     for (k, (label, values)) in series.iter().enumerate() {
         let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
         v.sort_by(|a, b| b.partial_cmp(a).expect("finite"));
