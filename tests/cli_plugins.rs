@@ -10,7 +10,7 @@ use common::*;
 use rwg_core::policy::Architecture;
 use rwg_core::rundir::{block_samples, finalize_cell, n_blocks, write_block};
 use rwg_core::sampler::{run_blocks, CellPlan, WeightDist};
-use rwg_core::ActionDtype;
+use rwg_env::ActionDtype;
 use rwg_envs::EnvOptions;
 use std::ffi::OsStr;
 use std::path::Path;
@@ -308,7 +308,7 @@ fn rwg_plugin_path_provides_envs_to_run_and_to_list() {
     let dir = temp_dir("plugin-path");
     let pp = dir.join("plugins");
     std::fs::create_dir_all(&pp).unwrap();
-    let so = rwg_core::plugin::library_file_name;
+    let so = rwg_plugin_host::library_file_name;
     let example = pp.join(so("rwg_example_plugin"));
     std::fs::copy(rust_plugin("rwg_example_plugin"), &example).unwrap();
     std::fs::write(pp.join(so("junk")), "not a library").unwrap();

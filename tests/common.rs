@@ -88,7 +88,7 @@ pub fn deps_dir() -> PathBuf {
 /// by cargo because the plugin packages are dev-dependencies of rwg-cli.
 pub fn rust_plugin(name: &str) -> PathBuf {
     let deps = deps_dir();
-    let file = rwg_core::plugin::library_file_name(name);
+    let file = rwg_plugin_host::library_file_name(name);
     [deps.clone(), deps.parent().unwrap().to_path_buf()]
         .iter()
         .map(|d| d.join(&file))
@@ -117,7 +117,7 @@ pub fn compile_c(test: &str, src: &str, name: &str, defines: &[&str]) -> PathBuf
         .join("rwg-c-plugins")
         .join(format!("cli-{test}"));
     std::fs::create_dir_all(&dir).unwrap();
-    let out = dir.join(rwg_core::plugin::library_file_name(name));
+    let out = dir.join(rwg_plugin_host::library_file_name(name));
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     let res = Command::new(&cc)
         .args([
@@ -130,7 +130,7 @@ pub fn compile_c(test: &str, src: &str, name: &str, defines: &[&str]) -> PathBuf
         ])
         .args(["-shared", "-fPIC", "-fvisibility=hidden"])
         .arg("-I")
-        .arg(root.join("rwg-core/include"))
+        .arg(root.join("rwg-env/include"))
         .args(defines.iter().map(|d| format!("-D{d}")))
         .arg(root.join(src))
         .arg("-o")

@@ -11,7 +11,7 @@
  *   Config: "" (length 10) or "length=N" with 2 <= N <= 1000.
  *
  * Build:  cc -std=c11 -O2 -shared -fPIC -fvisibility=hidden \
- *            -I../../rwg-core/include chain.c -o libchain.so
+ *            -I../../rwg-env/include chain.c -o libchain.so
  */
 #include <stdio.h>
 #include <stdlib.h>

@@ -10,10 +10,10 @@
 use crate::fmt::{prob_ci, score};
 use crate::table::{Cell, Table};
 use crate::tables::{bias_label, guesses_cell};
-use rwg_core::float::fmt_f64;
 use rwg_core::run_data::{CellData, Run};
 use rwg_core::run_meta::RunMeta;
 use rwg_core::stats::{CellSummary, ExpectedGuesses};
+use rwg_env::float::fmt_f64;
 use serde::Serialize;
 
 /// One run to compare: a label, its metadata, and per cell its summary and

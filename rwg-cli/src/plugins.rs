@@ -2,7 +2,7 @@
 //! (which never shadows a built-in id), explicit plugin files, and where a
 //! manifest's env id comes from.
 
-use rwg_core::plugin::{
+use rwg_plugin_host::{
     load_plugin, load_plugin_path_from_env_reserving, LoadError, Plugin, PluginEnvType, PluginScan,
     PLUGIN_PATH_VAR,
 };
@@ -69,7 +69,7 @@ impl Plugins {
             .iter()
             .flat_map(|p| p.envs().iter().map(|e| e.id()))
             .collect();
-        let suggestion = rwg_core::suggest::nearest(id, builtin.iter().chain(&on_path).copied())
+        let suggestion = rwg_env::suggest::nearest(id, builtin.iter().chain(&on_path).copied())
             .map(|s| format!(" (did you mean '{s}'?)"))
             .unwrap_or_default();
         let mut msg = format!(

@@ -1,8 +1,8 @@
 //! The step-by-step output of `rwg rollout` and `rwg replay --episode`:
 //! JSON lines or CSV, floats in shortest round-trip form.
 
-use rwg_core::float::fmt_f64;
-use rwg_core::{Action, Step};
+use rwg_env::float::fmt_f64;
+use rwg_env::{Action, Step};
 use std::io::{self, Write};
 
 /// Writes the lines of one episode.

@@ -3,13 +3,13 @@
 use crate::plugins::{describe, is_builtin, Found, Plugins};
 use anyhow::{Context, Result};
 use rwg_core::manifest::{EnvEntry, Manifest, ManifestError};
-use rwg_core::plugin::{PluginEnv, PluginEnvType};
 use rwg_core::policy::{Architecture, NetShape};
 use rwg_core::run_meta::{cell_dir_name, CellMeta, RunMeta, ShardMeta, WeightsMeta, RUN_FORMAT};
 use rwg_core::rundir::{finalize_cell, CellTotals, BLOCK_SAMPLES};
 use rwg_core::sampler::CellPlan;
-use rwg_core::{ActionDtype, EnvError, EnvSpec, Environment, TimeLimit};
+use rwg_env::{ActionDtype, EnvError, EnvSpec, Environment, TimeLimit};
 use rwg_envs::{visit, EnvOptions, EnvVisitor};
+use rwg_plugin_host::{PluginEnv, PluginEnvType};
 use std::path::Path;
 
 /// Where a cell's environment comes from.
@@ -105,7 +105,7 @@ fn resolve_env(
                 Some(ty) => ty.clone(),
                 None => {
                     let ids: Vec<&str> = plugin.envs().iter().map(|t| t.id()).collect();
-                    let hint = rwg_core::suggest::nearest(&e.id, ids.iter().copied())
+                    let hint = rwg_env::suggest::nearest(&e.id, ids.iter().copied())
                         .map(|s| format!(" (did you mean '{s}'?)"))
                         .unwrap_or_default();
                     return Err(id_err(format!(

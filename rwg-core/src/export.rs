@@ -5,9 +5,9 @@
 //! when complete, so a reader never sees a half-written file under the final
 //! name.
 
-use crate::float::fmt_f64;
 use crate::sampler::BlockResult;
 use crate::stats::SampleStats;
+use rwg_env::float::fmt_f64;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};

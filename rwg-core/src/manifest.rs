@@ -32,8 +32,8 @@
 //! Unknown keys and bad values are errors that name the file, line, column
 //! and key; nothing runs.
 
-use crate::env::ActionDtype;
 use crate::sampler::WeightDist;
+use rwg_env::env::ActionDtype;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -499,7 +499,7 @@ fn unknown_field_suggestion(msg: &str) -> Option<String> {
     let rest = msg.strip_prefix("unknown field `")?;
     let (field, rest) = rest.split_once('`')?;
     let expected: Vec<&str> = rest.split('`').skip(1).step_by(2).collect();
-    crate::suggest::nearest(field, expected.iter().copied())
+    rwg_env::suggest::nearest(field, expected.iter().copied())
         .map(|s| format!(" (did you mean `{s}`?)"))
 }
 

@@ -11,9 +11,9 @@
 //! `tanh` is rwg's own [`crate::tanh::tanh`] (within 2 ulp of libm's, several
 //! times faster), everywhere in the network and the action mapping.
 
-use crate::env::Action;
-use crate::space::Space;
 use crate::tanh::{tanh, tanh_lanes};
+use rwg_env::env::Action;
+use rwg_env::space::Space;
 use serde::Serialize;
 
 /// The hidden-layer sizes and bias setting of a network family.
@@ -458,7 +458,7 @@ pub fn argmax_tanh(z: &[f64]) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::space::BoxSpace;
+    use rwg_env::space::BoxSpace;
 
     fn n_weights(obs: usize, hidden: &[usize], out: usize, bias: bool) -> usize {
         NetShape::new(

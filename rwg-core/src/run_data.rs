@@ -10,9 +10,9 @@
 //! Malformed files give a [`LoadError`] naming the file and, for CSV, the
 //! 1-based line.
 
-use crate::float::fmt_f64;
 use crate::run_meta::{CellMeta, RunMeta, RUN_FORMAT};
 use crate::stats::{self, CellSummary, ExpectedGuesses, SampleStats, MEAN_PERCENTILES};
+use rwg_env::float::fmt_f64;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::fs::File;

@@ -15,11 +15,11 @@
 //! architecture meets the same initial conditions (a paired comparison), and a
 //! user can replay any episode in Gymnasium with `env.reset(seed=r)`.
 
-use crate::env::{EnvError, Environment};
 use crate::policy::{Architecture, NetShape, Policy, PolicyLanes};
-use crate::seeding::{Pcg64, SeedSequence};
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
+use rwg_env::env::{EnvError, Environment};
+use rwg_env::seeding::{Pcg64, SeedSequence};
 use std::ops::Range;
 use thiserror::Error;
 
@@ -81,7 +81,7 @@ fn env_key_words(env_id: &str, out: &mut Vec<u32>) {
 }
 
 fn push_int(n: u64, out: &mut Vec<u32>) {
-    crate::seeding::int_to_words(n, out);
+    rwg_env::seeding::int_to_words(n, out);
 }
 
 /// The reset seed of episode `episode` of network `sample` (see the module docs).
@@ -142,7 +142,7 @@ pub struct CellPlan {
 impl CellPlan {
     /// Network `sample` of this cell for an env with `spec`: the same weights
     /// the sampler draws (for replay and export).
-    pub fn policy(&self, spec: &crate::EnvSpec, sample: u64) -> Policy {
+    pub fn policy(&self, spec: &rwg_env::EnvSpec, sample: u64) -> Policy {
         let shape = NetShape::new(
             spec.obs_dim(),
             &self.arch,
@@ -566,8 +566,8 @@ where
 mod tests {
     use super::*;
 
-    use crate::env::{Action, EnvSpec, Step};
-    use crate::space::{BoxSpace, Space};
+    use rwg_env::env::{Action, EnvSpec, Step};
+    use rwg_env::space::{BoxSpace, Space};
 
     /// A toy env: episodes of 1 + (seed % 9) steps, reward = obs; fails at
     /// step 2 of episodes whose reset seed is a multiple of `fail_every`
@@ -610,7 +610,7 @@ mod tests {
             Ok(())
         }
         fn step(&mut self, a: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
-            let a = crate::env::discrete_action(a, 2)?;
+            let a = rwg_env::env::discrete_action(a, 2)?;
             self.t += 1;
             if self.seed % self.fail_every == 0 && self.t == 2 {
                 return Err(EnvError::Other(format!("step {}", self.seed)));

@@ -14,10 +14,10 @@
 //! - the angles are wrapped by *repeated* ±2π and the velocities clamped only
 //!   after the RK4 step, with Python's `min(max(x, lo), hi)`.
 
-use rwg_core::env::{check_state_len, discrete_action};
-use rwg_core::float::{f32r, pow2};
-use rwg_core::seeding::Pcg64;
-use rwg_core::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
+use rwg_env::env::{check_state_len, discrete_action};
+use rwg_env::float::{f32r, pow2};
+use rwg_env::seeding::Pcg64;
+use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 use std::f64::consts::PI;
 
 /// Time step of one action (one RK4 step over `[0, DT]`).

@@ -3,10 +3,10 @@
 //! v0 and v1 share the dynamics; only the time limit (200 / 500) and the
 //! reward threshold (195 / 475) differ.
 
-use rwg_core::env::{check_state_len, discrete_action};
-use rwg_core::float::f32r;
-use rwg_core::seeding::Pcg64;
-use rwg_core::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
+use rwg_env::env::{check_state_len, discrete_action};
+use rwg_env::float::f32r;
+use rwg_env::seeding::Pcg64;
+use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
 const GRAVITY: f64 = 9.8;
 const MASSCART: f64 = 1.0;

@@ -4,10 +4,10 @@
 //! scalars), so numpy 2's promotion rules change nothing here; only the
 //! observation is cast to float32.
 
-use rwg_core::env::{check_state_len, discrete_action};
-use rwg_core::float::f32r;
-use rwg_core::seeding::Pcg64;
-use rwg_core::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
+use rwg_env::env::{check_state_len, discrete_action};
+use rwg_env::float::f32r;
+use rwg_env::seeding::Pcg64;
+use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
 const MIN_POSITION: f64 = -1.2;
 const MAX_POSITION: f64 = 0.6;

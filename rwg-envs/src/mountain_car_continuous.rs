@@ -24,9 +24,9 @@
 //! `OverflowError`; here the reward is simply −inf. ±inf gives force ±1 and
 //! reward −inf, as in Python.
 
-use rwg_core::env::{check_state_len, continuous_action};
-use rwg_core::float::{f32r, pow2};
-use rwg_core::{Action, ActionDtype, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
+use rwg_env::env::{check_state_len, continuous_action};
+use rwg_env::float::{f32r, pow2};
+use rwg_env::{Action, ActionDtype, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
 use crate::mountain_car::{observation_box, reset_state};
 

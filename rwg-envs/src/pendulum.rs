@@ -12,10 +12,10 @@
 //!   float64 observations, does all arithmetic in float64, and seeds its reset
 //!   with gym 0.17.2's SHA-512 + MT19937 scheme.
 
-use rwg_core::env::{check_state_len, continuous_action};
-use rwg_core::float::{f32r, fmod_pos, pow2, pow2_f32};
-use rwg_core::seeding::{gym_np_random, Pcg64};
-use rwg_core::{Action, ActionDtype, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
+use rwg_env::env::{check_state_len, continuous_action};
+use rwg_env::float::{f32r, fmod_pos, pow2, pow2_f32};
+use rwg_env::seeding::{gym_np_random, Pcg64};
+use rwg_env::{Action, ActionDtype, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 use std::f64::consts::PI;
 
 const MAX_SPEED: f64 = 8.0;
@@ -232,7 +232,7 @@ impl Environment for Pendulum {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rwg_core::float::pow2_libm;
+    use rwg_env::float::pow2_libm;
 
     fn from_state(mut env: Pendulum, state: [f64; 2]) -> Pendulum {
         let mut obs = [0.0; 3];

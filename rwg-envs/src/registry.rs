@@ -5,7 +5,7 @@
 //! for every built-in env (no dynamic dispatch in the step loop). [`make`]
 //! returns a boxed env for code that does not need that speed.
 
-use rwg_core::{ActionDtype, Environment, TimeLimit};
+use rwg_env::{ActionDtype, Environment, TimeLimit};
 use thiserror::Error;
 
 use crate::acrobot::Acrobot;
@@ -121,7 +121,7 @@ pub fn visit<V: EnvVisitor>(id: &str, opts: &EnvOptions, v: V) -> Result<V::Outp
         _ => {
             return Err(UnknownEnv {
                 id: id.to_string(),
-                suggestion: rwg_core::suggest::nearest(id, known_ids()),
+                suggestion: rwg_env::suggest::nearest(id, known_ids()),
             })
         }
     })

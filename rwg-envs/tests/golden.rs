@@ -3,7 +3,7 @@
 //! states, observations, rewards and flags. The files are copies of
 //! `../shared/golden/*.json` kept under `tests/data/`.
 
-use rwg_core::{Action, ActionDtype, Environment};
+use rwg_env::{Action, ActionDtype, Environment};
 use rwg_envs::{make, EnvOptions};
 use serde::Deserialize;
 use std::path::PathBuf;

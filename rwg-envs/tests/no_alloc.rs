@@ -3,8 +3,8 @@
 //! (counted with a global allocator that counts the calls of this thread).
 
 use rwg_core::policy::{Architecture, NetShape, Policy, PolicyLanes};
-use rwg_core::seeding::Pcg64;
-use rwg_core::{Action, Environment, Space};
+use rwg_env::seeding::Pcg64;
+use rwg_env::{Action, Environment, Space};
 use rwg_envs::{visit, EnvOptions, EnvVisitor, REGISTRY};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

@@ -15,13 +15,13 @@
 //! Config string: comma-separated `key=value` pairs, `mass=<f64>` (default 1)
 //! and `radius=<f64>` (default 0.05), e.g. `"mass=2,radius=0.1"`.
 //!
-//! The plugin itself is the last line: [`rwg_core::export_plugin!`] with a
+//! The plugin itself is the last line: [`rwg_env::export_plugin!`] with a
 //! [`PluginBuilder`] listing the environments.
 
-use rwg_core::env::{continuous_action, discrete_action};
-use rwg_core::plugin::PluginBuilder;
-use rwg_core::seeding::Pcg64;
-use rwg_core::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
+use rwg_env::env::{continuous_action, discrete_action};
+use rwg_env::plugin::PluginBuilder;
+use rwg_env::seeding::Pcg64;
+use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
 const DT: f64 = 0.05;
 const DAMPING: f64 = 0.1;
@@ -193,7 +193,7 @@ pub fn plugin() -> PluginBuilder {
 }
 
 // Defines the exported `rwg_plugin_entry_v1`.
-rwg_core::export_plugin!(plugin());
+rwg_env::export_plugin!(plugin());
 
 #[cfg(test)]
 mod tests {
@@ -219,12 +219,12 @@ mod tests {
     #[test]
     fn the_checker_passes_both_envs_in_process() {
         for discrete in [false, true] {
-            let results = rwg_core::plugin::check_env(|| {
+            let results = rwg_plugin_host::check_env(|| {
                 Params::parse("").map(|p| PointMass::new(discrete, p))
             });
             let failed: Vec<_> = results
                 .iter()
-                .filter(|r| r.status == rwg_core::plugin::CheckStatus::Failed)
+                .filter(|r| r.status == rwg_plugin_host::CheckStatus::Failed)
                 .collect();
             assert!(failed.is_empty(), "{failed:#?}");
         }

@@ -4,8 +4,8 @@
 
 use std::path::PathBuf;
 
-use rwg_core::plugin::{check_plugin, library_file_name, load_plugin, CheckStatus};
-use rwg_core::{Action, Environment};
+use rwg_env::{Action, Environment};
+use rwg_plugin_host::{check_plugin, library_file_name, load_plugin, CheckStatus};
 
 fn plugin_path() -> PathBuf {
     let exe = std::env::current_exe().unwrap();

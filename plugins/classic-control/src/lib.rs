@@ -9,11 +9,11 @@
 //!
 //! Config string: `""` (defaults) or `action_dtype=float32` /
 //! `action_dtype=float64`, the dtype of the continuous action array (see
-//! [`rwg_core::ActionDtype`]; it matters for Pendulum-v1 and
+//! [`rwg_env::ActionDtype`]; it matters for Pendulum-v1 and
 //! MountainCarContinuous-v0 only).
 
-use rwg_core::plugin::{DynEnv, PluginBuilder};
-use rwg_core::ActionDtype;
+use rwg_env::plugin::{DynEnv, PluginBuilder};
+use rwg_env::ActionDtype;
 use rwg_envs::{make, EnvOptions, REGISTRY};
 
 /// The namespace of this plugin's ids.
@@ -61,4 +61,4 @@ pub fn plugin() -> PluginBuilder {
     b
 }
 
-rwg_core::export_plugin!(plugin());
+rwg_env::export_plugin!(plugin());

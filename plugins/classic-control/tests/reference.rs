@@ -8,9 +8,9 @@
 
 use std::path::PathBuf;
 
-use rwg_core::plugin::{check_plugin_env, library_file_name, load_plugin, CheckStatus, Plugin};
-use rwg_core::{Action, ActionDtype, Environment, Space};
+use rwg_env::{Action, ActionDtype, Environment, Space};
 use rwg_envs::{make, EnvOptions, REGISTRY};
+use rwg_plugin_host::{check_plugin_env, library_file_name, load_plugin, CheckStatus, Plugin};
 
 fn plugin_path() -> PathBuf {
     let exe = std::env::current_exe().unwrap();

@@ -16,9 +16,9 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use rwg_core::env::discrete_action;
-use rwg_core::plugin::PluginBuilder;
-use rwg_core::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
+use rwg_env::env::discrete_action;
+use rwg_env::plugin::PluginBuilder;
+use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
 /// How an environment misbehaves.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -155,4 +155,4 @@ pub fn plugin() -> PluginBuilder {
     b
 }
 
-rwg_core::export_plugin!(plugin());
+rwg_env::export_plugin!(plugin());

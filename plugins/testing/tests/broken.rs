@@ -6,8 +6,8 @@ mod common;
 
 use std::path::PathBuf;
 
-use rwg_core::plugin::{check_plugin_env, load_plugin, CheckStatus, Plugin};
-use rwg_core::{Action, Environment};
+use rwg_env::{Action, Environment};
+use rwg_plugin_host::{check_plugin_env, load_plugin, CheckStatus, Plugin};
 use rwg_testing_plugins::Fault;
 
 fn lib() -> PathBuf {

@@ -4,11 +4,11 @@
 mod common;
 
 use common::{c_out_dir, compile_c};
-use rwg_core::plugin::{
+use rwg_env::{Action, EnvError, Environment, Space};
+use rwg_plugin_host::{
     check_plugin, find_plugin_files, load_plugin, load_plugin_path, load_plugin_path_reserving,
     CheckStatus, LoadErrorKind,
 };
-use rwg_core::{Action, EnvError, Environment, Space};
 
 const CHAIN: &str = "examples/plugin-c/chain.c";
 const HANDSHAKE: &str = "plugins/testing/c/handshake.c";
@@ -123,7 +123,7 @@ fn broken_handshakes_give_clear_errors() {
         handshake("BROKEN_SMALL_ENTRY").to_string(),
         format!(
             "rwg_plugin_entry_t is too small: struct_size is 24, ABI 1.0 needs at least {} bytes",
-            std::mem::size_of::<rwg_core::plugin::abi::RwgPluginEntry>()
+            std::mem::size_of::<rwg_env::plugin::abi::RwgPluginEntry>()
         )
     );
     assert_eq!(
@@ -168,7 +168,7 @@ fn plugin_path_scan_reports_every_rejected_file() {
     compile_c(HANDSHAKE, &a, "wrong_major", &["BROKEN_WRONG_MAJOR"]);
     std::fs::write(a.join("README.txt"), "not a library").unwrap();
     std::fs::write(
-        a.join(rwg_core::plugin::library_file_name("garbage")),
+        a.join(rwg_plugin_host::library_file_name("garbage")),
         "not ELF",
     )
     .unwrap();
@@ -183,7 +183,7 @@ fn plugin_path_scan_reports_every_rejected_file() {
         .iter()
         .map(|f| f.file_name().unwrap().to_string_lossy().into_owned())
         .collect();
-    let so = |n: &str| rwg_core::plugin::library_file_name(n);
+    let so = |n: &str| rwg_plugin_host::library_file_name(n);
     assert_eq!(
         names,
         [

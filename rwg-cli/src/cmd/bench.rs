@@ -17,8 +17,8 @@
 use anyhow::{bail, Context, Result};
 use rwg_core::policy::Architecture;
 use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError, WeightDist};
-use rwg_core::seeding::Pcg64;
-use rwg_core::{Action, Environment, Space};
+use rwg_env::seeding::Pcg64;
+use rwg_env::{Action, Environment, Space};
 use rwg_envs::{visit, EnvOptions, EnvVisitor, REGISTRY};
 use serde::Serialize;
 use std::time::Instant;
@@ -366,7 +366,7 @@ fn run_envs(args: EnvsArgs) -> Result<()> {
 fn run_plugin_envs(args: EnvsArgs) -> Result<()> {
     let mut rows = Vec::new();
     for path in &args.plugins {
-        let plugin = rwg_core::plugin::load_plugin(path)?;
+        let plugin = rwg_plugin_host::load_plugin(path)?;
         for ty in plugin.envs() {
             if !args.envs.is_empty() && !args.envs.iter().any(|e| e == ty.id()) {
                 continue;

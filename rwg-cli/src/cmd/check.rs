@@ -11,7 +11,7 @@
 //! started.
 
 use anyhow::{bail, Context, Result};
-use rwg_core::plugin::{
+use rwg_plugin_host::{
     check_plugin_env_observed, load_plugin, CheckEvent, CheckResult, CheckStatus,
 };
 use serde::{Deserialize, Serialize};

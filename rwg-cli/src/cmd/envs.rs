@@ -2,9 +2,9 @@
 
 use crate::plugins::scan_plugin_path;
 use anyhow::Result;
-use rwg_core::float::fmt_f64;
-use rwg_core::plugin::{load_plugin, Plugin, PLUGIN_PATH_VAR};
+use rwg_env::float::fmt_f64;
 use rwg_envs::{make, EnvOptions, REGISTRY};
+use rwg_plugin_host::{load_plugin, Plugin, PLUGIN_PATH_VAR};
 use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
@@ -32,7 +32,7 @@ pub struct Args {
 #[derive(Serialize)]
 struct Row {
     #[serde(flatten)]
-    spec: rwg_core::EnvSpec,
+    spec: rwg_env::EnvSpec,
     summary: String,
     /// Whether `--action-dtype` changes the env's arithmetic.
     action_dtype_sensitive: bool,

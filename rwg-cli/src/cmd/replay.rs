@@ -3,11 +3,11 @@
 use crate::step_lines::StepLines;
 use crate::study::{plan_cells, Cell};
 use anyhow::{bail, Context, Result};
-use rwg_core::float::fmt_f64;
 use rwg_core::manifest::Manifest;
 use rwg_core::policy::Policy;
 use rwg_core::sampler::{reset_seed, run_episode};
-use rwg_core::{Environment, Space};
+use rwg_env::float::fmt_f64;
+use rwg_env::{Environment, Space};
 use serde::Serialize;
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -220,9 +220,9 @@ pub fn run(args: Args) -> Result<()> {
             // copy the action out of the policy's buffer before stepping
             let owned: Vec<f64>;
             let action = match action {
-                rwg_core::Action::Continuous(a) => {
+                rwg_env::Action::Continuous(a) => {
                     owned = a.to_vec();
-                    rwg_core::Action::Continuous(&owned)
+                    rwg_env::Action::Continuous(&owned)
                 }
                 d => d,
             };

@@ -3,7 +3,7 @@
 use crate::plugins::{describe, Found, Plugins};
 use crate::step_lines::StepLines;
 use anyhow::{bail, Context, Result};
-use rwg_core::{Action, ActionDtype, Environment, Space};
+use rwg_env::{Action, ActionDtype, Environment, Space};
 use rwg_envs::{make, EnvOptions};
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
@@ -163,7 +163,7 @@ fn parse_state(text: &str) -> Result<Vec<f64>> {
 
 /// The env to roll out: from `--plugin`, built in, or on `RWG_PLUGIN_PATH`.
 fn make_env(args: &Args, opts: &EnvOptions) -> Result<Box<dyn Environment + Send>> {
-    let plugin_env = |ty: &rwg_core::plugin::PluginEnvType| -> Result<Box<dyn Environment + Send>> {
+    let plugin_env = |ty: &rwg_plugin_host::PluginEnvType| -> Result<Box<dyn Environment + Send>> {
         let env = ty
             .make(args.config.as_deref().unwrap_or(""), args.max_episode_steps)
             .with_context(|| format!("cannot create {} from {}", args.env, describe(ty)))?;

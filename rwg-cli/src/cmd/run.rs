@@ -10,7 +10,7 @@ use rwg_core::rundir::{
     block_done, block_samples, cell_complete, n_blocks, tidy_complete_cell, write_block,
 };
 use rwg_core::sampler::{run_blocks, BlockResult, SampleError};
-use rwg_core::Environment;
+use rwg_env::Environment;
 use rwg_envs::{visit, EnvVisitor};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -2,7 +2,7 @@
 
 use crate::study::read_meta;
 use anyhow::{Context, Result};
-use rwg_core::float::fmt_f64;
+use rwg_env::float::fmt_f64;
 use std::io::Write;
 use std::path::PathBuf;
 

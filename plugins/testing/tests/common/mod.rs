@@ -14,7 +14,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use rwg_core::plugin::library_file_name;
+use rwg_plugin_host::library_file_name;
 
 /// `<target>/<profile>/deps`, where this test binary lives.
 pub fn deps_dir() -> PathBuf {
@@ -77,7 +77,7 @@ pub fn compile_c(src: &str, out_dir: &Path, name: &str, defines: &[&str]) -> Pat
     ])
     .args(["-shared", "-fPIC", "-fvisibility=hidden"])
     .arg("-I")
-    .arg(root.join("rwg-core/include"))
+    .arg(root.join("rwg-env/include"))
     .args(defines.iter().map(|d| format!("-D{d}")))
     .arg(root.join(src))
     .arg("-o")

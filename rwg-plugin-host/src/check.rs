@@ -19,10 +19,10 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::loader::{check_env_id, load_plugin, PluginEnvType};
-use crate::env::{Action, EnvError, EnvSpec, Environment};
-use crate::space::Space;
-use crate::time_limit::TimeLimit;
+use crate::loader::{check_env_id, load_plugin, PluginEnvType};
+use rwg_env::env::{Action, EnvError, EnvSpec, Environment};
+use rwg_env::space::Space;
+use rwg_env::time_limit::TimeLimit;
 
 /// The verdict of one check.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -197,7 +197,7 @@ fn sample(space: &Space, rng: &mut Rng) -> OwnedAction {
 }
 
 fn fmt_vec(v: &[f64]) -> String {
-    let parts: Vec<String> = v.iter().map(|x| crate::float::fmt_f64(*x)).collect();
+    let parts: Vec<String> = v.iter().map(|x| rwg_env::float::fmt_f64(*x)).collect();
     format!("[{}]", parts.join(", "))
 }
 

@@ -1,9 +1,8 @@
 //! Observation and action spaces, as in Gymnasium (`Box` and `Discrete`).
 
-use serde::Serialize;
-
 /// A box in R^n with per-dimension bounds (bounds may be infinite).
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct BoxSpace {
     /// Lower bound of each dimension.
     pub low: Vec<f64>,
@@ -38,8 +37,9 @@ impl BoxSpace {
 }
 
 /// An observation or action space.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-#[serde(tag = "type")]
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[cfg_attr(feature = "serde", serde(tag = "type"))]
 pub enum Space {
     /// Integers `0..n`.
     Discrete {

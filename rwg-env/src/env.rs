@@ -6,22 +6,22 @@
 //! same trait behind the C ABI.
 
 use crate::space::Space;
-use serde::Serialize;
 use thiserror::Error;
 
 /// The numpy dtype of the continuous action array handed to Gymnasium's
 /// `step()`. Pendulum-v1 and MountainCarContinuous-v0 compute differently for
 /// the two (numpy 2's promotion rules; see `golden/README.md`). rwg's policies
 /// produce float64 actions, so [`ActionDtype::F64`] is the default.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "lowercase"))]
 pub enum ActionDtype {
     /// `np.float64` actions (what a numpy policy produces).
     #[default]
-    #[serde(rename = "float64")]
+    #[cfg_attr(feature = "serde", serde(rename = "float64"))]
     F64,
     /// `np.float32` actions (the action space's own dtype).
-    #[serde(rename = "float32")]
+    #[cfg_attr(feature = "serde", serde(rename = "float32"))]
     F32,
 }
 
@@ -49,7 +49,8 @@ impl std::str::FromStr for ActionDtype {
 }
 
 /// What an environment is: its id, spaces, time limit and solved score.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize))]
 pub struct EnvSpec {
     /// Gymnasium-style id, e.g. `CartPole-v0`.
     pub id: String,

@@ -1,8 +1,9 @@
-//! Dynamic environment plugins: the stable C ABI v1 (`include/rwg_plugin.h`).
+//! # rwg-plugin-host
 //!
-//! - [`abi`]: `#[repr(C)]` mirrors of the header's structs and constants.
-//! - [`export`]: exporting Rust [`Environment`](crate::Environment)s as a
-//!   plugin ([`export_plugin!`](crate::export_plugin), [`PluginBuilder`]).
+//! The host side of rwg's environment plugins (the stable C ABI v1 of
+//! `rwg-env/include/rwg_plugin.h`; its types and the export macro are in
+//! `rwg_env::plugin`).
+//!
 //! - [`loader`]: the host side: [`load_plugin`], validation, [`PluginEnv`],
 //!   and the `RWG_PLUGIN_PATH` search ([`load_plugin_path`]).
 //! - [`check`]: the `rwg check` conformance checks as a library.
@@ -10,16 +11,13 @@
 //! Loading a plugin runs its code in this process; libraries are never
 //! unloaded. See the header for the full contract.
 
-pub mod abi;
 pub mod check;
-pub mod export;
 pub mod loader;
 
 pub use check::{
     check_env, check_env_observed, check_plugin, check_plugin_env, check_plugin_env_observed,
     CheckEvent, CheckResult, CheckStatus,
 };
-pub use export::{DynEnv, PluginBuilder};
 pub use loader::{
     find_plugin_files, library_file_name, load_plugin, load_plugin_path, load_plugin_path_from_env,
     load_plugin_path_from_env_reserving, load_plugin_path_reserving, LoadError, LoadErrorKind,

@@ -6,8 +6,8 @@
 //! `rwg_plugin_entry_v1`:
 //!
 //! ```ignore
-//! rwg_core::export_plugin!(
-//!     rwg_core::plugin::PluginBuilder::new("example", env!("CARGO_PKG_VERSION"))
+//! rwg_env::export_plugin!(
+//!     rwg_env::plugin::PluginBuilder::new("example", env!("CARGO_PKG_VERSION"))
 //!         .env(PointMass::spec(), "move a point mass to a target", |config: &str| {
 //!             PointMass::from_config(config)
 //!         })

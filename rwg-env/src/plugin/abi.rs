@@ -1,4 +1,4 @@
-//! `#[repr(C)]` mirrors of `rwg-core/include/rwg_plugin.h`, ABI v1.0.
+//! `#[repr(C)]` mirrors of `rwg-env/include/rwg_plugin.h`, ABI v1.0.
 //!
 //! The header is normative: read it for the ownership, lifetime and threading
 //! contract of every field and function. The const assertions at the end of

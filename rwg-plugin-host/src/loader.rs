@@ -15,10 +15,10 @@ use std::sync::Arc;
 
 use thiserror::Error;
 
-use super::abi::*;
-use crate::env::{Action, EnvError, EnvSpec, Environment, Step};
-use crate::space::{BoxSpace, Space};
-use crate::time_limit::TimeLimit;
+use rwg_env::env::{Action, EnvError, EnvSpec, Environment, Step};
+use rwg_env::plugin::abi::*;
+use rwg_env::space::{BoxSpace, Space};
+use rwg_env::time_limit::TimeLimit;
 
 /// The environment variable listing plugin directories (`:`-separated on
 /// Unix, `;` on Windows, like `PATH`).

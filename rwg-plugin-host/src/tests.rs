@@ -9,12 +9,12 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 
-use super::abi::*;
-use super::check::{check_env, check_plugin_env, CheckStatus};
-use super::export::{entry_v1, ExportedPlugin, PluginBuilder, PluginStatic};
-use super::loader::{load_from_entry, LoadErrorKind, Plugin};
-use crate::env::{discrete_action, Action, EnvError, EnvSpec, Environment, Step};
-use crate::space::{BoxSpace, Space};
+use crate::check::{check_env, check_plugin_env, CheckStatus};
+use crate::loader::{load_from_entry, LoadErrorKind, Plugin};
+use rwg_env::env::{discrete_action, Action, EnvError, EnvSpec, Environment, Step};
+use rwg_env::plugin::abi::*;
+use rwg_env::plugin::export::{entry_v1, ExportedPlugin, PluginBuilder, PluginStatic};
+use rwg_env::space::{BoxSpace, Space};
 
 /// A walk on a line: discrete actions 0/1/2 move by -1/0/+1 (times `speed`).
 #[derive(Clone)]
@@ -149,7 +149,7 @@ impl Environment for Glider {
         self.0.reset(seed, obs)
     }
     fn step(&mut self, action: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
-        let a = crate::env::continuous_action(action, 1)?;
+        let a = rwg_env::env::continuous_action(action, 1)?;
         self.0.step(Action::Discrete(1), obs)?;
         self.0.pos += a[0].clamp(-1.0, 1.0);
         obs[0] = self.0.pos;
@@ -258,7 +258,7 @@ fn exported_plugin_round_trips_spec_and_trajectory() {
     assert_eq!(glider.max_episode_steps, None, "0 steps reads as no limit");
 
     let actions = [2, 2, 0, 1, 2, 2, 2, 2, 2, 2, 2, 0];
-    let mut direct = crate::TimeLimit::new(Walker::new("").unwrap(), None);
+    let mut direct = rwg_env::TimeLimit::new(Walker::new("").unwrap(), None);
     let mut plugin = ty.make("", None).unwrap();
     let want = walk(&mut direct, 5, &actions);
     let got = walk(&mut plugin, 5, &actions);
@@ -664,11 +664,11 @@ fn vtables_are_validated() {
 
 // ---- the checker ----------------------------------------------------------
 
-fn statuses(results: &[super::check::CheckResult]) -> Vec<(String, CheckStatus)> {
+fn statuses(results: &[crate::check::CheckResult]) -> Vec<(String, CheckStatus)> {
     results.iter().map(|r| (r.name.clone(), r.status)).collect()
 }
 
-fn failed(results: &[super::check::CheckResult]) -> Vec<String> {
+fn failed(results: &[crate::check::CheckResult]) -> Vec<String> {
     results
         .iter()
         .filter(|r| r.status == CheckStatus::Failed)
