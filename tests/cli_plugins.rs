@@ -8,10 +8,10 @@
 mod common;
 use common::*;
 use rwg_core::policy::Architecture;
-use rwg_core::rundir::{block_samples, finalize_cell, n_blocks, write_block};
 use rwg_core::sampler::{run_blocks, CellPlan, WeightDist};
 use rwg_env::ActionDtype;
 use rwg_envs::EnvOptions;
+use rwg_study::rundir::blocks::{block_samples, finalize_cell, n_blocks, write_block};
 use std::ffi::OsStr;
 use std::path::Path;
 

@@ -52,7 +52,7 @@ pub fn temp_dir(name: &str) -> PathBuf {
 /// Writes a synthetic run (CartPole-like and Pendulum-like cells, each
 /// architecture with and without bias) into a fresh directory.
 pub fn synthetic_run(name: &str, samples: u64, episodes: u32) -> PathBuf {
-    use rwg_core::run_data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
+    use rwg_study::rundir::data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
     let dir = temp_dir(name);
     let mut cells = Vec::new();
     for bias in [false, true] {

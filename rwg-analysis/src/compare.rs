@@ -10,10 +10,10 @@
 use crate::fmt::{prob_ci, score};
 use crate::table::{Cell, Table};
 use crate::tables::{bias_label, guesses_cell};
-use rwg_core::run_data::{CellData, Run};
-use rwg_core::run_meta::RunMeta;
-use rwg_core::stats::{CellSummary, ExpectedGuesses};
 use rwg_env::float::fmt_f64;
+use rwg_study::rundir::data::{CellData, Run};
+use rwg_study::rundir::meta::RunMeta;
+use rwg_study::stats::{CellSummary, ExpectedGuesses};
 use serde::Serialize;
 
 /// One run to compare: a label, its metadata, and per cell its summary and
@@ -290,7 +290,7 @@ pub fn normalised_series(runs: &[CompareRun]) -> Vec<(String, Vec<f64>)> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rwg_core::run_meta::{CellMeta, WeightsMeta};
+    use rwg_study::rundir::meta::{CellMeta, WeightsMeta};
 
     fn meta(episodes: u32, dist: &str, archs: &[&str]) -> RunMeta {
         RunMeta {

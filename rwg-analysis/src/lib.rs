@@ -4,7 +4,7 @@
 //! ([`tables`]), rendered as text, Markdown, LaTeX, CSV or HTML ([`table`]);
 //! its figures ([`plot`]); the self-contained HTML report ([`report`]).
 //! The statistics themselves and the run loader live in
-//! [`rwg_core::stats`] and [`rwg_core::run_data`].
+//! [`rwg_study::stats`] and [`rwg_study::rundir::data`].
 //!
 //! [`write_analysis`] writes all of it into a run directory: what `rwg run`
 //! calls when it finishes.
@@ -17,8 +17,8 @@ pub mod table;
 pub mod tables;
 
 use plot::{ImageFormat, PlotError};
-use rwg_core::run_data::{write_stats, CellData, LoadError, Run, RunStats};
-use rwg_core::stats::CellSummary;
+use rwg_study::rundir::data::{write_stats, CellData, LoadError, Run, RunStats};
+use rwg_study::stats::CellSummary;
 use std::path::{Path, PathBuf};
 
 pub use table::{Table, TableFormat};
@@ -92,8 +92,8 @@ pub fn write_analysis(run_dir: &Path, png: bool) -> Result<Vec<PathBuf>, Analysi
         source,
     })?;
     let mut written = vec![
-        run_dir.join(rwg_core::run_data::STATS_JSON),
-        run_dir.join(rwg_core::run_data::STATS_CSV),
+        run_dir.join(rwg_study::rundir::data::STATS_JSON),
+        run_dir.join(rwg_study::rundir::data::STATS_CSV),
     ];
     let fig_dir = run_dir.join("figures");
     std::fs::create_dir_all(&fig_dir).map_err(|source| AnalysisError::Write {
@@ -120,7 +120,7 @@ pub fn write_analysis(run_dir: &Path, png: bool) -> Result<Vec<PathBuf>, Analysi
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rwg_core::run_data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
+    use rwg_study::rundir::data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
 
     #[test]
     fn write_analysis_writes_everything() {

@@ -11,9 +11,9 @@
 use crate::plot::{cell_label, Figure, ImageFormat};
 use crate::table::{html_escape, TableFormat};
 use crate::tables::run_tables;
-use rwg_core::run_data::{Run, RunStats};
-use rwg_core::stats::CellSummary;
 use rwg_env::float::fmt_f64;
+use rwg_study::rundir::data::{Run, RunStats};
+use rwg_study::stats::CellSummary;
 
 /// File name of the report in the run directory.
 pub const REPORT_HTML: &str = "report.html";

@@ -4,8 +4,8 @@
 
 use crate::fmt::{prob, prob_ci, score, sig, sig_latex};
 use crate::table::{Cell, Table};
-use rwg_core::run_data::RunStats;
-use rwg_core::stats::{CellSummary, ExpectedGuesses, GUESS_COUNTS};
+use rwg_study::rundir::data::RunStats;
+use rwg_study::stats::{CellSummary, ExpectedGuesses, GUESS_COUNTS};
 
 /// "with bias" / "no bias".
 pub fn bias_label(bias: bool) -> &'static str {

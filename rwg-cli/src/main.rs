@@ -1,9 +1,7 @@
 //! `rwg`: Random Weight Guessing analysis of reinforcement-learning environments.
 
 mod cmd;
-mod plugins;
 mod step_lines;
-mod study;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};

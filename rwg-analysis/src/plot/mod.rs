@@ -23,8 +23,8 @@ use panels::{histogram_panel, scores_panel, variance_panel, HistSeries, PanelTex
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use raster::{base64, encode_png, Raster};
-use rwg_core::run_data::CellData;
-use rwg_core::stats::CellSummary;
+use rwg_study::rundir::data::CellData;
+use rwg_study::stats::CellSummary;
 
 use crate::tables::bias_label;
 

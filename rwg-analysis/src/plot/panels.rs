@@ -5,8 +5,8 @@ use super::{draw_err, Layers, PlotError};
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use rwg_core::run_data::CellData;
-use rwg_core::stats::{self, CellSummary};
+use rwg_study::rundir::data::CellData;
+use rwg_study::stats::{self, CellSummary};
 
 /// Colour of episode scores and of the first histogram.
 pub(crate) const BLUE: RGBColor = RGBColor(31, 119, 180);

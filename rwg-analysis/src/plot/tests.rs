@@ -2,8 +2,8 @@
 //! scatter layers as PNG images, PNGs decode to the expected size.
 
 use super::*;
-use rwg_core::run_data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
-use rwg_core::run_data::Run;
+use rwg_study::rundir::data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
+use rwg_study::rundir::data::Run;
 
 fn cells(name: &str, both_bias: bool) -> Vec<(CellData, CellSummary)> {
     let dir = std::env::temp_dir().join(format!("rwg-plot-{}-{name}", std::process::id()));

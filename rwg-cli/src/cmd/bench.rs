@@ -385,7 +385,7 @@ fn run_plugin_envs(args: EnvsArgs) -> Result<()> {
                 .id()
                 .split_once('/')
                 .map(|(_, b)| b)
-                .filter(|b| crate::plugins::is_builtin(b));
+                .filter(|b| rwg_study::env_source::is_builtin(b));
             if let Some(b) = builtin {
                 let base = visit(b, &EnvOptions::default(), bench())??;
                 row.vs_builtin = Some(VsBuiltin {

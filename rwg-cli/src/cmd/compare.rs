@@ -6,7 +6,7 @@ use rwg_analysis::compare::{
     compare_csv, compare_rows, compare_table, normalised_series, settings_differences, CompareRun,
 };
 use rwg_analysis::plot::{compare_figure, ImageFormat};
-use rwg_core::run_data::Run;
+use rwg_study::rundir::data::Run;
 use std::path::PathBuf;
 
 /// Arguments of `rwg compare`.
@@ -57,7 +57,7 @@ pub fn run(args: Args) -> Result<()> {
             .map(|d| d.display().to_string())
             .collect()
     };
-    let metas: Vec<(&str, &rwg_core::run_meta::RunMeta)> = labels
+    let metas: Vec<(&str, &rwg_study::rundir::meta::RunMeta)> = labels
         .iter()
         .zip(&runs)
         .map(|(l, r)| (l.as_str(), &r.meta))

@@ -1,10 +1,10 @@
 //! `rwg envs`: list the environments.
 
-use crate::plugins::scan_plugin_path;
 use anyhow::Result;
 use rwg_env::float::fmt_f64;
 use rwg_envs::{make, EnvOptions, REGISTRY};
 use rwg_plugin_host::{load_plugin, Plugin, PLUGIN_PATH_VAR};
+use rwg_study::env_source::scan_plugin_path;
 use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;

@@ -1,13 +1,13 @@
 //! `rwg replay`: regenerate one network of a run from the seed and re-run it.
 
 use crate::step_lines::StepLines;
-use crate::study::{plan_cells, Cell};
 use anyhow::{bail, Context, Result};
-use rwg_core::manifest::Manifest;
 use rwg_core::policy::Policy;
 use rwg_core::sampler::{reset_seed, run_episode};
 use rwg_env::float::fmt_f64;
 use rwg_env::{Environment, Space};
+use rwg_study::cells::{plan_cells, Cell};
+use rwg_study::manifest::Manifest;
 use serde::Serialize;
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 use anyhow::{Context, Result};
 use rwg_analysis::plot::{run_figures, ImageFormat};
 use rwg_analysis::report::{report_html, REPORT_HTML};
-use rwg_core::run_data::Run;
+use rwg_study::rundir::data::Run;
 use std::path::PathBuf;
 
 /// Arguments of `rwg report`.

@@ -1,10 +1,10 @@
 //! `rwg rollout`: one episode with given actions, printed step by step.
 
-use crate::plugins::{describe, Found, Plugins};
 use crate::step_lines::StepLines;
 use anyhow::{bail, Context, Result};
 use rwg_env::{Action, ActionDtype, Environment, Space};
 use rwg_envs::{make, EnvOptions};
+use rwg_study::env_source::{describe, Found, Plugins};
 use std::io::{BufWriter, Write};
 use std::path::PathBuf;
 

@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result};
 use rwg_analysis::{render_tables, tables::run_tables, TableFormat};
-use rwg_core::run_data::{stats_csv, write_stats, Run, RunStats};
+use rwg_study::rundir::data::{stats_csv, write_stats, Run, RunStats};
 use std::path::PathBuf;
 
 /// Output formats of `rwg stats` and `rwg compare`.

@@ -1,8 +1,8 @@
 //! `rwg top`: the best networks of each cell, with the command that replays each.
 
-use crate::study::read_meta;
 use anyhow::{Context, Result};
 use rwg_env::float::fmt_f64;
+use rwg_study::rundir::meta::read_run_meta;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -18,7 +18,7 @@ pub struct Args {
 
 /// Runs `rwg top`.
 pub fn run(args: Args) -> Result<()> {
-    let meta = read_meta(&args.run_dir)?;
+    let meta = read_run_meta(&args.run_dir)?;
     let run = args.run_dir.display().to_string();
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());

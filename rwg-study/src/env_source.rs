@@ -1,13 +1,48 @@
-//! Plugin environments as the commands see them: the `RWG_PLUGIN_PATH` scan
-//! (which never shadows a built-in id), explicit plugin files, and where a
-//! manifest's env id comes from.
+//! Where environments come from: built in (`rwg-envs`, statically
+//! dispatched) or a plugin library (an explicit file, or the
+//! `RWG_PLUGIN_PATH` scan, which never shadows a built-in id). A new kind of
+//! environment source is a new [`EnvSource`] variant here.
 
+use rwg_env::{EnvError, TimeLimit};
+use rwg_envs::EnvOptions;
 use rwg_plugin_host::{
-    load_plugin, load_plugin_path_from_env_reserving, LoadError, Plugin, PluginEnvType, PluginScan,
-    PLUGIN_PATH_VAR,
+    load_plugin, load_plugin_path_from_env_reserving, LoadError, Plugin, PluginEnv, PluginEnvType,
+    PluginScan, PLUGIN_PATH_VAR,
 };
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
+
+/// Where a cell's environment comes from.
+#[derive(Debug, Clone)]
+pub enum EnvSource {
+    /// Built in: statically dispatched through [`rwg_envs::visit`].
+    Builtin(EnvOptions),
+    /// From a plugin library (given with `plugin =` or found on `RWG_PLUGIN_PATH`).
+    Plugin(Box<PluginSource>),
+}
+
+/// A plugin environment as a cell builds it.
+#[derive(Debug, Clone)]
+pub struct PluginSource {
+    /// The environment type (its plugin, spec and constructor).
+    pub ty: PluginEnvType,
+    /// The manifest's `config` (`""` if not given).
+    pub config: String,
+    /// The manifest's time limit override.
+    pub max_episode_steps: Option<u32>,
+}
+
+impl PluginSource {
+    /// A new instance with the cell's config and time limit.
+    pub fn make(&self) -> Result<TimeLimit<PluginEnv>, EnvError> {
+        self.ty.make(&self.config, self.max_episode_steps)
+    }
+
+    /// The plugin library file.
+    pub fn path(&self) -> &Path {
+        &self.ty.plugin().path
+    }
+}
 
 /// Whether `id` is a built-in environment.
 pub fn is_builtin(id: &str) -> bool {

@@ -10,7 +10,7 @@
 //! Malformed files give a [`LoadError`] naming the file and, for CSV, the
 //! 1-based line.
 
-use crate::run_meta::{CellMeta, RunMeta, RUN_FORMAT};
+use crate::rundir::meta::{CellMeta, RunMeta, RUN_FORMAT};
 use crate::stats::{self, CellSummary, ExpectedGuesses, SampleStats, MEAN_PERCENTILES};
 use rwg_env::float::fmt_f64;
 use serde::{Deserialize, Serialize};
@@ -490,10 +490,10 @@ fn check_samples_csv(path: &Path, data: &CellData) -> Result<(), LoadError> {
 }
 
 /// The text of a `samples.csv` for the given per-sample statistics and ranks
-/// (the run writer's own format, [`crate::export::write_sample_rows`]).
+/// (the run writer's own format, [`crate::rundir::export::write_sample_rows`]).
 pub fn samples_csv(stats: &[SampleStats], ranks: &[usize]) -> String {
     let mut out = Vec::with_capacity(64 * (stats.len() + 1));
-    crate::export::write_sample_rows(&mut out, stats, ranks).expect("writing to memory");
+    crate::rundir::export::write_sample_rows(&mut out, stats, ranks).expect("writing to memory");
     String::from_utf8(out).expect("ASCII")
 }
 

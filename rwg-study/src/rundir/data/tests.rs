@@ -214,7 +214,7 @@ fn bad_run_json() {
     let e = Run::open(&dir).unwrap_err().to_string();
     assert!(e.contains("run format 99"), "{e}");
     meta.format = RUN_FORMAT;
-    meta.shard = Some(crate::run_meta::ShardMeta { index: 1, count: 3 });
+    meta.shard = Some(crate::rundir::meta::ShardMeta { index: 1, count: 3 });
     write_run_json(&dir, &meta).unwrap();
     let e = Run::open(&dir).unwrap_err().to_string();
     assert!(e.contains("shard 1/3") && e.contains("rwg merge"), "{e}");

@@ -2,7 +2,7 @@
 //! analysis: scores are drawn from a simple model, no environment is run.
 
 use super::{write_cell_files, write_run_json};
-use crate::run_meta::{cell_dir_name, CellMeta, RunMeta, WeightsMeta, RUN_FORMAT};
+use crate::rundir::meta::{cell_dir_name, CellMeta, RunMeta, WeightsMeta, RUN_FORMAT};
 use std::path::Path;
 
 /// One synthetic cell.

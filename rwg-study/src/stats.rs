@@ -21,7 +21,7 @@
 //! variance `1/N`. rwg follows the code: [`variance`] divides by the number of
 //! episodes.
 
-use crate::run_meta::CellMeta;
+use crate::rundir::meta::CellMeta;
 use serde::{Deserialize, Serialize};
 use std::cmp::Ordering;
 

@@ -10,9 +10,11 @@
 //! so they are byte-identical whether the cell ran in one go, was resumed, or
 //! was computed in shards and merged.
 
-use crate::export::{write_atomic, write_sample_rows, write_score_rows, AtomicFile, SCORES_HEADER};
-use crate::sampler::BlockResult;
+use crate::rundir::export::{
+    write_atomic, write_sample_rows, write_score_rows, AtomicFile, SCORES_HEADER,
+};
 use crate::stats::{ranks, sample_stats};
+use rwg_core::sampler::BlockResult;
 use std::io::{self, BufRead, BufReader, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -219,7 +221,7 @@ pub fn finalize_cell(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampler::EpisodeResult;
+    use rwg_core::sampler::EpisodeResult;
 
     fn block(b: u64, samples: u64, episodes: u32) -> BlockResult {
         let r = block_samples(b, samples);

@@ -1,48 +1,15 @@
 //! A manifest expanded into cells, and what `run` and `merge` share about them.
 
-use crate::plugins::{describe, is_builtin, Found, Plugins};
-use anyhow::{Context, Result};
-use rwg_core::manifest::{EnvEntry, Manifest, ManifestError};
+use crate::env_source::{describe, is_builtin, EnvSource, Found, PluginSource, Plugins};
+use crate::manifest::{EnvEntry, Manifest, ManifestError};
+use crate::rundir::blocks::{finalize_cell, CellTotals, BLOCK_SAMPLES};
+use crate::rundir::meta::{cell_dir_name, CellMeta, RunMeta, ShardMeta, WeightsMeta, RUN_FORMAT};
+use crate::StudyError;
 use rwg_core::policy::{Architecture, NetShape};
-use rwg_core::run_meta::{cell_dir_name, CellMeta, RunMeta, ShardMeta, WeightsMeta, RUN_FORMAT};
-use rwg_core::rundir::{finalize_cell, CellTotals, BLOCK_SAMPLES};
 use rwg_core::sampler::CellPlan;
-use rwg_env::{ActionDtype, EnvError, EnvSpec, Environment, TimeLimit};
+use rwg_env::{ActionDtype, EnvSpec, Environment};
 use rwg_envs::{visit, EnvOptions, EnvVisitor};
-use rwg_plugin_host::{PluginEnv, PluginEnvType};
 use std::path::Path;
-
-/// Where a cell's environment comes from.
-#[derive(Debug, Clone)]
-pub enum EnvSource {
-    /// Built in: statically dispatched through [`rwg_envs::visit`].
-    Builtin(EnvOptions),
-    /// From a plugin library (given with `plugin =` or found on `RWG_PLUGIN_PATH`).
-    Plugin(Box<PluginSource>),
-}
-
-/// A plugin environment as a cell builds it.
-#[derive(Debug, Clone)]
-pub struct PluginSource {
-    /// The environment type (its plugin, spec and constructor).
-    pub ty: PluginEnvType,
-    /// The manifest's `config` (`""` if not given).
-    pub config: String,
-    /// The manifest's time limit override.
-    pub max_episode_steps: Option<u32>,
-}
-
-impl PluginSource {
-    /// A new instance with the cell's config and time limit.
-    pub fn make(&self) -> Result<TimeLimit<PluginEnv>, EnvError> {
-        self.ty.make(&self.config, self.max_episode_steps)
-    }
-
-    /// The plugin library file.
-    pub fn path(&self) -> &Path {
-        &self.ty.plugin().path
-    }
-}
 
 /// One cell (env × architecture × bias) with everything resolved.
 pub struct Cell {
@@ -175,14 +142,16 @@ fn resolve_env(
 /// (`manifest.toml` of a run) names the file that provided the env and a run
 /// resumed with another file is a different study. Plugins are loaded (their
 /// code runs) and one instance of each plugin env is created.
-pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>> {
+pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
     let mut cells = vec![];
     let mut plugins = Plugins::default();
     for i in 0..m.envs.len() {
         let (source, spec) = resolve_env(m, i, &mut plugins)?;
         if let EnvSource::Plugin(p) = &source {
             if m.envs[i].plugin.is_none() {
-                m.envs[i].plugin = Some(std::path::absolute(p.path())?);
+                m.envs[i].plugin = Some(std::path::absolute(p.path()).map_err(StudyError::io(
+                    format!("cannot resolve {}", p.path().display()),
+                ))?);
             }
         }
         let e = &m.envs[i];
@@ -241,7 +210,7 @@ impl Cell {
 
     /// A new instance of the cell's env behind a trait object (for code
     /// outside the sampler's hot loop).
-    pub fn make_env(&self) -> Result<Box<dyn Environment + Send>> {
+    pub fn make_env(&self) -> Result<Box<dyn Environment + Send>, StudyError> {
         Ok(match &self.source {
             EnvSource::Builtin(opts) => rwg_envs::make(&self.plan.env_id, opts)?,
             EnvSource::Plugin(p) => Box::new(p.make()?),
@@ -284,7 +253,7 @@ impl Cell {
         m: &Manifest,
         out: &Path,
         wall_s: f64,
-    ) -> Result<(CellMeta, CellTotals)> {
+    ) -> Result<(CellMeta, CellTotals), StudyError> {
         let dir = out.join("cells").join(&self.dir);
         let mut meta = None;
         let totals = finalize_cell(&dir, m.samples, m.episodes, |t| {
@@ -293,7 +262,10 @@ impl Cell {
             meta = Some(cm);
             Some(json)
         })
-        .with_context(|| format!("cannot finalise cell {}", self.dir))?;
+        .map_err(|source| StudyError::RunDir {
+            context: format!("cannot finalise cell {}", self.dir),
+            source,
+        })?;
         Ok((meta.expect("set by finalize_cell"), totals))
     }
 
@@ -352,19 +324,4 @@ pub fn new_meta(
         block_samples: BLOCK_SAMPLES,
         shard,
     }
-}
-
-/// Writes `run.json` atomically.
-pub fn write_meta(out: &Path, meta: &RunMeta) -> Result<()> {
-    let p = out.join("run.json");
-    rwg_core::export::write_atomic(&p, serde_json::to_string_pretty(meta)?.as_bytes())
-        .with_context(|| format!("cannot write {}", p.display()))
-}
-
-/// Reads `run.json`.
-pub fn read_meta(dir: &Path) -> Result<RunMeta> {
-    let p = dir.join("run.json");
-    let text =
-        std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not an rwg run.json", p.display()))
 }

@@ -5,8 +5,8 @@
 //! when complete, so a reader never sees a half-written file under the final
 //! name.
 
-use crate::sampler::BlockResult;
 use crate::stats::SampleStats;
+use rwg_core::sampler::BlockResult;
 use rwg_env::float::fmt_f64;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -126,7 +126,7 @@ pub fn rfc3339(t: SystemTime) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::sampler::EpisodeResult;
+    use rwg_core::sampler::EpisodeResult;
     use std::time::Duration;
 
     #[test]

@@ -10,7 +10,9 @@
 //! - `cells/<cell dir>/samples.csv`: one row per sample,
 //!   `sample,mean,variance,std,min,max,rank`.
 
+use crate::StudyError;
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 /// Version of the run directory layout.
 pub const RUN_FORMAT: u32 = 1;
@@ -158,6 +160,36 @@ pub fn cell_dir_name(env: &str, arch: &str, bias: bool) -> String {
         clean(arch),
         if bias { "bias" } else { "nobias" }
     )
+}
+
+/// Writes `run.json` into run directory `out`, atomically.
+pub fn write_run_meta(out: &Path, meta: &RunMeta) -> Result<(), StudyError> {
+    let p = out.join("run.json");
+    let json = serde_json::to_string_pretty(meta).map_err(|source| StudyError::Json {
+        context: format!("cannot write {}", p.display()),
+        source,
+    })?;
+    crate::rundir::export::write_atomic(&p, json.as_bytes())
+        .map_err(StudyError::io(format!("cannot write {}", p.display())))
+}
+
+/// Reads `run.json` of run directory `dir`.
+pub fn read_run_meta(dir: &Path) -> Result<RunMeta, StudyError> {
+    read_json(&dir.join("run.json"), "run.json")
+}
+
+/// Reads a finished cell's `cell.json` in cell directory `dir`.
+pub fn read_cell_meta(dir: &Path) -> Result<CellMeta, StudyError> {
+    read_json(&dir.join("cell.json"), "cell.json")
+}
+
+fn read_json<T: serde::de::DeserializeOwned>(p: &Path, what: &str) -> Result<T, StudyError> {
+    let text = std::fs::read_to_string(p)
+        .map_err(StudyError::io(format!("cannot read {}", p.display())))?;
+    serde_json::from_str(&text).map_err(|source| StudyError::Json {
+        context: format!("{} is not an rwg {what}", p.display()),
+        source,
+    })
 }
 
 #[cfg(test)]

@@ -32,7 +32,7 @@
 //! Unknown keys and bad values are errors that name the file, line, column
 //! and key; nothing runs.
 
-use crate::sampler::WeightDist;
+use rwg_core::sampler::WeightDist;
 use rwg_env::env::ActionDtype;
 use serde::{Deserialize, Serialize};
 use std::ops::Range;

@@ -1,0 +1,21 @@
+//! # rwg-study
+//!
+//! The RWG study runner as a library. A TOML [`manifest`] expands into
+//! [`cells`] (environment × architecture × bias), each cell's networks are
+//! split into blocks that the [`runner`] hands to `rwg_core`'s sampler and
+//! commits one by one into a run directory ([`rundir`]), so a run resumes
+//! where it stopped and shards ([`merge`]) combine into the same bytes.
+//! [`stats`] summarises a finished run (`stats.json`, `stats.csv`, and the
+//! runner's console summary). Environments come from an [`env_source`]:
+//! built in (`rwg-envs`) or a plugin (`rwg-plugin-host`).
+
+pub mod cells;
+pub mod env_source;
+pub mod error;
+pub mod manifest;
+pub mod merge;
+pub mod rundir;
+pub mod runner;
+pub mod stats;
+
+pub use error::StudyError;

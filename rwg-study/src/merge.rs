@@ -1,0 +1,170 @@
+//! Combining the shards of a study (`rwg run --shard K/N`) into one run
+//! directory, byte-identical to an unsharded run's (timing metadata aside).
+
+use crate::cells::{new_meta, plan_cells, summary_header};
+use crate::manifest::Manifest;
+use crate::rundir::blocks::{block_done, block_path, n_blocks};
+use crate::rundir::export::{rfc3339, write_atomic};
+use crate::rundir::meta::{read_run_meta, write_run_meta, RunMeta};
+use crate::StudyError;
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+/// What a merge wrote.
+#[derive(Debug)]
+pub struct MergeReport {
+    /// Shards merged.
+    pub shards: u64,
+    /// The merged `run.json`.
+    pub meta: RunMeta,
+}
+
+/// Checks that the directories in `shards` come from the same study and
+/// together hold every block exactly once, then writes the merged run into
+/// `out` (which must not hold a run). `on_line` receives the summary header,
+/// then each cell's summary line as the cell is finalised.
+pub fn merge_shards(
+    shards: &[PathBuf],
+    out: &Path,
+    mut on_line: impl FnMut(&str),
+) -> Result<MergeReport, StudyError> {
+    let refuse = |msg: String| Err(StudyError::Refused(msg));
+    let mut dirs: Vec<(PathBuf, Manifest, RunMeta)> = vec![];
+    for d in shards {
+        let m =
+            Manifest::load(&d.join("manifest.toml")).map_err(|source| StudyError::NotARunDir {
+                dir: d.clone(),
+                source,
+            })?;
+        let meta = read_run_meta(d)?;
+        if meta.shard.is_none() {
+            return refuse(format!("{} holds a whole run, not a shard", d.display()));
+        }
+        dirs.push((d.clone(), m, meta));
+    }
+    let Some((first_dir, m, first_meta)) = dirs.first() else {
+        return refuse("no shard directories given".into());
+    };
+    let count = first_meta.shard.expect("checked").count;
+    for (d, other, meta) in &dirs[1..] {
+        let diffs = m.study_differences(other);
+        if !diffs.is_empty() {
+            return refuse(format!(
+                "{} and {} hold different studies: {}",
+                first_dir.display(),
+                d.display(),
+                diffs.join("; ")
+            ));
+        }
+        let s = meta.shard.expect("checked");
+        if s.count != count {
+            return refuse(format!(
+                "{} is shard {}/{}, but {} is one of {count} shards",
+                d.display(),
+                s.index,
+                s.count,
+                first_dir.display()
+            ));
+        }
+    }
+    let mut owner: Vec<Option<&PathBuf>> = vec![None; count as usize];
+    for (d, _, meta) in &dirs {
+        let k = meta.shard.expect("checked").index as usize;
+        if let Some(prev) = owner[k] {
+            return refuse(format!(
+                "shard {k}/{count} is given twice: {} and {}",
+                prev.display(),
+                d.display()
+            ));
+        }
+        owner[k] = Some(d);
+    }
+    let missing: Vec<String> = owner
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| o.is_none())
+        .map(|(k, _)| format!("{k}/{count}"))
+        .collect();
+    if !missing.is_empty() {
+        return refuse(format!(
+            "missing shard(s) {} of {count}",
+            missing.join(", ")
+        ));
+    }
+
+    // The shards' manifests name their plugin files already: nothing to fill in.
+    let cells = plan_cells(&mut m.clone())?;
+    let nb = n_blocks(m.samples);
+    // Every block must be in the shard that owns it.
+    for (ci, cell) in cells.iter().enumerate() {
+        for b in 0..nb {
+            let k = ((ci as u64 * nb + b) % count) as usize;
+            let dir = owner[k].expect("checked").join("cells").join(&cell.dir);
+            if !block_done(&dir, b) {
+                return refuse(format!(
+                    "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; finish it with \
+                     rwg run <manifest> --shard {k}/{count} --out {}",
+                    owner[k].expect("checked").display(),
+                    cell.dir,
+                    owner[k].expect("checked").display()
+                ));
+            }
+        }
+    }
+
+    if out.join("run.json").exists() || out.join("manifest.toml").exists() {
+        return refuse(format!(
+            "{} already holds a run; choose another --out",
+            out.display()
+        ));
+    }
+    std::fs::create_dir_all(out.join("cells"))
+        .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
+    let manifest_path = out.join("manifest.toml");
+    write_atomic(&manifest_path, m.to_toml().as_bytes()).map_err(StudyError::io(format!(
+        "cannot write {}",
+        manifest_path.display()
+    )))?;
+    let threads = dirs.iter().map(|s| s.2.threads).max().unwrap_or(1);
+    let start = dirs
+        .iter()
+        .map(|s| s.2.start_time.clone())
+        .min()
+        .unwrap_or_default();
+    let mut meta = new_meta(m, threads, start, None);
+    meta.wall_s = dirs.iter().map(|s| s.2.wall_s).sum();
+    on_line(&summary_header());
+    for (ci, cell) in cells.iter().enumerate() {
+        let dest = out.join("cells").join(&cell.dir);
+        for b in 0..nb {
+            let k = ((ci as u64 * nb + b) % count) as usize;
+            let src = block_path(&owner[k].expect("checked").join("cells").join(&cell.dir), b);
+            let dst = block_path(&dest, b);
+            let parent = dst.parent().expect("has parent");
+            std::fs::create_dir_all(parent).map_err(StudyError::io(format!(
+                "cannot create {}",
+                parent.display()
+            )))?;
+            std::fs::copy(&src, &dst).map_err(StudyError::io(format!(
+                "cannot copy {} to {}",
+                src.display(),
+                dst.display()
+            )))?;
+        }
+        let (cm, totals) = cell.finalize(m, out, 0.0)?;
+        on_line(&cell.summary_line(&totals.means, f64::NAN));
+        meta.env_steps += cm.env_steps;
+        meta.cells.push(cm);
+    }
+    meta.steps_per_s = if meta.wall_s > 0.0 {
+        meta.env_steps as f64 / meta.wall_s
+    } else {
+        0.0
+    };
+    meta.end_time = Some(rfc3339(SystemTime::now()));
+    write_run_meta(out, &meta)?;
+    Ok(MergeReport {
+        shards: count,
+        meta,
+    })
+}

@@ -1,0 +1,348 @@
+//! Running a study: the manifest's cells, block by block, into a run
+//! directory, resumable and shardable.
+//!
+//! [`run_study`] plans the cells, prepares (or resumes) the directory, runs
+//! every block it owns through `rwg_core`'s sampler and commits each one
+//! ([`rundir::blocks`](crate::rundir::blocks)), finalises complete cells and
+//! keeps `run.json` current. What it reports while running goes to a
+//! [`Progress`]; the caller prints.
+
+use crate::cells::{new_meta, plan_cells, Cell};
+use crate::env_source::EnvSource;
+use crate::error::CellError;
+use crate::manifest::Manifest;
+use crate::rundir::blocks::{
+    block_done, block_samples, cell_complete, n_blocks, tidy_complete_cell, write_block,
+};
+use crate::rundir::export::{rfc3339, write_atomic};
+use crate::rundir::meta::{read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta};
+use crate::StudyError;
+use rwg_core::sampler::{run_blocks, BlockResult};
+use rwg_env::Environment;
+use rwg_envs::{visit, EnvVisitor};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Instant, SystemTime};
+
+/// How to run a study.
+#[derive(Debug, Clone)]
+pub struct RunOptions<'a> {
+    /// The run directory.
+    pub out: PathBuf,
+    /// Compute only this shard (every N-th block across all cells).
+    pub shard: Option<ShardMeta>,
+    /// Delete what the run directory holds and start over.
+    pub force_new: bool,
+    /// Set to stop after the blocks in flight (e.g. by a Ctrl-C handler);
+    /// the run then ends with [`StudyError::Interrupted`], resumable.
+    pub stop: &'a AtomicBool,
+}
+
+/// What a run reports while it works.
+pub trait Progress: Send {
+    /// Networks this session will compute, once the work is known.
+    fn start(&mut self, networks: u64);
+    /// A cell starts (`label`: "cell i/n (k done): dir").
+    fn cell(&mut self, label: &str);
+    /// A block of `networks` networks with `env_steps` steps was committed.
+    fn block(&mut self, label: &str, networks: u64, env_steps: u64);
+    /// The run stopped (done or failed): remove the progress display.
+    fn finish(&mut self, ok: bool);
+}
+
+/// How a run ended.
+#[derive(Debug)]
+pub enum RunOutcome {
+    /// The directory already held this study, complete; nothing was run.
+    AlreadyComplete,
+    /// The cells (or the shard's blocks) are computed.
+    Finished(Box<RunReport>),
+}
+
+/// What a finished run did.
+#[derive(Debug)]
+pub struct RunReport {
+    /// The final `run.json`.
+    pub meta: RunMeta,
+    /// The summary line of each cell finalised in this session (whole
+    /// studies only; see [`Cell::summary_line`]).
+    pub lines: Vec<String>,
+    /// Cells in the study.
+    pub cells: usize,
+    /// Env steps computed in this session.
+    pub env_steps: u64,
+    /// Worker threads used.
+    pub threads: usize,
+}
+
+/// Runs the study `m` (overrides applied) into `opts.out`: plans the cells
+/// (plugins are loaded), resumes what the directory holds, computes the
+/// blocks this run owns and finalises complete cells. The manifest gets the
+/// plugin files it resolved written in (see [`plan_cells`]).
+pub fn run_study(
+    m: &mut Manifest,
+    opts: &RunOptions<'_>,
+    progress: &mut dyn Progress,
+) -> Result<RunOutcome, StudyError> {
+    let out = &opts.out;
+    let cells = plan_cells(m)?;
+    let m = &*m;
+    let threads = m
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let previous = prepare_dir(out, m, opts.shard, opts.force_new)?;
+    if previous.as_ref().is_some_and(|p| p.end_time.is_some()) {
+        return Ok(RunOutcome::AlreadyComplete);
+    }
+    let manifest_path = out.join("manifest.toml");
+    write_atomic(&manifest_path, m.to_toml().as_bytes()).map_err(StudyError::io(format!(
+        "cannot write {}",
+        manifest_path.display()
+    )))?;
+
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| StudyError::Refused(format!("cannot start {threads} worker threads: {e}")))?;
+    let nb = n_blocks(m.samples);
+    let owned = |ci: usize, b: u64| opts.shard.is_none_or(|s| s.owns(ci, nb, b));
+    let todo: u64 = cells
+        .iter()
+        .enumerate()
+        .map(|(ci, c)| {
+            let dir = out.join("cells").join(&c.dir);
+            if opts.shard.is_none() && cell_complete(&dir) {
+                return 0;
+            }
+            (0..nb)
+                .filter(|&b| owned(ci, b) && !block_done(&dir, b))
+                .map(|b| block_samples(b, m.samples).count() as u64)
+                .sum()
+        })
+        .sum();
+    progress.start(todo);
+    let t0 = Instant::now();
+    let mut meta = new_meta(m, threads, rfc3339(SystemTime::now()), opts.shard);
+    if let Some(p) = &previous {
+        meta.start_time = p.start_time.clone();
+    }
+    let mut lines = vec![];
+    let mut steps_now = 0u64;
+
+    for (ci, cell) in cells.iter().enumerate() {
+        let dir = out.join("cells").join(&cell.dir);
+        if opts.shard.is_none() && cell_complete(&dir) {
+            tidy_complete_cell(&dir).map_err(|source| StudyError::RunDir {
+                context: format!("cannot tidy cell {}", cell.dir),
+                source,
+            })?;
+            let cm = read_cell_meta(&dir)?;
+            meta.env_steps += cm.env_steps;
+            meta.cells.push(cm);
+            continue;
+        }
+        let label = format!(
+            "cell {}/{} ({} done): {}",
+            ci + 1,
+            cells.len(),
+            ci,
+            cell.dir
+        );
+        progress.cell(&label);
+        let blocks: Vec<_> = (0..nb)
+            .filter(|&b| owned(ci, b) && !block_done(&dir, b))
+            .map(|b| block_samples(b, m.samples))
+            .collect();
+        let t_cell = Instant::now();
+        let mut cell_steps = 0u64;
+        let result = pool.install(|| {
+            run_cell_blocks(
+                cell,
+                &blocks,
+                &dir,
+                m.episodes,
+                opts.stop,
+                |b: &BlockResult| {
+                    let s: u64 = b.episodes.iter().map(|r| r.steps as u64).sum();
+                    cell_steps += s;
+                    steps_now += s;
+                    progress.block(&label, b.samples.end - b.samples.start, s);
+                },
+            )
+        });
+        if let Err(e) = result {
+            progress.finish(false);
+            meta.wall_s = t0.elapsed().as_secs_f64();
+            write_run_meta(out, &meta)?;
+            return Err(match e {
+                CellError::Interrupted => StudyError::Interrupted,
+                source => StudyError::Cell {
+                    cell: cell.dir.clone(),
+                    plugin: match &cell.source {
+                        EnvSource::Plugin(p) => Some(p.path().to_path_buf()),
+                        EnvSource::Builtin(_) => None,
+                    },
+                    out: out.clone(),
+                    source: Box::new(source),
+                },
+            });
+        }
+        let wall = t_cell.elapsed().as_secs_f64();
+        if opts.shard.is_none() {
+            let (cm, totals) = cell.finalize(m, out, wall)?;
+            lines.push(cell.summary_line(&totals.means, cm.steps_per_s));
+            meta.env_steps += cm.env_steps;
+            meta.cells.push(cm);
+        } else {
+            meta.env_steps += cell_steps;
+        }
+        meta.wall_s = t0.elapsed().as_secs_f64();
+        write_run_meta(out, &meta)?;
+    }
+    progress.finish(true);
+    meta.wall_s = t0.elapsed().as_secs_f64();
+    meta.steps_per_s = steps_now as f64 / meta.wall_s;
+    meta.end_time = Some(rfc3339(SystemTime::now()));
+    write_run_meta(out, &meta)?;
+    Ok(RunOutcome::Finished(Box::new(RunReport {
+        meta,
+        lines,
+        cells: cells.len(),
+        env_steps: steps_now,
+        threads,
+    })))
+}
+
+/// Runs the given blocks of a cell, committing each. Built-in envs are
+/// statically dispatched (the sampler is monomorphised for each); plugin envs
+/// run through the same generic sampler with `TimeLimit<PluginEnv>`.
+fn run_cell_blocks(
+    cell: &Cell,
+    blocks: &[std::ops::Range<u64>],
+    dir: &Path,
+    episodes: u32,
+    stop: &AtomicBool,
+    on_done: impl FnMut(&BlockResult),
+) -> Result<(), CellError> {
+    struct Runner<'a, F> {
+        cell: &'a Cell,
+        blocks: &'a [std::ops::Range<u64>],
+        dir: &'a Path,
+        episodes: u32,
+        stop: &'a AtomicBool,
+        on_done: F,
+    }
+    impl<F: FnMut(&BlockResult)> Runner<'_, F> {
+        fn run<E: Environment + Send>(
+            self,
+            make_env: impl Fn() -> E + Sync,
+        ) -> Result<(), CellError> {
+            let Runner {
+                cell,
+                blocks,
+                dir,
+                episodes,
+                stop,
+                mut on_done,
+            } = self;
+            let wave = rayon::current_num_threads() * 2;
+            run_blocks(
+                &cell.plan,
+                blocks,
+                wave,
+                make_env,
+                |b: BlockResult| -> Result<(), CellError> {
+                    write_block(dir, &b, episodes)?;
+                    on_done(&b);
+                    if stop.load(Ordering::SeqCst) {
+                        return Err(CellError::Interrupted);
+                    }
+                    Ok(())
+                },
+            )
+        }
+    }
+    impl<F: FnMut(&BlockResult)> EnvVisitor for Runner<'_, F> {
+        type Output = Result<(), CellError>;
+        fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
+            self.run(|| env.clone())
+        }
+    }
+    let runner = Runner {
+        cell,
+        blocks,
+        dir,
+        episodes,
+        stop,
+        on_done,
+    };
+    match &cell.source {
+        EnvSource::Builtin(opts) => visit(&cell.plan.env_id, opts, runner)
+            .expect("env ids are checked when cells are planned"),
+        EnvSource::Plugin(p) => runner.run(|| {
+            p.make()
+                .expect("an instance was created when the cells were planned")
+        }),
+    }
+}
+
+/// Creates the run directory, or checks that the one there holds the same
+/// study (to resume it). Returns the previous run's metadata, if any.
+fn prepare_dir(
+    out: &Path,
+    m: &Manifest,
+    shard: Option<ShardMeta>,
+    force_new: bool,
+) -> Result<Option<RunMeta>, StudyError> {
+    let manifest_path = out.join("manifest.toml");
+    if force_new {
+        for p in ["cells", "run.json", "manifest.toml"] {
+            let p = out.join(p);
+            let removed = if p.is_dir() {
+                std::fs::remove_dir_all(&p)
+            } else if p.exists() {
+                std::fs::remove_file(&p)
+            } else {
+                Ok(())
+            };
+            removed.map_err(StudyError::io(format!("cannot remove {}", p.display())))?;
+        }
+    }
+    let mut previous = None;
+    if manifest_path.exists() {
+        let old = Manifest::load(&manifest_path)?;
+        let diffs = old.study_differences(m);
+        if !diffs.is_empty() {
+            return Err(StudyError::Refused(format!(
+                "{} holds a different study ({}); use another --out, or --force-new to delete it and start over",
+                out.display(),
+                diffs.join("; ")
+            )));
+        }
+        if out.join("run.json").exists() {
+            let meta = read_run_meta(out)?;
+            if meta.shard != shard {
+                let show = |s: Option<ShardMeta>| {
+                    s.map_or("the whole study".into(), |s| {
+                        format!("shard {}/{}", s.index, s.count)
+                    })
+                };
+                return Err(StudyError::Refused(format!(
+                    "{} holds {}, not {}; use another --out",
+                    out.display(),
+                    show(meta.shard),
+                    show(shard)
+                )));
+            }
+            previous = Some(meta);
+        }
+    } else if out.join("run.json").exists() {
+        return Err(StudyError::Refused(format!(
+            "{} holds a run.json but no manifest.toml; use another --out, or --force-new",
+            out.display()
+        )));
+    }
+    std::fs::create_dir_all(out.join("cells"))
+        .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
+    Ok(previous)
+}
