@@ -17,7 +17,7 @@ pub mod table;
 pub mod tables;
 
 use plot::{ImageFormat, PlotError};
-use rwg_study::rundir::data::{write_stats, CellData, LoadError, Run, RunStats};
+use rwg_study::rundir::data::{write_stats, CellData, Run, RunReadError, RunStats};
 use rwg_study::stats::CellSummary;
 use std::path::{Path, PathBuf};
 
@@ -34,7 +34,7 @@ pub fn render_tables(tables: &[Table], format: TableFormat) -> String {
 pub enum AnalysisError {
     /// The run directory could not be read.
     #[error(transparent)]
-    Load(#[from] LoadError),
+    Load(#[from] RunReadError),
     /// A figure could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
@@ -59,7 +59,7 @@ fn write_file(path: PathBuf, bytes: &[u8]) -> Result<PathBuf, AnalysisError> {
 /// Loads every cell of a run with its summary, in `run.json` order.
 ///
 /// All cells are held in memory at once (12 bytes per episode).
-pub fn load_cells(run: &Run) -> Result<Vec<(CellData, CellSummary)>, LoadError> {
+pub fn load_cells(run: &Run) -> Result<Vec<(CellData, CellSummary)>, RunReadError> {
     run.meta
         .cells
         .iter()

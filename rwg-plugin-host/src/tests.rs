@@ -10,7 +10,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 
 use crate::check::{check_env, check_plugin_env, CheckStatus};
-use crate::loader::{load_from_entry, LoadErrorKind, Plugin};
+use crate::loader::{load_from_entry, Plugin, PluginLoadErrorKind};
 use rwg_env::env::{discrete_action, Action, EnvError, EnvSpec, Environment, Step};
 use rwg_env::plugin::abi::*;
 use rwg_env::plugin::export::{entry_v1, ExportedPlugin, PluginBuilder, PluginStatic};
@@ -481,7 +481,7 @@ fn valid_entry() -> (RwgPluginEntry, RwgEnvDesc) {
 fn load_edited(
     edit_entry: impl FnOnce(&mut RwgPluginEntry),
     descs: Vec<RwgEnvDesc>,
-) -> Result<Plugin, LoadErrorKind> {
+) -> Result<Plugin, PluginLoadErrorKind> {
     let (mut e, _) = valid_entry();
     e.env_count = Some(tl_count);
     e.env_desc = Some(tl_desc);
@@ -496,15 +496,15 @@ fn load_edited(
     })
 }
 
-fn load_desc(edit: impl FnOnce(&mut RwgEnvDesc)) -> Result<Plugin, LoadErrorKind> {
+fn load_desc(edit: impl FnOnce(&mut RwgEnvDesc)) -> Result<Plugin, PluginLoadErrorKind> {
     let (_, mut d) = valid_entry();
     edit(&mut d);
     load_edited(|_| {}, vec![d])
 }
 
-fn env_reason(r: Result<Plugin, LoadErrorKind>) -> String {
+fn env_reason(r: Result<Plugin, PluginLoadErrorKind>) -> String {
     match r {
-        Err(LoadErrorKind::Env { reason, .. }) => reason,
+        Err(PluginLoadErrorKind::Env { reason, .. }) => reason,
         other => panic!("expected an env error, got {other:?}"),
     }
 }
@@ -525,7 +525,7 @@ fn handshake_null_entry_and_wrong_major_and_small_struct() {
     ENTRY.with(|p| p.set(std::ptr::null()));
     let e = unsafe { load_from_entry(Path::new("/x/libnull.so"), tl_entry) }.unwrap_err();
     assert!(
-        matches!(e.kind, LoadErrorKind::Declined { host_major: 1, .. }),
+        matches!(e.kind, PluginLoadErrorKind::Declined { host_major: 1, .. }),
         "{e}"
     );
     assert!(e.to_string().contains("returned NULL"), "{e}");
@@ -533,7 +533,7 @@ fn handshake_null_entry_and_wrong_major_and_small_struct() {
     let e = load_edited(|e| e.abi_major = 2, vec![]).unwrap_err();
     assert_eq!(
         e,
-        LoadErrorKind::AbiMajor {
+        PluginLoadErrorKind::AbiMajor {
             plugin_major: 2,
             plugin_minor: 0,
             host_major: 1,
@@ -544,7 +544,7 @@ fn handshake_null_entry_and_wrong_major_and_small_struct() {
 
     let e = load_edited(|e| e.struct_size = 16, vec![]).unwrap_err();
     assert!(
-        matches!(e, LoadErrorKind::StructTooSmall { size: 16, .. }),
+        matches!(e, PluginLoadErrorKind::StructTooSmall { size: 16, .. }),
         "{e}"
     );
 
@@ -558,17 +558,17 @@ fn handshake_tag_names_and_functions() {
     let e = load_edited(|e| e.abi_tag = c"something-else".as_ptr(), vec![]).unwrap_err();
     assert_eq!(
         e,
-        LoadErrorKind::AbiTag {
+        PluginLoadErrorKind::AbiTag {
             found: "something-else".into()
         }
     );
     let e = load_edited(|e| e.abi_tag = std::ptr::null(), vec![]).unwrap_err();
-    assert!(matches!(e, LoadErrorKind::AbiTag { .. }));
+    assert!(matches!(e, PluginLoadErrorKind::AbiTag { .. }));
     let e = load_edited(|e| e.plugin_id = c"".as_ptr(), vec![]).unwrap_err();
     assert!(
         matches!(
             e,
-            LoadErrorKind::BadString {
+            PluginLoadErrorKind::BadString {
                 what: "plugin_id",
                 ..
             }
@@ -579,9 +579,9 @@ fn handshake_tag_names_and_functions() {
     let e = load_edited(|e| e.plugin_id = bad_utf8.as_ptr().cast::<c_char>(), vec![]).unwrap_err();
     assert!(e.to_string().contains("not valid UTF-8"), "{e}");
     let e = load_edited(|e| e.env_vtable = None, vec![]).unwrap_err();
-    assert_eq!(e, LoadErrorKind::Null("env_vtable"));
+    assert_eq!(e, PluginLoadErrorKind::Null("env_vtable"));
     let e = load_edited(|_| {}, vec![]).unwrap_err();
-    assert_eq!(e, LoadErrorKind::EnvCount(0));
+    assert_eq!(e, PluginLoadErrorKind::EnvCount(0));
 }
 
 unsafe extern "C" fn failing_init(_: *const RwgHost, buf: *mut c_char, len: usize) -> Status {
@@ -610,7 +610,7 @@ fn descriptor_ids_are_validated() {
     let e = load_edited(|_| {}, vec![d, d]).unwrap_err();
     assert_eq!(
         e,
-        LoadErrorKind::DuplicateId {
+        PluginLoadErrorKind::DuplicateId {
             id: "test/Walker-v0".into(),
             first: 0,
             second: 1

@@ -6,8 +6,8 @@
 use rwg_env::{EnvError, TimeLimit};
 use rwg_envs::EnvOptions;
 use rwg_plugin_host::{
-    load_plugin, load_plugin_path_from_env_reserving, LoadError, Plugin, PluginEnv, PluginEnvType,
-    PluginScan, PLUGIN_PATH_VAR,
+    load_plugin, load_plugin_path_from_env_reserving, Plugin, PluginEnv, PluginEnvType,
+    PluginLoadError, PluginScan, PLUGIN_PATH_VAR,
 };
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -60,7 +60,7 @@ pub fn scan_plugin_path() -> PluginScan {
 /// and, when first needed, the `RWG_PLUGIN_PATH` scan.
 #[derive(Default)]
 pub struct Plugins {
-    files: HashMap<PathBuf, Result<Plugin, LoadError>>,
+    files: HashMap<PathBuf, Result<Plugin, PluginLoadError>>,
     scan: Option<PluginScan>,
 }
 
@@ -76,7 +76,7 @@ pub enum Found {
 
 impl Plugins {
     /// The plugin in file `path`, loaded on first use.
-    pub fn file(&mut self, path: &Path) -> Result<&Plugin, &LoadError> {
+    pub fn file(&mut self, path: &Path) -> Result<&Plugin, &PluginLoadError> {
         self.files
             .entry(path.to_path_buf())
             .or_insert_with(|| load_plugin(path))

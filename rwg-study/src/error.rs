@@ -15,14 +15,14 @@ pub enum StudyError {
     Manifest(#[from] ManifestError),
     /// A manifest file could not be read or is invalid.
     #[error(transparent)]
-    ManifestFile(#[from] crate::manifest::LoadError),
+    ManifestFile(#[from] crate::manifest::ManifestLoadError),
     /// A directory given as a run (or shard) has no readable manifest.
     #[error("{} is not an rwg run directory", dir.display())]
     NotARunDir {
         /// The directory.
         dir: PathBuf,
         /// Why its `manifest.toml` could not be read.
-        source: crate::manifest::LoadError,
+        source: crate::manifest::ManifestLoadError,
     },
     /// An environment id is not built in (cells are planned with known ids).
     #[error(transparent)]

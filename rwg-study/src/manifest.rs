@@ -56,7 +56,7 @@ pub struct ManifestError {
 
 /// A manifest that could not be read at all.
 #[derive(Debug, Error)]
-pub enum LoadError {
+pub enum ManifestLoadError {
     /// The file could not be read.
     #[error("cannot read manifest {file}: {source}")]
     Io {
@@ -206,9 +206,9 @@ impl Manifest {
     /// Reads and validates a manifest file. Plugin paths become absolute
     /// (resolved against the manifest's folder), so the resolved manifest
     /// ([`Manifest::to_toml`]) names the same files wherever it is written.
-    pub fn load(path: &Path) -> Result<Manifest, LoadError> {
+    pub fn load(path: &Path) -> Result<Manifest, ManifestLoadError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| LoadError::Io {
+        let text = std::fs::read_to_string(path).map_err(|source| ManifestLoadError::Io {
             file: file.clone(),
             source,
         })?;
@@ -216,7 +216,7 @@ impl Manifest {
             Some(p) if !p.as_os_str().is_empty() => p,
             _ => Path::new("."),
         };
-        let base = std::path::absolute(base).map_err(|source| LoadError::Io {
+        let base = std::path::absolute(base).map_err(|source| ManifestLoadError::Io {
             file: file.clone(),
             source,
         })?;

@@ -7,7 +7,7 @@ use common::{c_out_dir, compile_c};
 use rwg_env::{Action, EnvError, Environment, Space};
 use rwg_plugin_host::{
     check_plugin, find_plugin_files, load_plugin, load_plugin_path, load_plugin_path_reserving,
-    CheckStatus, LoadErrorKind,
+    CheckStatus, PluginLoadErrorKind,
 };
 
 const CHAIN: &str = "examples/plugin-c/chain.c";
@@ -80,7 +80,7 @@ fn c_example_passes_the_checker() {
     assert!(bad.is_empty(), "{bad:#?}");
 }
 
-fn handshake(define: &str) -> LoadErrorKind {
+fn handshake(define: &str) -> PluginLoadErrorKind {
     let dir = c_out_dir(&format!("handshake-{define}"));
     let lib = compile_c(HANDSHAKE, &dir, "handshake", &[define]);
     let e = load_plugin(&lib).unwrap_err();
@@ -114,10 +114,13 @@ fn wrong_abi_version_is_refused_with_both_versions() {
 
 #[test]
 fn broken_handshakes_give_clear_errors() {
-    assert_eq!(handshake("BROKEN_NO_ENTRY"), LoadErrorKind::NoEntrySymbol);
+    assert_eq!(
+        handshake("BROKEN_NO_ENTRY"),
+        PluginLoadErrorKind::NoEntrySymbol
+    );
     assert!(matches!(
         handshake("BROKEN_NULL_ENTRY"),
-        LoadErrorKind::Declined { .. }
+        PluginLoadErrorKind::Declined { .. }
     ));
     assert_eq!(
         handshake("BROKEN_SMALL_ENTRY").to_string(),
@@ -128,7 +131,7 @@ fn broken_handshakes_give_clear_errors() {
     );
     assert_eq!(
         handshake("BROKEN_BAD_TAG"),
-        LoadErrorKind::AbiTag {
+        PluginLoadErrorKind::AbiTag {
             found: "some-other-plugin-system".into()
         }
     );
@@ -136,7 +139,10 @@ fn broken_handshakes_give_clear_errors() {
         handshake("BROKEN_INIT_FAILS").to_string(),
         "init failed with RWG_ERR_INTERNAL (6): the simulator licence has expired"
     );
-    assert_eq!(handshake("BROKEN_NO_ENVS"), LoadErrorKind::EnvCount(0));
+    assert_eq!(
+        handshake("BROKEN_NO_ENVS"),
+        PluginLoadErrorKind::EnvCount(0)
+    );
 }
 
 #[test]

@@ -7,7 +7,7 @@
 //! large run never has to fit in memory at once; [`Run::summarize`] gives
 //! every cell's [`CellSummary`].
 //!
-//! Malformed files give a [`LoadError`] naming the file and, for CSV, the
+//! Malformed files give a [`RunReadError`] naming the file and, for CSV, the
 //! 1-based line.
 
 use crate::rundir::meta::{CellMeta, RunMeta, RUN_FORMAT};
@@ -34,7 +34,7 @@ pub const SAMPLES_HEADER: &str = "sample,mean,variance,std,min,max,rank";
 
 /// Why a run directory could not be read.
 #[derive(Debug, thiserror::Error)]
-pub enum LoadError {
+pub enum RunReadError {
     /// A file could not be read.
     #[error("cannot read {path}: {source}")]
     Io {
@@ -81,8 +81,8 @@ pub enum LoadError {
     },
 }
 
-fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> LoadError + '_ {
-    move |source| LoadError::Io {
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RunReadError + '_ {
+    move |source| RunReadError::Io {
         path: path.to_path_buf(),
         source,
     }
@@ -184,23 +184,23 @@ pub struct RunStats {
 impl Run {
     /// Opens a run directory: reads and checks `run.json`, reads
     /// `manifest.toml` if present.
-    pub fn open(dir: impl AsRef<Path>) -> Result<Run, LoadError> {
+    pub fn open(dir: impl AsRef<Path>) -> Result<Run, RunReadError> {
         let dir = dir.as_ref().to_path_buf();
         let path = dir.join(RUN_JSON);
         let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
-        let meta: RunMeta = serde_json::from_str(&text).map_err(|source| LoadError::Json {
+        let meta: RunMeta = serde_json::from_str(&text).map_err(|source| RunReadError::Json {
             path: path.clone(),
             source,
         })?;
         if meta.format != RUN_FORMAT {
-            return Err(LoadError::Format {
+            return Err(RunReadError::Format {
                 path,
                 found: meta.format,
                 expected: RUN_FORMAT,
             });
         }
         if let Some(sh) = meta.shard {
-            return Err(LoadError::Mismatch {
+            return Err(RunReadError::Mismatch {
                 path,
                 message: format!(
                     "this directory holds shard {}/{} of a study, not every network: \
@@ -229,12 +229,12 @@ impl Run {
 
     /// Reads one cell's `scores.csv`, checks its shape against `run.json`,
     /// and checks `samples.csv` (when present) against the scores.
-    pub fn load_cell(&self, cell: &CellMeta) -> Result<CellData, LoadError> {
+    pub fn load_cell(&self, cell: &CellMeta) -> Result<CellData, RunReadError> {
         let dir = self.cell_dir(cell);
         let episodes = cell.episodes as usize;
         let spath = dir.join("scores.csv");
         if episodes == 0 || cell.samples == 0 {
-            return Err(LoadError::Mismatch {
+            return Err(RunReadError::Mismatch {
                 path: self.dir.join(RUN_JSON),
                 message: format!("cell {} has no episodes to analyse", cell.dir),
             });
@@ -242,7 +242,7 @@ impl Run {
         let (scores, steps) = read_scores_csv(&spath, episodes)?;
         let expected = cell.samples as usize * episodes;
         if scores.len() != expected {
-            return Err(LoadError::Mismatch {
+            return Err(RunReadError::Mismatch {
                 path: spath,
                 message: format!(
                     "{} episode rows, but run.json says {} samples × {} episodes = {expected}",
@@ -261,7 +261,7 @@ impl Run {
     }
 
     /// Loads every cell in turn and summarises it.
-    pub fn summarize(&self) -> Result<RunStats, LoadError> {
+    pub fn summarize(&self) -> Result<RunStats, RunReadError> {
         let cells = self
             .meta
             .cells
@@ -280,7 +280,7 @@ fn fields<'a, const K: usize>(
     line: &'a str,
     path: &Path,
     lineno: usize,
-) -> Result<[&'a str; K], LoadError> {
+) -> Result<[&'a str; K], RunReadError> {
     let mut out = [""; K];
     let mut n = 0;
     for f in line.split(',') {
@@ -290,7 +290,7 @@ fn fields<'a, const K: usize>(
         n += 1;
     }
     if n != K {
-        return Err(LoadError::Csv {
+        return Err(RunReadError::Csv {
             path: path.to_path_buf(),
             line: lineno,
             message: format!("expected {K} fields, found {n}"),
@@ -304,8 +304,8 @@ fn parse<T: std::str::FromStr>(
     what: &str,
     path: &Path,
     lineno: usize,
-) -> Result<T, LoadError> {
-    s.parse().map_err(|_| LoadError::Csv {
+) -> Result<T, RunReadError> {
+    s.parse().map_err(|_| RunReadError::Csv {
         path: path.to_path_buf(),
         line: lineno,
         message: format!("{what} {s:?} is not a valid number"),
@@ -317,8 +317,8 @@ fn parse<T: std::str::FromStr>(
 fn read_csv(
     path: &Path,
     header: &str,
-    mut row: impl FnMut(&str, usize) -> Result<(), LoadError>,
-) -> Result<(), LoadError> {
+    mut row: impl FnMut(&str, usize) -> Result<(), RunReadError>,
+) -> Result<(), RunReadError> {
     let file = File::open(path).map_err(io_err(path))?;
     let mut reader = BufReader::with_capacity(1 << 16, file);
     let mut line = String::new();
@@ -332,7 +332,7 @@ fn read_csv(
         let l = line.trim_end_matches(['\n', '\r']);
         if lineno == 1 {
             if l.trim_start_matches('\u{feff}') != header {
-                return Err(LoadError::Csv {
+                return Err(RunReadError::Csv {
                     path: path.to_path_buf(),
                     line: 1,
                     message: format!("header is {l:?}, expected {header:?}"),
@@ -346,7 +346,7 @@ fn read_csv(
         row(l, lineno)?;
     }
     if lineno == 0 {
-        return Err(LoadError::Csv {
+        return Err(RunReadError::Csv {
             path: path.to_path_buf(),
             line: 1,
             message: format!("empty file, expected header {header:?}"),
@@ -358,7 +358,7 @@ fn read_csv(
 /// Reads a `scores.csv` (`sample,episode,score,steps`, rows ordered by
 /// sample then episode, `episodes` rows per sample) into row-major score and
 /// step vectors.
-pub fn read_scores_csv(path: &Path, episodes: usize) -> Result<(Vec<f64>, Vec<u32>), LoadError> {
+pub fn read_scores_csv(path: &Path, episodes: usize) -> Result<(Vec<f64>, Vec<u32>), RunReadError> {
     let mut scores = Vec::new();
     let mut steps = Vec::new();
     read_csv(path, SCORES_HEADER, |l, lineno| {
@@ -368,7 +368,7 @@ pub fn read_scores_csv(path: &Path, episodes: usize) -> Result<(Vec<f64>, Vec<u3
         let i = scores.len();
         let (want_s, want_e) = ((i / episodes) as u64, (i % episodes) as u64);
         if (sample, episode) != (want_s, want_e) {
-            return Err(LoadError::Csv {
+            return Err(RunReadError::Csv {
                 path: path.to_path_buf(),
                 line: lineno,
                 message: format!(
@@ -382,7 +382,7 @@ pub fn read_scores_csv(path: &Path, episodes: usize) -> Result<(Vec<f64>, Vec<u3
         Ok(())
     })?;
     if scores.len() % episodes != 0 {
-        return Err(LoadError::Mismatch {
+        return Err(RunReadError::Mismatch {
             path: path.to_path_buf(),
             message: format!(
                 "the last sample has {} of {episodes} episodes",
@@ -405,7 +405,7 @@ pub struct SampleRow {
 }
 
 /// Reads a `samples.csv`.
-pub fn read_samples_csv(path: &Path) -> Result<Vec<SampleRow>, LoadError> {
+pub fn read_samples_csv(path: &Path) -> Result<Vec<SampleRow>, RunReadError> {
     let mut rows = Vec::new();
     read_csv(path, SAMPLES_HEADER, |l, lineno| {
         let f = fields::<7>(l, path, lineno)?;
@@ -436,10 +436,10 @@ fn close(a: f64, b: f64, scale: f64) -> bool {
 /// one row per sample in order; mean, min, max and variance agree (to 1e-9
 /// relative, allowing another summation order); and the ranks order the
 /// file's own means as a stable argsort does.
-fn check_samples_csv(path: &Path, data: &CellData) -> Result<(), LoadError> {
+fn check_samples_csv(path: &Path, data: &CellData) -> Result<(), RunReadError> {
     let rows = read_samples_csv(path)?;
     if rows.len() != data.samples() {
-        return Err(LoadError::Mismatch {
+        return Err(RunReadError::Mismatch {
             path: path.to_path_buf(),
             message: format!(
                 "{} rows, but scores.csv has {} samples",
@@ -449,13 +449,13 @@ fn check_samples_csv(path: &Path, data: &CellData) -> Result<(), LoadError> {
         });
     }
     for (i, (row, s)) in rows.iter().zip(&data.stats).enumerate() {
-        let bad = |what: &str, got: f64, want: f64| LoadError::Csv {
+        let bad = |what: &str, got: f64, want: f64| RunReadError::Csv {
             path: path.to_path_buf(),
             line: i + 2,
             message: format!("{what} {got} disagrees with scores.csv ({want})"),
         };
         if row.sample != i as u64 {
-            return Err(LoadError::Csv {
+            return Err(RunReadError::Csv {
                 path: path.to_path_buf(),
                 line: i + 2,
                 message: format!("expected sample {i}, found {}", row.sample),
@@ -477,7 +477,7 @@ fn check_samples_csv(path: &Path, data: &CellData) -> Result<(), LoadError> {
     let file_means: Vec<f64> = rows.iter().map(|r| r.stats.mean).collect();
     let want = stats::ranks(&file_means);
     if let Some(i) = (0..rows.len()).find(|&i| rows[i].rank != want[i]) {
-        return Err(LoadError::Csv {
+        return Err(RunReadError::Csv {
             path: path.to_path_buf(),
             line: i + 2,
             message: format!(

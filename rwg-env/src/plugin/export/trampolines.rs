@@ -1,291 +1,16 @@
-//! Exporting Rust [`Environment`]s as a plugin through the C ABI.
-//!
-//! A plugin crate (`crate-type = ["cdylib"]`, built with `panic = "unwind"`)
-//! describes its environments with a [`PluginBuilder`] and hands the builder
-//! to [`export_plugin!`](crate::export_plugin), which defines the exported
-//! `rwg_plugin_entry_v1`:
-//!
-//! ```ignore
-//! rwg_env::export_plugin!(
-//!     rwg_env::plugin::PluginBuilder::new("example", env!("CARGO_PKG_VERSION"))
-//!         .env(PointMass::spec(), "move a point mass to a target", |config: &str| {
-//!             PointMass::from_config(config)
-//!         })
-//! );
-//! ```
-//!
-//! Every exported function catches panics (`catch_unwind`): a panic becomes
-//! `RWG_ERR_PANIC` with the panic message in `last_error`, and poisons the
-//! instance, so a buggy environment never aborts the host. Actions are checked
-//! against the action space before the environment sees them (a discrete
-//! action must be an integral double in `0..n`, a continuous one finite and of
-//! the right length).
+//! The `extern "C"` side of an exported plugin: the entry function's body
+//! and the functions of the plugin and environment tables. Every one checks
+//! its arguments, catches panics (a panic poisons the instance and becomes
+//! `RWG_ERR_PANIC`) and reports errors through `last_error`.
 
 use std::any::Any;
-use std::collections::HashSet;
-use std::ffi::{c_char, CStr, CString};
-use std::fmt::Display;
+use std::ffi::{c_char, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::OnceLock;
 
-use super::abi::*;
-use crate::env::{Action, EnvError, EnvSpec, Environment};
+use super::builder::{ActionKind, DynEnv, ExportedPlugin, PluginStatic};
+use crate::env::{Action, EnvError, EnvSpec};
+use crate::plugin::abi::*;
 use crate::space::Space;
-
-/// An exported environment instance behind a trait object.
-pub type DynEnv = Box<dyn Environment + Send>;
-
-type Constructor = Box<dyn Fn(&str) -> Result<DynEnv, String> + Send + Sync>;
-
-struct EnvExport {
-    spec: EnvSpec,
-    summary: String,
-    make: Constructor,
-}
-
-/// Describes a plugin: its id, version and environments.
-///
-/// Each environment is given by the [`EnvSpec`] published in its descriptor
-/// (id, spaces, `max_episode_steps`, `reward_threshold`) and a constructor
-/// that builds an instance from the user's config string (`""` = defaults).
-/// The constructor must return an env *without* a time limit: the host
-/// applies `spec.max_episode_steps` itself. Constructors are called from any
-/// thread, concurrently.
-pub struct PluginBuilder {
-    id: String,
-    version: String,
-    envs: Vec<EnvExport>,
-}
-
-impl PluginBuilder {
-    /// A plugin named `id` (e.g. `"classic_control"`) at `version`.
-    pub fn new(id: impl Into<String>, version: impl Into<String>) -> Self {
-        PluginBuilder {
-            id: id.into(),
-            version: version.into(),
-            envs: Vec::new(),
-        }
-    }
-
-    /// Adds an environment built by `make(config)`.
-    pub fn env<E, Er, F>(self, spec: EnvSpec, summary: impl Into<String>, make: F) -> Self
-    where
-        E: Environment + Send + 'static,
-        Er: Display,
-        F: Fn(&str) -> Result<E, Er> + Send + Sync + 'static,
-    {
-        self.env_boxed(spec, summary, move |config: &str| {
-            make(config).map(|e| Box::new(e) as DynEnv)
-        })
-    }
-
-    /// Adds an environment whose constructor already returns a boxed env.
-    pub fn env_boxed<Er, F>(mut self, spec: EnvSpec, summary: impl Into<String>, make: F) -> Self
-    where
-        Er: Display,
-        F: Fn(&str) -> Result<DynEnv, Er> + Send + Sync + 'static,
-    {
-        self.envs.push(EnvExport {
-            spec,
-            summary: summary.into(),
-            make: Box::new(move |config: &str| make(config).map_err(|e| e.to_string())),
-        });
-        self
-    }
-
-    /// Number of environments added so far.
-    pub fn len(&self) -> usize {
-        self.envs.len()
-    }
-
-    /// Whether no environment was added.
-    pub fn is_empty(&self) -> bool {
-        self.envs.is_empty()
-    }
-}
-
-/// Where an exported plugin's tables live; implemented by
-/// [`export_plugin!`](crate::export_plugin) for a type private to the plugin
-/// crate. The generic `extern "C"` shims are instantiated per implementor, so
-/// one process (e.g. a test binary) can hold several exported plugins.
-pub trait PluginStatic: 'static {
-    /// The once-built tables.
-    fn cell() -> &'static OnceLock<ExportedPlugin>;
-    /// Describes the plugin; called once, on the first entry call.
-    fn build() -> PluginBuilder;
-}
-
-#[derive(Debug, Clone, Copy, PartialEq)]
-enum ActionKind {
-    Discrete(u64),
-    Box(usize),
-}
-
-struct ExportedEnv {
-    desc: RwgEnvDesc,
-    vtable: RwgEnvVtable,
-    make: Constructor,
-    obs_dim: usize,
-    action: ActionKind,
-    // Storage the descriptor points into (heap buffers do not move).
-    _id: CString,
-    _summary: CString,
-    _bounds: Vec<Vec<f64>>,
-}
-
-/// The C tables of an exported plugin. Built once by [`entry_v1`] and kept in
-/// a `static` for the life of the library.
-pub struct ExportedPlugin {
-    entry: RwgPluginEntry,
-    envs: Vec<ExportedEnv>,
-    _id: CString,
-    _version: CString,
-}
-
-// SAFETY: the raw pointers point into heap storage owned by the same value,
-// which is never mutated after construction.
-unsafe impl Send for ExportedPlugin {}
-// SAFETY: as above; all access is read-only.
-unsafe impl Sync for ExportedPlugin {}
-
-fn c_string(what: &str, s: &str) -> Result<CString, String> {
-    CString::new(s).map_err(|_| format!("{what} '{s}' contains a NUL byte"))
-}
-
-fn c_space(space: &Space, bounds: &mut Vec<Vec<f64>>) -> RwgSpace {
-    match space {
-        Space::Discrete { n } => RwgSpace {
-            kind: RWG_SPACE_DISCRETE,
-            reserved: 0,
-            n: *n as u64,
-            low: std::ptr::null(),
-            high: std::ptr::null(),
-        },
-        Space::Box(b) => {
-            let low = b.low.clone();
-            let high = b.high.clone();
-            let s = RwgSpace {
-                kind: RWG_SPACE_BOX,
-                reserved: 0,
-                n: b.dim() as u64,
-                low: low.as_ptr(),
-                high: high.as_ptr(),
-            };
-            bounds.push(low);
-            bounds.push(high);
-            s
-        }
-    }
-}
-
-impl ExportedPlugin {
-    /// Builds the tables, checking what the host would refuse anyway (so the
-    /// plugin author sees the reason): ids non-empty, unique and NUL-free,
-    /// observation spaces boxes, spaces non-empty.
-    pub fn new<P: PluginStatic>(b: PluginBuilder) -> Result<ExportedPlugin, String> {
-        if b.id.is_empty() {
-            return Err("the plugin id is empty".into());
-        }
-        if b.envs.is_empty() {
-            return Err(format!("plugin '{}' exports no environments", b.id));
-        }
-        let id = c_string("plugin id", &b.id)?;
-        let version = c_string("plugin version", &b.version)?;
-        let mut seen = HashSet::new();
-        let mut envs = Vec::with_capacity(b.envs.len());
-        for e in b.envs {
-            let spec = &e.spec;
-            if spec.id.is_empty() {
-                return Err(format!("plugin '{}': an environment id is empty", b.id));
-            }
-            if !seen.insert(spec.id.clone()) {
-                return Err(format!("plugin '{}': duplicate id '{}'", b.id, spec.id));
-            }
-            let obs_dim = match &spec.observation_space {
-                Space::Box(bx) if bx.dim() > 0 => bx.dim(),
-                s => {
-                    return Err(format!(
-                        "env '{}': the observation space must be a non-empty Box, not {}",
-                        spec.id,
-                        s.describe()
-                    ))
-                }
-            };
-            let action = match &spec.action_space {
-                Space::Discrete { n } if *n > 0 && (*n as u64) <= MAX_DISCRETE_N => {
-                    ActionKind::Discrete(*n as u64)
-                }
-                Space::Box(bx) if bx.dim() > 0 => ActionKind::Box(bx.dim()),
-                s => {
-                    return Err(format!(
-                        "env '{}': invalid action space {}",
-                        spec.id,
-                        s.describe()
-                    ))
-                }
-            };
-            let env_id = c_string("environment id", &spec.id)?;
-            let summary = c_string("summary", &e.summary)?;
-            let mut bounds = Vec::new();
-            let desc = RwgEnvDesc {
-                struct_size: ENV_DESC_SIZE_V1_0,
-                flags: 0,
-                id: env_id.as_ptr(),
-                summary: summary.as_ptr(),
-                observation_space: c_space(&spec.observation_space, &mut bounds),
-                action_space: c_space(&spec.action_space, &mut bounds),
-                max_episode_steps: spec.max_episode_steps.unwrap_or(0),
-                reserved: 0,
-                reward_threshold: spec.reward_threshold.unwrap_or(f64::NAN),
-            };
-            let vtable = RwgEnvVtable {
-                struct_size: ENV_VTABLE_SIZE_V1_0,
-                reserved: 0,
-                create: Some(create::<P>),
-                destroy: Some(destroy),
-                reset: Some(reset),
-                step: Some(step),
-                last_error: Some(last_error),
-            };
-            envs.push(ExportedEnv {
-                desc,
-                vtable,
-                make: e.make,
-                obs_dim,
-                action,
-                _id: env_id,
-                _summary: summary,
-                _bounds: bounds,
-            });
-        }
-        let entry = RwgPluginEntry {
-            struct_size: ENTRY_SIZE_V1_0,
-            abi_major: ABI_MAJOR,
-            abi_minor: ABI_MINOR,
-            reserved: 0,
-            abi_tag: ABI_TAG.as_ptr(),
-            plugin_id: id.as_ptr(),
-            plugin_version: version.as_ptr(),
-            init: Some(init::<P>),
-            deinit: Some(deinit),
-            env_count: Some(env_count::<P>),
-            env_desc: Some(env_desc::<P>),
-            env_vtable: Some(env_vtable::<P>),
-            get_extension: Some(get_extension),
-        };
-        Ok(ExportedPlugin {
-            entry,
-            envs,
-            _id: id,
-            _version: version,
-        })
-    }
-
-    /// The entry table.
-    pub fn entry(&self) -> &RwgPluginEntry {
-        &self.entry
-    }
-}
 
 /// The body of `rwg_plugin_entry_v1` for the plugin `P`: builds the tables on
 /// the first call and returns them; NULL if the host's major differs or
@@ -310,48 +35,6 @@ pub fn entry_v1<P: PluginStatic>(
     }
 }
 
-/// Defines `rwg_plugin_entry_v1`, exporting the plugin described by a
-/// [`PluginBuilder`] expression (evaluated once, on the first entry call).
-///
-/// Use it once, at the top level of a `cdylib` crate built with
-/// `panic = "unwind"` (the default; the macro refuses `panic = "abort"`,
-/// where a panic could not be caught).
-#[macro_export]
-macro_rules! export_plugin {
-    ($builder:expr $(,)?) => {
-        #[cfg(panic = "abort")]
-        compile_error!("rwg plugins must be built with panic = \"unwind\" so panics can be caught");
-
-        const _: () = {
-            struct RwgExportedPlugin;
-            static RWG_EXPORTED_PLUGIN: ::std::sync::OnceLock<
-                $crate::plugin::export::ExportedPlugin,
-            > = ::std::sync::OnceLock::new();
-            impl $crate::plugin::export::PluginStatic for RwgExportedPlugin {
-                fn cell() -> &'static ::std::sync::OnceLock<$crate::plugin::export::ExportedPlugin>
-                {
-                    &RWG_EXPORTED_PLUGIN
-                }
-                fn build() -> $crate::plugin::export::PluginBuilder {
-                    $builder
-                }
-            }
-
-            /// The rwg plugin entry point (ABI v1).
-            #[no_mangle]
-            pub extern "C" fn rwg_plugin_entry_v1(
-                host_abi_major: u32,
-                host_abi_minor: u32,
-            ) -> *const $crate::plugin::abi::RwgPluginEntry {
-                $crate::plugin::export::entry_v1::<RwgExportedPlugin>(
-                    host_abi_major,
-                    host_abi_minor,
-                )
-            }
-        };
-    };
-}
-
 fn panic_message(payload: &(dyn Any + Send)) -> String {
     if let Some(s) = payload.downcast_ref::<&str>() {
         (*s).to_string()
@@ -366,7 +49,7 @@ fn plugin<P: PluginStatic>() -> Option<&'static ExportedPlugin> {
     P::cell().get()
 }
 
-unsafe extern "C" fn init<P: PluginStatic>(
+pub(super) unsafe extern "C" fn init<P: PluginStatic>(
     host: *const RwgHost,
     err_buf: *mut c_char,
     err_len: usize,
@@ -389,25 +72,25 @@ unsafe extern "C" fn init<P: PluginStatic>(
     RWG_OK
 }
 
-unsafe extern "C" fn deinit() {}
+pub(super) unsafe extern "C" fn deinit() {}
 
-unsafe extern "C" fn env_count<P: PluginStatic>() -> u32 {
+pub(super) unsafe extern "C" fn env_count<P: PluginStatic>() -> u32 {
     plugin::<P>().map_or(0, |p| p.envs.len() as u32)
 }
 
-unsafe extern "C" fn env_desc<P: PluginStatic>(index: u32) -> *const RwgEnvDesc {
+pub(super) unsafe extern "C" fn env_desc<P: PluginStatic>(index: u32) -> *const RwgEnvDesc {
     plugin::<P>()
         .and_then(|p| p.envs.get(index as usize))
         .map_or(std::ptr::null(), |e| &e.desc)
 }
 
-unsafe extern "C" fn env_vtable<P: PluginStatic>(index: u32) -> *const RwgEnvVtable {
+pub(super) unsafe extern "C" fn env_vtable<P: PluginStatic>(index: u32) -> *const RwgEnvVtable {
     plugin::<P>()
         .and_then(|p| p.envs.get(index as usize))
         .map_or(std::ptr::null(), |e| &e.vtable)
 }
 
-unsafe extern "C" fn get_extension(_id: *const c_char) -> *const () {
+pub(super) unsafe extern "C" fn get_extension(_id: *const c_char) -> *const () {
     std::ptr::null()
 }
 
@@ -441,7 +124,7 @@ fn same_shape(spec: &EnvSpec, obs_dim: usize, action: ActionKind) -> bool {
     obs_ok && act_ok
 }
 
-unsafe extern "C" fn create<P: PluginStatic>(
+pub(super) unsafe extern "C" fn create<P: PluginStatic>(
     env_index: u32,
     config: *const c_char,
     out_env: *mut *mut RwgEnv,
@@ -509,7 +192,7 @@ unsafe extern "C" fn create<P: PluginStatic>(
     status
 }
 
-unsafe extern "C" fn destroy(env: *mut RwgEnv) {
+pub(super) unsafe extern "C" fn destroy(env: *mut RwgEnv) {
     if env.is_null() {
         return;
     }
@@ -583,7 +266,7 @@ fn env_err(e: EnvError) -> (Status, String) {
     (status_of(&e), e.to_string())
 }
 
-unsafe extern "C" fn reset(
+pub(super) unsafe extern "C" fn reset(
     env: *mut RwgEnv,
     has_seed: u8,
     seed: u64,
@@ -656,7 +339,7 @@ fn action_of(a: &[f64], kind: ActionKind) -> Result<Action<'_>, String> {
     }
 }
 
-unsafe extern "C" fn step(
+pub(super) unsafe extern "C" fn step(
     env: *mut RwgEnv,
     action: *const f64,
     action_len: usize,
@@ -771,7 +454,7 @@ unsafe fn step_checked(
     })
 }
 
-unsafe extern "C" fn last_error(env: *const RwgEnv) -> *const c_char {
+pub(super) unsafe extern "C" fn last_error(env: *const RwgEnv) -> *const c_char {
     match env.cast::<Instance>().as_ref() {
         Some(inst) => inst.error.as_ptr().cast(),
         None => c"last_error: env is NULL".as_ptr(),

@@ -1,0 +1,273 @@
+//! [`PluginBuilder`]: a plugin's id, version and environments, and the C
+//! tables ([`ExportedPlugin`]) it is turned into on the first entry call.
+
+use std::collections::HashSet;
+use std::ffi::CString;
+use std::fmt::Display;
+use std::sync::OnceLock;
+
+use super::trampolines::{
+    create, deinit, destroy, env_count, env_desc, env_vtable, get_extension, init, last_error,
+    reset, step,
+};
+use crate::env::{EnvSpec, Environment};
+use crate::plugin::abi::*;
+use crate::space::Space;
+
+/// An exported environment instance behind a trait object.
+pub type DynEnv = Box<dyn Environment + Send>;
+
+pub(super) type Constructor = Box<dyn Fn(&str) -> Result<DynEnv, String> + Send + Sync>;
+
+struct EnvExport {
+    spec: EnvSpec,
+    summary: String,
+    make: Constructor,
+}
+
+/// Describes a plugin: its id, version and environments.
+///
+/// Each environment is given by the [`EnvSpec`] published in its descriptor
+/// (id, spaces, `max_episode_steps`, `reward_threshold`) and a constructor
+/// that builds an instance from the user's config string (`""` = defaults).
+/// The constructor must return an env *without* a time limit: the host
+/// applies `spec.max_episode_steps` itself. Constructors are called from any
+/// thread, concurrently.
+pub struct PluginBuilder {
+    id: String,
+    version: String,
+    envs: Vec<EnvExport>,
+}
+
+impl PluginBuilder {
+    /// A plugin named `id` (e.g. `"classic_control"`) at `version`.
+    pub fn new(id: impl Into<String>, version: impl Into<String>) -> Self {
+        PluginBuilder {
+            id: id.into(),
+            version: version.into(),
+            envs: Vec::new(),
+        }
+    }
+
+    /// Adds an environment built by `make(config)`.
+    pub fn env<E, Er, F>(self, spec: EnvSpec, summary: impl Into<String>, make: F) -> Self
+    where
+        E: Environment + Send + 'static,
+        Er: Display,
+        F: Fn(&str) -> Result<E, Er> + Send + Sync + 'static,
+    {
+        self.env_boxed(spec, summary, move |config: &str| {
+            make(config).map(|e| Box::new(e) as DynEnv)
+        })
+    }
+
+    /// Adds an environment whose constructor already returns a boxed env.
+    pub fn env_boxed<Er, F>(mut self, spec: EnvSpec, summary: impl Into<String>, make: F) -> Self
+    where
+        Er: Display,
+        F: Fn(&str) -> Result<DynEnv, Er> + Send + Sync + 'static,
+    {
+        self.envs.push(EnvExport {
+            spec,
+            summary: summary.into(),
+            make: Box::new(move |config: &str| make(config).map_err(|e| e.to_string())),
+        });
+        self
+    }
+
+    /// Number of environments added so far.
+    pub fn len(&self) -> usize {
+        self.envs.len()
+    }
+
+    /// Whether no environment was added.
+    pub fn is_empty(&self) -> bool {
+        self.envs.is_empty()
+    }
+}
+
+/// Where an exported plugin's tables live; implemented by
+/// [`export_plugin!`](crate::export_plugin) for a type private to the plugin
+/// crate. The generic `extern "C"` shims are instantiated per implementor, so
+/// one process (e.g. a test binary) can hold several exported plugins.
+pub trait PluginStatic: 'static {
+    /// The once-built tables.
+    fn cell() -> &'static OnceLock<ExportedPlugin>;
+    /// Describes the plugin; called once, on the first entry call.
+    fn build() -> PluginBuilder;
+}
+
+/// The shape of an environment's actions, as the trampolines check them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) enum ActionKind {
+    /// `Discrete(n)`.
+    Discrete(u64),
+    /// A box of this many dimensions.
+    Box(usize),
+}
+
+pub(super) struct ExportedEnv {
+    pub(super) desc: RwgEnvDesc,
+    pub(super) vtable: RwgEnvVtable,
+    pub(super) make: Constructor,
+    pub(super) obs_dim: usize,
+    pub(super) action: ActionKind,
+    // Storage the descriptor points into (heap buffers do not move).
+    _id: CString,
+    _summary: CString,
+    _bounds: Vec<Vec<f64>>,
+}
+
+/// The C tables of an exported plugin. Built once by [`entry_v1`] and kept in
+/// a `static` for the life of the library.
+pub struct ExportedPlugin {
+    pub(super) entry: RwgPluginEntry,
+    pub(super) envs: Vec<ExportedEnv>,
+    _id: CString,
+    _version: CString,
+}
+
+// SAFETY: the raw pointers point into heap storage owned by the same value,
+// which is never mutated after construction.
+unsafe impl Send for ExportedPlugin {}
+// SAFETY: as above; all access is read-only.
+unsafe impl Sync for ExportedPlugin {}
+
+fn c_string(what: &str, s: &str) -> Result<CString, String> {
+    CString::new(s).map_err(|_| format!("{what} '{s}' contains a NUL byte"))
+}
+
+fn c_space(space: &Space, bounds: &mut Vec<Vec<f64>>) -> RwgSpace {
+    match space {
+        Space::Discrete { n } => RwgSpace {
+            kind: RWG_SPACE_DISCRETE,
+            reserved: 0,
+            n: *n as u64,
+            low: std::ptr::null(),
+            high: std::ptr::null(),
+        },
+        Space::Box(b) => {
+            let low = b.low.clone();
+            let high = b.high.clone();
+            let s = RwgSpace {
+                kind: RWG_SPACE_BOX,
+                reserved: 0,
+                n: b.dim() as u64,
+                low: low.as_ptr(),
+                high: high.as_ptr(),
+            };
+            bounds.push(low);
+            bounds.push(high);
+            s
+        }
+    }
+}
+
+impl ExportedPlugin {
+    /// Builds the tables, checking what the host would refuse anyway (so the
+    /// plugin author sees the reason): ids non-empty, unique and NUL-free,
+    /// observation spaces boxes, spaces non-empty.
+    pub fn new<P: PluginStatic>(b: PluginBuilder) -> Result<ExportedPlugin, String> {
+        if b.id.is_empty() {
+            return Err("the plugin id is empty".into());
+        }
+        if b.envs.is_empty() {
+            return Err(format!("plugin '{}' exports no environments", b.id));
+        }
+        let id = c_string("plugin id", &b.id)?;
+        let version = c_string("plugin version", &b.version)?;
+        let mut seen = HashSet::new();
+        let mut envs = Vec::with_capacity(b.envs.len());
+        for e in b.envs {
+            let spec = &e.spec;
+            if spec.id.is_empty() {
+                return Err(format!("plugin '{}': an environment id is empty", b.id));
+            }
+            if !seen.insert(spec.id.clone()) {
+                return Err(format!("plugin '{}': duplicate id '{}'", b.id, spec.id));
+            }
+            let obs_dim = match &spec.observation_space {
+                Space::Box(bx) if bx.dim() > 0 => bx.dim(),
+                s => {
+                    return Err(format!(
+                        "env '{}': the observation space must be a non-empty Box, not {}",
+                        spec.id,
+                        s.describe()
+                    ))
+                }
+            };
+            let action = match &spec.action_space {
+                Space::Discrete { n } if *n > 0 && (*n as u64) <= MAX_DISCRETE_N => {
+                    ActionKind::Discrete(*n as u64)
+                }
+                Space::Box(bx) if bx.dim() > 0 => ActionKind::Box(bx.dim()),
+                s => {
+                    return Err(format!(
+                        "env '{}': invalid action space {}",
+                        spec.id,
+                        s.describe()
+                    ))
+                }
+            };
+            let env_id = c_string("environment id", &spec.id)?;
+            let summary = c_string("summary", &e.summary)?;
+            let mut bounds = Vec::new();
+            let desc = RwgEnvDesc {
+                struct_size: ENV_DESC_SIZE_V1_0,
+                flags: 0,
+                id: env_id.as_ptr(),
+                summary: summary.as_ptr(),
+                observation_space: c_space(&spec.observation_space, &mut bounds),
+                action_space: c_space(&spec.action_space, &mut bounds),
+                max_episode_steps: spec.max_episode_steps.unwrap_or(0),
+                reserved: 0,
+                reward_threshold: spec.reward_threshold.unwrap_or(f64::NAN),
+            };
+            let vtable = RwgEnvVtable {
+                struct_size: ENV_VTABLE_SIZE_V1_0,
+                reserved: 0,
+                create: Some(create::<P>),
+                destroy: Some(destroy),
+                reset: Some(reset),
+                step: Some(step),
+                last_error: Some(last_error),
+            };
+            envs.push(ExportedEnv {
+                desc,
+                vtable,
+                make: e.make,
+                obs_dim,
+                action,
+                _id: env_id,
+                _summary: summary,
+                _bounds: bounds,
+            });
+        }
+        let entry = RwgPluginEntry {
+            struct_size: ENTRY_SIZE_V1_0,
+            abi_major: ABI_MAJOR,
+            abi_minor: ABI_MINOR,
+            reserved: 0,
+            abi_tag: ABI_TAG.as_ptr(),
+            plugin_id: id.as_ptr(),
+            plugin_version: version.as_ptr(),
+            init: Some(init::<P>),
+            deinit: Some(deinit),
+            env_count: Some(env_count::<P>),
+            env_desc: Some(env_desc::<P>),
+            env_vtable: Some(env_vtable::<P>),
+            get_extension: Some(get_extension),
+        };
+        Ok(ExportedPlugin {
+            entry,
+            envs,
+            _id: id,
+            _version: version,
+        })
+    }
+
+    /// The entry table.
+    pub fn entry(&self) -> &RwgPluginEntry {
+        &self.entry
+    }
+}

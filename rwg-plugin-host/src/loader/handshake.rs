@@ -1,0 +1,319 @@
+//! The handshake with a plugin library: open it, call its entry function,
+//! and validate everything it returns (ABI version, struct sizes, strings,
+//! descriptors, spaces) before any of it is used.
+
+use std::ffi::{c_char, CStr};
+use std::path::Path;
+use std::sync::Arc;
+
+use super::error::{PluginLoadError, PluginLoadErrorKind};
+use super::{Plugin, PluginEnvType, PluginInfo, VTable, ERR_BUF_LEN, MAX_BOX_DIM, MAX_ENVS};
+use rwg_env::env::EnvSpec;
+use rwg_env::plugin::abi::*;
+use rwg_env::space::{BoxSpace, Space};
+
+struct HostTable(RwgHost);
+// SAFETY: the pointers are to static, immutable strings.
+unsafe impl Sync for HostTable {}
+
+static HOST: HostTable = HostTable(RwgHost {
+    struct_size: HOST_SIZE_V1_0,
+    abi_major: ABI_MAJOR,
+    abi_minor: ABI_MINOR,
+    reserved: 0,
+    name: c"rwg".as_ptr(),
+    version: concat!(env!("CARGO_PKG_VERSION"), "\0").as_ptr() as *const c_char,
+});
+
+/// Loads the plugin library at `path`, validates its handshake and
+/// descriptors, and returns its environments. The library is never unloaded.
+///
+/// This runs the plugin's code in this process: see the module docs.
+pub fn load_plugin(path: impl AsRef<Path>) -> Result<Plugin, PluginLoadError> {
+    let path = path.as_ref();
+    let err = |kind| PluginLoadError {
+        path: path.to_path_buf(),
+        kind,
+    };
+    // SAFETY: loading a library runs its initialisers; trusting the file is
+    // the caller's decision (documented above).
+    let lib = unsafe { libloading::Library::new(path) }
+        .map_err(|e| err(PluginLoadErrorKind::Open(e.to_string())))?;
+    // SAFETY: the symbol is declared with the header's signature.
+    let entry = unsafe { lib.get::<EntryFn>(ENTRY_SYMBOL) }.map(|s| *s);
+    // Never unload (see the module docs), not even a library we refuse.
+    std::mem::forget(lib);
+    let entry = entry.map_err(|_| err(PluginLoadErrorKind::NoEntrySymbol))?;
+    // SAFETY: `entry` is the plugin's exported entry function.
+    unsafe { load_from_entry(path, entry) }
+}
+
+/// Runs the handshake with an entry function already in this process and
+/// validates what it returns. `origin` names the plugin in errors.
+/// [`load_plugin`] uses it after `dlopen`; tests use it on in-process plugins.
+///
+/// # Safety
+/// `entry` must be an `rwg_plugin_entry_v1` function that keeps the header's
+/// contract (the host cannot check pointers for validity).
+pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, PluginLoadError> {
+    let err = |kind| PluginLoadError {
+        path: origin.to_path_buf(),
+        kind,
+    };
+    let p = entry(ABI_MAJOR, ABI_MINOR);
+    if p.is_null() {
+        return Err(err(PluginLoadErrorKind::Declined {
+            host_major: ABI_MAJOR,
+            host_minor: ABI_MINOR,
+        }));
+    }
+    // struct_size, abi_major and abi_minor lead the entry struct of every
+    // ABI version; read them before trusting the rest of the layout.
+    let head = p.cast::<[u32; 3]>().read();
+    let [size, major, minor] = head;
+    if major != ABI_MAJOR {
+        return Err(err(PluginLoadErrorKind::AbiMajor {
+            plugin_major: major,
+            plugin_minor: minor,
+            host_major: ABI_MAJOR,
+            host_minor: ABI_MINOR,
+        }));
+    }
+    if size < ENTRY_SIZE_V1_0 {
+        return Err(err(PluginLoadErrorKind::StructTooSmall {
+            what: "rwg_plugin_entry_t".into(),
+            size,
+            needed: ENTRY_SIZE_V1_0,
+        }));
+    }
+    let e = p.read();
+    let tag = if e.abi_tag.is_null() {
+        "NULL".to_string()
+    } else {
+        CStr::from_ptr(e.abi_tag).to_string_lossy().into_owned()
+    };
+    if tag.as_bytes() != ABI_TAG.to_bytes() {
+        return Err(err(PluginLoadErrorKind::AbiTag { found: tag }));
+    }
+    let plugin_id = read_str(e.plugin_id, "plugin_id", false).map_err(err)?;
+    if plugin_id.is_empty() {
+        return Err(err(PluginLoadErrorKind::BadString {
+            what: "plugin_id",
+            reason: "empty".into(),
+        }));
+    }
+    let version = read_str(e.plugin_version, "plugin_version", true).map_err(err)?;
+    let env_count = e
+        .env_count
+        .ok_or_else(|| err(PluginLoadErrorKind::Null("env_count")))?;
+    let env_desc = e
+        .env_desc
+        .ok_or_else(|| err(PluginLoadErrorKind::Null("env_desc")))?;
+    let env_vtable = e
+        .env_vtable
+        .ok_or_else(|| err(PluginLoadErrorKind::Null("env_vtable")))?;
+
+    if let Some(init) = e.init {
+        let mut buf = [0 as c_char; ERR_BUF_LEN];
+        let status = init(&HOST.0, buf.as_mut_ptr(), buf.len());
+        if status != RWG_OK {
+            return Err(err(PluginLoadErrorKind::InitFailed {
+                status,
+                message: buf_message(&buf),
+            }));
+        }
+    }
+
+    let info = Arc::new(PluginInfo {
+        path: origin.to_path_buf(),
+        id: plugin_id,
+        version,
+        abi: (major, minor),
+    });
+    let n = env_count();
+    if n == 0 || n > MAX_ENVS {
+        return Err(err(PluginLoadErrorKind::EnvCount(n)));
+    }
+    let mut envs: Vec<PluginEnvType> = Vec::with_capacity(n as usize);
+    for index in 0..n {
+        let env_err = |id: Option<&str>, reason: String| {
+            err(PluginLoadErrorKind::Env {
+                index,
+                id: id.map(str::to_string),
+                reason,
+            })
+        };
+        let d = env_desc(index);
+        if d.is_null() {
+            return Err(env_err(None, "env_desc returned NULL".into()));
+        }
+        let dsize = d.cast::<u32>().read();
+        if dsize < ENV_DESC_SIZE_V1_0 {
+            return Err(env_err(
+                None,
+                format!(
+                    "rwg_env_desc_t is too small: struct_size is {dsize}, ABI 1.0 needs at least {ENV_DESC_SIZE_V1_0} bytes"
+                ),
+            ));
+        }
+        let d = d.read();
+        let id = read_str(d.id, "id", false).map_err(|k| env_err(None, k.to_string()))?;
+        check_env_id(&id).map_err(|r| env_err((!id.is_empty()).then_some(id.as_str()), r))?;
+        if let Some(first) = envs.iter().find(|t| t.spec.id == id) {
+            return Err(err(PluginLoadErrorKind::DuplicateId {
+                id,
+                first: first.index,
+                second: index,
+            }));
+        }
+        let summary =
+            read_str(d.summary, "summary", true).map_err(|k| env_err(Some(&id), k.to_string()))?;
+        let observation_space = read_space(&d.observation_space)
+            .map_err(|r| env_err(Some(&id), format!("observation space: {r}")))?;
+        if !matches!(observation_space, Space::Box(_)) {
+            return Err(env_err(
+                Some(&id),
+                "observation space: must be a Box".into(),
+            ));
+        }
+        let action_space = read_space(&d.action_space)
+            .map_err(|r| env_err(Some(&id), format!("action space: {r}")))?;
+        let reward_threshold = if d.reward_threshold.is_nan() {
+            None
+        } else if d.reward_threshold.is_infinite() {
+            return Err(env_err(
+                Some(&id),
+                format!(
+                    "reward_threshold is {} (use NaN for none)",
+                    d.reward_threshold
+                ),
+            ));
+        } else {
+            Some(d.reward_threshold)
+        };
+        let spec = EnvSpec {
+            id: id.clone(),
+            observation_space,
+            action_space,
+            max_episode_steps: (d.max_episode_steps != 0).then_some(d.max_episode_steps),
+            reward_threshold,
+        };
+        let vt = env_vtable(index);
+        if vt.is_null() {
+            return Err(env_err(Some(&id), "env_vtable returned NULL".into()));
+        }
+        let vsize = vt.cast::<u32>().read();
+        if vsize < ENV_VTABLE_SIZE_V1_0 {
+            return Err(env_err(
+                Some(&id),
+                format!(
+                    "rwg_env_vtable_t is too small: struct_size is {vsize}, ABI 1.0 needs at least {ENV_VTABLE_SIZE_V1_0} bytes"
+                ),
+            ));
+        }
+        let v = vt.read();
+        let null = |f: &str| env_err(Some(&id), format!("env_vtable: {f} is NULL"));
+        let vt = VTable {
+            create: v.create.ok_or_else(|| null("create"))?,
+            destroy: v.destroy.ok_or_else(|| null("destroy"))?,
+            reset: v.reset.ok_or_else(|| null("reset"))?,
+            step: v.step.ok_or_else(|| null("step"))?,
+            last_error: v.last_error.ok_or_else(|| null("last_error"))?,
+        };
+        envs.push(PluginEnvType {
+            info: info.clone(),
+            index,
+            spec,
+            summary,
+            vt,
+        });
+    }
+    Ok(Plugin { info, envs })
+}
+
+/// Reads a plugin string. `nullable`: NULL reads as "".
+unsafe fn read_str(
+    p: *const c_char,
+    what: &'static str,
+    nullable: bool,
+) -> Result<String, PluginLoadErrorKind> {
+    if p.is_null() {
+        return if nullable {
+            Ok(String::new())
+        } else {
+            Err(PluginLoadErrorKind::Null(what))
+        };
+    }
+    CStr::from_ptr(p)
+        .to_str()
+        .map(str::to_string)
+        .map_err(|e| PluginLoadErrorKind::BadString {
+            what,
+            reason: format!("not valid UTF-8 ({e})"),
+        })
+}
+
+pub(super) fn buf_message(buf: &[c_char]) -> String {
+    let bytes: Vec<u8> = buf
+        .iter()
+        .take_while(|&&c| c != 0)
+        .map(|&c| c as u8)
+        .collect();
+    String::from_utf8_lossy(&bytes).into_owned()
+}
+
+/// Checks a Gymnasium-style id `[namespace/]Name-vN`: non-empty, at most 256
+/// bytes, no whitespace or control characters, at most one `/` with text on
+/// both sides. (The `-vN` suffix is recommended, not required.)
+pub fn check_env_id(id: &str) -> Result<(), String> {
+    if id.is_empty() {
+        return Err("the id is empty".into());
+    }
+    if id.len() > 256 {
+        return Err(format!("the id is {} bytes long (at most 256)", id.len()));
+    }
+    if let Some(c) = id.chars().find(|c| c.is_whitespace() || c.is_control()) {
+        return Err(format!("the id {id:?} contains the character {c:?}"));
+    }
+    let parts: Vec<&str> = id.split('/').collect();
+    if parts.len() > 2 || parts.iter().any(|p| p.is_empty()) {
+        return Err(format!(
+            "the id {id:?} is not of the form [namespace/]Name-vN"
+        ));
+    }
+    Ok(())
+}
+
+/// Validates and copies a space from a descriptor.
+unsafe fn read_space(s: &RwgSpace) -> Result<Space, String> {
+    match s.kind {
+        RWG_SPACE_DISCRETE => {
+            if s.n == 0 || s.n > MAX_DISCRETE_N {
+                return Err(format!("Discrete n is {} (must be 1..=2^53)", s.n));
+            }
+            Ok(Space::Discrete { n: s.n as usize })
+        }
+        RWG_SPACE_BOX => {
+            if s.n == 0 || s.n > MAX_BOX_DIM {
+                return Err(format!("Box length is {} (must be 1..={MAX_BOX_DIM})", s.n));
+            }
+            if s.low.is_null() || s.high.is_null() {
+                return Err("Box low or high is NULL".into());
+            }
+            let n = s.n as usize;
+            let low = std::slice::from_raw_parts(s.low, n).to_vec();
+            let high = std::slice::from_raw_parts(s.high, n).to_vec();
+            for i in 0..n {
+                let (lo, hi) = (low[i], high[i]);
+                if lo.is_nan() || hi.is_nan() {
+                    return Err(format!("Box bound {i} is NaN (low {lo}, high {hi})"));
+                }
+                if lo > hi {
+                    return Err(format!("Box low[{i}] = {lo} > high[{i}] = {hi}"));
+                }
+            }
+            Ok(Space::Box(BoxSpace::new(low, high)))
+        }
+        k => Err(format!("unknown space kind {k}")),
+    }
+}
