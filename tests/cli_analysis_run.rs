@@ -30,7 +30,7 @@ fn analysis_of_a_real_run() {
     std::fs::write(&m, MANIFEST).unwrap();
     let run = dir.join("run");
     let r = run.to_str().unwrap();
-    rwg_ok(&["run", m.to_str().unwrap(), "--out", r, "--threads", "1"]);
+    let console = rwg_ok(&["run", m.to_str().unwrap(), "--out", r, "--threads", "1"]);
 
     let stats: Value = serde_json::from_str(&rwg_ok(&["stats", r, "--format", "json"])).unwrap();
     let cells = stats["cells"].as_array().unwrap();
@@ -56,6 +56,38 @@ fn analysis_of_a_real_run() {
         assert_eq!(c["solved_fraction"]["successes"].as_u64().unwrap(), k);
     }
     assert!(run.join("stats.json").exists() && run.join("stats.csv").exists());
+
+    // The console summary's best mean and median mean are stats.json's (the
+    // interpolated median of the sample means, not the upper middle value).
+    let mut upper_middle_differs = false;
+    for c in cells {
+        let dir = c["dir"].as_str().unwrap();
+        let line = console
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(dir))
+            .unwrap_or_else(|| panic!("no summary line for {dir} in:\n{console}"));
+        let cols: Vec<&str> = line.split_whitespace().collect();
+        let median = c["median_mean"].as_f64().unwrap();
+        assert_eq!(
+            cols[1],
+            format!("{:.2}", c["best_mean"].as_f64().unwrap()),
+            "{line}"
+        );
+        assert_eq!(cols[2], format!("{median:.2}"), "{line}");
+        let samples =
+            std::fs::read_to_string(run.join("cells").join(dir).join("samples.csv")).unwrap();
+        let mut means: Vec<f64> = samples
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+            .collect();
+        means.sort_by(f64::total_cmp);
+        upper_middle_differs |= format!("{:.2}", means[means.len() / 2]) != format!("{median:.2}");
+    }
+    assert!(
+        upper_middle_differs,
+        "no cell tells the interpolated median from the upper middle value"
+    );
 
     let table = rwg_ok(&["stats", r]);
     assert!(table.contains("MountainCarContinuous-v0") && table.contains("1HL-2"));

@@ -4,6 +4,7 @@ use crate::env_source::{describe, is_builtin, EnvSource, Found, PluginSource, Pl
 use crate::manifest::{EnvEntry, Manifest, ManifestError};
 use crate::rundir::blocks::{finalize_cell, CellTotals, BLOCK_SAMPLES};
 use crate::rundir::meta::{cell_dir_name, CellMeta, RunMeta, ShardMeta, WeightsMeta, RUN_FORMAT};
+use crate::stats;
 use crate::StudyError;
 use rwg_core::policy::{Architecture, NetShape};
 use rwg_core::sampler::CellPlan;
@@ -269,17 +270,16 @@ impl Cell {
         Ok((meta.expect("set by finalize_cell"), totals))
     }
 
-    /// One line of the end-of-run summary.
+    /// One line of the end-of-run summary, computed by the statistics code
+    /// that writes `stats.csv` (the same median, best mean and solved count).
     pub fn summary_line(&self, means: &[f64], steps_per_s: f64) -> String {
-        let best = means.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        let mut sorted = means.to_vec();
-        sorted.sort_by(f64::total_cmp);
-        let median = sorted.get(sorted.len() / 2).copied().unwrap_or(f64::NAN);
+        let best = stats::max(means);
+        let median = stats::percentile(means, 50.0);
         let solved = match self.solved {
-            Some(s) => format!(
-                "{:.2}%",
-                100.0 * means.iter().filter(|&&x| x >= s).count() as f64 / means.len() as f64
-            ),
+            Some(s) => {
+                let prop = stats::solved_fraction(means, s);
+                format!("{:.2}%", 100.0 * prop.successes as f64 / prop.trials as f64)
+            }
             None => "-".into(),
         };
         format!(
