@@ -92,8 +92,8 @@ pub fn write_analysis(run_dir: &Path, png: bool) -> Result<Vec<PathBuf>, Analysi
         source,
     })?;
     let mut written = vec![
-        run_dir.join(rwg_study::rundir::data::STATS_JSON),
-        run_dir.join(rwg_study::rundir::data::STATS_CSV),
+        run_dir.join(rwg_study::rundir::STATS_JSON),
+        run_dir.join(rwg_study::rundir::STATS_CSV),
     ];
     let fig_dir = run_dir.join("figures");
     std::fs::create_dir_all(&fig_dir).map_err(|source| AnalysisError::Write {

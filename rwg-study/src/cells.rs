@@ -3,6 +3,7 @@
 use crate::env_source::{describe, is_builtin, EnvSource, Found, PluginSource, Plugins};
 use crate::manifest::{EnvEntry, Manifest, ManifestError};
 use crate::rundir::blocks::{finalize_cell, CellTotals, BLOCK_SAMPLES};
+use crate::rundir::cell_dir;
 use crate::rundir::meta::{cell_dir_name, CellMeta, RunMeta, ShardMeta, WeightsMeta, RUN_FORMAT};
 use crate::stats;
 use crate::StudyError;
@@ -255,7 +256,7 @@ impl Cell {
         out: &Path,
         wall_s: f64,
     ) -> Result<(CellMeta, CellTotals), StudyError> {
-        let dir = out.join("cells").join(&self.dir);
+        let dir = cell_dir(out, &self.dir);
         let mut meta = None;
         let totals = finalize_cell(&dir, m.samples, m.episodes, |t| {
             let cm = self.meta(m, t.env_steps, wall_s);

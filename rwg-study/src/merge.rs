@@ -6,6 +6,7 @@ use crate::manifest::Manifest;
 use crate::rundir::blocks::{block_done, block_path, n_blocks};
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::meta::{read_run_meta, write_run_meta, RunMeta};
+use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
 use crate::StudyError;
 use std::path::{Path, PathBuf};
 use std::time::SystemTime;
@@ -31,11 +32,10 @@ pub fn merge_shards(
     let refuse = |msg: String| Err(StudyError::Refused(msg));
     let mut dirs: Vec<(PathBuf, Manifest, RunMeta)> = vec![];
     for d in shards {
-        let m =
-            Manifest::load(&d.join("manifest.toml")).map_err(|source| StudyError::NotARunDir {
-                dir: d.clone(),
-                source,
-            })?;
+        let m = Manifest::load(&d.join(MANIFEST)).map_err(|source| StudyError::NotARunDir {
+            dir: d.clone(),
+            source,
+        })?;
         let meta = read_run_meta(d)?;
         if meta.shard.is_none() {
             return refuse(format!("{} holds a whole run, not a shard", d.display()));
@@ -99,7 +99,7 @@ pub fn merge_shards(
     for (ci, cell) in cells.iter().enumerate() {
         for b in 0..nb {
             let k = ((ci as u64 * nb + b) % count) as usize;
-            let dir = owner[k].expect("checked").join("cells").join(&cell.dir);
+            let dir = cell_dir(owner[k].expect("checked"), &cell.dir);
             if !block_done(&dir, b) {
                 return refuse(format!(
                     "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; finish it with \
@@ -112,15 +112,15 @@ pub fn merge_shards(
         }
     }
 
-    if out.join("run.json").exists() || out.join("manifest.toml").exists() {
+    if out.join(RUN_JSON).exists() || out.join(MANIFEST).exists() {
         return refuse(format!(
             "{} already holds a run; choose another --out",
             out.display()
         ));
     }
-    std::fs::create_dir_all(out.join("cells"))
+    std::fs::create_dir_all(out.join(CELLS))
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
-    let manifest_path = out.join("manifest.toml");
+    let manifest_path = out.join(MANIFEST);
     write_atomic(&manifest_path, m.to_toml().as_bytes()).map_err(StudyError::io(format!(
         "cannot write {}",
         manifest_path.display()
@@ -135,10 +135,10 @@ pub fn merge_shards(
     meta.wall_s = dirs.iter().map(|s| s.2.wall_s).sum();
     on_line(&summary_header());
     for (ci, cell) in cells.iter().enumerate() {
-        let dest = out.join("cells").join(&cell.dir);
+        let dest = cell_dir(out, &cell.dir);
         for b in 0..nb {
             let k = ((ci as u64 * nb + b) % count) as usize;
-            let src = block_path(&owner[k].expect("checked").join("cells").join(&cell.dir), b);
+            let src = block_path(&cell_dir(owner[k].expect("checked"), &cell.dir), b);
             let dst = block_path(&dest, b);
             let parent = dst.parent().expect("has parent");
             std::fs::create_dir_all(parent).map_err(StudyError::io(format!(

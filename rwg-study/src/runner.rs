@@ -16,6 +16,7 @@ use crate::rundir::blocks::{
 };
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::meta::{read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta};
+use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
 use crate::StudyError;
 use rwg_core::sampler::{run_blocks, BlockResult};
 use rwg_env::Environment;
@@ -94,7 +95,7 @@ pub fn run_study(
     if previous.as_ref().is_some_and(|p| p.end_time.is_some()) {
         return Ok(RunOutcome::AlreadyComplete);
     }
-    let manifest_path = out.join("manifest.toml");
+    let manifest_path = out.join(MANIFEST);
     write_atomic(&manifest_path, m.to_toml().as_bytes()).map_err(StudyError::io(format!(
         "cannot write {}",
         manifest_path.display()
@@ -110,7 +111,7 @@ pub fn run_study(
         .iter()
         .enumerate()
         .map(|(ci, c)| {
-            let dir = out.join("cells").join(&c.dir);
+            let dir = cell_dir(out, &c.dir);
             if opts.shard.is_none() && cell_complete(&dir) {
                 return 0;
             }
@@ -130,7 +131,7 @@ pub fn run_study(
     let mut steps_now = 0u64;
 
     for (ci, cell) in cells.iter().enumerate() {
-        let dir = out.join("cells").join(&cell.dir);
+        let dir = cell_dir(out, &cell.dir);
         if opts.shard.is_none() && cell_complete(&dir) {
             tidy_complete_cell(&dir).map_err(|source| StudyError::RunDir {
                 context: format!("cannot tidy cell {}", cell.dir),
@@ -294,9 +295,9 @@ fn prepare_dir(
     shard: Option<ShardMeta>,
     force_new: bool,
 ) -> Result<Option<RunMeta>, StudyError> {
-    let manifest_path = out.join("manifest.toml");
+    let manifest_path = out.join(MANIFEST);
     if force_new {
-        for p in ["cells", "run.json", "manifest.toml"] {
+        for p in [CELLS, RUN_JSON, MANIFEST] {
             let p = out.join(p);
             let removed = if p.is_dir() {
                 std::fs::remove_dir_all(&p)
@@ -319,7 +320,7 @@ fn prepare_dir(
                 diffs.join("; ")
             )));
         }
-        if out.join("run.json").exists() {
+        if out.join(RUN_JSON).exists() {
             let meta = read_run_meta(out)?;
             if meta.shard != shard {
                 let show = |s: Option<ShardMeta>| {
@@ -336,13 +337,13 @@ fn prepare_dir(
             }
             previous = Some(meta);
         }
-    } else if out.join("run.json").exists() {
+    } else if out.join(RUN_JSON).exists() {
         return Err(StudyError::Refused(format!(
             "{} holds a run.json but no manifest.toml; use another --out, or --force-new",
             out.display()
         )));
     }
-    std::fs::create_dir_all(out.join("cells"))
+    std::fs::create_dir_all(out.join(CELLS))
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
     Ok(previous)
 }

@@ -8,6 +8,7 @@ use rwg_env::float::fmt_f64;
 use rwg_env::{Environment, Space};
 use rwg_study::cells::{plan_cells, Cell};
 use rwg_study::manifest::Manifest;
+use rwg_study::rundir;
 use serde::Serialize;
 use std::io::{BufRead, BufReader, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -175,7 +176,7 @@ fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Ex
 
 /// Runs `rwg replay`.
 pub fn run(args: Args) -> Result<()> {
-    let mut m = Manifest::load(&args.run_dir.join("manifest.toml"))
+    let mut m = Manifest::load(&args.run_dir.join(rundir::MANIFEST))
         .with_context(|| format!("{} is not an rwg run directory", args.run_dir.display()))?;
     let cells = plan_cells(&mut m)?;
     let cell = find_cell(&cells, &m, &args.env, &args.arch, args.bias)?;
@@ -239,11 +240,7 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     let stored = stored_scores(
-        &args
-            .run_dir
-            .join("cells")
-            .join(&cell.dir)
-            .join("scores.csv"),
+        &rundir::cell_dir(&args.run_dir, &cell.dir).join(rundir::SCORES_CSV),
         args.sample,
         m.episodes,
     )?;

@@ -2,6 +2,7 @@
 
 use anyhow::{Context, Result};
 use rwg_env::float::fmt_f64;
+use rwg_study::rundir;
 use rwg_study::rundir::meta::read_run_meta;
 use std::io::Write;
 use std::path::PathBuf;
@@ -23,11 +24,7 @@ pub fn run(args: Args) -> Result<()> {
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     for cell in &meta.cells {
-        let path = args
-            .run_dir
-            .join("cells")
-            .join(&cell.dir)
-            .join("samples.csv");
+        let path = rundir::cell_dir(&args.run_dir, &cell.dir).join(rundir::SAMPLES_CSV);
         let text = std::fs::read_to_string(&path)
             .with_context(|| format!("cannot read {}", path.display()))?;
         let mut rows: Vec<(u64, f64, f64, f64, f64)> = vec![];

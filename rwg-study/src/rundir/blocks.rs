@@ -10,9 +10,8 @@
 //! so they are byte-identical whether the cell ran in one go, was resumed, or
 //! was computed in shards and merged.
 
-use crate::rundir::export::{
-    write_atomic, write_sample_rows, write_score_rows, AtomicFile, SCORES_HEADER,
-};
+use crate::rundir::export::{write_atomic, write_sample_rows, write_score_rows, AtomicFile};
+use crate::rundir::{BLOCKS, CELL_JSON, SAMPLES_CSV, SCORES_CSV, SCORES_HEADER};
 use crate::stats::{ranks, sample_stats};
 use rwg_core::sampler::BlockResult;
 use std::io::{self, BufRead, BufReader, Write};
@@ -74,7 +73,7 @@ pub fn block_samples(b: u64, samples: u64) -> Range<u64> {
 
 /// The file of block `b` of the cell in `cell_dir`.
 pub fn block_path(cell_dir: &Path, b: u64) -> PathBuf {
-    cell_dir.join("blocks").join(format!("b{b:07}.csv"))
+    cell_dir.join(BLOCKS).join(format!("b{b:07}.csv"))
 }
 
 /// Whether block `b` is committed.
@@ -84,13 +83,13 @@ pub fn block_done(cell_dir: &Path, b: u64) -> bool {
 
 /// Whether the cell is finalised (`samples.csv`, written last, exists).
 pub fn cell_complete(cell_dir: &Path) -> bool {
-    cell_dir.join("samples.csv").is_file()
+    cell_dir.join(SAMPLES_CSV).is_file()
 }
 
 /// Removes what a finalised cell no longer needs: the blocks, which remain
 /// when a run was killed between writing `samples.csv` and removing them.
 pub fn tidy_complete_cell(cell_dir: &Path) -> Result<(), RunDirError> {
-    let blocks = cell_dir.join("blocks");
+    let blocks = cell_dir.join(BLOCKS);
     if cell_complete(cell_dir) && blocks.exists() {
         std::fs::remove_dir_all(&blocks).map_err(io_err(&blocks))?;
     }
@@ -158,7 +157,7 @@ pub fn finalize_cell(
             });
         }
     }
-    let scores_path = cell_dir.join("scores.csv");
+    let scores_path = cell_dir.join(SCORES_CSV);
     let mut scores = AtomicFile::create(&scores_path).map_err(io_err(&scores_path))?;
     writeln!(scores, "{SCORES_HEADER}").map_err(io_err(&scores_path))?;
     let mut summaries = Vec::with_capacity(samples as usize);
@@ -205,15 +204,15 @@ pub fn finalize_cell(
     let means: Vec<f64> = summaries.iter().map(|s| s.mean).collect();
     let totals = CellTotals { env_steps, means };
     if let Some(json) = cell_json(&totals) {
-        let p = cell_dir.join("cell.json");
+        let p = cell_dir.join(CELL_JSON);
         write_atomic(&p, json.as_bytes()).map_err(io_err(&p))?;
     }
     let ranks = ranks(&totals.means);
-    let samples_path = cell_dir.join("samples.csv");
+    let samples_path = cell_dir.join(SAMPLES_CSV);
     let mut f = AtomicFile::create(&samples_path).map_err(io_err(&samples_path))?;
     write_sample_rows(&mut f, &summaries, &ranks).map_err(io_err(&samples_path))?;
     f.commit().map_err(io_err(&samples_path))?;
-    let blocks = cell_dir.join("blocks");
+    let blocks = cell_dir.join(BLOCKS);
     std::fs::remove_dir_all(&blocks).map_err(io_err(&blocks))?;
     Ok(totals)
 }

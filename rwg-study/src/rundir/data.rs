@@ -11,6 +11,10 @@
 //! 1-based line.
 
 use crate::rundir::meta::{CellMeta, RunMeta, RUN_FORMAT};
+use crate::rundir::{
+    cell_dir, MANIFEST, RUN_JSON, SAMPLES_CSV, SAMPLES_HEADER, SCORES_CSV, SCORES_HEADER,
+    STATS_CSV, STATS_JSON,
+};
 use crate::stats::{self, CellSummary, ExpectedGuesses, SampleStats, MEAN_PERCENTILES};
 use rwg_env::float::fmt_f64;
 use serde::{Deserialize, Serialize};
@@ -18,19 +22,6 @@ use std::fmt::Write as _;
 use std::fs::File;
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-
-/// Name of the run metadata file.
-pub const RUN_JSON: &str = "run.json";
-/// Name of the resolved manifest file.
-pub const MANIFEST: &str = "manifest.toml";
-/// Name of the statistics file (JSON, [`RunStats`]).
-pub const STATS_JSON: &str = "stats.json";
-/// Name of the statistics file (CSV, one row per cell).
-pub const STATS_CSV: &str = "stats.csv";
-/// Header of a cell's `scores.csv`.
-pub const SCORES_HEADER: &str = "sample,episode,score,steps";
-/// Header of a cell's `samples.csv`.
-pub const SAMPLES_HEADER: &str = "sample,mean,variance,std,min,max,rank";
 
 /// Why a run directory could not be read.
 #[derive(Debug, thiserror::Error)]
@@ -224,7 +215,7 @@ impl Run {
 
     /// The directory of a cell.
     pub fn cell_dir(&self, cell: &CellMeta) -> PathBuf {
-        self.dir.join("cells").join(&cell.dir)
+        cell_dir(&self.dir, &cell.dir)
     }
 
     /// Reads one cell's `scores.csv`, checks its shape against `run.json`,
@@ -232,7 +223,7 @@ impl Run {
     pub fn load_cell(&self, cell: &CellMeta) -> Result<CellData, RunReadError> {
         let dir = self.cell_dir(cell);
         let episodes = cell.episodes as usize;
-        let spath = dir.join("scores.csv");
+        let spath = dir.join(SCORES_CSV);
         if episodes == 0 || cell.samples == 0 {
             return Err(RunReadError::Mismatch {
                 path: self.dir.join(RUN_JSON),
@@ -253,7 +244,7 @@ impl Run {
             });
         }
         let data = CellData::new(cell.clone(), episodes, scores, steps);
-        let path = dir.join("samples.csv");
+        let path = dir.join(SAMPLES_CSV);
         if path.exists() {
             check_samples_csv(&path, &data)?;
         }
@@ -537,11 +528,11 @@ pub fn write_cell_files(
     scores: &[f64],
     steps: &[u32],
 ) -> std::io::Result<()> {
-    let dir = run_dir.join("cells").join(&cell.dir);
+    let dir = cell_dir(run_dir, &cell.dir);
     std::fs::create_dir_all(&dir)?;
     let e = cell.episodes as usize;
-    std::fs::write(dir.join("scores.csv"), scores_csv(scores, steps, e))?;
-    write_samples_csv(&dir.join("samples.csv"), scores, e)
+    std::fs::write(dir.join(SCORES_CSV), scores_csv(scores, steps, e))?;
+    write_samples_csv(&dir.join(SAMPLES_CSV), scores, e)
 }
 
 fn opt(x: Option<f64>) -> String {

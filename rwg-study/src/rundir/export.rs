@@ -5,6 +5,7 @@
 //! when complete, so a reader never sees a half-written file under the final
 //! name.
 
+use crate::rundir::SAMPLES_HEADER;
 use crate::stats::SampleStats;
 use rwg_core::sampler::BlockResult;
 use rwg_env::float::fmt_f64;
@@ -12,11 +13,6 @@ use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
-
-/// Header of `scores.csv`.
-pub const SCORES_HEADER: &str = "sample,episode,score,steps";
-/// Header of `samples.csv`.
-pub const SAMPLES_HEADER: &str = "sample,mean,variance,std,min,max,rank";
 
 /// A file written under `<name>.tmp` and renamed to its final name by
 /// [`AtomicFile::commit`]; dropped uncommitted, the temporary file stays behind

@@ -10,6 +10,7 @@
 //! - `cells/<cell dir>/samples.csv`: one row per sample,
 //!   `sample,mean,variance,std,min,max,rank`.
 
+use crate::rundir::{CELL_JSON, RUN_JSON};
 use crate::StudyError;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -164,7 +165,7 @@ pub fn cell_dir_name(env: &str, arch: &str, bias: bool) -> String {
 
 /// Writes `run.json` into run directory `out`, atomically.
 pub fn write_run_meta(out: &Path, meta: &RunMeta) -> Result<(), StudyError> {
-    let p = out.join("run.json");
+    let p = out.join(RUN_JSON);
     let json = serde_json::to_string_pretty(meta).map_err(|source| StudyError::Json {
         context: format!("cannot write {}", p.display()),
         source,
@@ -175,12 +176,12 @@ pub fn write_run_meta(out: &Path, meta: &RunMeta) -> Result<(), StudyError> {
 
 /// Reads `run.json` of run directory `dir`.
 pub fn read_run_meta(dir: &Path) -> Result<RunMeta, StudyError> {
-    read_json(&dir.join("run.json"), "run.json")
+    read_json(&dir.join(RUN_JSON), RUN_JSON)
 }
 
 /// Reads a finished cell's `cell.json` in cell directory `dir`.
 pub fn read_cell_meta(dir: &Path) -> Result<CellMeta, StudyError> {
-    read_json(&dir.join("cell.json"), "cell.json")
+    read_json(&dir.join(CELL_JSON), CELL_JSON)
 }
 
 fn read_json<T: serde::de::DeserializeOwned>(p: &Path, what: &str) -> Result<T, StudyError> {

@@ -21,3 +21,33 @@ pub mod blocks;
 pub mod data;
 pub mod export;
 pub mod meta;
+
+use std::path::{Path, PathBuf};
+
+/// The resolved manifest of the study.
+pub const MANIFEST: &str = "manifest.toml";
+/// Run metadata ([`meta::RunMeta`]).
+pub const RUN_JSON: &str = "run.json";
+/// The folder of the cells' folders.
+pub const CELLS: &str = "cells";
+/// A cell's committed blocks (removed when the cell is finalised).
+pub const BLOCKS: &str = "blocks";
+/// A cell's episode scores.
+pub const SCORES_CSV: &str = "scores.csv";
+/// A cell's per-sample statistics.
+pub const SAMPLES_CSV: &str = "samples.csv";
+/// A finished cell's metadata ([`meta::CellMeta`]).
+pub const CELL_JSON: &str = "cell.json";
+/// The run's statistics, JSON ([`data::RunStats`]).
+pub const STATS_JSON: &str = "stats.json";
+/// The run's statistics, CSV (one row per cell).
+pub const STATS_CSV: &str = "stats.csv";
+/// Header of a cell's `scores.csv` (and of its block files).
+pub const SCORES_HEADER: &str = "sample,episode,score,steps";
+/// Header of a cell's `samples.csv`.
+pub const SAMPLES_HEADER: &str = "sample,mean,variance,std,min,max,rank";
+
+/// The folder of cell `cell` (its directory name) in run directory `run`.
+pub fn cell_dir(run: &Path, cell: &str) -> PathBuf {
+    run.join(CELLS).join(cell)
+}
