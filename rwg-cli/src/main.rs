@@ -1,6 +1,8 @@
 //! `rwg`: Random Weight Guessing analysis of reinforcement-learning environments.
 
+mod cluster;
 mod cmd;
+mod slurm_script;
 mod step_lines;
 
 use anyhow::Result;
@@ -26,6 +28,10 @@ enum Command {
     Run(cmd::run::Args),
     /// Combine the shards of a study (`rwg run --shard K/N`) into one run directory.
     Merge(cmd::merge::Args),
+    /// Submit a study to Slurm: a job array of shards and a merge job that depends on it.
+    Slurm(cmd::slurm::Args),
+    /// Which cells, blocks and shards of a run or sharded study are done, and how to finish it.
+    Status(cmd::status::Args),
     /// Regenerate one network of a run from its seed, re-run it, or export its weights.
     Replay(cmd::replay::Args),
     /// List the best networks of each cell of a run, with the command that replays each.
@@ -54,6 +60,8 @@ fn main() {
         Command::Rollout(a) => cmd::rollout::run(a),
         Command::Run(a) => cmd::run::run(a),
         Command::Merge(a) => cmd::merge::run(a),
+        Command::Slurm(a) => cmd::slurm::run(a),
+        Command::Status(a) => cmd::status::run(a),
         Command::Replay(a) => cmd::replay::run(a),
         Command::Top(a) => cmd::top::run(a),
         Command::Stats(a) => cmd::stats::run(a),

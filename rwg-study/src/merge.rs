@@ -1,11 +1,14 @@
 //! Combining the shards of a study (`rwg run --shard K/N`) into one run
 //! directory, byte-identical to an unsharded run's (timing metadata aside).
+//! An interrupted merge into the same directory is finished by merging again:
+//! blocks are copied under a temporary name and renamed, finalised cells are
+//! kept, and `run.json` gets its end time last.
 
 use crate::cells::{new_meta, plan_cells, summary_header};
 use crate::manifest::Manifest;
-use crate::rundir::blocks::{block_done, block_path, n_blocks};
+use crate::rundir::blocks::{block_done, block_path, cell_complete, n_blocks, tidy_complete_cell};
 use crate::rundir::export::{rfc3339, write_atomic};
-use crate::rundir::meta::{read_run_meta, write_run_meta, RunMeta};
+use crate::rundir::meta::{read_cell_meta, read_run_meta, write_run_meta, RunMeta};
 use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
 use crate::StudyError;
 use std::path::{Path, PathBuf};
@@ -18,12 +21,18 @@ pub struct MergeReport {
     pub shards: u64,
     /// The merged `run.json`.
     pub meta: RunMeta,
+    /// Cells finalised by an earlier, interrupted merge (kept as they were).
+    pub cells_kept: usize,
+    /// `out` already held this study, merged and complete: nothing was written.
+    pub already_complete: bool,
 }
 
 /// Checks that the directories in `shards` come from the same study and
 /// together hold every block exactly once, then writes the merged run into
-/// `out` (which must not hold a run). `on_line` receives the summary header,
-/// then each cell's summary line as the cell is finalised.
+/// `out`, which must be empty or hold a merge of the same study (an
+/// interrupted one is finished, a complete one left alone). `on_line`
+/// receives the summary header, then each cell's summary line as the cell is
+/// finalised.
 pub fn merge_shards(
     shards: &[PathBuf],
     out: &Path,
@@ -103,20 +112,25 @@ pub fn merge_shards(
             if !block_done(&dir, b) {
                 return refuse(format!(
                     "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; finish it with \
-                     rwg run <manifest> --shard {k}/{count} --out {}",
+                     rwg run {} --shard {k}/{count} --out {}",
                     owner[k].expect("checked").display(),
                     cell.dir,
+                    owner[k].expect("checked").join(MANIFEST).display(),
                     owner[k].expect("checked").display()
                 ));
             }
         }
     }
 
-    if out.join(RUN_JSON).exists() || out.join(MANIFEST).exists() {
-        return refuse(format!(
-            "{} already holds a run; choose another --out",
-            out.display()
-        ));
+    if let Some(previous) = check_out(out, m)? {
+        if previous.end_time.is_some() {
+            return Ok(MergeReport {
+                shards: count,
+                meta: previous,
+                cells_kept: cells.len(),
+                already_complete: true,
+            });
+        }
     }
     std::fs::create_dir_all(out.join(CELLS))
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
@@ -134,27 +148,35 @@ pub fn merge_shards(
     let mut meta = new_meta(m, threads, start, None);
     meta.wall_s = dirs.iter().map(|s| s.2.wall_s).sum();
     on_line(&summary_header());
+    let mut cells_kept = 0;
     for (ci, cell) in cells.iter().enumerate() {
         let dest = cell_dir(out, &cell.dir);
+        // A cell finalised by an interrupted merge is kept as it is.
+        if cell_complete(&dest) {
+            tidy_complete_cell(&dest).map_err(|source| StudyError::RunDir {
+                context: format!("cannot tidy cell {}", cell.dir),
+                source,
+            })?;
+            let cm = read_cell_meta(&dest)?;
+            meta.env_steps += cm.env_steps;
+            meta.cells.push(cm);
+            cells_kept += 1;
+            continue;
+        }
         for b in 0..nb {
+            let dst = block_path(&dest, b);
+            if block_done(&dest, b) {
+                continue; // copied (atomically) by an interrupted merge
+            }
             let k = ((ci as u64 * nb + b) % count) as usize;
             let src = block_path(&cell_dir(owner[k].expect("checked"), &cell.dir), b);
-            let dst = block_path(&dest, b);
-            let parent = dst.parent().expect("has parent");
-            std::fs::create_dir_all(parent).map_err(StudyError::io(format!(
-                "cannot create {}",
-                parent.display()
-            )))?;
-            std::fs::copy(&src, &dst).map_err(StudyError::io(format!(
-                "cannot copy {} to {}",
-                src.display(),
-                dst.display()
-            )))?;
+            copy_atomic(&src, &dst)?;
         }
         let (cm, totals) = cell.finalize(m, out, 0.0)?;
         on_line(&cell.summary_line(&totals.means, f64::NAN));
         meta.env_steps += cm.env_steps;
         meta.cells.push(cm);
+        write_run_meta(out, &meta)?;
     }
     meta.steps_per_s = if meta.wall_s > 0.0 {
         meta.env_steps as f64 / meta.wall_s
@@ -166,5 +188,66 @@ pub fn merge_shards(
     Ok(MergeReport {
         shards: count,
         meta,
+        cells_kept,
+        already_complete: false,
     })
+}
+
+/// Checks that `out` is empty or holds a merge of study `m`; returns that
+/// merge's metadata, if it got as far as writing `run.json`.
+fn check_out(out: &Path, m: &Manifest) -> Result<Option<RunMeta>, StudyError> {
+    let refuse = |msg: String| Err(StudyError::Refused(msg));
+    let manifest_path = out.join(MANIFEST);
+    if !manifest_path.exists() {
+        if out.join(RUN_JSON).exists() {
+            return refuse(format!(
+                "{} holds a run.json but no manifest.toml; choose another --out",
+                out.display()
+            ));
+        }
+        return Ok(None);
+    }
+    let old = Manifest::load(&manifest_path)?;
+    let diffs = old.study_differences(m);
+    if !diffs.is_empty() {
+        return refuse(format!(
+            "{} already holds a different study ({}); choose another --out",
+            out.display(),
+            diffs.join("; ")
+        ));
+    }
+    if !out.join(RUN_JSON).exists() {
+        return Ok(None);
+    }
+    let meta = read_run_meta(out)?;
+    if let Some(s) = meta.shard {
+        return refuse(format!(
+            "{} holds shard {}/{} of the study, not a merged run; choose another --out",
+            out.display(),
+            s.index,
+            s.count
+        ));
+    }
+    Ok(Some(meta))
+}
+
+/// Copies a committed block under a temporary name, then renames it, so that
+/// an interrupted merge never leaves a partial block under the final name.
+fn copy_atomic(src: &Path, dst: &Path) -> Result<(), StudyError> {
+    let dir = dst.parent().expect("a block has a parent");
+    std::fs::create_dir_all(dir)
+        .map_err(StudyError::io(format!("cannot create {}", dir.display())))?;
+    let mut tmp = dst.as_os_str().to_owned();
+    tmp.push(".tmp");
+    let tmp = PathBuf::from(tmp);
+    std::fs::copy(src, &tmp).map_err(StudyError::io(format!(
+        "cannot copy {} to {}",
+        src.display(),
+        tmp.display()
+    )))?;
+    std::fs::rename(&tmp, dst).map_err(StudyError::io(format!(
+        "cannot rename {} to {}",
+        tmp.display(),
+        dst.display()
+    )))
 }

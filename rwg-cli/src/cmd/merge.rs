@@ -1,6 +1,7 @@
 //! `rwg merge`: combine the shards of a study into one run directory (the
 //! merge itself is `rwg_study::merge`).
 
+use super::run::write_report;
 use anyhow::Result;
 use rwg_study::merge::merge_shards;
 use std::path::PathBuf;
@@ -10,7 +11,8 @@ use std::path::PathBuf;
 #[command(after_help = "\
 Checks that the shard directories come from the same study and together hold every
 block of networks exactly once, then writes a run directory byte-identical to an
-unsharded run's (timing metadata aside).
+unsharded run's (timing metadata aside), with its stats.csv, figures and report.html.
+An interrupted merge is finished by running the same command again.
 
 Example:
   for k in 0 1 2; do rwg run examples/paper.toml --shard $k/3 --out runs/paper-s$k; done
@@ -19,19 +21,44 @@ pub struct Args {
     /// Shard directories written by `rwg run --shard K/N`.
     #[arg(required = true)]
     shards: Vec<PathBuf>,
-    /// The merged run directory (must not hold a run).
+    /// The merged run directory: empty, or holding an unfinished merge of the
+    /// same study (which this finishes).
     #[arg(long)]
     out: PathBuf,
+    /// Skip the analysis at the end (stats.json, stats.csv, figures/, report.html;
+    /// `rwg report` writes them later).
+    #[arg(long)]
+    no_report: bool,
 }
 
 /// Runs `rwg merge`.
 pub fn run(args: Args) -> Result<()> {
-    let report = merge_shards(&args.shards, &args.out, |line| println!("{line}"))?;
+    let out = &args.out;
+    let report = merge_shards(&args.shards, out, |line| println!("{line}"))?;
+    if report.already_complete {
+        println!(
+            "{} already holds this study, merged and complete; nothing to do.",
+            out.display()
+        );
+        if !args.no_report && !out.join("report.html").exists() {
+            write_report(out)?;
+        }
+        return Ok(());
+    }
+    if report.cells_kept > 0 {
+        println!(
+            "({} cells were merged by an earlier, interrupted merge)",
+            report.cells_kept
+        );
+    }
     println!(
         "\nMerged {} shards ({} env steps) into {}",
         report.shards,
         report.meta.env_steps,
-        args.out.display()
+        out.display()
     );
+    if !args.no_report {
+        write_report(out)?;
+    }
     Ok(())
 }

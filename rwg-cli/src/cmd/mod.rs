@@ -10,5 +10,7 @@ pub mod replay;
 pub mod report;
 pub mod rollout;
 pub mod run;
+pub mod slurm;
 pub mod stats;
+pub mod status;
 pub mod top;

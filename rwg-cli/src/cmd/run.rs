@@ -64,7 +64,7 @@ pub struct Args {
 }
 
 /// Writes stats, figures and report.html into a finished run directory.
-fn write_report(out: &Path) -> Result<()> {
+pub(crate) fn write_report(out: &Path) -> Result<()> {
     let written = rwg_analysis::write_analysis(out, false)
         .with_context(|| format!("cannot analyse {}", out.display()))?;
     let figures = written

@@ -16,11 +16,13 @@
 //! - [`blocks`]: block files, resume, and a cell's finalisation.
 //! - [`export`]: the CSV writers and atomic file replacement.
 //! - [`data`]: reading a finished run for analysis, writing its statistics.
+//! - [`status`]: how far a run or a shard has got (read-only, safe while it runs).
 
 pub mod blocks;
 pub mod data;
 pub mod export;
 pub mod meta;
+pub mod status;
 
 use std::path::{Path, PathBuf};
 

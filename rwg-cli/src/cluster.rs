@@ -1,0 +1,162 @@
+//! A study computed in shards under one directory, as `rwg slurm` lays it
+//! out and `rwg status` reads it:
+//!
+//! ```text
+//! DIR/                  the merged run, once merged (manifest.toml, run.json, cells/, report.html...)
+//! DIR/slurm/manifest.toml   the resolved study every shard runs
+//! DIR/slurm/plan.json       shard count, sbatch options, submitted job ids
+//! DIR/slurm/shards.sh       the job-array script (one task per shard)
+//! DIR/slurm/merge.sh        the merge job's script
+//! DIR/slurm/logs/           the jobs' output
+//! DIR/shards/<K>/           shard K's run directory (`rwg run --shard K/N`)
+//! ```
+
+use anyhow::{Context, Result};
+use rwg_study::manifest::Manifest;
+use rwg_study::rundir::meta::read_run_meta as read_meta;
+use rwg_study::rundir::meta::ShardMeta;
+use rwg_study::rundir::status::{progress, Totals};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The directory of a sharded study.
+#[derive(Debug, Clone)]
+pub struct ShardedDir {
+    /// `DIR`: where the merged run ends up.
+    pub root: PathBuf,
+}
+
+impl ShardedDir {
+    /// `DIR/slurm`.
+    pub fn slurm_dir(&self) -> PathBuf {
+        self.root.join("slurm")
+    }
+    /// `DIR/slurm/manifest.toml`.
+    pub fn manifest(&self) -> PathBuf {
+        self.slurm_dir().join("manifest.toml")
+    }
+    /// `DIR/slurm/plan.json`.
+    pub fn plan_file(&self) -> PathBuf {
+        self.slurm_dir().join("plan.json")
+    }
+    /// `DIR/slurm/shards.sh`.
+    pub fn array_script(&self) -> PathBuf {
+        self.slurm_dir().join("shards.sh")
+    }
+    /// `DIR/slurm/merge.sh`.
+    pub fn merge_script(&self) -> PathBuf {
+        self.slurm_dir().join("merge.sh")
+    }
+    /// `DIR/slurm/logs`.
+    pub fn logs(&self) -> PathBuf {
+        self.slurm_dir().join("logs")
+    }
+    /// `DIR/shards/<k>`.
+    pub fn shard(&self, k: u64) -> PathBuf {
+        self.root.join("shards").join(k.to_string())
+    }
+    /// Whether `root` holds a sharded study (its plan file exists).
+    pub fn exists(&self) -> bool {
+        self.plan_file().is_file()
+    }
+    /// Reads the plan file.
+    pub fn read_plan(&self) -> Result<Plan> {
+        let p = self.plan_file();
+        let text =
+            std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
+        serde_json::from_str(&text)
+            .with_context(|| format!("{} is not an rwg slurm plan.json", p.display()))
+    }
+    /// Writes the plan file atomically.
+    pub fn write_plan(&self, plan: &Plan) -> Result<()> {
+        let p = self.plan_file();
+        rwg_study::rundir::export::write_atomic(&p, serde_json::to_string_pretty(plan)?.as_bytes())
+            .with_context(|| format!("cannot write {}", p.display()))
+    }
+}
+
+/// `DIR/slurm/plan.json`.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Plan {
+    /// Number of shards.
+    pub shards: u64,
+    /// The `#SBATCH` options of both scripts, in order.
+    pub sbatch: Vec<String>,
+    /// The `#SBATCH` options of the job array only (`--cpus-per-task`).
+    #[serde(default)]
+    pub sbatch_array: Vec<String>,
+    /// Every submission, oldest first.
+    pub jobs: Vec<Job>,
+}
+
+/// One submitted Slurm job.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Job {
+    /// `shards` (a job array) or `merge`.
+    pub kind: String,
+    /// Slurm job id.
+    pub id: String,
+    /// The array's task ids (shard indices); empty for the merge.
+    #[serde(default)]
+    pub tasks: Vec<u64>,
+}
+
+/// Where one shard stands.
+#[derive(Debug, Clone)]
+pub enum ShardState {
+    /// Its directory does not exist, or holds no run yet.
+    Missing,
+    /// Some owned blocks are not committed.
+    Incomplete(Totals),
+    /// Every owned block is committed.
+    Complete(Totals),
+}
+
+/// The state of shard `k` of `count` of study `m` in `dir`.
+pub fn shard_state(dir: &Path, m: &Manifest, k: u64, count: u64) -> ShardState {
+    if !dir.join("manifest.toml").is_file() {
+        return ShardState::Missing;
+    }
+    let s = ShardMeta { index: k, count };
+    let t = Totals::of(&progress(dir, m, Some(s)), true);
+    if t.complete() {
+        ShardState::Complete(t)
+    } else {
+        ShardState::Incomplete(t)
+    }
+}
+
+/// Whether `dir` holds a finished merged run (run.json has an end time and
+/// is not a shard's).
+pub fn merged_complete(dir: &Path) -> bool {
+    read_meta(dir).is_ok_and(|m| m.shard.is_none() && m.end_time.is_some())
+}
+
+/// `s` quoted for a POSIX shell (unchanged when it needs no quoting).
+pub fn sh_quote(s: &str) -> String {
+    let safe = |c: char| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c);
+    if !s.is_empty() && s.chars().all(safe) {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
+/// A path quoted for a POSIX shell.
+pub fn sh_path(p: &Path) -> String {
+    sh_quote(&p.to_string_lossy())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shell_quoting() {
+        assert_eq!(sh_quote("runs/a-1"), "runs/a-1");
+        assert_eq!(sh_quote("a b"), "'a b'");
+        assert_eq!(sh_quote("it's"), r"'it'\''s'");
+        assert_eq!(sh_quote(""), "''");
+        assert_eq!(sh_quote("$HOME"), "'$HOME'");
+    }
+}

@@ -1,0 +1,263 @@
+//! `rwg status`: how far a run, a shard or a sharded study has got, and the
+//! command that finishes it. Read-only: safe while the run is being written.
+
+use crate::cluster::{merged_complete, sh_path, shard_state, ShardState, ShardedDir};
+use anyhow::{bail, Context, Result};
+use rwg_study::manifest::Manifest;
+use rwg_study::rundir::blocks::n_blocks;
+use rwg_study::rundir::meta::read_run_meta as read_meta;
+use rwg_study::rundir::meta::ShardMeta;
+use rwg_study::rundir::status::{cell_dirs, progress, CellProgress, Totals};
+use std::path::PathBuf;
+
+/// Arguments of `rwg status`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+RUN_DIR is one of:
+  a run directory (rwg run):            cells complete, blocks committed per cell
+  a shard's directory (rwg run --shard): the same for the blocks the shard owns
+  a sharded study (rwg slurm --out DIR): every shard (missing, incomplete, complete)
+                                         and the merged run in DIR
+It ends with the command that finishes the work. It only reads, so it can be run
+while the study is being computed; it shows what was committed at that instant.
+
+Examples:
+  rwg run examples/quick.toml --out runs/quick --samples 64 --no-report; rwg status runs/quick
+  rwg status runs/paper        # after rwg slurm examples/paper.toml --shards 10 --out runs/paper")]
+pub struct Args {
+    /// Run directory, shard directory, or the --out of `rwg slurm`.
+    run_dir: PathBuf,
+}
+
+/// Runs `rwg status`.
+pub fn run(args: Args) -> Result<()> {
+    let dir = &args.run_dir;
+    let sharded = ShardedDir { root: dir.clone() };
+    if sharded.exists() {
+        return sharded_status(&sharded);
+    }
+    let manifest_path = dir.join("manifest.toml");
+    if !manifest_path.is_file() {
+        if !dir.is_dir() {
+            bail!("{}: no such directory", dir.display());
+        }
+        bail!(
+            "{} is not an rwg run directory: it has no manifest.toml (nor slurm/plan.json)",
+            dir.display()
+        );
+    }
+    let m = Manifest::load(&manifest_path)?;
+    let meta = if dir.join("run.json").exists() {
+        Some(read_meta(dir)?)
+    } else {
+        None
+    };
+    let shard = meta.as_ref().and_then(|m| m.shard);
+    let cells = progress(dir, &m, shard);
+    let t = Totals::of(&cells, shard.is_some());
+    match shard {
+        Some(s) => println!(
+            "{}: shard {}/{} of a study ({} cells, {} networks x {} episodes, blocks of 32)",
+            dir.display(),
+            s.index,
+            s.count,
+            cells.len(),
+            m.samples,
+            m.episodes
+        ),
+        None => println!(
+            "{}: a run of the whole study ({} cells, {} networks x {} episodes, blocks of 32)",
+            dir.display(),
+            cells.len(),
+            m.samples,
+            m.episodes
+        ),
+    }
+    print_cells(&cells, shard.is_some());
+    let ended = meta.as_ref().is_some_and(|m| m.end_time.is_some());
+    print_totals(&t, if shard.is_some() { "shard" } else { "run" }, ended);
+    let finish = format!(
+        "rwg run {} --out {}{}",
+        sh_path(&manifest_path),
+        sh_path(dir),
+        shard.map_or(String::new(), |s| format!(
+            " --shard {}/{}",
+            s.index, s.count
+        ))
+    );
+    if !t.complete() || !ended {
+        println!("Finish it with:\n  {finish}");
+    } else if shard.is_some() {
+        println!(
+            "Nothing left to do in this shard; combine the shards with rwg merge DIR... --out DIR"
+        );
+    } else if !dir.join("report.html").exists() {
+        println!(
+            "No report yet; write stats, figures and report.html with:\n  rwg report {}",
+            sh_path(dir)
+        );
+    }
+    Ok(())
+}
+
+fn print_cells(cells: &[CellProgress], shard: bool) {
+    println!("  {:<46} {:>13}  state", "cell", "blocks");
+    for c in cells {
+        let state = if c.finalised {
+            "complete"
+        } else if c.done(shard) {
+            if shard {
+                "complete"
+            } else {
+                "all blocks committed, not finalised"
+            }
+        } else if c.blocks_done == 0 {
+            "not started"
+        } else {
+            "in progress"
+        };
+        println!(
+            "  {:<46} {:>13}  {state}",
+            c.dir,
+            format!("{}/{}", c.blocks_done, c.blocks_total)
+        );
+    }
+}
+
+fn print_totals(t: &Totals, what: &str, ended: bool) {
+    let state = if t.complete() && ended {
+        "complete"
+    } else {
+        "incomplete"
+    };
+    println!(
+        "The {what} is {state}: {} of {} cells done, {} of {} blocks committed{}.",
+        t.cells_done,
+        t.cells,
+        t.blocks_done,
+        t.blocks,
+        if t.complete() && !ended {
+            " (run.json has no end time yet: the run is finishing or was stopped)"
+        } else {
+            ""
+        }
+    );
+}
+
+fn sharded_status(sd: &ShardedDir) -> Result<()> {
+    let plan = sd.read_plan()?;
+    let m = Manifest::load(&sd.manifest())
+        .with_context(|| format!("{} is incomplete", sd.slurm_dir().display()))?;
+    let count = plan.shards;
+    let root = &sd.root;
+    println!(
+        "{}: a study in {count} shards ({} cells, {} networks x {} episodes), merged into {}",
+        root.display(),
+        cell_dirs(&m).len(),
+        m.samples,
+        m.episodes,
+        root.display()
+    );
+    // Per cell: finalised in the merged run, or the blocks the shards committed.
+    let nb = n_blocks(m.samples);
+    let mut cells: Vec<CellProgress> = progress(root, &m, None);
+    for c in cells.iter_mut().filter(|c| !c.finalised) {
+        c.blocks_done = 0;
+        c.blocks_total = nb;
+    }
+    for k in 0..count {
+        let s = ShardMeta { index: k, count };
+        for (c, sp) in cells.iter_mut().zip(progress(&sd.shard(k), &m, Some(s))) {
+            if !c.finalised {
+                c.blocks_done += sp.blocks_done;
+            }
+        }
+    }
+    print_cells(&cells, true);
+    println!("  {:<6} {:<50} state", "shard", "directory");
+    let mut unfinished = vec![];
+    for k in 0..count {
+        let dir = sd.shard(k);
+        let state = match shard_state(&dir, &m, k, count) {
+            ShardState::Missing => {
+                unfinished.push(k);
+                "missing (not started)".to_string()
+            }
+            ShardState::Incomplete(t) => {
+                unfinished.push(k);
+                format!(
+                    "incomplete: {} of {} blocks, {} of {} cells",
+                    t.blocks_done, t.blocks, t.cells_done, t.cells
+                )
+            }
+            ShardState::Complete(t) => format!("complete ({} blocks)", t.blocks),
+        };
+        println!(
+            "  {:<6} {:<50} {state}",
+            format!("{k}/{count}"),
+            dir.display().to_string()
+        );
+    }
+    let merged = merged_complete(root);
+    let merge_state = if merged {
+        "complete".to_string()
+    } else if root.join("manifest.toml").is_file() {
+        let t = Totals::of(&progress(root, &m, None), false);
+        format!(
+            "incomplete: {} of {} cells merged (rerun the merge to finish it)",
+            t.cells_done, t.cells
+        )
+    } else {
+        "not started".to_string()
+    };
+    println!("Merged run {}: {merge_state}", root.display());
+    let ids: Vec<&str> = plan.jobs.iter().map(|j| j.id.as_str()).collect();
+    if !ids.is_empty() {
+        println!(
+            "Slurm jobs submitted: {}  (watch: squeue -j {})",
+            plan.jobs
+                .iter()
+                .map(|j| format!("{} {}", j.kind, j.id))
+                .collect::<Vec<_>>()
+                .join(", "),
+            ids.join(",")
+        );
+    }
+    if merged {
+        if !root.join("report.html").exists() {
+            println!(
+                "No report yet; write it with:\n  rwg report {}",
+                sh_path(root)
+            );
+        }
+        return Ok(());
+    }
+    let manifest = sh_path(&sd.manifest());
+    println!(
+        "Finish it on Slurm (submits {} and the merge; the scripts keep the sbatch options \
+         given first):\n  rwg slurm {manifest} --shards {count} --out {}",
+        if unfinished.is_empty() {
+            "no shard: all are complete,".to_string()
+        } else {
+            format!(
+                "shard(s) {}",
+                unfinished
+                    .iter()
+                    .map(|k| k.to_string())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            )
+        },
+        sh_path(root)
+    );
+    println!("or on this machine:");
+    for &k in &unfinished {
+        println!(
+            "  rwg run {manifest} --shard {k}/{count} --out {}",
+            sh_path(&sd.shard(k))
+        );
+    }
+    let shards: Vec<String> = (0..count).map(|k| sh_path(&sd.shard(k))).collect();
+    println!("  rwg merge {} --out {}", shards.join(" "), sh_path(root));
+    Ok(())
+}
