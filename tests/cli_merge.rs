@@ -44,11 +44,7 @@ fn study(name: &str) -> Study {
             d
         })
         .collect();
-    Study {
-        dir,
-        whole,
-        shards,
-    }
+    Study { dir, whole, shards }
 }
 
 fn merge_args<'a>(s: &'a Study, out: &'a str) -> Vec<&'a str> {
@@ -102,7 +98,12 @@ fn assert_same(a: &Path, b: &Path) {
         rb.iter().map(|f| &f.0).collect::<Vec<_>>()
     );
     for ((name, x), (_, y)) in ra.iter().zip(&rb) {
-        assert!(x == y, "{name} differs between {} and {}", a.display(), b.display());
+        assert!(
+            x == y,
+            "{name} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
     }
 }
 
@@ -117,7 +118,10 @@ fn merge_writes_stats_figures_and_report_like_run() {
     // Again: complete, nothing to do, nothing changed.
     let before = results(&out);
     let text = rwg_ok(&merge_args(&s, out.to_str().unwrap()));
-    assert!(text.contains("merged and complete; nothing to do"), "{text}");
+    assert!(
+        text.contains("merged and complete; nothing to do"),
+        "{text}"
+    );
     assert_eq!(before, results(&out));
     // --no-report
     let bare = s.dir.join("bare");
@@ -134,9 +138,20 @@ fn merge_writes_stats_figures_and_report_like_run() {
     let other = s.dir.join("other");
     let m2 = s.dir.join("other.toml");
     std::fs::write(&m2, STUDY.replace("seed = 11", "seed = 12")).unwrap();
-    rwg_ok(&["run", m2.to_str().unwrap(), "--out", other.to_str().unwrap(), "--samples", "100", "--no-report"]);
+    rwg_ok(&[
+        "run",
+        m2.to_str().unwrap(),
+        "--out",
+        other.to_str().unwrap(),
+        "--samples",
+        "100",
+        "--no-report",
+    ]);
     let err = rwg_err(&merge_args(&s, other.to_str().unwrap()));
-    assert!(err.contains("already holds a different study (seed: 12 vs 11)"), "{err}");
+    assert!(
+        err.contains("already holds a different study (seed: 12 vs 11)"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -158,10 +173,16 @@ fn an_interrupted_merge_is_finished_by_running_it_again() {
         std::fs::copy(from, to).unwrap();
     };
     for f in ["scores.csv", "samples.csv", "cell.json"] {
-        copy(&full.join("cells").join(first).join(f), &out.join("cells").join(first).join(f));
+        copy(
+            &full.join("cells").join(first).join(f),
+            &out.join("cells").join(first).join(f),
+        );
     }
     copy(
-        &Path::new(&s.shards[0]).join("cells").join(first).join("blocks/b0000000.csv"),
+        &Path::new(&s.shards[0])
+            .join("cells")
+            .join(first)
+            .join("blocks/b0000000.csv"),
         &out.join("cells").join(first).join("blocks/b0000000.csv"),
     );
     let second = out.join("cells/CartPole-v1__0HL__bias/blocks");
@@ -173,10 +194,20 @@ fn an_interrupted_merge_is_finished_by_running_it_again() {
     );
     std::fs::write(second.join("b0000001.csv.tmp"), "1,0,12.0").unwrap();
     let status = rwg_ok(&["status", out.to_str().unwrap()]);
-    assert!(status.contains("The run is incomplete: 1 of 4 cells done, 5 of 16 blocks"), "{status}");
-    assert!(status.contains("CartPole-v1__0HL__bias                                   1/4  in progress"), "{status}");
+    assert!(
+        status.contains("The run is incomplete: 1 of 4 cells done, 5 of 16 blocks"),
+        "{status}"
+    );
+    assert!(
+        status
+            .contains("CartPole-v1__0HL__bias                                   1/4  in progress"),
+        "{status}"
+    );
     let text = rwg_ok(&merge_args(&s, out.to_str().unwrap()));
-    assert!(text.contains("(1 cells were merged by an earlier, interrupted merge)"), "{text}");
+    assert!(
+        text.contains("(1 cells were merged by an earlier, interrupted merge)"),
+        "{text}"
+    );
     assert_same(&s.whole, &out);
     assert!(!second.join("b0000001.csv.tmp").exists() || !second.exists());
 
@@ -206,10 +237,19 @@ fn status_of_runs_and_shards_names_the_command_that_finishes_them() {
     let shard = dir.join("s1");
     rwg_ok(&["run", m, "--shard", "1/3", "--out", shard.to_str().unwrap()]);
     let status = rwg_ok(&["status", shard.to_str().unwrap()]);
-    assert!(status.contains("shard 1/3 of a study (4 cells, 100 networks x 3 episodes"), "{status}");
+    assert!(
+        status.contains("shard 1/3 of a study (4 cells, 100 networks x 3 episodes"),
+        "{status}"
+    );
     // 16 blocks; shard 1 owns global blocks 1, 4, 7, 10, 13: cells 0..3 hold 1, 2, 1, 1
-    assert!(status.contains("CartPole-v1__0HL__bias                                   2/2  complete"), "{status}");
-    assert!(status.contains("The shard is complete: 4 of 4 cells done, 5 of 5 blocks"), "{status}");
+    assert!(
+        status.contains("CartPole-v1__0HL__bias                                   2/2  complete"),
+        "{status}"
+    );
+    assert!(
+        status.contains("The shard is complete: 4 of 4 cells done, 5 of 5 blocks"),
+        "{status}"
+    );
     assert!(status.contains("rwg merge DIR... --out DIR"), "{status}");
     // A whole run, stopped after two blocks of its first cell.
     let run = dir.join("run");
@@ -223,11 +263,111 @@ fn status_of_runs_and_shards_names_the_command_that_finishes_them() {
         std::fs::write(c0.join(format!("blocks/b000000{b}.csv")), "").unwrap();
     }
     let status = rwg_ok(&["status", run.to_str().unwrap()]);
-    assert!(status.contains("a run of the whole study (4 cells"), "{status}");
-    assert!(status.contains("CartPole-v1__0HL__nobias                                 2/4  in progress"), "{status}");
-    assert!(status.contains("The run is incomplete: 3 of 4 cells done, 14 of 16 blocks"), "{status}");
-    let finish = format!("rwg run {}/manifest.toml --out {}", run.display(), run.display());
+    assert!(
+        status.contains("a run of the whole study (4 cells"),
+        "{status}"
+    );
+    assert!(
+        status
+            .contains("CartPole-v1__0HL__nobias                                 2/4  in progress"),
+        "{status}"
+    );
+    assert!(
+        status.contains("The run is incomplete: 3 of 4 cells done, 14 of 16 blocks"),
+        "{status}"
+    );
+    let finish = format!(
+        "rwg run {}/manifest.toml --out {}",
+        run.display(),
+        run.display()
+    );
     assert!(status.contains(&finish), "{status}");
     let err = rwg_err(&["status", dir.to_str().unwrap()]);
     assert!(err.contains("is not an rwg run directory"), "{err}");
+
+    // Shards in DIR/shards/<K> without rwg slurm (a Kubernetes Indexed Job's
+    // layout): shard 1 done, shard 0 stopped early, shard 2 never started.
+    let study = dir.join("k8s");
+    let shard_dir = |k: u64| study.join("shards").join(k.to_string());
+    rwg_ok(&[
+        "run",
+        m,
+        "--shard",
+        "1/3",
+        "--out",
+        shard_dir(1).to_str().unwrap(),
+    ]);
+    rwg_ok(&[
+        "run",
+        m,
+        "--shard",
+        "0/3",
+        "--out",
+        shard_dir(0).to_str().unwrap(),
+    ]);
+    let blocks = shard_dir(0).join("cells/Acrobot-v1__0HL__bias/blocks");
+    let last = std::fs::read_dir(&blocks)
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    std::fs::remove_file(last).unwrap();
+    // as a run stopped early leaves it: no end time
+    let meta = shard_dir(0).join("run.json");
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&meta).unwrap()).unwrap();
+    v["end_time"] = serde_json::Value::Null;
+    std::fs::write(&meta, v.to_string()).unwrap();
+    let status = rwg_ok(&["status", study.to_str().unwrap()]);
+    assert!(
+        status.contains("a study in 3 shards (4 cells, 100 networks x 3 episodes)"),
+        "{status}"
+    );
+    assert!(
+        status.contains("incomplete: 5 of 6 blocks, 3 of 4 cells"),
+        "{status}"
+    );
+    assert!(status.contains("complete (5 blocks)"), "{status}");
+    assert!(status.contains("missing (not started)"), "{status}");
+    assert!(
+        status.contains("Merged run") && status.contains("not started"),
+        "{status}"
+    );
+    assert!(!status.contains("rwg slurm"), "{status}");
+    // The printed commands finish the study, as printed.
+    let cmds: Vec<&str> = status
+        .lines()
+        .skip_while(|l| !l.starts_with("Finish it with:"))
+        .skip(1)
+        .map(|l| l.trim())
+        .collect();
+    assert_eq!(cmds.len(), 3, "{status}");
+    assert!(
+        cmds[0].contains("--shard 0/3") && cmds[1].contains("--shard 2/3"),
+        "{status}"
+    );
+    let bin = rwg_bin().parent().unwrap().to_path_buf();
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    for c in &cmds {
+        let o = Command::new("sh")
+            .args(["-c", c])
+            .env("PATH", &path)
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{c}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let status = rwg_ok(&["status", study.to_str().unwrap()]);
+    assert!(status.contains(": complete"), "{status}");
+    let whole = dir.join("whole");
+    rwg_ok(&["run", m, "--out", whole.to_str().unwrap()]);
+    assert_same(&whole, &study);
 }

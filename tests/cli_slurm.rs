@@ -43,7 +43,8 @@ id = "Acrobot-v1"
 "#;
 
 fn must_run() -> bool {
-    std::env::var("CI").is_ok_and(|v| v == "true") || std::env::var("RWG_NO_SKIP").is_ok_and(|v| v == "1")
+    std::env::var("CI").is_ok_and(|v| v == "true")
+        || std::env::var("RWG_NO_SKIP").is_ok_and(|v| v == "1")
 }
 
 /// scores.csv and samples.csv of every cell, by cell.
@@ -55,8 +56,14 @@ fn cells(run: &Path) -> Vec<(String, Vec<u8>, Vec<u8>)> {
     dirs.sort();
     dirs.iter()
         .map(|d| {
-            let read = |f: &str| std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{}/{f}: {e}", d.display()));
-            (d.file_name().unwrap().to_string_lossy().into_owned(), read("scores.csv"), read("samples.csv"))
+            let read = |f: &str| {
+                std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{}/{f}: {e}", d.display()))
+            };
+            (
+                d.file_name().unwrap().to_string_lossy().into_owned(),
+                read("scores.csv"),
+                read("samples.csv"),
+            )
         })
         .collect()
 }
@@ -115,7 +122,11 @@ fn logs(dir: &Path) -> String {
     if let Ok(rd) = std::fs::read_dir(dir.join("slurm/logs")) {
         for e in rd {
             let p = e.unwrap().path();
-            s += &format!("== {}\n{}\n", p.display(), std::fs::read_to_string(&p).unwrap_or_default());
+            s += &format!(
+                "== {}\n{}\n",
+                p.display(),
+                std::fs::read_to_string(&p).unwrap_or_default()
+            );
         }
     }
     s
@@ -124,7 +135,12 @@ fn logs(dir: &Path) -> String {
 fn wait_merge(cluster: &Cluster, dir: &Path, merge: &str) {
     let states = cluster.wait_done(merge, Duration::from_secs(300));
     assert_eq!(states.len(), 1);
-    assert_eq!(states[0].1, "COMPLETED", "merge job {merge}: {states:?}\n{}", logs(dir));
+    assert_eq!(
+        states[0].1,
+        "COMPLETED",
+        "merge job {merge}: {states:?}\n{}",
+        logs(dir)
+    );
 }
 
 #[test]
@@ -133,7 +149,9 @@ fn sharded_studies_on_a_real_slurm_cluster() {
         Ok(c) => c,
         Err(Unavailable(why)) => {
             if must_run() {
-                panic!("the Slurm test cannot run (CI=true or RWG_NO_SKIP=1 forbid skipping): {why}");
+                panic!(
+                    "the Slurm test cannot run (CI=true or RWG_NO_SKIP=1 forbid skipping): {why}"
+                );
             }
             eprintln!("SKIPPED: {why}");
             return;
@@ -149,39 +167,99 @@ fn sharded_studies_on_a_real_slurm_cluster() {
 
     // Case 1: three shards and the merge, then compare with one machine.
     let reference = dir.join("reference-small");
-    rwg_ok(&["run", dir.join("small.toml").to_str().unwrap(), "--out", reference.to_str().unwrap()]);
-    let out = rwg_in(&cluster, &submit, &["slurm", "../small.toml", "--shards", "3", "--out", "../runs dir/small"]);
+    rwg_ok(&[
+        "run",
+        dir.join("small.toml").to_str().unwrap(),
+        "--out",
+        reference.to_str().unwrap(),
+    ]);
+    let out = rwg_in(
+        &cluster,
+        &submit,
+        &[
+            "slurm",
+            "../small.toml",
+            "--shards",
+            "3",
+            "--out",
+            "../runs dir/small",
+        ],
+    );
     eprintln!("rwg slurm printed:\n{out}");
     let study = dir.join("runs dir/small");
     let arrays = job_ids(&study, "shards");
     let merges = job_ids(&study, "merge");
     assert_eq!((arrays.len(), merges.len()), (1, 1), "{out}");
-    assert!(out.contains(&format!("Submitted job array {}", arrays[0])), "{out}");
-    assert!(out.contains(&format!("squeue -j {},{}", arrays[0], merges[0])), "{out}");
-    assert!(out.contains(&format!("--dependency")) || out.contains("afterok"), "{out}");
+    assert!(
+        out.contains(&format!("Submitted job array {}", arrays[0])),
+        "{out}"
+    );
+    assert!(
+        out.contains(&format!("squeue -j {},{}", arrays[0], merges[0])),
+        "{out}"
+    );
+    assert!(
+        out.contains(&format!("--dependency")) || out.contains("afterok"),
+        "{out}"
+    );
     wait_merge(&cluster, &study, &merges[0]);
     let tasks = cluster.jobs(&arrays[0]);
     assert_eq!(tasks.len(), 3, "{tasks:?}");
     assert!(tasks.iter().all(|t| t.1 == "COMPLETED"), "{tasks:?}");
     assert_same_cells(&reference, &study, 4);
     for f in ["stats.csv", "stats.json", "report.html", "figures"] {
-        assert!(study.join(f).exists(), "merged run lacks {f}\n{}", logs(&study));
+        assert!(
+            study.join(f).exists(),
+            "merged run lacks {f}\n{}",
+            logs(&study)
+        );
     }
     let status = rwg_ok(&["status", study.to_str().unwrap()]);
-    assert!(status.contains("Merged run") && status.contains(": complete"), "{status}");
+    assert!(
+        status.contains("Merged run") && status.contains(": complete"),
+        "{status}"
+    );
     // Submitting again has nothing to do.
-    let again = rwg_in(&cluster, &submit, &["slurm", "../small.toml", "--shards", "3", "--out", "../runs dir/small"]);
+    let again = rwg_in(
+        &cluster,
+        &submit,
+        &[
+            "slurm",
+            "../small.toml",
+            "--shards",
+            "3",
+            "--out",
+            "../runs dir/small",
+        ],
+    );
     assert!(again.contains("nothing to submit"), "{again}");
 
     // Case 2: tasks run one at a time (2 CPUs each on this node); cancel
     // shard 1 once it has committed a block, resubmit as rwg said.
     let reference = dir.join("reference-longer");
-    rwg_ok(&["run", dir.join("longer.toml").to_str().unwrap(), "--out", reference.to_str().unwrap(), "--no-report"]);
-    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get()).to_string();
+    rwg_ok(&[
+        "run",
+        dir.join("longer.toml").to_str().unwrap(),
+        "--out",
+        reference.to_str().unwrap(),
+        "--no-report",
+    ]);
+    let cpus = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .to_string();
     let out = rwg_in(
         &cluster,
         &submit,
-        &["slurm", "../longer.toml", "--shards", "3", "--out", "../runs dir/longer", "--cpus-per-task", &cpus],
+        &[
+            "slurm",
+            "../longer.toml",
+            "--shards",
+            "3",
+            "--out",
+            "../runs dir/longer",
+            "--cpus-per-task",
+            &cpus,
+        ],
     );
     let study = dir.join("runs dir/longer");
     let array = job_ids(&study, "shards").remove(0);
@@ -189,18 +267,38 @@ fn sharded_studies_on_a_real_slurm_cluster() {
     let blocks = study.join("shards/1/cells/Acrobot-v1__0HL__nobias/blocks");
     let t0 = Instant::now();
     loop {
-        let n = std::fs::read_dir(&blocks).map_or(0, |d| d.filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "csv")).count());
+        let n = std::fs::read_dir(&blocks).map_or(0, |d| {
+            d.filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .path()
+                    .extension()
+                    .is_some_and(|x| x == "csv")
+            })
+            .count()
+        });
         if n > 0 {
             break;
         }
-        assert!(t0.elapsed() < Duration::from_secs(300), "shard 1 committed no block\n{}", logs(&study));
+        assert!(
+            t0.elapsed() < Duration::from_secs(300),
+            "shard 1 committed no block\n{}",
+            logs(&study)
+        );
         std::thread::sleep(Duration::from_millis(10));
     }
     let task = format!("{array}_1");
     let o = cluster.run("scancel", &[&task]);
-    assert!(o.status.success(), "scancel: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "scancel: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     let tasks = cluster.wait_done(&array, Duration::from_secs(300));
-    assert!(tasks.iter().any(|t| t.0 == task && t.1 == "CANCELLED"), "{tasks:?}");
+    assert!(
+        tasks.iter().any(|t| t.0 == task && t.1 == "CANCELLED"),
+        "{tasks:?}"
+    );
     let status = rwg_ok(&["status", study.to_str().unwrap()]);
     assert!(
         status.contains("1/3") && status.contains("incomplete:"),
@@ -208,8 +306,16 @@ fn sharded_studies_on_a_real_slurm_cluster() {
     );
     // The merge waits forever on the failed dependency.
     let t0 = Instant::now();
-    while cluster.jobs(&merge).first().is_none_or(|j| j.2 != "DependencyNeverSatisfied") {
-        assert!(t0.elapsed() < Duration::from_secs(60), "{:?}", cluster.jobs(&merge));
+    while cluster
+        .jobs(&merge)
+        .first()
+        .is_none_or(|j| j.2 != "DependencyNeverSatisfied")
+    {
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "{:?}",
+            cluster.jobs(&merge)
+        );
         std::thread::sleep(Duration::from_millis(200));
     }
     // Resubmit with the command rwg printed, as printed.
@@ -228,8 +334,15 @@ fn sharded_studies_on_a_real_slurm_cluster() {
         .unwrap();
     let again = String::from_utf8_lossy(&o.stdout).into_owned();
     eprintln!("{resubmit} printed:\n{again}");
-    assert!(o.status.success(), "{resubmit}: {again}\n{}", String::from_utf8_lossy(&o.stderr));
-    assert!(again.contains(&format!("Cancelled merge job {merge}")), "{again}");
+    assert!(
+        o.status.success(),
+        "{resubmit}: {again}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        again.contains(&format!("Cancelled merge job {merge}")),
+        "{again}"
+    );
     assert!(again.contains("shard(s) 1 of 3"), "{again}");
     let arrays = job_ids(&study, "shards");
     let merges = job_ids(&study, "merge");
@@ -271,39 +384,110 @@ fn dry_run_writes_scripts_that_call_rwg_by_absolute_path() {
     assert!(out.contains("--dependency=afterok:$A"), "{out}");
     let array = std::fs::read_to_string(study.join("slurm/shards.sh")).unwrap();
     let rwg = rwg_bin().canonicalize().unwrap();
-    assert!(array.contains(&format!("exec {} run ", rwg.display())), "{array}");
-    for o in ["--array=0-1", "--cpus-per-task=4", "--partition=short", "--time=0:10:00", "--mem=1G", "--account=lab", "--qos=low"] {
+    assert!(
+        array.contains(&format!("exec {} run ", rwg.display())),
+        "{array}"
+    );
+    for o in [
+        "--array=0-1",
+        "--cpus-per-task=4",
+        "--partition=short",
+        "--time=0:10:00",
+        "--mem=1G",
+        "--account=lab",
+        "--qos=low",
+    ] {
         assert!(array.contains(&format!("#SBATCH {o}\n")), "{o}: {array}");
     }
     let merge = std::fs::read_to_string(study.join("slurm/merge.sh")).unwrap();
-    assert!(merge.contains(" merge ") && merge.contains("#SBATCH --qos=low\n") && !merge.contains("cpus-per-task"), "{merge}");
+    assert!(
+        merge.contains(" merge ")
+            && merge.contains("#SBATCH --qos=low\n")
+            && !merge.contains("cpus-per-task"),
+        "{merge}"
+    );
     // The scripts parse as bash; the array script refuses to run outside a job array.
     for s in ["shards.sh", "merge.sh"] {
-        let o = Command::new("bash").arg("-n").arg(study.join("slurm").join(s)).output().unwrap();
-        assert!(o.status.success(), "{s}: {}", String::from_utf8_lossy(&o.stderr));
+        let o = Command::new("bash")
+            .arg("-n")
+            .arg(study.join("slurm").join(s))
+            .output()
+            .unwrap();
+        assert!(
+            o.status.success(),
+            "{s}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
     }
-    let o = Command::new("bash").arg(study.join("slurm/shards.sh")).env_remove("SLURM_ARRAY_TASK_ID").output().unwrap();
+    let o = Command::new("bash")
+        .arg(study.join("slurm/shards.sh"))
+        .env_remove("SLURM_ARRAY_TASK_ID")
+        .output()
+        .unwrap();
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("submit this script with sbatch"));
     // Running a task by hand (as Slurm would) computes its shard.
-    let o = Command::new("bash").arg(study.join("slurm/shards.sh")).env("SLURM_ARRAY_TASK_ID", "1").env("SLURM_CPUS_PER_TASK", "1").output().unwrap();
+    let o = Command::new("bash")
+        .arg(study.join("slurm/shards.sh"))
+        .env("SLURM_ARRAY_TASK_ID", "1")
+        .env("SLURM_CPUS_PER_TASK", "1")
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let status = rwg_ok(&["status", study.to_str().unwrap()]);
-    assert!(status.contains("0/2    ") && status.contains("missing"), "{status}");
+    assert!(
+        status.contains("0/2    ") && status.contains("missing"),
+        "{status}"
+    );
     assert!(status.contains("complete (6 blocks)"), "{status}");
     assert!(status.contains("--shard 0/2 --out"), "{status}");
     // A different shard count or study is refused.
-    let err = rwg_err(&["slurm", dir.join("small.toml").to_str().unwrap(), "--shards", "3", "--out", study.to_str().unwrap(), "--dry-run"]);
+    let err = rwg_err(&[
+        "slurm",
+        dir.join("small.toml").to_str().unwrap(),
+        "--shards",
+        "3",
+        "--out",
+        study.to_str().unwrap(),
+        "--dry-run",
+    ]);
     assert!(err.contains("in 2 shards, not 3"), "{err}");
-    std::fs::write(dir.join("other.toml"), SMALL.replace("seed = 5", "seed = 6")).unwrap();
-    let err = rwg_err(&["slurm", dir.join("other.toml").to_str().unwrap(), "--shards", "2", "--out", study.to_str().unwrap(), "--dry-run"]);
-    assert!(err.contains("different study (seed: 6 vs 5)") || err.contains("different study (seed: 5 vs 6)"), "{err}");
+    std::fs::write(
+        dir.join("other.toml"),
+        SMALL.replace("seed = 5", "seed = 6"),
+    )
+    .unwrap();
+    let err = rwg_err(&[
+        "slurm",
+        dir.join("other.toml").to_str().unwrap(),
+        "--shards",
+        "2",
+        "--out",
+        study.to_str().unwrap(),
+        "--dry-run",
+    ]);
+    assert!(
+        err.contains("different study (seed: 6 vs 5)")
+            || err.contains("different study (seed: 5 vs 6)"),
+        "{err}"
+    );
     // Without sbatch, submitting says what to do.
     let o = Command::new(rwg_bin())
-        .args(["slurm", dir.join("small.toml").to_str().unwrap(), "--shards", "2", "--out", study.to_str().unwrap()])
+        .args([
+            "slurm",
+            dir.join("small.toml").to_str().unwrap(),
+            "--shards",
+            "2",
+            "--out",
+            study.to_str().unwrap(),
+        ])
         .env("PATH", "/nonexistent")
         .output()
         .unwrap();
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--dry-run writes the scripts"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("--dry-run writes the scripts"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }

@@ -28,7 +28,9 @@ pub struct Unavailable(pub String);
 fn have(cmd: &str) -> bool {
     std::env::var_os("PATH").is_some_and(|paths| {
         std::env::split_paths(&paths).any(|d| d.join(cmd).is_file())
-            || ["/usr/sbin", "/sbin"].iter().any(|d| Path::new(d).join(cmd).is_file())
+            || ["/usr/sbin", "/sbin"]
+                .iter()
+                .any(|d| Path::new(d).join(cmd).is_file())
     })
 }
 
@@ -50,7 +52,9 @@ fn sbin(cmd: &str) -> PathBuf {
 }
 
 fn hostname() -> String {
-    let o = Command::new("hostname").output().expect("cannot run hostname");
+    let o = Command::new("hostname")
+        .output()
+        .expect("cannot run hostname");
     String::from_utf8(o.stdout).unwrap().trim().to_string()
 }
 
@@ -75,7 +79,14 @@ impl Cluster {
     /// (with the daemons' logs) when they are there but do not come up.
     pub fn start(name: &str) -> Result<Cluster, Unavailable> {
         let missing: Vec<&str> = [
-            "slurmctld", "slurmd", "munged", "mungekey", "sbatch", "squeue", "scancel", "sinfo",
+            "slurmctld",
+            "slurmd",
+            "munged",
+            "mungekey",
+            "sbatch",
+            "squeue",
+            "scancel",
+            "sinfo",
         ]
         .into_iter()
         .filter(|c| !have(c))
@@ -109,13 +120,20 @@ impl Cluster {
             .arg(&key)
             .output()
             .unwrap();
-        assert!(o.status.success(), "mungekey: {}", String::from_utf8_lossy(&o.stderr));
+        assert!(
+            o.status.success(),
+            "mungekey: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
         let sock = dir.join("munge.sock");
         let o = Command::new(sbin("munged"))
             .arg("--force")
             .arg(format!("--socket={}", sock.display()))
             .arg(format!("--key-file={}", key.display()))
-            .arg(format!("--log-file={}", dir.join("log/munged.log").display()))
+            .arg(format!(
+                "--log-file={}",
+                dir.join("log/munged.log").display()
+            ))
             .arg(format!("--pid-file={}", dir.join("munged.pid").display()))
             .arg(format!("--seed-file={}", dir.join("munged.seed").display()))
             .output()
@@ -231,7 +249,13 @@ impl Cluster {
         let t0 = Instant::now();
         loop {
             let jobs = self.jobs(job);
-            let active = ["PENDING", "RUNNING", "CONFIGURING", "COMPLETING", "REQUEUED"];
+            let active = [
+                "PENDING",
+                "RUNNING",
+                "CONFIGURING",
+                "COMPLETING",
+                "REQUEUED",
+            ];
             if !jobs.is_empty() && jobs.iter().all(|(_, s, _)| !active.contains(&s.as_str())) {
                 return jobs;
             }

@@ -82,9 +82,16 @@ pub fn run(args: Args) -> Result<()> {
             PathBuf::from("runs").join(stem)
         }
     };
-    let root = std::path::absolute(&out)
-        .with_context(|| format!("cannot make {} absolute", out.display()))?;
+    // The scripts name everything by absolute path, without `..`.
+    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+    let root = out
+        .canonicalize()
+        .with_context(|| format!("cannot resolve {}", out.display()))?;
     check_sbatch_path(&root)?;
+    let manifest_path = args
+        .manifest
+        .canonicalize()
+        .with_context(|| format!("cannot resolve {}", args.manifest.display()))?;
     let rwg = std::env::current_exe().context("cannot find the rwg binary's path")?;
     let sd = ShardedDir { root: root.clone() };
 
@@ -185,7 +192,7 @@ pub fn run(args: Args) -> Result<()> {
     let resubmit = format!(
         "{} slurm {} --shards {} --out {}",
         sh_path(&rwg),
-        sh_path(&std::path::absolute(&args.manifest)?),
+        sh_path(&manifest_path),
         args.shards,
         sh_path(&root)
     );
@@ -254,7 +261,7 @@ pub fn run(args: Args) -> Result<()> {
     println!(
         "  sacct -j {ids} --format=JobID,JobName,State,ExitCode,Elapsed   # needs Slurm accounting"
     );
-    println!("  rwg status {}", sh_path(&root));
+    println!("  {} status {}", sh_path(&rwg), sh_path(&root));
     println!("  tail -f {}/shard-*.out", sh_path(&sd.logs()));
     println!(
         "\nIf a shard task fails or is cancelled, merge job {merge_id} cannot start (squeue shows it\n\

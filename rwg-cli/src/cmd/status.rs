@@ -1,8 +1,8 @@
 //! `rwg status`: how far a run, a shard or a sharded study has got, and the
 //! command that finishes it. Read-only: safe while the run is being written.
 
-use crate::cluster::{merged_complete, sh_path, shard_state, ShardState, ShardedDir};
-use anyhow::{bail, Context, Result};
+use crate::cluster::{merged_complete, sh_path, shard_state, Plan, ShardState, ShardedDir};
+use anyhow::{bail, Result};
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::blocks::n_blocks;
 use rwg_study::rundir::meta::read_run_meta as read_meta;
@@ -16,7 +16,8 @@ use std::path::PathBuf;
 RUN_DIR is one of:
   a run directory (rwg run):            cells complete, blocks committed per cell
   a shard's directory (rwg run --shard): the same for the blocks the shard owns
-  a sharded study (rwg slurm --out DIR): every shard (missing, incomplete, complete)
+  a sharded study (rwg slurm --out DIR, or shards in DIR/shards/K):
+                                         every shard (missing, incomplete, complete)
                                          and the merged run in DIR
 It ends with the command that finishes the work. It only reads, so it can be run
 while the study is being computed; it shows what was committed at that instant.
@@ -25,7 +26,8 @@ Examples:
   rwg run examples/quick.toml --out runs/quick --samples 64 --no-report; rwg status runs/quick
   rwg status runs/paper        # after rwg slurm examples/paper.toml --shards 10 --out runs/paper")]
 pub struct Args {
-    /// Run directory, shard directory, or the --out of `rwg slurm`.
+    /// Run directory, shard directory, or a sharded study's directory (the
+    /// --out of `rwg slurm`, or any DIR holding shards in DIR/shards/<K>).
     run_dir: PathBuf,
 }
 
@@ -34,9 +36,16 @@ pub fn run(args: Args) -> Result<()> {
     let dir = &args.run_dir;
     let sharded = ShardedDir { root: dir.clone() };
     if sharded.exists() {
-        return sharded_status(&sharded);
+        return sharded_status(&sharded, sharded.read_plan()?, sharded.manifest(), true);
     }
     let manifest_path = dir.join("manifest.toml");
+    if let Some((count, shard0)) = shards_without_plan(&sharded)? {
+        let plan = Plan {
+            shards: count,
+            ..Plan::default()
+        };
+        return sharded_status(&sharded, plan, shard0.join("manifest.toml"), false);
+    }
     if !manifest_path.is_file() {
         if !dir.is_dir() {
             bail!("{}: no such directory", dir.display());
@@ -144,10 +153,28 @@ fn print_totals(t: &Totals, what: &str, ended: bool) {
     );
 }
 
-fn sharded_status(sd: &ShardedDir) -> Result<()> {
-    let plan = sd.read_plan()?;
-    let m = Manifest::load(&sd.manifest())
-        .with_context(|| format!("{} is incomplete", sd.slurm_dir().display()))?;
+/// `DIR/shards/<K>` written without `rwg slurm` (no plan file), e.g. by a
+/// Kubernetes Indexed Job: the shard count and a shard's directory, from the
+/// first shard found (`None` if DIR has no `shards/` with a shard in it).
+fn shards_without_plan(sd: &ShardedDir) -> Result<Option<(u64, PathBuf)>> {
+    let Ok(entries) = std::fs::read_dir(sd.root.join("shards")) else {
+        return Ok(None);
+    };
+    let mut dirs: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("run.json").is_file())
+        .collect();
+    dirs.sort();
+    for d in dirs {
+        if let Some(s) = read_meta(&d)?.shard {
+            return Ok(Some((s.count, d)));
+        }
+    }
+    Ok(None)
+}
+
+fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -> Result<()> {
+    let m = Manifest::load(&manifest)?;
     let count = plan.shards;
     let root = &sd.root;
     println!(
@@ -232,25 +259,34 @@ fn sharded_status(sd: &ShardedDir) -> Result<()> {
         }
         return Ok(());
     }
-    let manifest = sh_path(&sd.manifest());
-    println!(
-        "Finish it on Slurm (submits {} and the merge; the scripts keep the sbatch options \
+    let manifest = sh_path(&manifest);
+    if slurm {
+        println!(
+            "Finish it on Slurm (submits {} and the merge; the scripts keep the sbatch options \
          given first):\n  rwg slurm {manifest} --shards {count} --out {}",
-        if unfinished.is_empty() {
-            "no shard: all are complete,".to_string()
+            if unfinished.is_empty() {
+                "no shard: all are complete,".to_string()
+            } else {
+                format!(
+                    "shard(s) {}",
+                    unfinished
+                        .iter()
+                        .map(|k| k.to_string())
+                        .collect::<Vec<_>>()
+                        .join(",")
+                )
+            },
+            sh_path(root)
+        );
+    }
+    println!(
+        "{}",
+        if slurm {
+            "or on this machine:"
         } else {
-            format!(
-                "shard(s) {}",
-                unfinished
-                    .iter()
-                    .map(|k| k.to_string())
-                    .collect::<Vec<_>>()
-                    .join(",")
-            )
-        },
-        sh_path(root)
+            "Finish it with:"
+        }
     );
-    println!("or on this machine:");
     for &k in &unfinished {
         println!(
             "  rwg run {manifest} --shard {k}/{count} --out {}",
