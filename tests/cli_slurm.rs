@@ -198,10 +198,7 @@ fn sharded_studies_on_a_real_slurm_cluster() {
         out.contains(&format!("squeue -j {},{}", arrays[0], merges[0])),
         "{out}"
     );
-    assert!(
-        out.contains(&format!("--dependency")) || out.contains("afterok"),
-        "{out}"
-    );
+    assert!(out.contains(&format!("afterok:{}", arrays[0])), "{out}");
     wait_merge(&cluster, &study, &merges[0]);
     let tasks = cluster.jobs(&arrays[0]);
     assert_eq!(tasks.len(), 3, "{tasks:?}");
@@ -471,6 +468,33 @@ fn dry_run_writes_scripts_that_call_rwg_by_absolute_path() {
             || err.contains("different study (seed: 5 vs 6)"),
         "{err}"
     );
+    // The --help example works as printed (from a folder holding examples/).
+    let help = rwg_ok(&["slurm", "--help"]);
+    let example = help
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with("rwg slurm") && l.ends_with("--dry-run"))
+        .unwrap_or_else(|| panic!("no --dry-run example in:\n{help}"));
+    let cwd = dir.join("help");
+    std::fs::create_dir_all(cwd.join("examples")).unwrap();
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    std::fs::copy(
+        root.join("examples/quick.toml"),
+        cwd.join("examples/quick.toml"),
+    )
+    .unwrap();
+    let words: Vec<&str> = example.split_whitespace().skip(1).collect();
+    let o = Command::new(rwg_bin())
+        .args(&words)
+        .current_dir(&cwd)
+        .output()
+        .unwrap();
+    assert!(
+        o.status.success(),
+        "{example}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(cwd.join("runs/quick-slurm/slurm/shards.sh").is_file());
     // Without sbatch, submitting says what to do.
     let o = Command::new(rwg_bin())
         .args([

@@ -31,7 +31,7 @@ cancels the waiting merge, resubmits only the unfinished shards (which resume fr
 committed blocks) and a new merge. Sbatch options given again replace the first ones.
 
 Examples:
-  rwg slurm examples/quick.toml --shards 3 --out runs/quick --dry-run
+  rwg slurm examples/quick.toml --shards 3 --out runs/quick-slurm --dry-run
   rwg slurm examples/paper.toml --shards 10 --out runs/paper --cpus-per-task 32 --time 24:00:00
   rwg slurm examples/paper.toml --shards 10 --out runs/paper --sbatch=--qos=long
   rwg status runs/paper")]

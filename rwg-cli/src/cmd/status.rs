@@ -23,7 +23,7 @@ It ends with the command that finishes the work. It only reads, so it can be run
 while the study is being computed; it shows what was committed at that instant.
 
 Examples:
-  rwg run examples/quick.toml --out runs/quick --samples 64 --no-report; rwg status runs/quick
+  rwg run examples/quick.toml --out runs/quick-64 --samples 64; rwg status runs/quick-64
   rwg status runs/paper        # after rwg slurm examples/paper.toml --shards 10 --out runs/paper")]
 pub struct Args {
     /// Run directory, shard directory, or a sharded study's directory (the
