@@ -263,7 +263,14 @@ fn sharded_studies_on_a_real_slurm_cluster() {
     let merge = job_ids(&study, "merge").remove(0);
     let blocks = study.join("shards/1/cells/Acrobot-v1__0HL__nobias/blocks");
     let t0 = Instant::now();
+    let mut looked = false;
     loop {
+        // rwg status reads the study while shard 0 is being written.
+        if !looked && study.join("shards/0/manifest.toml").is_file() {
+            looked = true;
+            let s = rwg_ok(&["status", study.to_str().unwrap()]);
+            assert!(s.contains("0/3") && s.contains("Merged run"), "{s}");
+        }
         let n = std::fs::read_dir(&blocks).map_or(0, |d| {
             d.filter(|e| {
                 e.as_ref()

@@ -28,7 +28,8 @@ path, so it and DIR must be on a file system the compute nodes share.
 A requeued or restarted task resumes its shard. If a task fails or is cancelled, the
 merge cannot start; once no task is queued or running, run the same command again: it
 cancels the waiting merge, resubmits only the unfinished shards (which resume from their
-committed blocks) and a new merge. Sbatch options given again replace the first ones.
+committed blocks) and a new merge. Sbatch options given again replace the earlier
+ones; given none, the earlier ones are kept.
 
 Examples:
   rwg slurm examples/quick.toml --shards 3 --out runs/quick-slurm --dry-run
