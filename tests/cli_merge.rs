@@ -211,8 +211,10 @@ fn an_interrupted_merge_is_finished_by_running_it_again() {
     assert_same(&s.whole, &out);
     assert!(!second.join("b0000001.csv.tmp").exists() || !second.exists());
 
-    // SIGKILL at several points of a merge, then run it again.
-    for (i, ms) in [5u64, 30, 80, 150, 300].iter().enumerate() {
+    // SIGKILL at several points of a merge (once it has started writing),
+    // then run it again.
+    let mut interrupted = 0;
+    for (i, ms) in [0u64, 10, 40, 100, 250].iter().enumerate() {
         let out = s.dir.join(format!("killed{i}"));
         let mut child = Command::new(rwg_bin())
             .args(merge_args(&s, out.to_str().unwrap()))
@@ -220,12 +222,22 @@ fn an_interrupted_merge_is_finished_by_running_it_again() {
             .stderr(Stdio::null())
             .spawn()
             .unwrap();
+        while !out.join("manifest.toml").exists() && child.try_wait().unwrap().is_none() {
+            std::thread::sleep(Duration::from_millis(1));
+        }
         std::thread::sleep(Duration::from_millis(*ms));
         let _ = child.kill();
         child.wait().unwrap();
+        if !out.join("report.html").exists() {
+            interrupted += 1;
+        }
         rwg_ok(&merge_args(&s, out.to_str().unwrap()));
         assert_same(&s.whole, &out);
     }
+    assert!(
+        interrupted >= 3,
+        "only {interrupted} of 5 kills landed mid-merge"
+    );
 }
 
 #[test]
