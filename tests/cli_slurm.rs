@@ -29,12 +29,13 @@ id = "CartPole-v1"
 id = "Pendulum-v1"
 "#;
 
-/// One cell of 72 blocks (24 per shard, committed in waves of four): a shard
-/// runs for a second or two in a debug build, long enough to cancel midway.
+/// One cell of 72 blocks, 24 per shard: with one thread a shard commits them
+/// in twelve waves of two over a second or two (debug build), so it can be
+/// cancelled midway on any machine.
 const LONGER: &str = r#"
 seed = 9
 samples = 2304
-episodes = 1
+episodes = 2
 [[architectures]]
 name = "0HL"
 hidden = []
@@ -231,8 +232,8 @@ fn sharded_studies_on_a_real_slurm_cluster() {
     );
     assert!(again.contains("nothing to submit"), "{again}");
 
-    // Case 2: tasks run one at a time (2 CPUs each on this node); cancel
-    // shard 1 once it has committed a block, resubmit as rwg said.
+    // Case 2: one CPU (one rwg thread) per task; cancel shard 1 once it has
+    // committed a block, resubmit as rwg said.
     let reference = dir.join("reference-longer");
     rwg_ok(&[
         "run",
@@ -241,9 +242,6 @@ fn sharded_studies_on_a_real_slurm_cluster() {
         reference.to_str().unwrap(),
         "--no-report",
     ]);
-    let cpus = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .to_string();
     let out = rwg_in(
         &cluster,
         &submit,
@@ -255,7 +253,7 @@ fn sharded_studies_on_a_real_slurm_cluster() {
             "--out",
             "../runs dir/longer",
             "--cpus-per-task",
-            &cpus,
+            "1",
         ],
     );
     let study = dir.join("runs dir/longer");
