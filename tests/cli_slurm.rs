@@ -1,7 +1,8 @@
 //! `rwg slurm` end to end: on a real single-node Slurm cluster (slurmctld,
 //! slurmd and munged started for the test, see `slurm_cluster.rs`), a sharded
 //! study and its merge job end byte-identical to a single-machine run, also
-//! when an array task is cancelled midway and resubmitted as rwg says.
+//! when an array task is requeued midway (it resumes) and another is
+//! cancelled midway and resubmitted as rwg says.
 //! Without Slurm the cluster test says SKIPPED (and fails under CI=true or
 //! RWG_NO_SKIP=1); the `--dry-run` test runs everywhere.
 
@@ -232,8 +233,8 @@ fn sharded_studies_on_a_real_slurm_cluster() {
     );
     assert!(again.contains("nothing to submit"), "{again}");
 
-    // Case 2: one CPU (one rwg thread) per task; cancel shard 1 once it has
-    // committed a block, resubmit as rwg said.
+    // Case 2: one CPU (one rwg thread) per task; requeue shard 0 and cancel
+    // shard 1 midway, resubmit as rwg said.
     let reference = dir.join("reference-longer");
     rwg_ok(&[
         "run",
@@ -259,49 +260,90 @@ fn sharded_studies_on_a_real_slurm_cluster() {
     let study = dir.join("runs dir/longer");
     let array = job_ids(&study, "shards").remove(0);
     let merge = job_ids(&study, "merge").remove(0);
-    let blocks = study.join("shards/1/cells/Acrobot-v1__0HL__nobias/blocks");
+    let committed = |k: u64| {
+        let blocks = study.join(format!("shards/{k}/cells/Acrobot-v1__0HL__nobias/blocks"));
+        std::fs::read_dir(&blocks).map_or(0, |d| {
+            d.filter_map(|e| e.ok())
+                .filter(|e| e.path().extension().is_some_and(|x| x == "csv"))
+                .count()
+        })
+    };
+    // Shard 0 is requeued (Slurm kills it and starts it again: it must
+    // resume), shard 1 is cancelled; each once it has committed a block.
+    // requeued: 0 not yet, 1 requeued (Slurm delays it by two minutes), 2 released
+    let (mut requeued, mut cancelled, mut looked) = (0, false, false);
     let t0 = Instant::now();
-    let mut looked = false;
-    loop {
-        // rwg status reads the study while shard 0 is being written.
+    let task0 = format!("{array}_0");
+    while !(requeued == 2 && cancelled) {
+        // rwg status reads the study while shards are being written.
         if !looked && study.join("shards/0/manifest.toml").is_file() {
             looked = true;
             let s = rwg_ok(&["status", study.to_str().unwrap()]);
             assert!(s.contains("0/3") && s.contains("Merged run"), "{s}");
         }
-        let n = std::fs::read_dir(&blocks).map_or(0, |d| {
-            d.filter(|e| {
-                e.as_ref()
-                    .unwrap()
-                    .path()
-                    .extension()
-                    .is_some_and(|x| x == "csv")
-            })
-            .count()
-        });
-        if n > 0 {
-            break;
+        if requeued == 0 && committed(0) > 0 {
+            requeued = 1;
+            assert!(
+                committed(0) < 24,
+                "shard 0 finished before it could be requeued"
+            );
+            let o = cluster.run("scontrol", &["requeue", &task0]);
+            assert!(
+                o.status.success(),
+                "scontrol requeue: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        if requeued == 1
+            && cluster
+                .jobs(&task0)
+                .first()
+                .is_some_and(|j| j.1 == "PENDING")
+        {
+            requeued = 2;
+            let o = cluster.run(
+                "scontrol",
+                &["update", &format!("jobid={task0}"), "StartTime=now"],
+            );
+            assert!(
+                o.status.success(),
+                "scontrol update: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
+        }
+        if !cancelled && committed(1) > 0 {
+            cancelled = true;
+            let o = cluster.run("scancel", &[&format!("{array}_1")]);
+            assert!(
+                o.status.success(),
+                "scancel: {}",
+                String::from_utf8_lossy(&o.stderr)
+            );
         }
         assert!(
             t0.elapsed() < Duration::from_secs(300),
-            "shard 1 committed no block\n{}",
+            "shards 0 and 1 committed no block\n{}",
             logs(&study)
         );
         std::thread::sleep(Duration::from_millis(10));
     }
     let task = format!("{array}_1");
-    let o = cluster.run("scancel", &[&task]);
-    assert!(
-        o.status.success(),
-        "scancel: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
     let tasks = cluster.wait_done(&array, Duration::from_secs(300));
     assert!(
         tasks.iter().any(|t| t.0 == task && t.1 == "CANCELLED"),
         "{tasks:?}"
     );
+    assert!(
+        tasks
+            .iter()
+            .any(|t| t.0 == format!("{array}_0") && t.1 == "COMPLETED"),
+        "{tasks:?}"
+    );
+    // The requeued task ran twice, appending to its log.
+    let log0 = std::fs::read_to_string(study.join("slurm/logs/shard-0.out")).unwrap();
+    assert_eq!(log0.matches("rwg shard 0/3 on").count(), 2, "{log0}");
     let status = rwg_ok(&["status", study.to_str().unwrap()]);
+    eprintln!("after the cancel:\n{status}");
     assert!(
         status.contains("1/3") && status.contains("incomplete:"),
         "shard 1 finished before it could be cancelled; make LONGER bigger\n{status}"

@@ -262,8 +262,8 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     let manifest = sh_path(&manifest);
     if slurm {
         println!(
-            "Finish it on Slurm (submits {} and the merge; the scripts keep the sbatch options \
-         given first):\n  rwg slurm {manifest} --shards {count} --out {}",
+            "Finish it on Slurm (submits {} and the merge; the sbatch options given \
+         before are kept):\n  rwg slurm {manifest} --shards {count} --out {}",
             if unfinished.is_empty() {
                 "no shard: all are complete,".to_string()
             } else {
