@@ -173,8 +173,31 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
             (None, Some(t)) => (Some(t), Some("env".to_string())),
             (None, None) => (None, None),
         };
-        for a in &m.architectures {
+        for (j, a) in m.architectures.iter().enumerate() {
             for &bias in &m.bias {
+                let shape = NetShape::new(
+                    spec.obs_dim(),
+                    &Architecture {
+                        hidden: a.hidden.clone(),
+                        bias,
+                    },
+                    NetShape::outputs_for(&spec.action_space),
+                );
+                if shape.n_weights() > crate::limits::MAX_WEIGHTS {
+                    return Err(m
+                        .error_at(
+                            e.id_span.clone(),
+                            format!(
+                                "envs[{i}]: architectures[{j}] '{}' on '{}' has {} weights per \
+                                 network; at most {} (rwg's limit)",
+                                a.name,
+                                e.id,
+                                shape.n_weights(),
+                                crate::limits::MAX_WEIGHTS
+                            ),
+                        )
+                        .into());
+                }
                 cells.push(Cell {
                     plan: CellPlan {
                         seed: m.seed,

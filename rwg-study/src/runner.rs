@@ -88,9 +88,11 @@ pub fn run_study(
     let out = &opts.out;
     let cells = plan_cells(m)?;
     let m = &*m;
-    let threads = m
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let threads = m.threads.unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(crate::limits::MAX_THREADS)
+    });
     let previous = prepare_dir(out, m, opts.shard, opts.force_new)?;
     if previous.as_ref().is_some_and(|p| p.end_time.is_some()) {
         return Ok(RunOutcome::AlreadyComplete);

@@ -1,7 +1,7 @@
 //! `rwg run`: the RWG study described by a manifest, resumable and shardable.
 //! The study itself is `rwg_study::runner`; this is its arguments and output.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rwg_study::cells::summary_header;
 use rwg_study::manifest::Manifest;
@@ -81,28 +81,22 @@ fn write_report(out: &Path) -> Result<()> {
 /// Set by Ctrl-C; checked after every wave of blocks.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 
-/// Applies the command-line overrides to the manifest.
+/// Applies the command-line overrides to the manifest, within rwg's limits
+/// (`rwg_study::limits`).
 fn apply_overrides(m: &mut Manifest, args: &Args) -> Result<()> {
+    use rwg_study::limits::{in_range, MAX_EPISODES, MAX_SAMPLES, MAX_THREADS};
+    let flag = |m: String| anyhow::anyhow!("--{m}");
     if let Some(s) = args.samples {
-        if s == 0 {
-            bail!("--samples must be at least 1");
-        }
-        m.samples = s;
+        m.samples = in_range("samples", s, 1, MAX_SAMPLES).map_err(flag)?;
     }
     if let Some(e) = args.episodes {
-        if e == 0 {
-            bail!("--episodes must be at least 1");
-        }
-        m.episodes = e;
+        m.episodes = in_range("episodes", e, 1, MAX_EPISODES).map_err(flag)?;
     }
     if let Some(s) = args.seed {
         m.seed = s;
     }
     if let Some(t) = args.threads {
-        if t == 0 {
-            bail!("--threads must be at least 1");
-        }
-        m.threads = Some(t);
+        m.threads = Some(in_range("threads", t, 1, MAX_THREADS).map_err(flag)?);
     }
     Ok(())
 }
