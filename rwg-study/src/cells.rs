@@ -296,19 +296,31 @@ impl Cell {
 
     /// One line of the end-of-run summary, computed by the statistics code
     /// that writes `stats.csv` (the same median, best mean and solved count).
-    pub fn summary_line(&self, means: &[f64], steps_per_s: f64) -> String {
+    /// `steps_per_s` is `None` where it is not known (a merged run); unknown
+    /// values print as `-`, never as NaN.
+    pub fn summary_line(&self, means: &[f64], steps_per_s: Option<f64>) -> String {
+        // Unknown or undefined values print as `-`, never as NaN.
+        let num = |x: Option<f64>, prec: usize, exp: bool| match x {
+            Some(x) if x.is_finite() && exp => format!("{x:.prec$e}"),
+            Some(x) if x.is_finite() => format!("{x:.prec$}"),
+            _ => "-".into(),
+        };
         let best = stats::max(means);
         let median = stats::percentile(means, 50.0);
         let solved = match self.solved {
-            Some(s) => {
+            Some(s) if !means.is_empty() => {
                 let prop = stats::solved_fraction(means, s);
                 format!("{:.2}%", 100.0 * prop.successes as f64 / prop.trials as f64)
             }
-            None => "-".into(),
+            _ => "-".into(),
         };
         format!(
-            "{:<44} {:>11.2} {:>12.2} {:>8} {:>11.3e}",
-            self.dir, best, median, solved, steps_per_s
+            "{:<44} {:>11} {:>12} {:>8} {:>11}",
+            self.dir,
+            num(Some(best), 2, false),
+            num(Some(median), 2, false),
+            solved,
+            num(steps_per_s, 3, true)
         )
     }
 }

@@ -176,7 +176,10 @@ pub fn run_study(
         if let Err(e) = result {
             progress.finish(false);
             meta.wall_s = t0.elapsed().as_secs_f64();
-            write_run_meta(out, &meta)?;
+            // The cell's error is the one to report (on a full disk run.json
+            // fails too, and would hide which file failed first); run.json
+            // is rewritten when the run resumes.
+            let _ = write_run_meta(out, &meta);
             return Err(match e {
                 CellError::Interrupted => StudyError::Interrupted,
                 source => StudyError::Cell {
@@ -193,7 +196,7 @@ pub fn run_study(
         let wall = t_cell.elapsed().as_secs_f64();
         if opts.shard.is_none() {
             let (cm, totals) = cell.finalize(m, out, wall)?;
-            lines.push(cell.summary_line(&totals.means, cm.steps_per_s));
+            lines.push(cell.summary_line(&totals.means, Some(cm.steps_per_s)));
             meta.env_steps += cm.env_steps;
             meta.cells.push(cm);
         } else {

@@ -282,6 +282,27 @@ pub fn run(args: Args) -> Result<()> {
         ),
         &mut results,
     )?;
+    // An id of rwg's own can never be run from the plugin: RWG_PLUGIN_PATH
+    // skips the file and `plugin =` is refused for it.
+    for id in loaded
+        .envs
+        .iter()
+        .filter(|id| rwg_study::env_source::is_builtin(id))
+    {
+        report(
+            CheckResult {
+                env: Some(id.clone()),
+                name: "built-in id".into(),
+                status: CheckStatus::Failed,
+                message: format!(
+                    "'{id}' is the id of a built-in environment: rwg would never run this one \
+                     (the built-in wins); give it a namespace, e.g. '{}/{id}'",
+                    loaded.id
+                ),
+            },
+            &mut results,
+        )?;
+    }
     let envs: Vec<&String> = match &args.env {
         None => loaded.envs.iter().collect(),
         Some(id) => match loaded.envs.iter().find(|e| *e == id) {
