@@ -162,7 +162,9 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
                 .error_at(
                     e.id_span.clone(),
                     format!(
-                        "envs[{i}]: '{}' has no time limit; set max_episode_steps",
+                        "envs[{i}]: '{}' has no time limit (its max_episode_steps is 0: none), \
+                         and rwg run needs one to bound every episode; set max_episode_steps \
+                         in this [[envs]] entry",
                         e.id
                     ),
                 )
