@@ -87,9 +87,9 @@
  *            behaves as if the failed one had not been made. After
  *            RWG_ERR_PANIC the instance is poisoned (see Crashes). The host
  *            ends the episode at any failed call: `rwg run` stops the cell
- *            with an error naming the plugin, env, network ("sample"), episode and step
- *            (finished blocks are kept), and never calls the instance again
- *            except destroy.
+ *            with an error naming the plugin, env, network ("sample"),
+ *            episode and step (finished blocks are kept), and never calls the
+ *            instance again except destroy.
  * Step after termination.  The host never steps an instance whose last step
  *            returned terminated or truncated: it resets it first. The shim
  *            passes such a step to the environment; rwg's built-in
