@@ -1,6 +1,8 @@
 //! `rwg`: Random Weight Guessing analysis of reinforcement-learning environments.
 
 mod cmd;
+mod fault_guard;
+mod stdio;
 mod step_lines;
 
 use anyhow::Result;
@@ -85,6 +87,8 @@ fn install_panic_hook() {
 fn main() {
     install_panic_hook();
     let cli = Cli::parse();
+    // From here on, what a plugin prints goes to stderr, never into rwg's output.
+    stdio::protect();
     let result: Result<()> = match cli.command {
         Command::Envs(a) => cmd::envs::run(a),
         Command::Rollout(a) => cmd::rollout::run(a),

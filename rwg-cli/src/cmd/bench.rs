@@ -355,7 +355,7 @@ fn run_envs(args: EnvsArgs) -> Result<()> {
         rows.push(row);
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
     }
     Ok(())
 }
@@ -400,7 +400,7 @@ fn run_plugin_envs(args: EnvsArgs) -> Result<()> {
         bail!("no environment to benchmark (check --env against `rwg envs --plugin FILE`)");
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());
     }
     let mut columns = ENV_COLUMNS;
@@ -412,9 +412,13 @@ fn run_plugin_envs(args: EnvsArgs) -> Result<()> {
     }
     for r in &rows {
         if let Some(v) = &r.vs_builtin {
-            println!(
+            crate::outln!(
                 "{}: {:.1} ns/step vs {:.1} for the built-in {} ({:.2}x)",
-                r.env, r.ns_per_step, v.builtin_ns_per_step, v.builtin, v.ratio
+                r.env,
+                r.ns_per_step,
+                v.builtin_ns_per_step,
+                v.builtin,
+                v.ratio
             );
         }
     }
@@ -632,7 +636,7 @@ fn run_sampler(args: SamplerArgs) -> Result<()> {
         rows.push(row);
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
     }
     Ok(())
 }
@@ -733,7 +737,7 @@ fn print_row<const N: usize>(columns: &[(&str, i32); N], cells: &[String; N]) {
             }
         })
         .collect();
-    println!("{}", parts.join("  ").trim_end());
+    crate::outln!("{}", parts.join("  ").trim_end());
 }
 
 /// `1234567` -> `1,234,567`.

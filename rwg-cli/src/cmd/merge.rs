@@ -26,8 +26,8 @@ pub struct Args {
 
 /// Runs `rwg merge`.
 pub fn run(args: Args) -> Result<()> {
-    let report = merge_shards(&args.shards, &args.out, |line| println!("{line}"))?;
-    println!(
+    let report = merge_shards(&args.shards, &args.out, |line| crate::outln!("{line}"))?;
+    crate::outln!(
         "\nMerged {} shards ({} env steps) into {}",
         report.shards,
         report.meta.env_steps,

@@ -231,7 +231,7 @@ pub fn run(args: Args) -> Result<()> {
         None => env.reset(args.seed, &mut obs)?,
     }
 
-    let stdout = std::io::stdout();
+    let stdout = crate::stdio::stdout();
     let mut out = BufWriter::new(stdout.lock());
     let lines = StepLines::new(&args.format, spec.action_space.flat_dim(), obs.len());
     lines.header(&mut out)?;
