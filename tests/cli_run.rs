@@ -197,7 +197,7 @@ fn manifest_errors_name_file_line_and_key_and_nothing_runs() {
         (
             "hidden = [4]",
             "hidden = [0]",
-            "m.toml:7:11: architectures[0].hidden[0]: a layer needs 1 to 4096 units, got 0",
+            "m.toml:7:11: architectures[0].hidden[0]: a layer needs 1 to 4096 units (rwg's limit), got 0",
         ),
         (
             "id = \"CartPole-v0\"",
@@ -212,7 +212,7 @@ fn manifest_errors_name_file_line_and_key_and_nothing_runs() {
         (
             "episodes = 3",
             "episodes = 3\nepisodez = 4",
-            "m.toml:5:1: unknown field `episodez`",
+            "m.toml:5:1: episodez: unknown key `episodez`",
         ),
     ];
     for (from, to, expected) in cases {

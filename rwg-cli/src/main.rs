@@ -1,8 +1,14 @@
 //! `rwg`: Random Weight Guessing analysis of reinforcement-learning environments.
 
+// rwg's own output goes through `outln!`/`stdio::stdout()`: fd 1 carries what
+// plugins print (see `stdio::protect`), so a plain `println!` would land on stderr.
+#![deny(clippy::print_stdout)]
+
 mod cluster;
 mod cmd;
+mod fault_guard;
 mod slurm_script;
+mod stdio;
 mod step_lines;
 
 use anyhow::Result;
@@ -53,8 +59,46 @@ enum Command {
     Bench(cmd::bench::Args),
 }
 
+/// The error and its causes, `: `-separated, without repeating a cause its
+/// parent's message already ends with (errors that print their source).
+fn error_text(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let msg = cause.to_string();
+        if text.ends_with(&msg) || msg.is_empty() {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&msg);
+    }
+    text
+}
+
+/// Panics (bugs in rwg) are reported in rwg's own `error:` style, with
+/// where they happened, instead of Rust's "thread panicked" text.
+fn install_panic_hook() {
+    std::panic::set_hook(Box::new(|info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "unknown".into());
+        let at = info
+            .location()
+            .map(|l| format!(" at {}:{}", l.file(), l.line()))
+            .unwrap_or_default();
+        eprintln!("error: internal error (a bug in rwg, please report it){at}: {msg}");
+    }));
+}
+
 fn main() {
+    install_panic_hook();
     let cli = Cli::parse();
+    // From here on, what a plugin prints goes to stderr, never into rwg's output.
+    stdio::protect();
     let result: Result<()> = match cli.command {
         Command::Envs(a) => cmd::envs::run(a),
         Command::Rollout(a) => cmd::rollout::run(a),
@@ -81,7 +125,7 @@ fn main() {
         if broken_pipe {
             std::process::exit(0);
         }
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", error_text(&e));
         std::process::exit(1);
     }
 }

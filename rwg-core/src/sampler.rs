@@ -235,6 +235,19 @@ impl<E: Environment> Worker<E> {
     }
 }
 
+thread_local! {
+    /// (network, episode) of the reset the sampler calls next on this thread.
+    static STARTING: std::cell::Cell<(u64, u32)> = const { std::cell::Cell::new((0, 0)) };
+}
+
+/// The network (sample index) and episode whose `reset` the sampler is
+/// calling on this thread: an environment wrapper reads it in `reset` to
+/// name the episode in a crash report (`rwg run`'s plugin fault messages).
+/// Set once per episode, so it costs nothing per step.
+pub fn starting_episode() -> (u64, u32) {
+    STARTING.with(|c| c.get())
+}
+
 /// Number of episodes [`run_blocks`] runs side by side in each worker
 /// ([`LaneWorker`]).
 pub const LANES: usize = 16;
@@ -424,6 +437,7 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
             episode as u32,
         );
         let d = self.obs_dim;
+        STARTING.with(|c| c.set((samples.start + k as u64, episode as u32)));
         match self.envs[i].reset(r, &mut self.obs[i * d..(i + 1) * d]) {
             Ok(()) => {
                 lane.active = true;

@@ -63,6 +63,65 @@
  *            plugin and environment.
  *
  * ---------------------------------------------------------------------------
+ * What the reference implementation does where the rules above leave a choice
+ * ---------------------------------------------------------------------------
+ * "The shim" is the Rust export code every Rust plugin uses (rwg-env's
+ * export_plugin!); "the host" is rwg (rwg-plugin-host). A C plugin may choose
+ * otherwise where the rules allow it; these are what rwg's own code does, and
+ * what its tests check.
+ * Several errors at once.  The shim reports the first that applies, in this
+ *            order: a NULL env (RWG_ERR_INVALID_ARGUMENT); a poisoned instance
+ *            (RWG_ERR_PANIC); in reset, has_seed = 0 (RWG_ERR_UNSUPPORTED) or
+ *            another value than 0 or 1 (RWG_ERR_INVALID_ARGUMENT); in step, a
+ *            NULL out or action, then an action outside the action space
+ *            (RWG_ERR_INVALID_ARGUMENT); then a wrong obs_len or a NULL obs
+ *            (RWG_ERR_BUFFER_SIZE); only then the environment's own answer
+ *            (RWG_ERR_RESET_NEEDED for a step before the first reset, ...).
+ *            So a step before reset with an invalid action is
+ *            RWG_ERR_INVALID_ARGUMENT. The host, reading a step, checks the
+ *            status first, then the flags, then the reward, then the
+ *            observation, and reports the first problem.
+ * State after a failed call.  A call the shim refuses before reaching the
+ *            environment (every case above except the environment's own
+ *            answer) leaves the instance exactly as it was: the next call
+ *            behaves as if the failed one had not been made. After
+ *            RWG_ERR_PANIC the instance is poisoned (see Crashes). The host
+ *            ends the episode at any failed call: `rwg run` stops the cell
+ *            with an error naming the plugin, env, network ("sample"),
+ *            episode and step (finished blocks are kept), and never calls the
+ *            instance again except destroy.
+ * Step after termination.  The host never steps an instance whose last step
+ *            returned terminated or truncated: it resets it first. The shim
+ *            passes such a step to the environment; rwg's built-in
+ *            environments accept it (as Gymnasium's do).
+ * Observations outside the declared space.  Finite values outside a Box's
+ *            [low, high] are accepted by the host and used as they are (the
+ *            network sees them); `rwg check` WARNs about them ("rollout").
+ *            Non-finite values are errors (see Floats). The host fills the
+ *            obs buffer with NaN before each reset and step, so an element
+ *            the plugin leaves unwritten is a non-finite-observation error.
+ * Reset without a seed.  rwg runs and checks always pass has_seed = 1, except
+ *            `rwg check`'s "unseeded reset" check, which passes has_seed = 0
+ *            once and accepts RWG_OK or RWG_ERR_UNSUPPORTED. The shim answers
+ *            has_seed = 0 with RWG_ERR_UNSUPPORTED.
+ * has_seed values.  The host only ever passes 0 or 1. The shim refuses any
+ *            other value with RWG_ERR_INVALID_ARGUMENT, before touching the
+ *            instance.
+ * A struct_size from a newer header.  The host accepts an rwg_plugin_entry_t,
+ *            rwg_env_desc_t or rwg_env_vtable_t whose struct_size is larger
+ *            than its own (a plugin built with a newer minor), reads the
+ *            fields it knows and ignores the rest; a smaller one is refused
+ *            naming the struct and both sizes. The shim likewise accepts an
+ *            rwg_host_t at least as large as 1.0's and refuses a smaller one
+ *            (init returns RWG_ERR_INVALID_ARGUMENT).
+ * A time limit of 0.  Legal: the environment has no time limit. `rwg run`
+ *            needs one to bound every episode, so it refuses such an
+ *            environment unless its [[envs]] entry sets max_episode_steps
+ *            (the error says so); `rwg rollout` runs it until it terminates or
+ *            the actions run out; `rwg check` WARNs ("truncation") that run
+ *            will need max_episode_steps.
+ *
+ * ---------------------------------------------------------------------------
  * Call sequence
  * ---------------------------------------------------------------------------
  *   entry = rwg_plugin_entry_v1(RWG_PLUGIN_ABI_MAJOR, RWG_PLUGIN_ABI_MINOR);

@@ -750,3 +750,6 @@ fn checker_flags_accepted_invalid_actions_and_missing_reset_check() {
     assert_eq!(create.len(), 1);
     assert_eq!(create[0].status, CheckStatus::Failed);
 }
+
+// The header's "what the reference implementation does" section.
+mod contract;

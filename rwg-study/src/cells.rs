@@ -162,7 +162,9 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
                 .error_at(
                     e.id_span.clone(),
                     format!(
-                        "envs[{i}]: '{}' has no time limit; set max_episode_steps",
+                        "envs[{i}]: '{}' has no time limit (its max_episode_steps is 0: none), \
+                         and rwg run needs one to bound every episode; set max_episode_steps \
+                         in this [[envs]] entry",
                         e.id
                     ),
                 )
@@ -173,8 +175,31 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
             (None, Some(t)) => (Some(t), Some("env".to_string())),
             (None, None) => (None, None),
         };
-        for a in &m.architectures {
+        for (j, a) in m.architectures.iter().enumerate() {
             for &bias in &m.bias {
+                let shape = NetShape::new(
+                    spec.obs_dim(),
+                    &Architecture {
+                        hidden: a.hidden.clone(),
+                        bias,
+                    },
+                    NetShape::outputs_for(&spec.action_space),
+                );
+                if shape.n_weights() > crate::limits::MAX_WEIGHTS {
+                    return Err(m
+                        .error_at(
+                            e.id_span.clone(),
+                            format!(
+                                "envs[{i}]: architectures[{j}] '{}' on '{}' has {} weights per \
+                                 network; at most {} (rwg's limit)",
+                                a.name,
+                                e.id,
+                                shape.n_weights(),
+                                crate::limits::MAX_WEIGHTS
+                            ),
+                        )
+                        .into());
+                }
                 cells.push(Cell {
                     plan: CellPlan {
                         seed: m.seed,
@@ -273,19 +298,31 @@ impl Cell {
 
     /// One line of the end-of-run summary, computed by the statistics code
     /// that writes `stats.csv` (the same median, best mean and solved count).
-    pub fn summary_line(&self, means: &[f64], steps_per_s: f64) -> String {
+    /// `steps_per_s` is `None` where it is not known (a merged run); unknown
+    /// values print as `-`, never as NaN.
+    pub fn summary_line(&self, means: &[f64], steps_per_s: Option<f64>) -> String {
+        // Unknown or undefined values print as `-`, never as NaN.
+        let num = |x: Option<f64>, prec: usize, exp: bool| match x {
+            Some(x) if x.is_finite() && exp => format!("{x:.prec$e}"),
+            Some(x) if x.is_finite() => format!("{x:.prec$}"),
+            _ => "-".into(),
+        };
         let best = stats::max(means);
         let median = stats::percentile(means, 50.0);
         let solved = match self.solved {
-            Some(s) => {
+            Some(s) if !means.is_empty() => {
                 let prop = stats::solved_fraction(means, s);
                 format!("{:.2}%", 100.0 * prop.successes as f64 / prop.trials as f64)
             }
-            None => "-".into(),
+            _ => "-".into(),
         };
         format!(
-            "{:<44} {:>11.2} {:>12.2} {:>8} {:>11.3e}",
-            self.dir, best, median, solved, steps_per_s
+            "{:<44} {:>11} {:>12} {:>8} {:>11}",
+            self.dir,
+            num(Some(best), 2, false),
+            num(Some(median), 2, false),
+            solved,
+            num(steps_per_s, 3, true)
         )
     }
 }

@@ -12,7 +12,10 @@
 pub mod cells;
 pub mod env_source;
 pub mod error;
+pub mod fault_context;
+pub mod limits;
 pub mod manifest;
+pub mod manifest_text;
 pub mod merge;
 pub mod rundir;
 pub mod runner;

@@ -32,6 +32,8 @@
 //! Unknown keys and bad values are errors that name the file, line, column
 //! and key; nothing runs.
 
+use crate::limits::{self, in_range, short_enough};
+use crate::manifest_text::{self, line_col};
 use rwg_core::sampler::WeightDist;
 use rwg_env::env::ActionDtype;
 use serde::{Deserialize, Serialize};
@@ -71,11 +73,32 @@ pub enum ManifestLoadError {
 }
 
 /// A number written as a TOML integer or float.
-#[derive(Debug, Clone, Copy, Deserialize)]
-#[serde(untagged)]
+#[derive(Debug, Clone, Copy)]
 enum Num {
     Int(i64),
     Float(f64),
+}
+
+impl<'de> Deserialize<'de> for Num {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Num, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = Num;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a number (an integer such as 195 or a float such as -140.5)")
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Num, E> {
+                Ok(Num::Int(v))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Num, E> {
+                Ok(Num::Float(v as f64))
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Num, E> {
+                Ok(Num::Float(v))
+            }
+        }
+        d.deserialize_any(V)
+    }
 }
 
 impl Num {
@@ -193,24 +216,33 @@ pub struct Manifest {
     pub source: String,
 }
 
-/// 1-based line and column of a byte offset.
-fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let offset = offset.min(text.len());
-    let before = &text[..offset];
-    let line = before.matches('\n').count() + 1;
-    let col = before.rfind('\n').map_or(offset, |p| offset - p - 1) + 1;
-    (line, col)
-}
-
 impl Manifest {
     /// Reads and validates a manifest file. Plugin paths become absolute
     /// (resolved against the manifest's folder), so the resolved manifest
     /// ([`Manifest::to_toml`]) names the same files wherever it is written.
     pub fn load(path: &Path) -> Result<Manifest, ManifestLoadError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ManifestLoadError::Io {
+        let io = |source| ManifestLoadError::Io {
             file: file.clone(),
             source,
+        };
+        let size = std::fs::metadata(path).map_err(io)?.len();
+        if size > limits::MAX_MANIFEST_BYTES {
+            return Err(locate(
+                &file,
+                "",
+                0..0,
+                format!(
+                    "the file has {size} bytes; a manifest has at most {} (rwg's limit)",
+                    limits::MAX_MANIFEST_BYTES
+                ),
+            )
+            .into());
+        }
+        let bytes = std::fs::read(path).map_err(io)?;
+        let text = manifest_text::decode(&bytes).map_err(|e| {
+            let valid = std::str::from_utf8(&bytes[..e.offset]).unwrap_or("");
+            locate(&file, valid, e.offset..e.offset, e.message)
         })?;
         let base = match path.parent() {
             Some(p) if !p.as_os_str().is_empty() => p,
@@ -220,7 +252,7 @@ impl Manifest {
             file: file.clone(),
             source,
         })?;
-        Ok(Manifest::parse(&text, &file, &base)?)
+        Ok(Manifest::parse(text, &file, &base)?)
     }
 
     /// An error located at `span` of this manifest's text.
@@ -232,23 +264,29 @@ impl Manifest {
     /// paths are resolved against `base`.
     pub fn parse(text: &str, file: &str, base: &Path) -> Result<Manifest, ManifestError> {
         let err = |span: Range<usize>, msg: String| locate(file, text, span, msg);
-        let raw: Raw = toml::from_str(text).map_err(|e| {
-            let mut msg = e.message().trim_end().to_string();
+        manifest_text::check_no_nul(text).map_err(|e| err(e.offset..e.offset, e.message))?;
+        let raw: Raw = manifest_text::from_toml(text).map_err(|(span, mut msg)| {
             if let Some(s) = unknown_field_suggestion(&msg) {
                 msg.push_str(&s);
             }
-            err(e.span().unwrap_or(0..0), msg)
+            err(span, msg)
         })?;
 
-        let positive = |v: &Spanned<i64>, key: &str| -> Result<u64, ManifestError> {
-            if *v.get_ref() >= 1 {
-                Ok(*v.get_ref() as u64)
-            } else {
-                Err(err(
-                    v.span(),
-                    format!("{key}: must be at least 1, got {}", v.get_ref()),
-                ))
-            }
+        // A count in `min..=max`, else an error stating the limit.
+        let count =
+            |v: &Spanned<i64>, key: &str, min: i64, max: u64| -> Result<u64, ManifestError> {
+                in_range(
+                    key,
+                    *v.get_ref(),
+                    min,
+                    i64::try_from(max).unwrap_or(i64::MAX),
+                )
+                .map(|v| v as u64)
+                .map_err(|m| err(v.span(), m))
+            };
+        // A string of at most `max` bytes.
+        let short = |v: &Spanned<String>, key: &str, max: usize| -> Result<(), ManifestError> {
+            short_enough(key, v.get_ref(), max).map_err(|m| err(v.span(), m))
         };
 
         let seed = match &raw.seed {
@@ -261,15 +299,16 @@ impl Manifest {
                 ))
             }
         };
-        let samples = positive(&raw.samples, "samples")?;
-        let episodes = positive(&raw.episodes, "episodes")?;
-        let episodes = u32::try_from(episodes)
-            .map_err(|_| err(raw.episodes.span(), "episodes: too large".into()))?;
+        let samples = count(&raw.samples, "samples", 1, limits::MAX_SAMPLES)?;
+        let episodes = count(&raw.episodes, "episodes", 1, limits::MAX_EPISODES.into())? as u32;
         let threads = raw
             .threads
             .as_ref()
-            .map(|t| positive(t, "threads").map(|t| t as usize))
+            .map(|t| count(t, "threads", 1, limits::MAX_THREADS as u64).map(|t| t as usize))
             .transpose()?;
+        if let Some(o) = &raw.out {
+            short(o, "out", limits::MAX_PATH_BYTES)?;
+        }
         let bias = match &raw.bias {
             None => vec![false],
             Some(b) if b.get_ref().is_empty() => {
@@ -323,12 +362,35 @@ impl Manifest {
                 "architectures: needs at least one architecture".into(),
             ));
         }
+        if raw.architectures.get_ref().len() > limits::MAX_ARCHITECTURES {
+            return Err(err(
+                raw.architectures.get_ref()[limits::MAX_ARCHITECTURES]
+                    .name
+                    .span(),
+                format!(
+                    "architectures: at most {} (rwg's limit), got {}",
+                    limits::MAX_ARCHITECTURES,
+                    raw.architectures.get_ref().len()
+                ),
+            ));
+        }
         let mut architectures = Vec::new();
         for (i, a) in raw.architectures.get_ref().iter().enumerate() {
             let key = format!("architectures[{i}]");
             let name = a.name.get_ref().trim().to_string();
             if name.is_empty() {
                 return Err(err(a.name.span(), format!("{key}.name: must not be empty")));
+            }
+            short(&a.name, &format!("{key}.name"), limits::MAX_ARCH_NAME_BYTES)?;
+            if a.hidden.get_ref().len() > limits::MAX_HIDDEN_LAYERS {
+                return Err(err(
+                    a.hidden.span(),
+                    format!(
+                        "{key}.hidden: at most {} layers (rwg's limit), got {}",
+                        limits::MAX_HIDDEN_LAYERS,
+                        a.hidden.get_ref().len()
+                    ),
+                ));
             }
             if architectures.iter().any(|x: &ArchEntry| x.name == name) {
                 return Err(err(
@@ -338,11 +400,12 @@ impl Manifest {
             }
             let mut hidden = Vec::new();
             for (j, h) in a.hidden.get_ref().iter().enumerate() {
-                if !(1..=4096).contains(h.get_ref()) {
+                if !(1..=limits::MAX_LAYER_UNITS as i64).contains(h.get_ref()) {
                     return Err(err(
                         h.span(),
                         format!(
-                            "{key}.hidden[{j}]: a layer needs 1 to 4096 units, got {}",
+                            "{key}.hidden[{j}]: a layer needs 1 to {} units (rwg's limit), got {}",
+                            limits::MAX_LAYER_UNITS,
                             h.get_ref()
                         ),
                     ));
@@ -358,9 +421,26 @@ impl Manifest {
                 "envs: needs at least one environment".into(),
             ));
         }
+        if raw.envs.get_ref().len() > limits::MAX_ENVS {
+            return Err(err(
+                raw.envs.get_ref()[limits::MAX_ENVS].id.span(),
+                format!(
+                    "envs: at most {} (rwg's limit), got {}",
+                    limits::MAX_ENVS,
+                    raw.envs.get_ref().len()
+                ),
+            ));
+        }
         let mut envs: Vec<EnvEntry> = Vec::new();
         for (i, e) in raw.envs.get_ref().iter().enumerate() {
             let key = format!("envs[{i}]");
+            short(&e.id, &format!("{key}.id"), limits::MAX_ENV_ID_BYTES)?;
+            if let Some(c) = &e.config {
+                short(c, &format!("{key}.config"), limits::MAX_CONFIG_BYTES)?;
+            }
+            if let Some(p) = &e.plugin {
+                short(p, &format!("{key}.plugin"), limits::MAX_PATH_BYTES)?;
+            }
             let id = e.id.get_ref().clone();
             if envs.iter().any(|x| x.id == id) {
                 return Err(err(
@@ -380,11 +460,12 @@ impl Manifest {
             };
             let max_episode_steps = match &e.max_episode_steps {
                 None => None,
-                Some(m) => Some(
-                    u32::try_from(positive(m, &format!("{key}.max_episode_steps"))?).map_err(
-                        |_| err(m.span(), format!("{key}.max_episode_steps: too large")),
-                    )?,
-                ),
+                Some(m) => Some(count(
+                    m,
+                    &format!("{key}.max_episode_steps"),
+                    1,
+                    limits::MAX_EPISODE_STEPS.into(),
+                )? as u32),
             };
             let action_dtype = match &e.action_dtype {
                 None => ActionDtype::F64,
@@ -496,7 +577,8 @@ fn locate(file: &str, text: &str, span: Range<usize>, message: String) -> Manife
 
 /// "did you mean ...?" for serde's "unknown field `x`, expected one of `a`, `b`" messages.
 fn unknown_field_suggestion(msg: &str) -> Option<String> {
-    let rest = msg.strip_prefix("unknown field `")?;
+    const PREFIX: &str = "unknown key `";
+    let rest = &msg[msg.find(PREFIX)? + PREFIX.len()..];
     let (field, rest) = rest.split_once('`')?;
     let expected: Vec<&str> = rest.split('`').skip(1).step_by(2).collect();
     rwg_env::suggest::nearest(field, expected.iter().copied())
@@ -610,10 +692,13 @@ config = "a=1"
     #[test]
     fn unknown_keys_are_errors_with_a_suggestion() {
         let e = error_of(&GOOD.replace("episodes = 2", "episodes = 2\nsampels = 4"));
-        assert!(e.starts_with("m.toml:5:1: unknown field `sampels`"), "{e}");
+        assert!(
+            e.starts_with("m.toml:5:1: sampels: unknown key `sampels`"),
+            "{e}"
+        );
         let e = error_of(&GOOD.replace("solved = 195", "solve = 195"));
         assert!(
-            e.contains("unknown field `solve`") && e.contains("did you mean `solved`"),
+            e.contains("envs[0].solve: unknown key `solve`") && e.contains("did you mean `solved`"),
             "{e}"
         );
     }
@@ -623,7 +708,154 @@ config = "a=1"
         let e = error_of(&GOOD.replace("samples = 10", "samples = \"many\""));
         assert!(e.starts_with("m.toml:3:11:"), "{e}");
         let e = error_of(&GOOD.replace("episodes = 2\n", ""));
-        assert!(e.contains("missing field `episodes`"), "{e}");
+        assert!(e.contains("missing key `episodes`"), "{e}");
+    }
+
+    /// Issue 12: type errors named no key (`invalid type: string "0",
+    /// expected i64`; `data did not match any variant of untagged enum Num`).
+    #[test]
+    fn type_errors_name_the_key_path_and_the_accepted_forms() {
+        let text = GOOD.replace(
+            "solved = -140.5",
+            "solved = -140.5\nmax_episode_steps = \"0\"",
+        );
+        assert_eq!(
+            error_of(&text),
+            "m.toml:26:21: envs[1].max_episode_steps: expected an integer, found the string \"0\""
+        );
+        let e = error_of(&GOOD.replace("solved = 195", "solved = \"high\""));
+        assert_eq!(
+            e,
+            "m.toml:21:10: envs[0].solved: expected a number (an integer such as 195 or a \
+             float such as -140.5), found the string \"high\""
+        );
+        assert!(!e.contains("untagged"), "{e}");
+        let e = error_of(&GOOD.replace("scale = 2", "scale = true"));
+        assert!(
+            e.starts_with("m.toml:9:9: weights.scale: expected a number"),
+            "{e}"
+        );
+        let e = error_of(&GOOD.replace("hidden = [4, 4]", "hidden = [4, \"4\"]"));
+        assert_eq!(
+            e,
+            "m.toml:17:14: architectures[1].hidden[1]: expected an integer, found the string \"4\""
+        );
+        let e = error_of(&GOOD.replace("bias = [false, true]", "bias = [0]"));
+        assert_eq!(
+            e,
+            "m.toml:5:9: bias[0]: expected true or false, found the integer 0"
+        );
+        let e = error_of(&GOOD.replace("id = \"CartPole-v0\"\n", ""));
+        assert!(e.contains("envs[0]: missing key `id`"), "{e}");
+    }
+
+    /// Issue 12: binary and UTF-16 manifests got no position.
+    #[test]
+    fn non_utf8_files_get_a_position() {
+        let dir = std::env::temp_dir().join(format!("rwg-manifest-bytes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("m.toml");
+        let mut utf16 = vec![0xFF, 0xFE];
+        for u in GOOD.encode_utf16() {
+            utf16.extend(u.to_le_bytes());
+        }
+        std::fs::write(&p, &utf16).unwrap();
+        let e = Manifest::load(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("m.toml:1:1: the file starts with a UTF-16 byte-order mark"),
+            "{e}"
+        );
+        std::fs::write(&p, &utf16[2..]).unwrap();
+        let e = Manifest::load(&p).unwrap_err().to_string();
+        assert!(e.contains("m.toml:2:1: a NUL byte"), "{e}");
+        assert!(e.ends_with("the manifest must be UTF-8 TOML"), "{e}");
+        let mut bad = GOOD.as_bytes().to_vec();
+        bad[GOOD.find("samples").unwrap() + 2] = 0xC3;
+        std::fs::write(&p, &bad).unwrap();
+        let e = Manifest::load(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("m.toml:3:3: byte 0xC3 is not UTF-8; the manifest must be UTF-8 TOML"),
+            "{e}"
+        );
+        std::fs::write(&p, [0x7F, b'E', b'L', b'F', 2, 1, 1, 0]).unwrap();
+        let e = Manifest::load(&p).unwrap_err().to_string();
+        assert!(e.contains("m.toml:1:8: a NUL byte"), "{e}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Issue 12: `episodes = 4294967295` aborted on allocation, a
+    /// 5000-character architecture name failed only at run time.
+    #[test]
+    fn counts_sizes_and_names_are_limited() {
+        let e = error_of(&GOOD.replace("episodes = 2", "episodes = 4294967295"));
+        assert_eq!(
+            e,
+            "m.toml:4:12: episodes: at most 10000 (rwg's limit), got 4294967295"
+        );
+        let e = error_of(&GOOD.replace("samples = 10", "samples = 9223372036854775807"));
+        assert_eq!(
+            e,
+            "m.toml:3:11: samples: at most 10000000 (rwg's limit), got 9223372036854775807"
+        );
+        let e = error_of(&GOOD.replace("bias = [false, true]", "threads = 100000"));
+        assert_eq!(
+            e,
+            "m.toml:5:11: threads: at most 1024 (rwg's limit), got 100000"
+        );
+        let e = error_of(&GOOD.replace(
+            "name = \"2HL\"",
+            &format!("name = \"{}\"", "a".repeat(5000)),
+        ));
+        assert_eq!(
+            e,
+            "m.toml:16:8: architectures[1].name: at most 64 bytes (rwg's limit), got 5000"
+        );
+        let e = error_of(&GOOD.replace("hidden = [4, 4]", "hidden = [4, 5000]"));
+        assert!(
+            e.contains(
+                "architectures[1].hidden[1]: a layer needs 1 to 4096 units (rwg's limit), got 5000"
+            ),
+            "{e}"
+        );
+        let e = error_of(&GOOD.replace(
+            "hidden = [4, 4]",
+            &format!("hidden = [{}]", ["1"; 65].join(",")),
+        ));
+        assert!(
+            e.contains("architectures[1].hidden: at most 64 layers (rwg's limit), got 65"),
+            "{e}"
+        );
+        let e = error_of(&GOOD.replace("solved = 195", "max_episode_steps = 4294967296"));
+        assert!(
+            e.contains("envs[0].max_episode_steps: at most 10000000 (rwg's limit), got 4294967296"),
+            "{e}"
+        );
+        let e = error_of(&GOOD.replace("\"a=1\"", &format!("\"{}\"", "x".repeat(70000))));
+        assert!(
+            e.contains("envs[1].config: at most 65536 bytes (rwg's limit), got 70000"),
+            "{e}"
+        );
+        let e = error_of(&GOOD.replace("Pendulum-v0", &"P".repeat(200)));
+        assert!(
+            e.contains("envs[1].id: at most 128 bytes (rwg's limit), got 200"),
+            "{e}"
+        );
+        let many: String = (0..257)
+            .map(|i| format!("[[architectures]]\nname = \"a{i}\"\nhidden = []\n"))
+            .collect();
+        let e = error_of(&GOOD.replace("[[architectures]]\nname = \"0HL\"\nhidden = []\n", &many));
+        assert!(
+            e.contains("architectures: at most 256 (rwg's limit), got 258"),
+            "{e}"
+        );
+        let many: String = (0..257)
+            .map(|i| format!("[[envs]]\nid = \"e{i}\"\n"))
+            .collect();
+        let e = error_of(&format!("{GOOD}{many}"));
+        assert!(
+            e.contains("envs: at most 256 (rwg's limit), got 259"),
+            "{e}"
+        );
     }
 
     #[test]

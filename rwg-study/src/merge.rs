@@ -173,7 +173,7 @@ pub fn merge_shards(
             copy_atomic(&src, &dst)?;
         }
         let (cm, totals) = cell.finalize(m, out, 0.0)?;
-        on_line(&cell.summary_line(&totals.means, f64::NAN));
+        on_line(&cell.summary_line(&totals.means, None));
         meta.env_steps += cm.env_steps;
         meta.cells.push(cm);
         write_run_meta(out, &meta)?;

@@ -10,6 +10,7 @@
 use crate::cells::{new_meta, plan_cells, Cell};
 use crate::env_source::EnvSource;
 use crate::error::CellError;
+use crate::fault_context::{self, Watched};
 use crate::manifest::Manifest;
 use crate::rundir::blocks::{
     block_done, block_samples, cell_complete, n_blocks, tidy_complete_cell, write_block,
@@ -41,6 +42,9 @@ pub struct RunOptions<'a> {
 
 /// What a run reports while it works.
 pub trait Progress: Send {
+    /// The cells are planned (plugins loaded, one instance of each env
+    /// created), before the run directory is touched.
+    fn planned(&mut self, _cells: &[Cell]) {}
     /// Networks this session will compute, once the work is known.
     fn start(&mut self, networks: u64);
     /// A cell starts (`label`: "cell i/n (k done): dir").
@@ -87,10 +91,13 @@ pub fn run_study(
 ) -> Result<RunOutcome, StudyError> {
     let out = &opts.out;
     let cells = plan_cells(m)?;
+    progress.planned(&cells);
     let m = &*m;
-    let threads = m
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let threads = m.threads.unwrap_or_else(|| {
+        std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(crate::limits::MAX_THREADS)
+    });
     let previous = prepare_dir(out, m, opts.shard, opts.force_new)?;
     if previous.as_ref().is_some_and(|p| p.end_time.is_some()) {
         return Ok(RunOutcome::AlreadyComplete);
@@ -150,6 +157,16 @@ pub fn run_study(
             cell.dir
         );
         progress.cell(&label);
+        fault_context::set_cell_label(match &cell.source {
+            EnvSource::Plugin(p) => format!(
+                "plugin '{}' ({}), env '{}', cell {}",
+                p.ty.plugin().id,
+                p.path().display(),
+                cell.plan.env_id,
+                cell.dir
+            ),
+            EnvSource::Builtin(_) => format!("env '{}', cell {}", cell.plan.env_id, cell.dir),
+        });
         let blocks: Vec<_> = (0..nb)
             .filter(|&b| owned(ci, b) && !block_done(&dir, b))
             .map(|b| block_samples(b, m.samples))
@@ -174,7 +191,10 @@ pub fn run_study(
         if let Err(e) = result {
             progress.finish(false);
             meta.wall_s = t0.elapsed().as_secs_f64();
-            write_run_meta(out, &meta)?;
+            // The cell's error is the one to report (on a full disk run.json
+            // fails too, and would hide which file failed first); run.json
+            // is rewritten when the run resumes.
+            let _ = write_run_meta(out, &meta);
             return Err(match e {
                 CellError::Interrupted => StudyError::Interrupted,
                 source => StudyError::Cell {
@@ -191,7 +211,7 @@ pub fn run_study(
         let wall = t_cell.elapsed().as_secs_f64();
         if opts.shard.is_none() {
             let (cm, totals) = cell.finalize(m, out, wall)?;
-            lines.push(cell.summary_line(&totals.means, cm.steps_per_s));
+            lines.push(cell.summary_line(&totals.means, Some(cm.steps_per_s)));
             meta.env_steps += cm.env_steps;
             meta.cells.push(cm);
         } else {
@@ -216,7 +236,7 @@ pub fn run_study(
 
 /// Runs the given blocks of a cell, committing each. Built-in envs are
 /// statically dispatched (the sampler is monomorphised for each); plugin envs
-/// run through the same generic sampler with `TimeLimit<PluginEnv>`.
+/// run through the same generic sampler as `Watched<TimeLimit<PluginEnv>>`.
 fn run_cell_blocks(
     cell: &Cell,
     blocks: &[std::ops::Range<u64>],
@@ -280,9 +300,12 @@ fn run_cell_blocks(
     match &cell.source {
         EnvSource::Builtin(opts) => visit(&cell.plan.env_id, opts, runner)
             .expect("env ids are checked when cells are planned"),
+        // Plugin calls are recorded for fault reports (see fault_context).
         EnvSource::Plugin(p) => runner.run(|| {
-            p.make()
-                .expect("an instance was created when the cells were planned")
+            Watched::create(|| {
+                p.make()
+                    .expect("an instance was created when the cells were planned")
+            })
         }),
     }
 }

@@ -16,6 +16,9 @@
  *   BROKEN_NULL_STEP     the vtable's step is NULL
  *
  * ENV_ID (e.g. -DENV_ID='"CartPole-v0"') replaces the id "handshake/Ok-v0".
+ * NO_TIME_LIMIT sets max_episode_steps = 0 (none; a valid plugin).
+ * PRINTF_IN_STEP makes step printf a line to stdout (a valid plugin that
+ * talks: its output must never reach rwg's own stdout).
  *
  * The tests in ../tests/c_plugins.rs compile each variant with cc.
  */
@@ -55,6 +58,9 @@ static rwg_status_t step(rwg_env_t *env, const double *action, size_t action_len
     if (!env->started) return RWG_ERR_RESET_NEEDED;
     if (action_len != 1 || !(action[0] == 0.0 || action[0] == 1.0)) return RWG_ERR_INVALID_ARGUMENT;
     if (obs_len != 1) return RWG_ERR_BUFFER_SIZE;
+#ifdef PRINTF_IN_STEP
+    printf("handshake plugin: step with action %g\n", action[0]);
+#endif
     obs[0] = action[0];
     out->reward = 1.0;
     out->terminated = 0;
@@ -89,7 +95,11 @@ static const rwg_env_desc_t DESC = {
     .summary = "a valid minimal env",
     .observation_space = {.kind = RWG_SPACE_BOX, .n = 1, .low = LOW, .high = HIGH},
     .action_space = {.kind = RWG_SPACE_DISCRETE, .n = 2},
+#ifdef NO_TIME_LIMIT
+    .max_episode_steps = 0,
+#else
     .max_episode_steps = 5,
+#endif
     .reward_threshold = NAN,
 };
 

@@ -10,6 +10,9 @@
 //! | `broken/HiddenGlobalState-v0` | observations depend on a process-global counter |
 //! | `broken/SegfaultInStep-v0` | **segfaults** on the first step: kills the process that steps it |
 //! | `broken/HangInStep-v0` | **never returns** from the first step (for `rwg check --timeout`) |
+//! | `broken/ExitInReset-v0` | calls `exit(0)` in the process's 3rd reset (config `at_reset=N`: the N-th) |
+//! | `broken/AbortInStep-v0` | calls `abort()` on step 5 of its 2nd episode |
+//! | `broken/PrintInReset-v0` | works, but prints a line to stdout on every reset |
 //!
 //! Broken handshakes (wrong ABI version, bad descriptors, ...) are C
 //! variants of `c/handshake.c`, compiled by the tests.
@@ -35,17 +38,27 @@ pub enum Fault {
     SegfaultInStep,
     /// Never returns from the first step.
     HangInStep,
+    /// Calls `exit(0)` in the process's 3rd reset of such envs (config
+    /// `at_reset=N`: the N-th), counted over all instances.
+    ExitInReset,
+    /// Calls `abort()` on step 5 of its 2nd episode.
+    AbortInStep,
+    /// Prints `broken/PrintInReset-v0 says hello on stdout` on every reset.
+    PrintInReset,
 }
 
 impl Fault {
     /// Every fault, in export order.
-    pub const ALL: [Fault; 6] = [
+    pub const ALL: [Fault; 9] = [
         Fault::PanicInStep,
         Fault::NanObservation,
         Fault::NanReward,
         Fault::HiddenGlobalState,
         Fault::SegfaultInStep,
         Fault::HangInStep,
+        Fault::ExitInReset,
+        Fault::AbortInStep,
+        Fault::PrintInReset,
     ];
 
     /// The exported id.
@@ -57,11 +70,16 @@ impl Fault {
             Fault::HiddenGlobalState => "broken/HiddenGlobalState-v0",
             Fault::SegfaultInStep => "broken/SegfaultInStep-v0",
             Fault::HangInStep => "broken/HangInStep-v0",
+            Fault::ExitInReset => "broken/ExitInReset-v0",
+            Fault::AbortInStep => "broken/AbortInStep-v0",
+            Fault::PrintInReset => "broken/PrintInReset-v0",
         }
     }
 }
 
 static GLOBAL: AtomicU64 = AtomicU64::new(0);
+/// Resets of `ExitInReset` envs in this process.
+static RESETS: AtomicU64 = AtomicU64::new(0);
 
 /// A counter (obs = steps taken, reward 1, ends after 50 steps) with a fault.
 #[derive(Debug, Clone)]
@@ -70,6 +88,10 @@ pub struct Broken {
     fault: Fault,
     t: u32,
     started: bool,
+    /// Resets so far.
+    resets: u32,
+    /// `ExitInReset`: the process-wide reset that exits.
+    exit_at: u64,
 }
 
 impl Broken {
@@ -91,7 +113,22 @@ impl Broken {
             fault,
             t: 0,
             started: false,
+            resets: 0,
+            exit_at: 3,
         }
+    }
+
+    /// A new instance with a config: `""`, or `at_reset=N` for `ExitInReset`.
+    pub fn with_config(fault: Fault, config: &str) -> Result<Broken, String> {
+        let mut b = Broken::new(fault);
+        if let Some(n) = config.strip_prefix("at_reset=") {
+            b.exit_at = n
+                .parse()
+                .map_err(|_| format!("at_reset: '{n}' is not a count"))?;
+        } else if !config.is_empty() {
+            return Err(format!("unknown config '{config}' (expected at_reset=N)"));
+        }
+        Ok(b)
     }
 }
 
@@ -103,6 +140,15 @@ impl Environment for Broken {
     fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
         self.t = 0;
         self.started = true;
+        self.resets += 1;
+        match self.fault {
+            // Like a C plugin that gives up with exit() from deep inside.
+            Fault::ExitInReset if RESETS.fetch_add(1, Ordering::SeqCst) + 1 == self.exit_at => {
+                std::process::exit(0)
+            }
+            Fault::PrintInReset => println!("{} says hello on stdout", self.fault.id()),
+            _ => {}
+        }
         obs[0] = (seed % 3) as f64;
         Ok(())
     }
@@ -128,6 +174,7 @@ impl Environment for Broken {
                 // SAFETY: none; this is the point of the environment.
                 unsafe { std::ptr::write_volatile(16 as *mut u8, 1) };
             }
+            Fault::AbortInStep if self.resets == 2 && self.t == 5 => std::process::abort(),
             Fault::HangInStep => loop {
                 // Like a plugin stuck in an endless loop or a deadlock.
                 std::thread::sleep(std::time::Duration::from_secs(1));
@@ -149,7 +196,7 @@ pub fn plugin() -> PluginBuilder {
         b = b.env(
             Broken::spec(fault),
             "deliberately broken",
-            move |_: &str| Ok::<_, String>(Broken::new(fault)),
+            move |config: &str| Broken::with_config(fault, config),
         );
     }
     b

@@ -323,9 +323,8 @@ fn check_ids(ids: &[String]) -> Result<()> {
 }
 
 fn run_envs(args: EnvsArgs) -> Result<()> {
-    if args.steps == 0 {
-        bail!("--steps must be at least 1");
-    }
+    rwg_study::limits::in_range("steps", args.steps, 1, rwg_study::limits::MAX_BENCH_STEPS)
+        .map_err(|m| anyhow::anyhow!("--{m}"))?;
     if !args.plugins.is_empty() {
         return run_plugin_envs(args);
     }
@@ -356,7 +355,7 @@ fn run_envs(args: EnvsArgs) -> Result<()> {
         rows.push(row);
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
     }
     Ok(())
 }
@@ -401,7 +400,7 @@ fn run_plugin_envs(args: EnvsArgs) -> Result<()> {
         bail!("no environment to benchmark (check --env against `rwg envs --plugin FILE`)");
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
         return Ok(());
     }
     let mut columns = ENV_COLUMNS;
@@ -413,9 +412,13 @@ fn run_plugin_envs(args: EnvsArgs) -> Result<()> {
     }
     for r in &rows {
         if let Some(v) = &r.vs_builtin {
-            println!(
+            crate::outln!(
                 "{}: {:.1} ns/step vs {:.1} for the built-in {} ({:.2}x)",
-                r.env, r.ns_per_step, v.builtin_ns_per_step, v.builtin, v.ratio
+                r.env,
+                r.ns_per_step,
+                v.builtin_ns_per_step,
+                v.builtin,
+                v.ratio
             );
         }
     }
@@ -558,14 +561,16 @@ impl EnvVisitor for SamplerBench<'_> {
 }
 
 fn run_sampler(args: SamplerArgs) -> Result<()> {
-    if args.samples == 0 || args.episodes == 0 {
-        bail!("--samples and --episodes must be at least 1");
-    }
+    use rwg_study::limits::{in_range, MAX_EPISODES, MAX_SAMPLES, MAX_THREADS};
+    let flag = |m: String| anyhow::anyhow!("--{m}");
+    in_range("samples", args.samples, 1, MAX_SAMPLES).map_err(flag)?;
+    in_range("episodes", args.episodes, 1, MAX_EPISODES).map_err(flag)?;
     check_ids(&args.envs)?;
     let threads = match args.threads {
-        Some(0) => bail!("--threads must be at least 1"),
-        Some(t) => t,
-        None => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        Some(t) => in_range("threads", t, 1, MAX_THREADS).map_err(flag)?,
+        None => std::thread::available_parallelism()
+            .map_or(1, |n| n.get())
+            .min(MAX_THREADS),
     };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -631,7 +636,7 @@ fn run_sampler(args: SamplerArgs) -> Result<()> {
         rows.push(row);
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&rows)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
     }
     Ok(())
 }
@@ -732,7 +737,7 @@ fn print_row<const N: usize>(columns: &[(&str, i32); N], cells: &[String; N]) {
             }
         })
         .collect();
-    println!("{}", parts.join("  ").trim_end());
+    crate::outln!("{}", parts.join("  ").trim_end());
 }
 
 /// `1234567` -> `1,234,567`.

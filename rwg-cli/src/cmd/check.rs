@@ -16,7 +16,7 @@ use rwg_plugin_host::{
 };
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
@@ -93,9 +93,65 @@ fn emit(out: &mut impl Write, line: &Line) {
     let _ = writeln!(out, "{text}").and_then(|_| out.flush());
 }
 
+/// The checks whose failure `rwg run` warns about: results that depend on
+/// more than the seed and actions (hidden state shared between instances or
+/// threads).
+const CONTRACT_CHECKS: [&str; 4] = [
+    "reset determinism",
+    "trajectory determinism",
+    "independent instances",
+    "threads",
+];
+
+/// How long `rwg run` lets the checks of one env take.
+const CONTRACT_CHECK_TIMEOUT: Duration = Duration::from_secs(120);
+
+/// Runs `rwg check`'s checks of one plugin env in a child process and returns
+/// a warning for each failed determinism or thread-safety check (what `rwg
+/// run` prints: such an env gives results that depend on the thread count).
+pub fn contract_warnings(plugin: &Path, env: &str, config: &str) -> Vec<String> {
+    let args = [
+        plugin.as_os_str(),
+        "--env".as_ref(),
+        env.as_ref(),
+        "--config".as_ref(),
+        config.as_ref(),
+    ];
+    let Ok(run) = spawn_child(&args, CONTRACT_CHECK_TIMEOUT) else {
+        return vec![];
+    };
+    run.lines
+        .into_iter()
+        .filter_map(|l| match l {
+            Line::Result(r)
+                if r.status == CheckStatus::Failed
+                    && CONTRACT_CHECKS.contains(&r.name.as_str()) =>
+            {
+                Some(format!(
+                    "{} ({}) fails rwg check's '{}' check: {}; its results may depend on the \
+                     thread count and on the other envs of the run (run `rwg check {}`)",
+                    env,
+                    plugin.display(),
+                    r.name,
+                    r.message,
+                    plugin.display()
+                ))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 /// Runs `rwg __check-child`.
 pub fn run_child(args: ChildArgs) -> Result<()> {
-    let stdout = std::io::stdout();
+    // Linux: end with the process that asked for the checks (`rwg run` may
+    // finish or die first).
+    #[cfg(target_os = "linux")]
+    // SAFETY: prctl with a valid option and signal.
+    unsafe {
+        libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
+    }
+    let stdout = crate::stdio::stdout();
     let mut out = stdout.lock();
     let plugin = match load_plugin(&args.plugin) {
         Ok(p) => p,
@@ -233,7 +289,7 @@ pub fn run(args: Args) -> Result<()> {
     // (writeln, not println: `rwg check ... | head` must not panic.)
     let report = |r: CheckResult, results: &mut Vec<CheckResult>| -> std::io::Result<()> {
         if !args.json {
-            writeln!(std::io::stdout(), "{r}")?;
+            writeln!(crate::stdio::stdout(), "{r}")?;
         }
         results.push(r);
         Ok(())
@@ -282,6 +338,27 @@ pub fn run(args: Args) -> Result<()> {
         ),
         &mut results,
     )?;
+    // An id of rwg's own can never be run from the plugin: RWG_PLUGIN_PATH
+    // skips the file and `plugin =` is refused for it.
+    for id in loaded
+        .envs
+        .iter()
+        .filter(|id| rwg_study::env_source::is_builtin(id))
+    {
+        report(
+            CheckResult {
+                env: Some(id.clone()),
+                name: "built-in id".into(),
+                status: CheckStatus::Failed,
+                message: format!(
+                    "'{id}' is the id of a built-in environment: rwg would never run this one \
+                     (the built-in wins); give it a namespace, e.g. '{}/{id}'",
+                    loaded.id
+                ),
+            },
+            &mut results,
+        )?;
+    }
     let envs: Vec<&String> = match &args.env {
         None => loaded.envs.iter().collect(),
         Some(id) => match loaded.envs.iter().find(|e| *e == id) {
@@ -348,13 +425,13 @@ fn finish(args: &Args, results: &[CheckResult]) -> Result<()> {
     let failed = count(CheckStatus::Failed);
     if args.json {
         writeln!(
-            std::io::stdout(),
+            crate::stdio::stdout(),
             "{}",
             serde_json::to_string_pretty(results)?
         )?;
     } else {
         writeln!(
-            std::io::stdout(),
+            crate::stdio::stdout(),
             "\n{}: {} passed, {} warned, {failed} failed",
             args.plugin.display(),
             count(CheckStatus::Passed),

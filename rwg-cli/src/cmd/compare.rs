@@ -77,9 +77,9 @@ pub fn run(args: Args) -> Result<()> {
     }
     let rows = compare_rows(&inputs);
     match args.format.table_format() {
-        Some(f) => print!("{}", compare_table(&rows).render(f)),
-        None if args.format == Format::Csv => print!("{}", compare_csv(&rows)),
-        None => println!("{}", serde_json::to_string_pretty(&rows)?),
+        Some(f) => crate::out!("{}", compare_table(&rows).render(f)),
+        None if args.format == Format::Csv => crate::out!("{}", compare_csv(&rows)),
+        None => crate::outln!("{}", serde_json::to_string_pretty(&rows)?),
     }
     if let Some(path) = args.figure {
         let png = path

@@ -81,7 +81,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     if args.json {
         writeln!(
-            std::io::stdout(),
+            crate::stdio::stdout(),
             "{}",
             serde_json::to_string_pretty(&rows)?
         )?;
@@ -121,7 +121,7 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     // (writeln, not println: `rwg envs | head` must not panic.)
-    let mut out = std::io::stdout().lock();
+    let mut out = crate::stdio::stdout().lock();
     let mut line = |cells: &[&str]| -> std::io::Result<()> {
         let parts: Vec<String> = cells
             .iter()

@@ -34,9 +34,9 @@ pub struct Args {
 /// Runs `rwg merge`.
 pub fn run(args: Args) -> Result<()> {
     let out = &args.out;
-    let report = merge_shards(&args.shards, out, |line| println!("{line}"))?;
+    let report = merge_shards(&args.shards, out, |line| crate::outln!("{line}"))?;
     if report.already_complete {
-        println!(
+        crate::outln!(
             "{} already holds this study, merged and complete; nothing to do.",
             out.display()
         );
@@ -46,12 +46,12 @@ pub fn run(args: Args) -> Result<()> {
         return Ok(());
     }
     if report.cells_kept > 0 {
-        println!(
+        crate::outln!(
             "({} cells were merged by an earlier, interrupted merge)",
             report.cells_kept
         );
     }
-    println!(
+    crate::outln!(
         "\nMerged {} shards ({} env steps) into {}",
         report.shards,
         report.meta.env_steps,

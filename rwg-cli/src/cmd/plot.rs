@@ -33,7 +33,7 @@ pub fn run(args: Args) -> Result<()> {
         let path = out.join(fig.file_name());
         std::fs::write(&path, &fig.bytes)
             .with_context(|| format!("cannot write {}", path.display()))?;
-        println!("{}", path.display());
+        crate::outln!("{}", path.display());
     }
     Ok(())
 }

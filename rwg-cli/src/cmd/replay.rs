@@ -198,7 +198,7 @@ pub fn run(args: Args) -> Result<()> {
         eprintln!("wrote {}", path.display());
     }
 
-    let stdout = std::io::stdout();
+    let stdout = crate::stdio::stdout();
     let mut out = BufWriter::new(stdout.lock());
     if let Some(ep) = args.episode {
         if ep >= m.episodes {

@@ -25,6 +25,6 @@ pub fn run(args: Args) -> Result<()> {
     let html = report_html(&run, &stats, &figures);
     let out = args.out.unwrap_or_else(|| args.run_dir.join(REPORT_HTML));
     std::fs::write(&out, html).with_context(|| format!("cannot write {}", out.display()))?;
-    println!("{}", out.display());
+    crate::outln!("{}", out.display());
     Ok(())
 }

@@ -193,6 +193,11 @@ fn make_env(args: &Args, opts: &EnvOptions) -> Result<Box<dyn Environment + Send
 /// Runs `rwg rollout`.
 pub fn run(args: Args) -> Result<()> {
     let dtype: ActionDtype = args.action_dtype.parse().map_err(anyhow::Error::msg)?;
+    if let Some(t) = args.max_episode_steps {
+        use rwg_study::limits::{in_range, MAX_EPISODE_STEPS};
+        in_range("max-episode-steps", t, 1, MAX_EPISODE_STEPS)
+            .map_err(|m| anyhow::anyhow!("--{m}"))?;
+    }
     let opts = EnvOptions {
         action_dtype: dtype,
         max_episode_steps: args.max_episode_steps,
@@ -226,7 +231,7 @@ pub fn run(args: Args) -> Result<()> {
         None => env.reset(args.seed, &mut obs)?,
     }
 
-    let stdout = std::io::stdout();
+    let stdout = crate::stdio::stdout();
     let mut out = BufWriter::new(stdout.lock());
     let lines = StepLines::new(&args.format, spec.action_space.flat_dim(), obs.len());
     lines.header(&mut out)?;

@@ -1,15 +1,16 @@
 //! `rwg run`: the RWG study described by a manifest, resumable and shardable.
 //! The study itself is `rwg_study::runner`; this is its arguments and output.
 
-use anyhow::{bail, Context, Result};
+use crate::fault_guard;
+use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rwg_study::cells::summary_header;
+use rwg_study::cells::{summary_header, Cell};
+use rwg_study::env_source::EnvSource;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome};
 use rwg_study::StudyError;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// Arguments of `rwg run`.
@@ -56,6 +57,11 @@ pub struct Args {
     /// a different study).
     #[arg(long)]
     force_new: bool,
+    /// Seconds one call into a plugin env (create, reset or step) may take
+    /// before rwg reports it as hung and exits (0: no limit). Plugin envs
+    /// run in rwg's process, where a stuck call cannot be stopped.
+    #[arg(long, value_name = "SECONDS", default_value_t = fault_guard::DEFAULT_STEP_TIMEOUT_S)]
+    step_timeout: u64,
     /// Skip the analysis at the end (stats.json, stats.csv, figures/, report.html;
     /// `rwg report` writes them later). The analysis holds the run's scores in
     /// memory, 12 bytes per episode.
@@ -71,39 +77,37 @@ pub(crate) fn write_report(out: &Path) -> Result<()> {
         .iter()
         .filter(|p| p.extension().is_some_and(|e| e == "svg"))
         .count();
-    println!(
+    crate::outln!(
         "Report: {}  (stats.json, stats.csv, {figures} figures in figures/)",
         out.join("report.html").display()
     );
     Ok(())
 }
 
-/// Set by Ctrl-C; checked after every wave of blocks.
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
-/// Applies the command-line overrides to the manifest.
+/// Applies the command-line overrides to the manifest, within rwg's limits
+/// (`rwg_study::limits`).
 fn apply_overrides(m: &mut Manifest, args: &Args) -> Result<()> {
+    use rwg_study::limits::{in_range, MAX_EPISODES, MAX_SAMPLES, MAX_THREADS};
+    let flag = |m: String| anyhow::anyhow!("--{m}");
     if let Some(s) = args.samples {
-        if s == 0 {
-            bail!("--samples must be at least 1");
-        }
-        m.samples = s;
+        m.samples = in_range("samples", s, 1, MAX_SAMPLES).map_err(flag)?;
     }
     if let Some(e) = args.episodes {
-        if e == 0 {
-            bail!("--episodes must be at least 1");
-        }
-        m.episodes = e;
+        m.episodes = in_range("episodes", e, 1, MAX_EPISODES).map_err(flag)?;
     }
     if let Some(s) = args.seed {
         m.seed = s;
     }
     if let Some(t) = args.threads {
-        if t == 0 {
-            bail!("--threads must be at least 1");
-        }
-        m.threads = Some(t);
+        m.threads = Some(in_range("threads", t, 1, MAX_THREADS).map_err(flag)?);
     }
+    in_range(
+        "step-timeout",
+        args.step_timeout,
+        0,
+        rwg_study::limits::MAX_STEP_TIMEOUT_S,
+    )
+    .map_err(flag)?;
     Ok(())
 }
 
@@ -121,21 +125,35 @@ pub fn run(args: Args) -> Result<()> {
             PathBuf::from("runs").join(stem)
         }
     };
-    let _ = ctrlc::set_handler(|| {
-        if INTERRUPTED.swap(true, Ordering::SeqCst) {
-            std::process::exit(130);
-        }
-        eprintln!("\ninterrupted: finishing the blocks in flight (Ctrl-C again to quit at once)");
-    });
+    let _armed = fault_guard::arm(
+        format!(
+            "Every committed block is kept in {}; once the plugin is fixed (or its env \
+             removed from the manifest), resume with: rwg run {} --out {}{}",
+            out.display(),
+            args.manifest.display(),
+            out.display(),
+            shard_flag(args.shard)
+        ),
+        args.step_timeout,
+    );
     let opts = RunOptions {
         out: out.clone(),
         shard: args.shard,
         force_new: args.force_new,
-        stop: &INTERRUPTED,
+        stop: fault_guard::interrupt_flag(),
     };
-    let report = match run_study(&mut m, &opts, &mut Bar::default()) {
+    let mut bar = Bar::default();
+    let outcome = run_study(&mut m, &opts, &mut bar);
+    for w in bar
+        .checks
+        .drain(..)
+        .flat_map(|c| c.join().unwrap_or_default())
+    {
+        eprintln!("warning: {w}");
+    }
+    let report = match outcome {
         Ok(RunOutcome::AlreadyComplete) => {
-            println!(
+            crate::outln!(
                 "{} already holds this study, complete; nothing to do.",
                 out.display()
             );
@@ -153,6 +171,7 @@ pub fn run(args: Args) -> Result<()> {
                 out.display(),
                 shard_flag(args.shard)
             );
+            fault_guard::disarm();
             std::process::exit(130)
         }
         Err(e) => return Err(e.into()),
@@ -160,18 +179,18 @@ pub fn run(args: Args) -> Result<()> {
 
     let lines = &report.lines;
     if args.shard.is_none() {
-        println!("{}", summary_header());
+        crate::outln!("{}", summary_header());
         for l in lines {
-            println!("{l}");
+            crate::outln!("{l}");
         }
         if lines.len() < report.cells {
-            println!(
+            crate::outln!(
                 "({} cells were already complete)",
                 report.cells - lines.len()
             );
         }
     }
-    println!(
+    crate::outln!(
         "\n{} cells, {} networks x {} episodes; this session: {} env steps in {:.2} s ({:.3e} steps/s, {} threads)",
         report.cells,
         m.samples,
@@ -183,7 +202,7 @@ pub fn run(args: Args) -> Result<()> {
     );
     match args.shard {
         None => {
-            println!(
+            crate::outln!(
                 "Results: {}  (run.json, cells/*/scores.csv, cells/*/samples.csv)",
                 out.display()
             );
@@ -191,7 +210,7 @@ pub fn run(args: Args) -> Result<()> {
                 write_report(&out)?;
             }
         }
-        Some(s) => println!(
+        Some(s) => crate::outln!(
             "Shard {}/{} done: {}. Combine all shards with: rwg merge DIR... --out DIR",
             s.index,
             s.count,
@@ -208,14 +227,39 @@ fn shard_flag(s: Option<ShardMeta>) -> String {
 }
 
 /// The progress bar on stderr: networks done, networks/s and env steps/s.
+/// Also starts the contract checks of the study's plugin envs.
 #[derive(Default)]
 struct Bar {
     bar: Option<ProgressBar>,
     t0: Option<Instant>,
     steps: u64,
+    /// `rwg check`'s determinism and thread-safety checks, one per plugin
+    /// env, each giving the warnings to print.
+    checks: Vec<std::thread::JoinHandle<Vec<String>>>,
 }
 
 impl Progress for Bar {
+    fn planned(&mut self, cells: &[Cell]) {
+        // In child processes, in the background: the run does not wait.
+        let mut seen = std::collections::HashSet::new();
+        for c in cells {
+            let EnvSource::Plugin(p) = &c.source else {
+                continue;
+            };
+            let key = (
+                p.path().to_path_buf(),
+                p.ty.id().to_string(),
+                p.config.clone(),
+            );
+            if seen.insert(key.clone()) {
+                let (path, id, config) = key;
+                self.checks.push(std::thread::spawn(move || {
+                    crate::cmd::check::contract_warnings(&path, &id, &config)
+                }));
+            }
+        }
+    }
+
     fn start(&mut self, networks: u64) {
         let bar = ProgressBar::with_draw_target(Some(networks), ProgressDrawTarget::stderr());
         bar.set_style(

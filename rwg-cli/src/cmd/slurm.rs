@@ -131,7 +131,7 @@ pub fn run(args: Args) -> Result<()> {
         }
     };
     if merged_complete(&root) {
-        println!(
+        crate::outln!(
             "{} already holds this study, merged and complete; nothing to submit.",
             root.display()
         );
@@ -199,30 +199,30 @@ pub fn run(args: Args) -> Result<()> {
     );
 
     if args.dry_run {
-        println!(
+        crate::outln!(
             "Wrote {} and {}.",
             sd.array_script().display(),
             sd.merge_script().display()
         );
-        println!(
+        crate::outln!(
             "Would submit ({}):",
             describe_unfinished(&unfinished, args.shards)
         );
         if !unfinished.is_empty() {
-            println!("  A=$({})", show_command(&array_cmd(true)));
-            println!(
+            crate::outln!("  A=$({})", show_command(&array_cmd(true)));
+            crate::outln!(
                 "  sbatch --parsable --dependency=afterok:$A {}",
                 sh_path(&sd.merge_script())
             );
         } else {
-            println!("  {}", show_command(&merge_cmd(None)));
+            crate::outln!("  {}", show_command(&merge_cmd(None)));
         }
         return Ok(());
     }
 
     let mut ids = vec![];
     let array_id = if unfinished.is_empty() {
-        println!("Every shard is complete; submitting the merge only.");
+        crate::outln!("Every shard is complete; submitting the merge only.");
         None
     } else {
         let id = sbatch(&array_cmd(true))?;
@@ -232,7 +232,7 @@ pub fn run(args: Args) -> Result<()> {
             tasks: unfinished.clone(),
         });
         sd.write_plan(&plan)?;
-        println!(
+        crate::outln!(
             "Submitted job array {id}: {} (task K runs shard K/{} into {}/K)",
             describe_unfinished(&unfinished, args.shards),
             args.shards,
@@ -249,7 +249,7 @@ pub fn run(args: Args) -> Result<()> {
     });
     sd.write_plan(&plan)?;
     ids.push(merge_id.clone());
-    println!(
+    crate::outln!(
         "Submitted merge job {merge_id}{}: merges the shards into {} (cells, stats, figures, report.html)",
         array_id
             .as_ref()
@@ -257,14 +257,14 @@ pub fn run(args: Args) -> Result<()> {
         root.display()
     );
     let ids = ids.join(",");
-    println!("\nWatch:");
-    println!("  squeue -j {ids}");
-    println!(
+    crate::outln!("\nWatch:");
+    crate::outln!("  squeue -j {ids}");
+    crate::outln!(
         "  sacct -j {ids} --format=JobID,JobName,State,ExitCode,Elapsed   # needs Slurm accounting"
     );
-    println!("  {} status {}", sh_path(&rwg), sh_path(&root));
-    println!("  tail -f {}/shard-*.out", sh_path(&sd.logs()));
-    println!(
+    crate::outln!("  {} status {}", sh_path(&rwg), sh_path(&root));
+    crate::outln!("  tail -f {}/shard-*.out", sh_path(&sd.logs()));
+    crate::outln!(
         "\nIf a shard task fails or is cancelled, merge job {merge_id} cannot start (squeue shows it\n\
          pending with reason DependencyNeverSatisfied). Once no task is queued or running, resubmit\n\
          the unfinished shards (they resume from their committed blocks) and a new merge with:\n  {resubmit}"
@@ -425,7 +425,9 @@ fn cancel_or_refuse(plan: &Plan, root: &Path) -> Result<()> {
                 String::from_utf8_lossy(&o.stderr).trim()
             );
         }
-        println!("Cancelled merge job {id}, which was still waiting; a new merge replaces it.");
+        crate::outln!(
+            "Cancelled merge job {id}, which was still waiting; a new merge replaces it."
+        );
     }
     Ok(())
 }

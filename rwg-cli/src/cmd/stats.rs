@@ -62,9 +62,9 @@ pub fn run(args: Args) -> Result<()> {
             .with_context(|| format!("cannot write stats into {}", args.run_dir.display()))?;
     }
     match args.format.table_format() {
-        Some(f) => print!("{}", render_tables(&run_tables(&stats), f)),
-        None if args.format == Format::Csv => print!("{}", stats_csv(&stats)),
-        None => println!("{}", serde_json::to_string_pretty(&stats)?),
+        Some(f) => crate::out!("{}", render_tables(&run_tables(&stats), f)),
+        None if args.format == Format::Csv => crate::out!("{}", stats_csv(&stats)),
+        None => crate::outln!("{}", serde_json::to_string_pretty(&stats)?),
     }
     Ok(())
 }

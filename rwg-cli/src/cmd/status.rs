@@ -65,7 +65,7 @@ pub fn run(args: Args) -> Result<()> {
     let cells = progress(dir, &m, shard);
     let t = Totals::of(&cells, shard.is_some());
     match shard {
-        Some(s) => println!(
+        Some(s) => crate::outln!(
             "{}: shard {}/{} of a study ({} cells, {} networks x {} episodes, blocks of 32)",
             dir.display(),
             s.index,
@@ -74,7 +74,7 @@ pub fn run(args: Args) -> Result<()> {
             m.samples,
             m.episodes
         ),
-        None => println!(
+        None => crate::outln!(
             "{}: a run of the whole study ({} cells, {} networks x {} episodes, blocks of 32)",
             dir.display(),
             cells.len(),
@@ -95,13 +95,13 @@ pub fn run(args: Args) -> Result<()> {
         ))
     );
     if !t.complete() || !ended {
-        println!("Finish it with:\n  {finish}");
+        crate::outln!("Finish it with:\n  {finish}");
     } else if shard.is_some() {
-        println!(
+        crate::outln!(
             "Nothing left to do in this shard; combine the shards with rwg merge DIR... --out DIR"
         );
     } else if !dir.join("report.html").exists() {
-        println!(
+        crate::outln!(
             "No report yet; write stats, figures and report.html with:\n  rwg report {}",
             sh_path(dir)
         );
@@ -110,7 +110,7 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 fn print_cells(cells: &[CellProgress], shard: bool) {
-    println!("  {:<46} {:>13}  state", "cell", "blocks");
+    crate::outln!("  {:<46} {:>13}  state", "cell", "blocks");
     for c in cells {
         let state = if c.finalised {
             "complete"
@@ -125,7 +125,7 @@ fn print_cells(cells: &[CellProgress], shard: bool) {
         } else {
             "in progress"
         };
-        println!(
+        crate::outln!(
             "  {:<46} {:>13}  {state}",
             c.dir,
             format!("{}/{}", c.blocks_done, c.blocks_total)
@@ -139,7 +139,7 @@ fn print_totals(t: &Totals, what: &str, ended: bool) {
     } else {
         "incomplete"
     };
-    println!(
+    crate::outln!(
         "The {what} is {state}: {} of {} cells done, {} of {} blocks committed{}.",
         t.cells_done,
         t.cells,
@@ -177,7 +177,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     let m = Manifest::load(&manifest)?;
     let count = plan.shards;
     let root = &sd.root;
-    println!(
+    crate::outln!(
         "{}: a study in {count} shards ({} cells, {} networks x {} episodes), merged into {}",
         root.display(),
         cell_dirs(&m).len(),
@@ -201,7 +201,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
         }
     }
     print_cells(&cells, true);
-    println!("  {:<6} {:<50} state", "shard", "directory");
+    crate::outln!("  {:<6} {:<50} state", "shard", "directory");
     let mut unfinished = vec![];
     for k in 0..count {
         let dir = sd.shard(k);
@@ -219,7 +219,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
             }
             ShardState::Complete(t) => format!("complete ({} blocks)", t.blocks),
         };
-        println!(
+        crate::outln!(
             "  {:<6} {:<50} {state}",
             format!("{k}/{count}"),
             dir.display().to_string()
@@ -237,10 +237,10 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     } else {
         "not started".to_string()
     };
-    println!("Merged run {}: {merge_state}", root.display());
+    crate::outln!("Merged run {}: {merge_state}", root.display());
     let ids: Vec<&str> = plan.jobs.iter().map(|j| j.id.as_str()).collect();
     if !ids.is_empty() {
-        println!(
+        crate::outln!(
             "Slurm jobs submitted: {}  (watch: squeue -j {})",
             plan.jobs
                 .iter()
@@ -252,7 +252,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     }
     if merged {
         if !root.join("report.html").exists() {
-            println!(
+            crate::outln!(
                 "No report yet; write it with:\n  rwg report {}",
                 sh_path(root)
             );
@@ -261,7 +261,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     }
     let manifest = sh_path(&manifest);
     if slurm {
-        println!(
+        crate::outln!(
             "Finish it on Slurm (submits {} and the merge; the sbatch options given \
          before are kept):\n  rwg slurm {manifest} --shards {count} --out {}",
             if unfinished.is_empty() {
@@ -279,7 +279,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
             sh_path(root)
         );
     }
-    println!(
+    crate::outln!(
         "{}",
         if slurm {
             "or on this machine:"
@@ -288,12 +288,12 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
         }
     );
     for &k in &unfinished {
-        println!(
+        crate::outln!(
             "  rwg run {manifest} --shard {k}/{count} --out {}",
             sh_path(&sd.shard(k))
         );
     }
     let shards: Vec<String> = (0..count).map(|k| sh_path(&sd.shard(k))).collect();
-    println!("  rwg merge {} --out {}", shards.join(" "), sh_path(root));
+    crate::outln!("  rwg merge {} --out {}", shards.join(" "), sh_path(root));
     Ok(())
 }

@@ -21,7 +21,7 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let meta = read_run_meta(&args.run_dir)?;
     let run = args.run_dir.display().to_string();
-    let stdout = std::io::stdout();
+    let stdout = crate::stdio::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     for cell in &meta.cells {
         let path = rundir::cell_dir(&args.run_dir, &cell.dir).join(rundir::SAMPLES_CSV);

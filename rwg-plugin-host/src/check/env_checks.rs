@@ -446,7 +446,12 @@ pub(super) fn invalid_actions<E: Environment>(fresh: Fresh<'_, E>, spec: &EnvSpe
 /// The 'truncation' check: the host's time limit truncates at the limit.
 pub(super) fn truncation<E: Environment>(fresh: Fresh<'_, E>, spec: &EnvSpec) -> Outcome {
     let Some(limit) = spec.max_episode_steps else {
-        return (Passed, "no time limit".into());
+        return (
+            Warned,
+            "no time limit (max_episode_steps = 0): `rwg run` needs max_episode_steps in \
+             the manifest's [[envs]] entry for this env"
+                .into(),
+        );
     };
     if limit > MAX_TRUNCATION_RUN {
         return (

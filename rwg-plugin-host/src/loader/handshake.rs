@@ -35,9 +35,17 @@ pub fn load_plugin(path: impl AsRef<Path>) -> Result<Plugin, PluginLoadError> {
         path: path.to_path_buf(),
         kind,
     };
+    // A bare file name ("libfoo.so") means the file in the current
+    // directory, as everywhere else a path is accepted; dlopen would search
+    // the system's library path for it instead.
+    let open_path = if path.parent() == Some(Path::new("")) {
+        Path::new(".").join(path)
+    } else {
+        path.to_path_buf()
+    };
     // SAFETY: loading a library runs its initialisers; trusting the file is
     // the caller's decision (documented above).
-    let lib = unsafe { libloading::Library::new(path) }
+    let lib = unsafe { libloading::Library::new(&open_path) }
         .map_err(|e| err(PluginLoadErrorKind::Open(e.to_string())))?;
     // SAFETY: the symbol is declared with the header's signature.
     let entry = unsafe { lib.get::<EntryFn>(ENTRY_SYMBOL) }.map(|s| *s);

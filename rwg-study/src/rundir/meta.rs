@@ -92,6 +92,12 @@ impl std::str::FromStr for ShardMeta {
         if count == 0 || index >= count {
             return Err(format!("shard {index}/{count}: need 0 <= K < N"));
         }
+        if count > crate::limits::MAX_SHARDS {
+            return Err(format!(
+                "shard {index}/{count}: at most {} shards (rwg's limit)",
+                crate::limits::MAX_SHARDS
+            ));
+        }
         Ok(ShardMeta { index, count })
     }
 }

@@ -1,0 +1,95 @@
+//! The largest counts, sizes and names rwg accepts (in manifests and on the
+//! command line), checked when a study is loaded, before anything is written.
+//!
+//! Each maximum is far beyond a real study (the paper: 10^4 networks x 20
+//! episodes, 4-unit layers) and small enough that the memory and time it
+//! implies can be borne: a value past one is an error that states the limit,
+//! never an allocation failure, a panic or a hang. The README lists them.
+
+/// Networks per cell (`samples`, `--samples`). A run keeps one 40-byte
+/// summary per network of the running cell: 400 MB at the limit.
+pub const MAX_SAMPLES: u64 = 10_000_000;
+/// Episodes per network (`episodes`, `--episodes`). A block of 32 networks
+/// holds 16 bytes per episode: 5 MB per block in flight at the limit.
+pub const MAX_EPISODES: u32 = 10_000;
+/// Worker threads (`threads`, `--threads`).
+pub const MAX_THREADS: usize = 1024;
+/// Time limit of an episode (`max_episode_steps`).
+pub const MAX_EPISODE_STEPS: u32 = 10_000_000;
+/// Units of one hidden layer.
+pub const MAX_LAYER_UNITS: usize = 4096;
+/// Hidden layers of one architecture.
+pub const MAX_HIDDEN_LAYERS: usize = 64;
+/// Weights of one network (all layers, for a given env's observation and
+/// action sizes): 8 MB per network, of which a worker holds 48 at a time.
+pub const MAX_WEIGHTS: usize = 1_000_000;
+/// `[[architectures]]` entries of a manifest.
+pub const MAX_ARCHITECTURES: usize = 256;
+/// `[[envs]]` entries of a manifest.
+pub const MAX_ENVS: usize = 256;
+/// Bytes of an architecture name (it is part of a directory name).
+pub const MAX_ARCH_NAME_BYTES: usize = 64;
+/// Bytes of an environment id (it is part of a directory name).
+pub const MAX_ENV_ID_BYTES: usize = 128;
+/// Bytes of a plugin env's `config` string.
+pub const MAX_CONFIG_BYTES: usize = 65_536;
+/// Bytes of a path (`plugin`, `out`).
+pub const MAX_PATH_BYTES: usize = 4096;
+/// Bytes of a manifest file.
+pub const MAX_MANIFEST_BYTES: u64 = 1 << 20;
+/// Env steps per environment of `rwg bench envs --steps` (hours at the
+/// slowest env's rate).
+pub const MAX_BENCH_STEPS: u64 = 10_000_000_000;
+/// Seconds of `rwg run --step-timeout` (a week).
+pub const MAX_STEP_TIMEOUT_S: u64 = 604_800;
+/// Shards of a study (`--shard K/N`: N).
+pub const MAX_SHARDS: u64 = 100_000;
+
+/// `Ok(v)` if `min <= v <= max`, else a message naming `key` and the range:
+/// `samples: at most 10000000 (rwg's limit), got 4294967295`.
+pub fn in_range<T>(key: &str, v: T, min: T, max: T) -> Result<T, String>
+where
+    T: PartialOrd + std::fmt::Display + Copy,
+{
+    if v < min {
+        Err(format!("{key}: must be at least {min}, got {v}"))
+    } else if v > max {
+        Err(format!("{key}: at most {max} (rwg's limit), got {v}"))
+    } else {
+        Ok(v)
+    }
+}
+
+/// `Ok(())` if `s` has at most `max` bytes, else a message naming `key`.
+pub fn short_enough(key: &str, s: &str, max: usize) -> Result<(), String> {
+    if s.len() > max {
+        Err(format!(
+            "{key}: at most {max} bytes (rwg's limit), got {}",
+            s.len()
+        ))
+    } else {
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_state_the_limit() {
+        assert_eq!(
+            in_range("samples", 4_294_967_295u64, 1, MAX_SAMPLES).unwrap_err(),
+            "samples: at most 10000000 (rwg's limit), got 4294967295"
+        );
+        assert_eq!(
+            in_range("episodes", 0i64, 1, 10).unwrap_err(),
+            "episodes: must be at least 1, got 0"
+        );
+        assert_eq!(in_range("x", 5u32, 1, 5), Ok(5));
+        assert_eq!(
+            short_enough("name", &"a".repeat(65), MAX_ARCH_NAME_BYTES).unwrap_err(),
+            "name: at most 64 bytes (rwg's limit), got 65"
+        );
+    }
+}

@@ -1,0 +1,188 @@
+//! Input limits (issue 12): every count, size and name of a manifest or a
+//! flag is checked against a documented maximum when the study is loaded,
+//! with the limit in the message, before anything is written; never an
+//! allocation abort, a panic or a hang.
+
+mod common;
+use common::*;
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+const STUDY: &str = r#"
+samples = 4
+episodes = 2
+[[architectures]]
+name = "0HL"
+hidden = []
+[[envs]]
+id = "CartPole-v0"
+"#;
+
+fn manifest(dir: &Path, body: &str) -> String {
+    let p = dir.join("m.toml");
+    std::fs::write(&p, body).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+/// Runs `rwg run` expecting a refusal that contains `expected`, promptly,
+/// without panic text, and without creating the run directory.
+fn refused(dir: &Path, body: &str, flags: &[&str], expected: &str) {
+    let m = manifest(dir, body);
+    let out = dir.join("run");
+    let mut args = vec!["run", m.as_str(), "--out", out.to_str().unwrap()];
+    args.extend_from_slice(flags);
+    let t0 = Instant::now();
+    let err = rwg_err(&args);
+    assert!(
+        t0.elapsed() < Duration::from_secs(30),
+        "{args:?} took too long"
+    );
+    assert!(err.contains(expected), "expected {expected:?} in:\n{err}");
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!out.exists(), "{args:?}: nothing may be created on disk");
+}
+
+#[test]
+fn huge_episode_counts_are_refused_before_allocating() {
+    let dir = temp_dir("limits-episodes");
+    refused(
+        &dir,
+        &STUDY.replace("episodes = 2", "episodes = 4294967295"),
+        &[],
+        "m.toml:3:12: episodes: at most 10000 (rwg's limit), got 4294967295",
+    );
+    refused(
+        &dir,
+        STUDY,
+        &["--episodes", "4294967295"],
+        "--episodes: at most 10000 (rwg's limit), got 4294967295",
+    );
+}
+
+#[test]
+fn huge_sample_counts_do_not_panic() {
+    let dir = temp_dir("limits-samples");
+    refused(
+        &dir,
+        STUDY,
+        &["--samples", "9223372036854775808"],
+        "--samples: at most 10000000 (rwg's limit), got 9223372036854775808",
+    );
+    refused(
+        &dir,
+        &STUDY.replace("samples = 4", "samples = 9223372036854775807"),
+        &[],
+        "m.toml:2:11: samples: at most 10000000 (rwg's limit), got 9223372036854775807",
+    );
+}
+
+#[test]
+fn huge_thread_counts_do_not_hang() {
+    let dir = temp_dir("limits-threads");
+    refused(
+        &dir,
+        STUDY,
+        &["--threads", "100000"],
+        "--threads: at most 1024 (rwg's limit), got 100000",
+    );
+    refused(
+        &dir,
+        &STUDY.replace("episodes = 2", "episodes = 2\nthreads = 100000"),
+        &[],
+        "m.toml:4:11: threads: at most 1024 (rwg's limit), got 100000",
+    );
+}
+
+#[test]
+fn long_names_fail_at_load_not_at_run_time() {
+    let dir = temp_dir("limits-names");
+    let long = "a".repeat(5000);
+    refused(
+        &dir,
+        &STUDY.replace("name = \"0HL\"", &format!("name = \"{long}\"")),
+        &[],
+        "m.toml:5:8: architectures[0].name: at most 64 bytes (rwg's limit), got 5000",
+    );
+    refused(
+        &dir,
+        &STUDY.replace("CartPole-v0", &long),
+        &[],
+        "m.toml:8:6: envs[0].id: at most 128 bytes (rwg's limit), got 5000",
+    );
+}
+
+#[test]
+fn layers_and_weights_are_limited() {
+    let dir = temp_dir("limits-weights");
+    refused(
+        &dir,
+        &STUDY.replace("hidden = []", "hidden = [4096, 4096]"),
+        &[],
+        "envs[0]: architectures[0] '0HL' on 'CartPole-v0' has 16801792 weights per network; \
+         at most 1000000 (rwg's limit)",
+    );
+    refused(
+        &dir,
+        &STUDY.replace("hidden = []", "hidden = [100000]"),
+        &[],
+        "architectures[0].hidden[0]: a layer needs 1 to 4096 units (rwg's limit), got 100000",
+    );
+    refused(
+        &dir,
+        &STUDY.replace(
+            "id = \"CartPole-v0\"",
+            "id = \"CartPole-v0\"\nmax_episode_steps = 4294967295",
+        ),
+        &[],
+        "envs[0].max_episode_steps: at most 10000000 (rwg's limit), got 4294967295",
+    );
+}
+
+#[test]
+fn shard_counts_and_bench_flags_are_limited() {
+    let dir = temp_dir("limits-flags");
+    refused(
+        &dir,
+        STUDY,
+        &["--shard", "0/18446744073709551615"],
+        "at most 100000 shards (rwg's limit)",
+    );
+    let err = rwg_err(&["bench", "sampler", "--samples", "18446744073709551615"]);
+    assert!(
+        err.contains("--samples: at most 10000000 (rwg's limit), got 18446744073709551615"),
+        "{err}"
+    );
+    let err = rwg_err(&["bench", "sampler", "--threads", "100000"]);
+    assert!(err.contains("--threads: at most 1024"), "{err}");
+    let err = rwg_err(&["bench", "envs", "--steps", "18446744073709551615"]);
+    assert!(err.contains("--steps: at most 10000000000"), "{err}");
+    let err = rwg_err(&[
+        "rollout",
+        "CartPole-v0",
+        "--actions",
+        "0",
+        "--max-episode-steps",
+        "4294967295",
+    ]);
+    assert!(
+        err.contains("--max-episode-steps: at most 10000000"),
+        "{err}"
+    );
+}
+
+#[test]
+fn oversized_manifest_files_are_refused_unread() {
+    let dir = temp_dir("limits-file");
+    let mut body = STUDY.to_string();
+    body.push_str(&format!("# {}\n", "x".repeat(1 << 20)));
+    refused(
+        &dir,
+        &body,
+        &[],
+        &format!(
+            "m.toml:1:1: the file has {} bytes; a manifest has at most 1048576 (rwg's limit)",
+            body.len()
+        ),
+    );
+}

@@ -1,0 +1,310 @@
+//! Messages (issue 12): manifest errors name the key path and line:column,
+//! also for non-UTF-8 files; IO errors name their path; no NaN or panic text;
+//! one `error:` style; bare file names work; `rwg check` fails an id that
+//! shadows a built-in; one median definition, console included.
+
+mod common;
+use common::*;
+use std::path::Path;
+use std::process::Command;
+
+const STUDY: &str = r#"
+seed = 5
+samples = 4
+episodes = 3
+[[architectures]]
+name = "1HL"
+hidden = [4]
+[[envs]]
+id = "CartPole-v0"
+[[envs]]
+id = "Acrobot-v1"
+max_episode_steps = 50
+"#;
+
+fn manifest(dir: &Path, body: &[u8]) -> String {
+    let p = dir.join("m.toml");
+    std::fs::write(&p, body).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+/// `rwg run` refuses the manifest with `expected` in its one `error:` line
+/// and creates nothing.
+fn refused(dir: &Path, body: &[u8], expected: &str) {
+    let m = manifest(dir, body);
+    let out = dir.join("run");
+    let err = rwg_err(&["run", &m, "--out", out.to_str().unwrap()]);
+    assert!(err.contains(expected), "expected {expected:?} in:\n{err}");
+    assert!(err.starts_with("error: "), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn type_errors_name_the_key_path_and_position() {
+    let dir = temp_dir("msg-types");
+    refused(
+        &dir,
+        STUDY
+            .replace("max_episode_steps = 50", "max_episode_steps = \"0\"")
+            .as_bytes(),
+        "m.toml:12:21: envs[1].max_episode_steps: expected an integer, found the string \"0\"",
+    );
+    refused(
+        &dir,
+        STUDY.replace("samples = 4", "samples = 4.5").as_bytes(),
+        "m.toml:3:11: samples: expected an integer, found the float 4.5",
+    );
+    refused(
+        &dir,
+        STUDY.replace("hidden = [4]", "hidden = 4").as_bytes(),
+        "m.toml:7:10: architectures[0].hidden: expected an array ([...]), found the integer 4",
+    );
+}
+
+#[test]
+fn number_keys_name_their_accepted_forms_not_an_untagged_enum() {
+    let dir = temp_dir("msg-num");
+    let body = STUDY.replace(
+        "max_episode_steps = 50",
+        "max_episode_steps = 50\nsolved = \"-100\"",
+    );
+    let m = manifest(&dir, body.as_bytes());
+    let err = rwg_err(&["run", &m, "--out", dir.join("run").to_str().unwrap()]);
+    assert!(!err.contains("untagged enum"), "{err}");
+    assert!(
+        err.contains(
+            "m.toml:13:10: envs[1].solved: expected a number (an integer such as 195 or a \
+             float such as -140.5), found the string \"-100\""
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn utf16_and_binary_manifests_get_a_position() {
+    let dir = temp_dir("msg-bytes");
+    let mut utf16 = vec![0xFF, 0xFE];
+    for u in STUDY.encode_utf16() {
+        utf16.extend(u.to_le_bytes());
+    }
+    refused(
+        &dir,
+        &utf16,
+        "m.toml:1:1: the file starts with a UTF-16 byte-order mark; the manifest must be UTF-8 TOML",
+    );
+    refused(
+        &dir,
+        &utf16[2..],
+        "m.toml:2:1: a NUL byte (binary data, or UTF-16 text); the manifest must be UTF-8 TOML",
+    );
+    let mut latin1 = STUDY.as_bytes().to_vec();
+    latin1.extend(b"# caf\xE9\n");
+    refused(
+        &dir,
+        &latin1,
+        "m.toml:13:6: byte 0xE9 is not UTF-8; the manifest must be UTF-8 TOML",
+    );
+}
+
+/// The `median mean` column of the summary, by cell directory.
+fn console_medians(stdout: &str) -> Vec<(String, String)> {
+    stdout
+        .lines()
+        .skip_while(|l| !l.starts_with("cell "))
+        .skip(1)
+        .take_while(|l| !l.trim().is_empty())
+        .map(|l| {
+            let f: Vec<&str> = l.split_whitespace().collect();
+            (f[0].to_string(), f[2].to_string())
+        })
+        .collect()
+}
+
+#[test]
+fn console_median_is_stats_csv_median_and_merge_prints_no_nan() {
+    let dir = temp_dir("msg-median");
+    let m = manifest(&dir, STUDY.as_bytes());
+    let run = dir.join("run");
+    let stdout = rwg_ok(&["run", &m, "--out", run.to_str().unwrap()]);
+    let console = console_medians(&stdout);
+    assert_eq!(console.len(), 2, "{stdout}");
+    let stats = std::fs::read_to_string(run.join("stats.csv")).unwrap();
+    let header: Vec<&str> = stats.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let mut upper_median_differs = false;
+    for (cell, shown) in &console {
+        let row: Vec<&str> = stats
+            .lines()
+            .find(|l| l.split(',').any(|f| f == cell))
+            .unwrap_or_else(|| panic!("{cell} not in stats.csv:\n{stats}"))
+            .split(',')
+            .collect();
+        let median: f64 = row[col("median_mean")].parse().unwrap();
+        assert_eq!(*shown, format!("{median:.2}"), "{cell}");
+        // The old console median (sorted[n/2]) would have shown another value.
+        let samples =
+            std::fs::read_to_string(run.join("cells").join(cell).join("samples.csv")).unwrap();
+        let mut means: Vec<f64> = samples
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+            .collect();
+        means.sort_by(f64::total_cmp);
+        upper_median_differs |= format!("{:.2}", means[means.len() / 2]) != *shown;
+    }
+    assert!(
+        upper_median_differs,
+        "the test must tell the two medians apart"
+    );
+
+    for k in 0..2 {
+        let shard = format!("{k}/2");
+        let out = dir.join(format!("s{k}"));
+        rwg_ok(&["run", &m, "--shard", &shard, "--out", out.to_str().unwrap()]);
+    }
+    let merged = dir.join("merged");
+    let stdout = rwg_ok(&[
+        "merge",
+        dir.join("s0").to_str().unwrap(),
+        dir.join("s1").to_str().unwrap(),
+        "--out",
+        merged.to_str().unwrap(),
+    ]);
+    assert!(!stdout.contains("NaN"), "{stdout}");
+    assert_eq!(console_medians(&stdout), console, "{stdout}");
+}
+
+#[test]
+fn io_errors_name_their_path_once() {
+    let err = rwg_err(&["stats", "/nonexistent-rwg-run"]);
+    assert!(
+        err.starts_with("error: cannot read /nonexistent-rwg-run/run.json: "),
+        "{err}"
+    );
+    assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
+}
+
+/// Mounts a tmpfs of `kb` KiB (`ro`: read-only) at `at`; false if this
+/// machine does not allow it.
+fn mount_tmpfs(at: &Path, kb: u32, ro: bool) -> bool {
+    std::fs::create_dir_all(at).unwrap();
+    let mut opts = format!("size={kb}k");
+    if ro {
+        opts.push_str(",ro");
+    }
+    Command::new("mount")
+        .args(["-t", "tmpfs", "-o", &opts, "tmpfs"])
+        .arg(at)
+        .status()
+        .is_ok_and(|s| s.success())
+}
+
+fn umount(at: &Path) {
+    let _ = Command::new("umount").arg(at).status();
+}
+
+fn skip(why: &str) {
+    let strict =
+        std::env::var("CI").is_ok_and(|v| v == "true") || std::env::var_os("RWG_NO_SKIP").is_some();
+    assert!(!strict, "cannot skip in CI: {why}");
+    eprintln!("SKIPPED: {why}");
+}
+
+#[test]
+fn read_only_and_full_file_systems_name_the_file() {
+    let dir = temp_dir("msg-fs");
+    let m = manifest(&dir, STUDY.as_bytes());
+    let ro = dir.join("ro");
+    if !mount_tmpfs(&ro, 64, true) {
+        return skip("cannot mount a tmpfs (needs root and CAP_SYS_ADMIN)");
+    }
+    let out = ro.join("run");
+    let err = rwg_err(&["run", &m, "--out", out.to_str().unwrap()]);
+    umount(&ro);
+    assert!(
+        err.contains(&format!("cannot create {}", out.display())) && err.contains("Read-only"),
+        "{err}"
+    );
+
+    // Room for the manifest and a few blocks, not for the whole run.
+    let full = dir.join("full");
+    assert!(mount_tmpfs(&full, 16, false));
+    let out = full.join("run");
+    let big = STUDY
+        .replace("samples = 4", "samples = 2000")
+        .replace("episodes = 3", "episodes = 20");
+    let m = manifest(&dir, big.as_bytes());
+    let res = Command::new(rwg_bin())
+        .args(["run", &m, "--out", out.to_str().unwrap(), "--no-report"])
+        .output()
+        .unwrap();
+    umount(&full);
+    let err = String::from_utf8_lossy(&res.stderr);
+    assert!(!res.status.success());
+    let error_line = err.lines().find(|l| l.starts_with("error: ")).unwrap();
+    assert!(error_line.contains("No space left on device"), "{err}");
+    assert!(
+        error_line.contains("/cells/CartPole-v0__1HL__nobias/"),
+        "the error names the file being written, not run.json:\n{err}"
+    );
+}
+
+#[test]
+fn bare_plugin_file_names_are_files_in_the_current_directory() {
+    let dir = temp_dir("msg-bare");
+    let lib = classic_control_plugin();
+    let name = lib.file_name().unwrap();
+    std::fs::copy(&lib, dir.join(name)).unwrap();
+    let out = Command::new(rwg_bin())
+        .current_dir(&dir)
+        .arg("check")
+        .arg(name)
+        .args(["--env", "classic_control/CartPole-v0"])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("[ok] load: plugin 'classic_control'"),
+        "{stdout}"
+    );
+    let out = Command::new(rwg_bin())
+        .current_dir(&dir)
+        .args(["rollout", "classic_control/CartPole-v0", "--actions", "0,1"])
+        .arg("--plugin")
+        .arg(name)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+#[test]
+fn check_fails_an_id_that_shadows_a_built_in() {
+    let lib = compile_c(
+        "shadow",
+        "plugins/testing/c/handshake.c",
+        "shadow",
+        &["ENV_ID=\"CartPole-v0\""],
+    );
+    let out = rwg(&["check", lib.to_str().unwrap(), "--json"]);
+    assert_eq!(out.status.code(), Some(1));
+    let results: Vec<serde_json::Value> = serde_json::from_slice(&out.stdout).unwrap();
+    let shadow = results
+        .iter()
+        .find(|r| r["name"] == "built-in id")
+        .unwrap_or_else(|| panic!("{results:#?}"));
+    assert_eq!(shadow["status"], "failed");
+    assert_eq!(shadow["env"], "CartPole-v0");
+    assert!(
+        shadow["message"]
+            .as_str()
+            .unwrap()
+            .contains("give it a namespace, e.g. 'handshake/CartPole-v0'"),
+        "{shadow}"
+    );
+}
