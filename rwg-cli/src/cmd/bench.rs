@@ -12,8 +12,11 @@
 //!   implementations were measured on.
 //!
 //! Every figure comes from one timed run; the machine's noise is not averaged
-//! out. Env steps are counted exactly: every step of every episode.
+//! out. Env steps are counted exactly: every step of every episode. The
+//! comparison with the peers, by contrast, measures both sides in the same
+//! invocation: `rwg bench peers` ([`super::bench_peers`]).
 
+use super::bench_peers::PEER_WORKLOADS;
 use anyhow::{bail, Context, Result};
 use rwg_core::policy::Architecture;
 use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError, WeightDist};
@@ -26,8 +29,9 @@ use std::time::Instant;
 /// Arguments of `rwg bench`.
 #[derive(clap::Args)]
 #[command(after_help = "\
-Both benchmarks run in this process on this machine and report one timed run; \
-repeat them to see the noise. Build with --release for meaningful figures.")]
+`envs` and `sampler` run in this process and report one timed run; repeat them to \
+see the noise. `peers` runs rwg and a peer as child processes, interleaved, and \
+reports medians with their spread. Build with --release for meaningful figures.")]
 pub struct Args {
     #[command(subcommand)]
     what: What,
@@ -49,24 +53,43 @@ rewards. With --hash, a hash of the bits of every observation and reward follows
 must be the same for every build (on the same libm) for the same --steps (the envs \
 are bit-exact), so it checks that an optimisation changed no result.")]
     Envs(EnvsArgs),
-    /// The RWG workload (env + policy) through the sampler, compared with gymnax.
+    /// The RWG workload (env + policy) through the sampler alone.
     #[command(after_help = "\
 Measures what `rwg` spends its time on: for each configuration, SAMPLES networks with \
 i.i.d. N(0,1) weights (no bias) each run EPISODES episodes through rwg_core's sampler \
 (weight draws, reset seeds, resets, policy forward passes and env steps, on a rayon \
 pool of THREADS threads). Reported: env steps (every step of every episode), wall \
-time, env steps/s in total and per thread, env steps per CPU-second of the process \
-(steadier than wall time on a busy machine), and the per-thread figure divided by the \
-per-core figure of the strongest peer, gymnax-raw (JAX, jit(vmap) rollouts with \
-env.step_env; measured pinned to one core on the shared 2-core machine, 1000 samples x \
-20 episodes, see shared/peers/results/table_pinned_1core.md). Use --threads 1 for a \
-per-core comparison. Each thread runs several episodes side by side (the JSON's \
-`lanes`); the results are those of running them one by one (`mean_score` does not \
-depend on the build, the thread count or the lanes).
+time, env steps/s in total and per thread, and env steps per CPU-second of the process \
+(steadier than wall time on a busy machine). The sampler alone is not the whole `rwg \
+run` command: compare with other implementations with `rwg bench peers`, which \
+measures both sides in one invocation. Each thread runs several episodes side by side \
+(the JSON's `lanes`); the results are those of running them one by one (`mean_score` \
+does not depend on the build, the thread count or the lanes).
 
 Configurations (the peers' workload): CartPole-v0 0HL, CartPole-v0 [4,4], Acrobot-v1 \
 0HL, MountainCarContinuous-v0 [4,4], Pendulum-v1 [4].")]
     Sampler(SamplerArgs),
+    /// The whole `rwg run --threads 1` against gymnax-raw, side by side, pinned to one core.
+    #[command(after_help = "\
+For each of the peers' five workloads (CartPole-v0 0HL, CartPole-v0 [4,4], Acrobot-v1 \
+0HL, MountainCarContinuous-v0 [4,4], Pendulum-v1 [4]; no bias), runs ROUNDS times, \
+interleaved (alternating which side goes first), with this process and its children \
+pinned to one core:
+  - `rwg run --threads 1` on a one-cell manifest (RWG_SAMPLES networks x EPISODES \
+episodes, the report included): the child's whole CPU time (getrusage);
+  - gymnax-raw (`gymnax_rwg.py --step raw` of the peer scripts, PEER_SAMPLES networks): \
+the CPU time its JSON reports for the compiled run (JAX start-up and XLA compile \
+excluded, as the peer reports them apart).
+Prints env steps per CPU-second of each side and their ratio per round: median \
+[min-max]. Env steps are the transitions inside episodes on both sides.
+
+The peer needs a Python with jax and gymnax: --python (or RWG_PEER_PYTHON), or the \
+virtualenv --venv, which --create-venv makes with
+  python3 -m venv target/peers-venv
+  target/peers-venv/bin/pip install numpy==2.4.6 gymnasium==1.3.0 jax==0.10.2 \
+jaxlib==0.10.2 gymnax==1.0.1 flax==0.12.8 six==1.17.0
+Build rwg with --release for meaningful figures.")]
+    Peers(super::bench_peers::PeersArgs),
 }
 
 /// Arguments of `rwg bench envs`.
@@ -121,6 +144,7 @@ pub fn run(args: Args) -> Result<()> {
     match args.what {
         What::Envs(a) => run_envs(a),
         What::Sampler(a) => run_sampler(a),
+        What::Peers(a) => super::bench_peers::run(a),
     }
 }
 
@@ -455,46 +479,6 @@ fn env_cells(r: &EnvRow) -> [String; 7] {
 // ---------------------------------------------------------------------------
 // rwg bench sampler
 
-/// A peer configuration with gymnax-raw's env steps per core-second.
-struct PeerConfig {
-    env: &'static str,
-    hidden: &'static [usize],
-    gymnax_raw_per_core: f64,
-}
-
-/// The peers' workload and gymnax-raw's figures for it: useful env steps per
-/// second, pinned to one core (`taskset -c 0`), 1000 samples x 20 episodes, no
-/// bias, on the shared 2-core machine. Reference data copied from
-/// `shared/peers/results/table_pinned_1core.md` (`steps/s` of the `gymnax-raw`
-/// rows), not measured by rwg.
-const PEER_CONFIGS: [PeerConfig; 5] = [
-    PeerConfig {
-        env: "CartPole-v0",
-        hidden: &[],
-        gymnax_raw_per_core: 8_774_515.0,
-    },
-    PeerConfig {
-        env: "CartPole-v0",
-        hidden: &[4, 4],
-        gymnax_raw_per_core: 6_122_573.0,
-    },
-    PeerConfig {
-        env: "Acrobot-v1",
-        hidden: &[],
-        gymnax_raw_per_core: 4_689_590.0,
-    },
-    PeerConfig {
-        env: "MountainCarContinuous-v0",
-        hidden: &[4, 4],
-        gymnax_raw_per_core: 19_718_695.0,
-    },
-    PeerConfig {
-        env: "Pendulum-v1",
-        hidden: &[4],
-        gymnax_raw_per_core: 13_294_122.0,
-    },
-];
-
 /// Result of one sampler configuration.
 #[derive(Serialize)]
 struct SamplerRow {
@@ -512,8 +496,6 @@ struct SamplerRow {
     cpu_s: Option<f64>,
     /// Env steps per CPU-second.
     steps_per_cpu_s: Option<f64>,
-    gymnax_raw_per_core: f64,
-    ratio_vs_gymnax_raw: f64,
     /// Mean episode score: independent of the build, threads and lanes (a check).
     mean_score: f64,
     /// Episodes each worker runs side by side (`rwg_core::sampler::LANES`).
@@ -576,26 +558,27 @@ fn run_sampler(args: SamplerArgs) -> Result<()> {
         .num_threads(threads)
         .build()
         .context("cannot start the thread pool")?;
-    let configs: Vec<&PeerConfig> = PEER_CONFIGS
+    let configs: Vec<(&str, &[usize])> = PEER_WORKLOADS
         .iter()
-        .filter(|c| args.envs.is_empty() || args.envs.iter().any(|e| e == c.env))
+        .copied()
+        .filter(|c| args.envs.is_empty() || args.envs.iter().any(|e| e == c.0))
         .collect();
     if configs.is_empty() {
         bail!(
             "no benchmark configuration uses {}; configurations: {}",
             args.envs.join(", "),
-            PEER_CONFIGS.map(|c| c.env).join(", ")
+            PEER_WORKLOADS.map(|c| c.0).join(", ")
         );
     }
     let mut rows = Vec::new();
-    for c in configs {
+    for (env, hidden) in configs {
         let arch = Architecture {
-            hidden: c.hidden.to_vec(),
+            hidden: hidden.to_vec(),
             bias: false,
         };
         let plan = CellPlan {
             seed: args.seed,
-            env_id: c.env.to_string(),
+            env_id: env.to_string(),
             arch: arch.clone(),
             episodes: args.episodes,
             dist: WeightDist::Normal { std: 1.0 },
@@ -605,11 +588,11 @@ fn run_sampler(args: SamplerArgs) -> Result<()> {
             samples: args.samples,
             pool: &pool,
         };
-        let (env_steps, score, seconds, cpu_s) = visit(c.env, &EnvOptions::default(), bench)??;
+        let (env_steps, score, seconds, cpu_s) = visit(env, &EnvOptions::default(), bench)??;
         let steps_per_s = env_steps as f64 / seconds;
         let per_thread = steps_per_s / threads as f64;
         let row = SamplerRow {
-            env: c.env.to_string(),
+            env: env.to_string(),
             hidden: arch.hidden,
             bias: false,
             samples: args.samples,
@@ -621,8 +604,6 @@ fn run_sampler(args: SamplerArgs) -> Result<()> {
             steps_per_s_per_thread: per_thread,
             cpu_s,
             steps_per_cpu_s: cpu_s.map(|c| env_steps as f64 / c),
-            gymnax_raw_per_core: c.gymnax_raw_per_core,
-            ratio_vs_gymnax_raw: per_thread / c.gymnax_raw_per_core,
             mean_score: score / (args.samples * args.episodes as u64) as f64,
             lanes: rwg_core::sampler::LANES,
             forward_isa: rwg_core::policy::lanes_isa(),
@@ -642,7 +623,7 @@ fn run_sampler(args: SamplerArgs) -> Result<()> {
 }
 
 /// Columns of `rwg bench sampler`: header and width (negative: left-aligned).
-const SAMPLER_COLUMNS: [(&str, i32); 9] = [
+const SAMPLER_COLUMNS: [(&str, i32); 7] = [
     ("env", -24),
     ("hidden", -6),
     ("env steps", 11),
@@ -650,11 +631,9 @@ const SAMPLER_COLUMNS: [(&str, i32); 9] = [
     ("steps/s", 11),
     ("steps/s/thread", 14),
     ("steps/CPU-s", 11),
-    ("gymnax-raw/core", 15),
-    ("ratio", 5),
 ];
 
-fn sampler_cells(r: &SamplerRow) -> [String; 9] {
+fn sampler_cells(r: &SamplerRow) -> [String; 7] {
     let hidden = if r.hidden.is_empty() {
         "0HL".to_string()
     } else {
@@ -670,8 +649,6 @@ fn sampler_cells(r: &SamplerRow) -> [String; 9] {
         group(r.steps_per_s_per_thread.round() as u64),
         r.steps_per_cpu_s
             .map_or("-".into(), |v| group(v.round() as u64)),
-        group(r.gymnax_raw_per_core.round() as u64),
-        format!("{:.2}", r.ratio_vs_gymnax_raw),
     ]
 }
 
@@ -763,17 +740,6 @@ mod tests {
         assert_eq!(group(999), "999");
         assert_eq!(group(1000), "1,000");
         assert_eq!(group(8_774_515), "8,774,515");
-    }
-
-    #[test]
-    fn peer_configs_name_builtin_envs() {
-        for c in PEER_CONFIGS {
-            assert!(
-                rwg_envs::registry::registration(c.env).is_some(),
-                "{}",
-                c.env
-            );
-        }
     }
 
     #[test]

@@ -1,0 +1,732 @@
+//! `rwg bench peers`: the whole `rwg run --threads 1` command against the
+//! strongest peer, gymnax-raw (`gymnax_rwg.py --step raw`), measured side by
+//! side in one invocation.
+//!
+//! Both sides run as child processes, interleaved (round by round, workload
+//! by workload, alternating which side goes first), pinned to one core, and
+//! are compared by env steps per CPU-second:
+//!
+//! - rwg: the child's whole CPU time (user + system, from `getrusage` of the
+//!   waited-for child): start-up, sampling, block commits, statistics and the
+//!   report, everything `rwg run` does;
+//! - gymnax-raw: the CPU time its JSON line reports for the compiled program's
+//!   run (JAX start-up and XLA compilation excluded, as the peer reports them
+//!   separately).
+//!
+//! Env steps on both sides are the transitions inside episodes (every step of
+//! every episode, up to and including the terminal or truncating one).
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The peers' workload: environment and hidden layers (no bias).
+pub const PEER_WORKLOADS: [(&str, &[usize]); 5] = [
+    ("CartPole-v0", &[]),
+    ("CartPole-v0", &[4, 4]),
+    ("Acrobot-v1", &[]),
+    ("MountainCarContinuous-v0", &[4, 4]),
+    ("Pendulum-v1", &[4]),
+];
+
+/// The `pip install` line of the peer's virtualenv (versions that work with
+/// `gymnax_rwg.py`; `six` because gymnax 1.0.1 imports it undeclared).
+pub const PEER_PIP_PACKAGES: &str = "numpy==2.4.6 gymnasium==1.3.0 jax==0.10.2 jaxlib==0.10.2 \
+                                     gymnax==1.0.1 flax==0.12.8 six==1.17.0";
+
+/// Arguments of `rwg bench peers`.
+#[derive(clap::Args)]
+pub struct PeersArgs {
+    /// Python interpreter with the peer's packages (jax, gymnax). Default:
+    /// VENV/bin/python.
+    #[arg(long, env = "RWG_PEER_PYTHON", value_name = "FILE")]
+    python: Option<PathBuf>,
+    /// Virtualenv of the peer, used when --python is not given.
+    #[arg(long, value_name = "DIR", default_value = "target/peers-venv")]
+    venv: PathBuf,
+    /// Create --venv (python3 -m venv, then pip install of the peer's pinned
+    /// packages) if it does not exist.
+    #[arg(long)]
+    create_venv: bool,
+    /// Directory of the peer scripts (gymnax_rwg.py and rwg_common.py).
+    #[arg(
+        long,
+        env = "RWG_PEERS_DIR",
+        value_name = "DIR",
+        default_value = "../shared/peers"
+    )]
+    peers: PathBuf,
+    /// The rwg binary to measure (default: this one).
+    #[arg(long, value_name = "FILE")]
+    rwg: Option<PathBuf>,
+    /// Networks per workload for `rwg run`.
+    #[arg(long, value_name = "N", default_value_t = 3000)]
+    rwg_samples: u64,
+    /// Networks per workload for gymnax-raw.
+    #[arg(long, value_name = "N", default_value_t = 1000)]
+    peer_samples: u64,
+    /// Episodes per network (both sides).
+    #[arg(long, value_name = "E", default_value_t = 20)]
+    episodes: u32,
+    /// Measurements of each side per workload (interleaved rounds).
+    #[arg(long, value_name = "R", default_value_t = 5)]
+    rounds: u32,
+    /// Run only the workloads of this environment (repeatable).
+    #[arg(long = "env", value_name = "ID")]
+    envs: Vec<String>,
+    /// Seed of both sides.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// The core both sides are pinned to.
+    #[arg(long, value_name = "CPU", default_value_t = 0)]
+    cpu: usize,
+    /// Do not pin (figures then depend on how the scheduler spreads threads).
+    #[arg(long)]
+    no_pin: bool,
+    /// Directory for the run directories and the peer's CSVs (default: a
+    /// fresh directory under the system's temporary directory, removed at the end).
+    #[arg(long, value_name = "DIR")]
+    work_dir: Option<PathBuf>,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// One side's measurements of one workload, in round order.
+#[derive(Serialize, Debug, Default)]
+struct Side {
+    samples: u64,
+    /// Env steps of each measurement.
+    env_steps: Vec<u64>,
+    /// CPU seconds of each measurement (see the module doc for what each side counts).
+    cpu_s: Vec<f64>,
+    /// Wall seconds of each measurement (same span as `cpu_s`).
+    wall_s: Vec<f64>,
+    /// `env_steps / cpu_s`, per measurement.
+    steps_per_cpu_s: Vec<f64>,
+    /// Median of `steps_per_cpu_s`, and its range.
+    median: f64,
+    min: f64,
+    max: f64,
+}
+
+impl Side {
+    fn push(&mut self, steps: u64, cpu: f64, wall: f64) {
+        self.env_steps.push(steps);
+        self.cpu_s.push(cpu);
+        self.wall_s.push(wall);
+        self.steps_per_cpu_s.push(steps as f64 / cpu);
+        (self.median, self.min, self.max) = spread(&self.steps_per_cpu_s);
+    }
+}
+
+/// Median, min and max of the paired ratios rwg / gymnax-raw.
+#[derive(Serialize, Debug, Default)]
+struct Ratio {
+    values: Vec<f64>,
+    median: f64,
+    min: f64,
+    max: f64,
+}
+
+/// One workload's comparison.
+#[derive(Serialize, Debug)]
+struct Row {
+    env: String,
+    hidden: Vec<usize>,
+    episodes: u32,
+    rwg: Side,
+    gymnax_raw: Side,
+    /// Per round: rwg steps/CPU-s over gymnax-raw steps/CPU-s of the same round.
+    ratio: Ratio,
+    /// gymnax-raw's XLA compile seconds, per measurement (excluded above).
+    gymnax_compile_s: Vec<f64>,
+}
+
+impl Row {
+    fn update_ratio(&mut self) {
+        let values: Vec<f64> = self
+            .rwg
+            .steps_per_cpu_s
+            .iter()
+            .zip(&self.gymnax_raw.steps_per_cpu_s)
+            .map(|(r, g)| r / g)
+            .collect();
+        let (median, min, max) = spread(&values);
+        self.ratio = Ratio {
+            values,
+            median,
+            min,
+            max,
+        };
+    }
+}
+
+/// Where and how the comparison ran.
+#[derive(Serialize)]
+struct Setup {
+    date_utc: String,
+    cpu_model: String,
+    cpus: usize,
+    pinned_cpu: Option<usize>,
+    load_avg_start: String,
+    load_avg_end: String,
+    rounds: u32,
+    seed: u64,
+    rwg_binary: String,
+    rwg_command: String,
+    peer_command: String,
+}
+
+#[derive(Serialize)]
+struct Report {
+    setup: Setup,
+    rows: Vec<Row>,
+}
+
+/// What the peer's last stdout line (JSON) says.
+#[derive(Debug, PartialEq)]
+struct PeerRun {
+    env_steps: u64,
+    cpu_s: f64,
+    wall_s: f64,
+    compile_s: f64,
+}
+
+/// Parses the peer's stdout: its last non-empty line is its JSON result.
+fn parse_peer_output(stdout: &str) -> Result<PeerRun> {
+    let line = stdout
+        .lines()
+        .rev()
+        .find(|l| !l.trim().is_empty())
+        .context("the peer printed nothing on stdout")?;
+    let v: serde_json::Value = serde_json::from_str(line)
+        .with_context(|| format!("the peer's last line is not JSON: {line}"))?;
+    let num = |k: &str| {
+        v.get(k)
+            .and_then(|x| x.as_f64())
+            .with_context(|| format!("the peer's JSON lacks the number `{k}`: {line}"))
+    };
+    let run = PeerRun {
+        env_steps: num("env_steps")? as u64,
+        cpu_s: num("cpu_s")?,
+        wall_s: num("wall_s")?,
+        compile_s: num("compile_s")?,
+    };
+    if run.cpu_s <= 0.0 || run.env_steps == 0 {
+        bail!("the peer reports no work ({line}); use more samples");
+    }
+    Ok(run)
+}
+
+/// Median, min and max (`(NaN, NaN, NaN)` for no values).
+fn spread(v: &[f64]) -> (f64, f64, f64) {
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    let median = if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        (s[n / 2 - 1] + s[n / 2]) / 2.0
+    };
+    (median, s[0], s[n - 1])
+}
+
+/// `[]` -> `0HL`, `[4, 4]` -> `[4,4]`.
+fn hidden_label(h: &[usize]) -> String {
+    if h.is_empty() {
+        "0HL".into()
+    } else {
+        let v: Vec<String> = h.iter().map(|x| x.to_string()).collect();
+        format!("[{}]", v.join(","))
+    }
+}
+
+/// The one-cell manifest `rwg run` gets for a workload.
+fn manifest_text(env: &str, hidden: &[usize], samples: u64, episodes: u32, seed: u64) -> String {
+    let h: Vec<String> = hidden.iter().map(|x| x.to_string()).collect();
+    format!(
+        "# rwg bench peers: one workload\nseed = {seed}\nsamples = {samples}\nepisodes = {episodes}\n\
+         bias = [false]\n\n[weights]\ndistribution = \"normal\"\nscale = 1.0\n\n\
+         [[architectures]]\nname = \"{}\"\nhidden = [{}]\n\n[[envs]]\nid = \"{env}\"\n",
+        if hidden.is_empty() {
+            "0HL".to_string()
+        } else {
+            format!("{}HL", hidden.len())
+        },
+        h.join(", ")
+    )
+}
+
+/// CPU seconds (user + system) of the waited-for children of this process.
+fn children_cpu_seconds() -> Result<f64> {
+    #[cfg(unix)]
+    {
+        // SAFETY: an all-zero rusage is a valid value; getrusage only writes it.
+        let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
+        // SAFETY: `ru` is valid and writable for the call.
+        let rc = unsafe { libc::getrusage(libc::RUSAGE_CHILDREN, &mut ru) };
+        if rc != 0 {
+            bail!("getrusage failed: {}", std::io::Error::last_os_error());
+        }
+        let t = |tv: libc::timeval| tv.tv_sec as f64 + tv.tv_usec as f64 * 1e-6;
+        Ok(t(ru.ru_utime) + t(ru.ru_stime))
+    }
+    #[cfg(not(unix))]
+    {
+        bail!("rwg bench peers needs a Unix system (getrusage)")
+    }
+}
+
+/// Pins this process (and so the children it starts) to `cpu`.
+fn pin_to(cpu: usize) -> Result<()> {
+    #[cfg(target_os = "linux")]
+    {
+        // SAFETY: an all-zero cpu_set_t is the empty set; CPU_SET writes in bounds
+        // (checked against CPU_SETSIZE); sched_setaffinity reads the set.
+        unsafe {
+            if cpu >= libc::CPU_SETSIZE as usize {
+                bail!("--cpu {cpu} is out of range");
+            }
+            let mut set: libc::cpu_set_t = std::mem::zeroed();
+            libc::CPU_SET(cpu, &mut set);
+            if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
+                bail!(
+                    "cannot pin to CPU {cpu}: {} (see --cpu, or --no-pin)",
+                    std::io::Error::last_os_error()
+                );
+            }
+        }
+        Ok(())
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        bail!("pinning to CPU {cpu} needs Linux; use --no-pin")
+    }
+}
+
+/// The peer's Python: --python, else the venv's (created if asked).
+fn peer_python(args: &PeersArgs) -> Result<PathBuf> {
+    if let Some(p) = &args.python {
+        if !p.exists() {
+            bail!("--python / RWG_PEER_PYTHON {} does not exist", p.display());
+        }
+        return Ok(p.clone());
+    }
+    let py = args.venv.join("bin").join("python");
+    if py.exists() {
+        return Ok(py);
+    }
+    if !args.create_venv {
+        bail!(
+            "no peer virtualenv at {} (and no --python / RWG_PEER_PYTHON): create one with\n  \
+             python3 -m venv {v} && {v}/bin/pip install {PEER_PIP_PACKAGES}\n\
+             or pass --create-venv",
+            args.venv.display(),
+            v = args.venv.display()
+        );
+    }
+    eprintln!("creating the peer virtualenv {}", args.venv.display());
+    let st = Command::new("python3")
+        .args(["-m", "venv"])
+        .arg(&args.venv)
+        .status()
+        .context("cannot run python3 -m venv")?;
+    if !st.success() {
+        bail!("python3 -m venv {} failed", args.venv.display());
+    }
+    let st = Command::new(args.venv.join("bin").join("pip"))
+        .args(["install", "--disable-pip-version-check", "-q"])
+        .args(PEER_PIP_PACKAGES.split_whitespace())
+        .status()
+        .context("cannot run pip")?;
+    if !st.success() {
+        bail!(
+            "pip install {PEER_PIP_PACKAGES} failed in {}",
+            args.venv.display()
+        );
+    }
+    Ok(py)
+}
+
+/// Reads `env_steps` of a finished run directory's run.json.
+fn run_env_steps(dir: &Path) -> Result<u64> {
+    let p = dir.join("run.json");
+    let text =
+        std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
+    let v: serde_json::Value =
+        serde_json::from_str(&text).with_context(|| format!("{} is not JSON", p.display()))?;
+    v.get("env_steps")
+        .and_then(|x| x.as_u64())
+        .with_context(|| format!("{} has no env_steps", p.display()))
+}
+
+/// Runs `cmd` to completion; returns (stdout, child CPU seconds, wall seconds).
+fn measure(mut cmd: Command, what: &str) -> Result<(String, f64, f64)> {
+    let cpu0 = children_cpu_seconds()?;
+    let t0 = std::time::Instant::now();
+    let out = cmd
+        .output()
+        .with_context(|| format!("cannot start {what}"))?;
+    let wall = t0.elapsed().as_secs_f64();
+    let cpu = children_cpu_seconds()? - cpu0;
+    if !out.status.success() {
+        bail!(
+            "{what} failed ({}):\n{}",
+            out.status,
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    Ok((String::from_utf8_lossy(&out.stdout).into_owned(), cpu, wall))
+}
+
+/// Removes the temporary work directory when dropped.
+struct TempDir(Option<PathBuf>);
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        if let Some(d) = &self.0 {
+            let _ = std::fs::remove_dir_all(d);
+        }
+    }
+}
+
+/// Runs `rwg bench peers`.
+pub fn run(args: PeersArgs) -> Result<()> {
+    if args.rwg_samples == 0 || args.peer_samples == 0 || args.episodes == 0 || args.rounds == 0 {
+        bail!("--rwg-samples, --peer-samples, --episodes and --rounds must be at least 1");
+    }
+    for e in &args.envs {
+        if !PEER_WORKLOADS.iter().any(|w| w.0 == e) {
+            bail!(
+                "no peer workload uses {e}; workloads: {}",
+                PEER_WORKLOADS.map(|w| w.0).join(", ")
+            );
+        }
+    }
+    let script = args.peers.join("gymnax_rwg.py");
+    if !script.exists() {
+        bail!(
+            "{} not found: point --peers (or RWG_PEERS_DIR) to the directory of the peer scripts",
+            script.display()
+        );
+    }
+    let python = peer_python(&args)?;
+    let rwg = match &args.rwg {
+        Some(p) => p.clone(),
+        None => std::env::current_exe().context("cannot find this rwg binary")?,
+    };
+    let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if !args.no_pin {
+        pin_to(args.cpu)?;
+    }
+    let (work, _cleanup) = match &args.work_dir {
+        Some(d) => (d.clone(), TempDir(None)),
+        None => {
+            let d = std::env::temp_dir().join(format!("rwg-bench-peers-{}", std::process::id()));
+            (d.clone(), TempDir(Some(d)))
+        }
+    };
+    std::fs::create_dir_all(&work).with_context(|| format!("cannot create {}", work.display()))?;
+
+    let mut rows: Vec<Row> = PEER_WORKLOADS
+        .iter()
+        .filter(|w| args.envs.is_empty() || args.envs.iter().any(|e| e == w.0))
+        .map(|&(env, hidden)| Row {
+            env: env.to_string(),
+            hidden: hidden.to_vec(),
+            episodes: args.episodes,
+            rwg: Side {
+                samples: args.rwg_samples,
+                ..Side::default()
+            },
+            gymnax_raw: Side {
+                samples: args.peer_samples,
+                ..Side::default()
+            },
+            ratio: Ratio::default(),
+            gymnax_compile_s: vec![],
+        })
+        .collect();
+    let setup_start = (now_utc(), load_avg());
+
+    for round in 0..args.rounds {
+        for (i, row) in rows.iter_mut().enumerate() {
+            let label = format!("{} {}", row.env, hidden_label(&row.hidden));
+            let name = format!("w{i}");
+            let manifest = work.join(format!("{name}.toml"));
+            std::fs::write(
+                &manifest,
+                manifest_text(
+                    &row.env,
+                    &row.hidden,
+                    args.rwg_samples,
+                    args.episodes,
+                    args.seed,
+                ),
+            )
+            .with_context(|| format!("cannot write {}", manifest.display()))?;
+            let run_dir = work.join(&name);
+            let rwg_first = (round + i as u32) % 2 == 0;
+            for side in [rwg_first, !rwg_first] {
+                if side {
+                    let mut cmd = Command::new(&rwg);
+                    cmd.arg("run")
+                        .arg(&manifest)
+                        .args(["--threads", "1", "--force-new", "--out"])
+                        .arg(&run_dir);
+                    let (_, cpu, wall) = measure(cmd, &format!("rwg run ({label})"))?;
+                    let steps = run_env_steps(&run_dir)?;
+                    row.rwg.push(steps, cpu, wall);
+                } else {
+                    let mut cmd = Command::new(&python);
+                    cmd.arg(&script)
+                        .args(["--step", "raw", "--env", &row.env, "--hidden"])
+                        .arg(
+                            row.hidden
+                                .iter()
+                                .map(|h| h.to_string())
+                                .collect::<Vec<_>>()
+                                .join(","),
+                        )
+                        .args(["--no-bias", "--samples"])
+                        .arg(args.peer_samples.to_string())
+                        .arg("--episodes")
+                        .arg(args.episodes.to_string())
+                        .arg("--seed")
+                        .arg(args.seed.to_string())
+                        .arg("--out")
+                        .arg(work.join(format!("{name}-gymnax.csv")))
+                        .current_dir(&args.peers);
+                    let (stdout, _, _) = measure(cmd, &format!("gymnax-raw ({label})"))?;
+                    let p = parse_peer_output(&stdout)
+                        .with_context(|| format!("gymnax-raw ({label})"))?;
+                    row.gymnax_raw.push(p.env_steps, p.cpu_s, p.wall_s);
+                    row.gymnax_compile_s.push(p.compile_s);
+                }
+            }
+            row.update_ratio();
+            let (r, g) = (&row.rwg, &row.gymnax_raw);
+            eprintln!(
+                "round {}/{}  {label:<32} rwg {:.3e}  gymnax-raw {:.3e}  ratio {:.2}",
+                round + 1,
+                args.rounds,
+                r.steps_per_cpu_s.last().copied().unwrap_or(f64::NAN),
+                g.steps_per_cpu_s.last().copied().unwrap_or(f64::NAN),
+                row.ratio.values.last().copied().unwrap_or(f64::NAN)
+            );
+        }
+    }
+
+    let report = Report {
+        setup: Setup {
+            date_utc: setup_start.0,
+            cpu_model: cpu_model(),
+            cpus,
+            pinned_cpu: (!args.no_pin).then_some(args.cpu),
+            load_avg_start: setup_start.1,
+            load_avg_end: load_avg(),
+            rounds: args.rounds,
+            seed: args.seed,
+            rwg_binary: rwg.display().to_string(),
+            rwg_command: format!(
+                "rwg run <one-cell manifest> --threads 1 --force-new --out <dir>  ({} networks x {} episodes, no bias, report included)",
+                args.rwg_samples, args.episodes
+            ),
+            peer_command: format!(
+                "python gymnax_rwg.py --step raw --env <env> --hidden <h> --no-bias --samples {} --episodes {} --seed {}",
+                args.peer_samples, args.episodes, args.seed
+            ),
+        },
+        rows,
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_table(&report);
+    }
+    Ok(())
+}
+
+/// The human-readable report.
+fn print_table(r: &Report) {
+    let s = &r.setup;
+    println!(
+        "rwg bench peers, {} UTC, {} ({} CPUs), {}, {} rounds, load average {} -> {}",
+        s.date_utc,
+        s.cpu_model,
+        s.cpus,
+        s.pinned_cpu
+            .map_or("not pinned".into(), |c| format!("pinned to CPU {c}")),
+        s.rounds,
+        s.load_avg_start,
+        s.load_avg_end
+    );
+    println!("rwg:        {}", s.rwg_command);
+    println!("gymnax-raw: {}", s.peer_command);
+    println!(
+        "env steps per CPU-second, median [min-max]; rwg: whole process; gymnax-raw: its run, compile excluded\n"
+    );
+    println!(
+        "{:<34}  {:>26}  {:>26}  {:>20}",
+        "workload", "rwg run", "gymnax-raw", "rwg / gymnax-raw"
+    );
+    let sci = |s: &Side| format!("{:.3e} [{:.2e}-{:.2e}]", s.median, s.min, s.max);
+    for row in &r.rows {
+        println!(
+            "{:<34}  {:>26}  {:>26}  {:>20}",
+            format!("{} {}", row.env, hidden_label(&row.hidden)),
+            sci(&row.rwg),
+            sci(&row.gymnax_raw),
+            format!(
+                "{:.2}x [{:.2}-{:.2}]",
+                row.ratio.median, row.ratio.min, row.ratio.max
+            )
+        );
+    }
+}
+
+/// The CPU's model name, where /proc/cpuinfo tells it.
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, m)| m.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into())
+}
+
+/// The 1, 5 and 15-minute load averages, where /proc/loadavg tells them.
+fn load_avg() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .map(|t| t.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|| "unknown".into())
+}
+
+/// The current UTC time as `YYYY-MM-DD HH:MM`.
+fn now_utc() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let (y, m, d) = civil_from_days((secs / 86_400) as i64);
+    let s = secs % 86_400;
+    format!("{y:04}-{m:02}-{d:02} {:02}:{:02}", s / 3600, s / 60 % 60)
+}
+
+/// Days since 1970-01-01 -> (year, month, day) in the proleptic Gregorian
+/// calendar (H. Hinnant's algorithm).
+fn civil_from_days(z: i64) -> (i64, u32, u32) {
+    let z = z + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    (yoe + era * 400 + i64::from(m <= 2), m, d)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A real line of `gymnax_rwg.py --step raw` (shortened), after a warning.
+    const PEER_STDOUT: &str = "some warning\n{\"peer\": \"gymnax-raw\", \"env\": \"CartPole-v0\", \
+        \"hidden\": \"\", \"bias\": false, \"samples\": 1000, \"episodes\": 20, \"wall_s\": 0.1305, \
+        \"env_steps\": 884661, \"steps_per_s\": 6778934.9, \"cpu_s\": 0.1307, \
+        \"steps_per_cpu_s\": 6768638.1, \"compile_s\": 1.214, \"setup_s\": 2.01}\n\n";
+
+    #[test]
+    fn parses_the_peers_last_json_line() {
+        let p = parse_peer_output(PEER_STDOUT).unwrap();
+        assert_eq!(
+            p,
+            PeerRun {
+                env_steps: 884_661,
+                cpu_s: 0.1307,
+                wall_s: 0.1305,
+                compile_s: 1.214
+            }
+        );
+        let e = parse_peer_output("{\"env_steps\": 10}").unwrap_err();
+        assert!(format!("{e:#}").contains("`cpu_s`"), "{e:#}");
+        assert!(parse_peer_output("Traceback ...").is_err());
+        assert!(parse_peer_output("").is_err());
+    }
+
+    #[test]
+    fn spread_is_median_min_max() {
+        assert_eq!(spread(&[3.0, 1.0, 2.0]), (2.0, 1.0, 3.0));
+        assert_eq!(spread(&[4.0, 1.0, 2.0, 3.0]), (2.5, 1.0, 4.0));
+        assert!(spread(&[]).0.is_nan());
+    }
+
+    #[test]
+    fn ratios_are_paired_by_round() {
+        let mut row = Row {
+            env: "CartPole-v0".into(),
+            hidden: vec![],
+            episodes: 20,
+            rwg: Side::default(),
+            gymnax_raw: Side::default(),
+            ratio: Ratio::default(),
+            gymnax_compile_s: vec![],
+        };
+        // rwg: 10, 30, 20 steps/CPU-s; gymnax: 5, 10, 20.
+        for (rs, rc, gs, gc) in [(10, 1.0, 10, 2.0), (30, 1.0, 10, 1.0), (40, 2.0, 20, 1.0)] {
+            row.rwg.push(rs, rc, rc);
+            row.gymnax_raw.push(gs, gc, gc);
+        }
+        row.update_ratio();
+        assert_eq!(row.rwg.steps_per_cpu_s, [10.0, 30.0, 20.0]);
+        assert_eq!(
+            (row.rwg.median, row.rwg.min, row.rwg.max),
+            (20.0, 10.0, 30.0)
+        );
+        assert_eq!(row.gymnax_raw.median, 10.0);
+        assert_eq!(row.ratio.values, [2.0, 3.0, 1.0]);
+        assert_eq!(
+            (row.ratio.median, row.ratio.min, row.ratio.max),
+            (2.0, 1.0, 3.0)
+        );
+    }
+
+    #[test]
+    fn manifest_names_the_workload() {
+        let t = manifest_text("Pendulum-v1", &[4, 4], 3000, 20, 7);
+        for s in [
+            "seed = 7",
+            "samples = 3000",
+            "episodes = 20",
+            "bias = [false]",
+            "hidden = [4, 4]",
+            "id = \"Pendulum-v1\"",
+        ] {
+            assert!(t.contains(s), "{s} missing from:\n{t}");
+        }
+        assert!(manifest_text("CartPole-v0", &[], 1, 1, 0).contains("hidden = []"));
+    }
+
+    #[test]
+    fn workloads_name_builtin_envs() {
+        for (env, _) in PEER_WORKLOADS {
+            assert!(rwg_envs::registry::registration(env).is_some(), "{env}");
+        }
+    }
+
+    #[test]
+    fn civil_dates() {
+        assert_eq!(civil_from_days(0), (1970, 1, 1));
+        assert_eq!(civil_from_days(19_723), (2024, 1, 1));
+        assert_eq!(civil_from_days(20_780), (2026, 11, 23));
+    }
+}
