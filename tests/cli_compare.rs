@@ -44,10 +44,62 @@ fn compare_side_by_side() {
     assert_eq!(csv.lines().count(), 17);
     assert!(csv.starts_with("run,env,arch,bias,samples,"));
 
-    let fig = temp_dir("compare-fig").join("cmp.svg");
-    rwg_ok(&["compare", a, b, "--figure", fig.to_str().unwrap()]);
+    // the ranking: a table after the comparison, a column in CSV and JSON
+    assert!(
+        out.contains("Difficulty ranking of 16 cells, easiest first"),
+        "{out}"
+    );
+    let ranks: Vec<u64> = rows
+        .iter()
+        .map(|r| r["difficulty_rank"].as_u64().unwrap())
+        .collect();
+    let mut sorted = ranks.clone();
+    sorted.sort();
+    assert_eq!(sorted, (1..=16).collect::<Vec<u64>>());
+    assert!(csv.lines().next().unwrap().ends_with(",difficulty_rank"));
+
+    let dir = temp_dir("compare-fig");
+    let (fig, rank_fig, page) = (
+        dir.join("cmp.svg"),
+        dir.join("rank.png"),
+        dir.join("cmp.html"),
+    );
+    rwg_ok(&[
+        "compare",
+        a,
+        b,
+        "--figure",
+        fig.to_str().unwrap(),
+        "--ranking-figure",
+        rank_fig.to_str().unwrap(),
+        "--html",
+        page.to_str().unwrap(),
+    ]);
     let svg = std::fs::read_to_string(&fig).unwrap();
-    assert!(svg.contains("normalised mean") && svg.contains("compare-a: CartPole-v0"));
+    // one panel per architecture × bias, the first run as the grey reference
+    for want in [
+        "0HL · no bias",
+        "1HL-4 · with bias",
+        "grey: the reference set (rwg-test-",
+        "normalised mean",
+    ] {
+        assert!(svg.contains(want), "profiles figure lacks {want:?}");
+    }
+    let png = std::fs::read(&rank_fig).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let html = std::fs::read_to_string(&page).unwrap();
+    for want in [
+        "<h2>Difficulty ranking</h2>",
+        "Difficulty ranking of 16 cells",
+        "<h2>Profiles per architecture</h2>",
+        "Comparison of 16 cells",
+        "<th>episodes per sample</th><td>4</td><td>4</td>",
+        "id=\"fig-ranking\"",
+        "id=\"fig-profiles\"",
+    ] {
+        assert!(html.contains(want), "page lacks {want:?}");
+    }
+    assert!(!html.contains("http://") && !html.contains("https://") || html.contains("xmlns"));
 
     let tex = rwg_ok(&["compare", a, b, "--format", "latex"]);
     assert!(tex.contains("\\toprule"));

@@ -18,7 +18,9 @@ use rwg_study::stats::CellSummary;
 /// File name of the report in the run directory.
 pub const REPORT_HTML: &str = "report.html";
 
-const STYLE: &str = r#"
+/// The stylesheet of the report and the comparison page: fits a 1280 px
+/// window; wide tables scroll inside their own box.
+pub(crate) const STYLE: &str = r#"
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto; max-width: 1500px; padding: 0 1em; color: #222; }
 h1 { margin-bottom: 0.2em; }
 h2 { border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 2em; }
@@ -36,11 +38,14 @@ figcaption { font-size: 0.9em; color: #444; margin-top: 0.3em; }
 .row { display: flex; flex-wrap: wrap; gap: 1em; }
 .row figure.rwg-figure { flex: 1 1 480px; }
 pre { background: #f6f6f6; padding: 1em; overflow-x: auto; }
+.table-scroll { overflow-x: auto; max-width: 100%; }
+.ranking-table td:nth-child(-n+5) { text-align: left; }
 #render-status { color: #555; font-size: 0.9em; }
 nav a { margin-right: 1em; }
 "#;
 
-const SCRIPT: &str = r#"
+/// The page's self-check (see the module doc).
+pub(crate) const SCRIPT: &str = r#"
 function rasterOk(im) {
   const w = Number(im.getAttribute('width')), h = Number(im.getAttribute('height'));
   const c = document.createElement('canvas');
@@ -69,7 +74,8 @@ window.addEventListener('load', () => {
 });
 "#;
 
-fn figure_html(f: &Figure) -> String {
+/// A figure inline, with its caption.
+pub(crate) fn figure_html(f: &Figure) -> String {
     assert_eq!(f.format, ImageFormat::Svg, "the report inlines SVG figures");
     let svg = String::from_utf8_lossy(&f.bytes);
     // drop an XML declaration if any: not allowed inside HTML
@@ -83,6 +89,15 @@ fn figure_html(f: &Figure) -> String {
         html_escape(&f.name),
         svg.trim_end(),
         html_escape(&f.caption)
+    )
+}
+
+/// A table in its own horizontally scrolling box, so a wide table never
+/// widens the page.
+pub(crate) fn table_html(t: &crate::table::Table) -> String {
+    format!(
+        "<div class=\"table-scroll\">\n{}</div>\n",
+        t.render(TableFormat::Html)
     )
 }
 
@@ -183,7 +198,7 @@ pub fn report_html(run: &Run, stats: &RunStats, figures: &[Figure]) -> String {
          (1/E, as numpy's var) of its episode scores. Intervals are 95% Wilson score intervals.</p>\n",
     );
     for t in run_tables(stats) {
-        h.push_str(&t.render(TableFormat::Html));
+        h.push_str(&table_html(&t));
     }
     h.push_str("</section>\n");
 
