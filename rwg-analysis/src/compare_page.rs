@@ -7,7 +7,7 @@
 use crate::compare::{compare_table, CompareRow, CompareRun};
 use crate::plot::Figure;
 use crate::ranking::ranking_table;
-use crate::report::{figure_html, table_html, SCRIPT, STYLE};
+use crate::report::{figure_html, table_html, ERROR_PROBE, SCRIPT, STYLE};
 use crate::table::html_escape;
 use rwg_env::float::fmt_f64;
 
@@ -84,6 +84,7 @@ pub fn compare_html(runs: &[CompareRun], rows: &[CompareRow], figures: &[Figure]
     let title = format!("RWG comparison: {}", names.join(", "));
     let mut h = String::new();
     h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
+    h.push_str(ERROR_PROBE);
     h.push_str("<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n");
     h.push_str(&format!("<title>{}</title>\n", html_escape(&title)));
     h.push_str(&format!("<style>{STYLE}</style>\n</head>\n<body>\n"));

@@ -284,8 +284,12 @@ impl Cell {
             None => "-".into(),
         };
         format!(
-            "{:<44} {:>11.2} {:>12.2} {:>8} {:>11.3e}",
-            self.dir, best, median, solved, steps_per_s
+            "{:<44} {:>11} {:>12} {:>8} {:>11.3e}",
+            self.dir,
+            rwg_analysis::fmt::score(best),
+            rwg_analysis::fmt::score(median),
+            solved,
+            steps_per_s
         )
     }
 }
