@@ -124,3 +124,77 @@ fn compare_refuses_different_settings_unless_forced() {
     assert!(String::from_utf8_lossy(&out.stderr)
         .contains("warning: comparing runs whose settings differ"));
 }
+
+/// A run of one CartPole-like cell, for the two-cell comparison.
+fn one_cell_run(name: &str, seed: u64) -> std::path::PathBuf {
+    use rwg_core::run_data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
+    let dir = temp_dir(name);
+    write_synthetic_run(
+        &dir,
+        &SyntheticRun {
+            samples: 200,
+            episodes: 4,
+            seed,
+            cells: vec![SyntheticCell::cartpole("0HL", &[], false)],
+        },
+    )
+    .unwrap();
+    dir
+}
+
+#[test]
+fn compare_page_renders_in_headless_chromium() {
+    let Some(browser) = browser() else {
+        skip(
+            "compare_page_renders_in_headless_chromium",
+            "no headless browser found (install Debian's `chromium`, or set RWG_CHROMIUM)",
+        );
+        return;
+    };
+    // 16 cells from two runs, and 2 cells from two one-cell runs
+    let many = (
+        synthetic_run("compare-page-a", 80, 4),
+        synthetic_run("compare-page-b", 50, 4),
+    );
+    let few = (
+        one_cell_run("compare-page-c", 5),
+        one_cell_run("compare-page-d", 6),
+    );
+    for (k, (a, b)) in [many, few].iter().enumerate() {
+        let page = a.with_file_name(format!(
+            "rwg-test-{}-compare-page-{k}.html",
+            std::process::id()
+        ));
+        rwg_ok(&[
+            "compare",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--html",
+            page.to_str().unwrap(),
+        ]);
+        let dom = check_page_in_browser(
+            &browser,
+            &page,
+            2,
+            &temp_dir(&format!("compare-page-profile-{k}")),
+        );
+        assert!(dom.contains("2 of 2 figures rendered"));
+        let shot = page.with_extension("png");
+        headless(
+            &browser,
+            &page,
+            &[
+                &format!("--screenshot={}", shot.display()),
+                "--window-size=1280,2400",
+            ],
+            &temp_dir(&format!("compare-page-shot-{k}")),
+        );
+        let png = std::fs::read(&shot).expect("no screenshot written");
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert!(
+            png.len() > 30_000,
+            "screenshot suspiciously small: {} bytes",
+            png.len()
+        );
+    }
+}
