@@ -28,10 +28,7 @@ fn report(name: &str) -> (PathBuf, String) {
 fn report_is_self_contained() {
     let (_, html) = report("report-static");
     assert!(html.starts_with("<!DOCTYPE html>"));
-    assert_eq!(
-        html.matches("<figure class=\"rwg-figure").count(),
-        FIGURES
-    );
+    assert_eq!(html.matches("<figure class=\"rwg-figure").count(), FIGURES);
     assert_eq!(html.matches("<svg ").count(), FIGURES);
     // nothing is fetched: no links, scripts or images from elsewhere
     for bad in ["<link", "src=", "href=\"http", "url(", "@import"] {

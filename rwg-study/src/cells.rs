@@ -286,11 +286,22 @@ impl Cell {
         format!(
             "{:<44} {:>11} {:>12} {:>8} {:>11.3e}",
             self.dir,
-            rwg_analysis::fmt::score(best),
-            rwg_analysis::fmt::score(median),
+            two_decimals(best),
+            two_decimals(median),
             solved,
             steps_per_s
         )
+    }
+}
+
+/// `x` with two decimals, a negative value that rounds to zero as `0.00`
+/// (as the tables print it: never `-0.00`).
+fn two_decimals(x: f64) -> String {
+    let s = format!("{x:.2}");
+    if s == "-0.00" {
+        "0.00".into()
+    } else {
+        s
     }
 }
 
@@ -328,5 +339,15 @@ pub fn new_meta(
         cells: vec![],
         block_samples: BLOCK_SAMPLES,
         shard,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn no_negative_zero() {
+        assert_eq!(super::two_decimals(-0.004), "0.00");
+        assert_eq!(super::two_decimals(-0.006), "-0.01");
+        assert_eq!(super::two_decimals(195.0), "195.00");
     }
 }
