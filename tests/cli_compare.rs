@@ -127,7 +127,7 @@ fn compare_refuses_different_settings_unless_forced() {
 
 /// A run of one CartPole-like cell, for the two-cell comparison.
 fn one_cell_run(name: &str, seed: u64) -> std::path::PathBuf {
-    use rwg_core::run_data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
+    use rwg_study::rundir::data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
     let dir = temp_dir(name);
     write_synthetic_run(
         &dir,
