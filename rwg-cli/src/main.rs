@@ -1,6 +1,7 @@
 //! `rwg`: Random Weight Guessing analysis of reinforcement-learning environments.
 
 mod cmd;
+mod progress;
 mod step_lines;
 
 use anyhow::Result;
