@@ -44,10 +44,62 @@ fn compare_side_by_side() {
     assert_eq!(csv.lines().count(), 17);
     assert!(csv.starts_with("run,env,arch,bias,samples,"));
 
-    let fig = temp_dir("compare-fig").join("cmp.svg");
-    rwg_ok(&["compare", a, b, "--figure", fig.to_str().unwrap()]);
+    // the ranking: a table after the comparison, a column in CSV and JSON
+    assert!(
+        out.contains("Difficulty ranking of 16 cells, easiest first"),
+        "{out}"
+    );
+    let ranks: Vec<u64> = rows
+        .iter()
+        .map(|r| r["difficulty_rank"].as_u64().unwrap())
+        .collect();
+    let mut sorted = ranks.clone();
+    sorted.sort();
+    assert_eq!(sorted, (1..=16).collect::<Vec<u64>>());
+    assert!(csv.lines().next().unwrap().ends_with(",difficulty_rank"));
+
+    let dir = temp_dir("compare-fig");
+    let (fig, rank_fig, page) = (
+        dir.join("cmp.svg"),
+        dir.join("rank.png"),
+        dir.join("cmp.html"),
+    );
+    rwg_ok(&[
+        "compare",
+        a,
+        b,
+        "--figure",
+        fig.to_str().unwrap(),
+        "--ranking-figure",
+        rank_fig.to_str().unwrap(),
+        "--html",
+        page.to_str().unwrap(),
+    ]);
     let svg = std::fs::read_to_string(&fig).unwrap();
-    assert!(svg.contains("normalised mean") && svg.contains("compare-a: CartPole-v0"));
+    // one panel per architecture × bias, the first run as the grey reference
+    for want in [
+        "0HL · no bias",
+        "1HL-4 · with bias",
+        "grey: the reference set (rwg-test-",
+        "normalised mean",
+    ] {
+        assert!(svg.contains(want), "profiles figure lacks {want:?}");
+    }
+    let png = std::fs::read(&rank_fig).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    let html = std::fs::read_to_string(&page).unwrap();
+    for want in [
+        "<h2>Difficulty ranking</h2>",
+        "Difficulty ranking of 16 cells",
+        "<h2>Profiles per architecture</h2>",
+        "Comparison of 16 cells",
+        "<th>episodes per sample</th><td>4</td><td>4</td>",
+        "id=\"fig-ranking\"",
+        "id=\"fig-profiles\"",
+    ] {
+        assert!(html.contains(want), "page lacks {want:?}");
+    }
+    assert!(!html.contains("http://") && !html.contains("https://") || html.contains("xmlns"));
 
     let tex = rwg_ok(&["compare", a, b, "--format", "latex"]);
     assert!(tex.contains("\\toprule"));
@@ -71,4 +123,78 @@ fn compare_refuses_different_settings_unless_forced() {
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr)
         .contains("warning: comparing runs whose settings differ"));
+}
+
+/// A run of one CartPole-like cell, for the two-cell comparison.
+fn one_cell_run(name: &str, seed: u64) -> std::path::PathBuf {
+    use rwg_study::rundir::data::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
+    let dir = temp_dir(name);
+    write_synthetic_run(
+        &dir,
+        &SyntheticRun {
+            samples: 200,
+            episodes: 4,
+            seed,
+            cells: vec![SyntheticCell::cartpole("0HL", &[], false)],
+        },
+    )
+    .unwrap();
+    dir
+}
+
+#[test]
+fn compare_page_renders_in_headless_chromium() {
+    let Some(browser) = browser() else {
+        skip(
+            "compare_page_renders_in_headless_chromium",
+            "no headless browser found (install Debian's `chromium`, or set RWG_CHROMIUM)",
+        );
+        return;
+    };
+    // 16 cells from two runs, and 2 cells from two one-cell runs
+    let many = (
+        synthetic_run("compare-page-a", 80, 4),
+        synthetic_run("compare-page-b", 50, 4),
+    );
+    let few = (
+        one_cell_run("compare-page-c", 5),
+        one_cell_run("compare-page-d", 6),
+    );
+    for (k, (a, b)) in [many, few].iter().enumerate() {
+        let page = a.with_file_name(format!(
+            "rwg-test-{}-compare-page-{k}.html",
+            std::process::id()
+        ));
+        rwg_ok(&[
+            "compare",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--html",
+            page.to_str().unwrap(),
+        ]);
+        let dom = check_page_in_browser(
+            &browser,
+            &page,
+            2,
+            &temp_dir(&format!("compare-page-profile-{k}")),
+        );
+        assert!(dom.contains("2 of 2 figures rendered"));
+        let shot = page.with_extension("png");
+        headless(
+            &browser,
+            &page,
+            &[
+                &format!("--screenshot={}", shot.display()),
+                "--window-size=1280,2400",
+            ],
+            &temp_dir(&format!("compare-page-shot-{k}")),
+        );
+        let png = std::fs::read(&shot).expect("no screenshot written");
+        assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        assert!(
+            png.len() > 30_000,
+            "screenshot suspiciously small: {} bytes",
+            png.len()
+        );
+    }
 }

@@ -2,7 +2,7 @@
 
 #![allow(dead_code)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// Path of the `rwg` binary built for these tests.
@@ -154,4 +154,136 @@ pub fn rwg_env(args: &[&str], vars: &[(&str, &std::ffi::OsStr)]) -> Output {
         cmd.env(k, v);
     }
     cmd.output().expect("cannot run rwg")
+}
+
+/// Whether a skipped test must fail instead: under CI (`CI=true`) or with
+/// `RWG_NO_SKIP=1`.
+pub fn skips_forbidden() -> bool {
+    std::env::var("CI").as_deref() == Ok("true")
+        || std::env::var("RWG_NO_SKIP").as_deref() == Ok("1")
+}
+
+/// Marks `test` as not run because `why`: prints `SKIPPED <test>: <why>` to
+/// the process's stderr (past the test harness's capture, so it shows in
+/// `cargo test`'s output), or panics when [`skips_forbidden`].
+pub fn skip(test: &str, why: &str) {
+    assert!(
+        !skips_forbidden(),
+        "{test} cannot run and skips are not allowed here (CI=true or RWG_NO_SKIP=1): {why}"
+    );
+    use std::io::Write;
+    let _ = writeln!(std::io::stderr(), "SKIPPED {test}: {why}");
+}
+
+/// A headless Chromium-family browser on PATH (or `RWG_CHROMIUM`).
+pub fn browser() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("RWG_CHROMIUM") {
+        return Some(PathBuf::from(p));
+    }
+    let path = std::env::var_os("PATH")?;
+    for name in ["chromium", "chromium-browser", "google-chrome", "chrome"] {
+        for d in std::env::split_paths(&path) {
+            let p = d.join(name);
+            if p.is_file() {
+                return Some(p);
+            }
+        }
+    }
+    None
+}
+
+/// Runs the browser headless on `page` with `extra` flags and a fresh
+/// profile in `profile`; returns stdout. Fails after 120 s.
+pub fn headless(browser: &Path, page: &Path, extra: &[&str], profile: &Path) -> String {
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let mut child = Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .args(extra)
+        .arg(format!("file://{}", page.display()))
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("cannot start the browser");
+    let stdout = child.stdout.take().unwrap();
+    let reader = std::thread::spawn(move || std::io::read_to_string(stdout).unwrap_or_default());
+    let start = Instant::now();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        if start.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("the browser did not finish within 120 s");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    reader.join().unwrap()
+}
+
+/// The numeric attribute `data-<name>` of `<body>` in a dumped DOM.
+pub fn body_attr(dom: &str, name: &str) -> Option<usize> {
+    let body = &dom[dom.find("<body")?..];
+    let body = &body[..body.find('>')?];
+    let key = format!("data-{name}=\"");
+    let v = &body[body.find(&key)? + key.len()..];
+    v[..v.find('"')?].parse().ok()
+}
+
+/// Loads `page` in headless Chromium in a 1280 px wide window and checks
+/// what a reader would see: `figures` figures, every one rendered, no script
+/// or console error, no horizontal scrolling. Returns the dumped DOM.
+pub fn check_page_in_browser(
+    browser: &Path,
+    page: &Path,
+    figures: usize,
+    profile: &Path,
+) -> String {
+    let dom = headless(
+        browser,
+        page,
+        &["--window-size=1280,900", "--dump-dom"],
+        profile,
+    );
+    assert_eq!(
+        body_attr(&dom, "figures"),
+        Some(figures),
+        "figures counted by {}",
+        page.display()
+    );
+    assert_eq!(
+        body_attr(&dom, "rendered"),
+        Some(figures),
+        "figures rendered in {}",
+        page.display()
+    );
+    assert_eq!(dom.matches("data-rendered=\"ok\"").count(), figures);
+    assert_eq!(
+        body_attr(&dom, "errors"),
+        Some(0),
+        "script or console errors in {}",
+        page.display()
+    );
+    let (scroll, view) = (
+        body_attr(&dom, "scroll-width").expect("scroll width reported"),
+        body_attr(&dom, "viewport-width").expect("viewport width reported"),
+    );
+    assert_eq!(view, 1280, "the window is 1280 px wide");
+    assert!(
+        scroll <= view,
+        "{} scrolls sideways at 1280 px: {scroll} px wide",
+        page.display()
+    );
+    dom
 }

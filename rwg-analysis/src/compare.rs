@@ -9,7 +9,7 @@
 
 use crate::fmt::{prob_ci, score};
 use crate::table::{Cell, Table};
-use crate::tables::{bias_label, guesses_cell};
+use crate::tables::guesses_cell;
 use rwg_env::float::fmt_f64;
 use rwg_study::rundir::data::{CellData, Run};
 use rwg_study::rundir::meta::RunMeta;
@@ -22,6 +22,8 @@ use serde::Serialize;
 pub struct CompareRun {
     /// Label of the run in tables and legends (its directory name).
     pub label: String,
+    /// The run directory, as given.
+    pub dir: String,
     /// The run's `run.json`.
     pub meta: RunMeta,
     /// Per cell: summary and sample means `M`.
@@ -33,6 +35,7 @@ impl CompareRun {
     pub fn new(label: String, run: &Run, cells: &[(CellData, CellSummary)]) -> Self {
         CompareRun {
             label,
+            dir: run.dir.display().to_string(),
             meta: run.meta.clone(),
             cells: cells.iter().map(|(c, s)| (s.clone(), c.means())).collect(),
         }
@@ -110,6 +113,9 @@ pub struct CompareRow {
     pub normalised_best: Option<f64>,
     /// 99.9th percentile of `M`, normalised.
     pub normalised_p99_9: Option<f64>,
+    /// Position in the difficulty ranking, 1 the easiest
+    /// ([`crate::ranking`]).
+    pub difficulty_rank: usize,
 }
 
 /// The rows of a comparison, the runs of each env × architecture × bias
@@ -123,6 +129,7 @@ pub fn compare_rows(runs: &[CompareRun]) -> Vec<CompareRow> {
                 run: r.label.clone(),
                 normalised_best: s.normalise(s.best_mean),
                 normalised_p99_9: s.normalise(s.p99_9_mean),
+                difficulty_rank: 0,
                 summary: s.clone(),
             })
         })
@@ -146,11 +153,15 @@ pub fn compare_rows(runs: &[CompareRun]) -> Vec<CompareRow> {
             r.summary.bias,
         )
     });
+    let ranks = crate::ranking::difficulty_ranks(&rows);
+    for (r, rank) in rows.iter_mut().zip(ranks) {
+        r.difficulty_rank = rank;
+    }
     rows
 }
 
 fn opt_sig(x: Option<f64>) -> Cell {
-    x.map_or_else(|| Cell::plain("–"), |v| Cell::plain(format!("{v:.3}")))
+    Cell::plain(crate::ranking::norm_text(x))
 }
 
 /// The comparison table.
@@ -168,6 +179,7 @@ pub fn compare_table(rows: &[CompareRow]) -> Table {
         "median M",
         "norm. best",
         "norm. p99.9",
+        "difficulty rank",
     ]
     .into_iter()
     .map(Cell::from)
@@ -192,6 +204,7 @@ pub fn compare_table(rows: &[CompareRow]) -> Table {
                 Cell::plain(score(s.median_mean)),
                 opt_sig(r.normalised_best),
                 opt_sig(r.normalised_p99_9),
+                Cell::plain(r.difficulty_rank.to_string()),
             ]
         })
         .collect();
@@ -222,7 +235,7 @@ pub fn compare_csv(rows: &[CompareRow]) -> String {
     let mut out = String::from(
         "run,env,arch,bias,samples,episodes,solved,p_solved,p_solved_lo,p_solved_hi,\
          expected_guesses,expected_guesses_lo,best_mean,p99.9_mean,median_mean,\
-         normalised_best,normalised_p99.9\n",
+         normalised_best,normalised_p99.9,difficulty_rank\n",
     );
     for r in rows {
         let s = &r.summary;
@@ -252,39 +265,12 @@ pub fn compare_csv(rows: &[CompareRow]) -> String {
             fmt_f64(s.median_mean),
             opt(r.normalised_best),
             opt(r.normalised_p99_9),
+            r.difficulty_rank.to_string(),
         ];
         out.push_str(&fields.join(","));
         out.push('\n');
     }
     out
-}
-
-/// The curves of the combined figure: per cell with a solved score, its
-/// label and its normalised sample means.
-pub fn normalised_series(runs: &[CompareRun]) -> Vec<(String, Vec<f64>)> {
-    let multi = runs.len() > 1;
-    runs.iter()
-        .flat_map(|r| {
-            r.cells.iter().filter_map(move |(s, means)| {
-                s.normalise(0.0)?;
-                let label = format!(
-                    "{}{} · {} · {}",
-                    if multi {
-                        format!("{}: ", r.label)
-                    } else {
-                        String::new()
-                    },
-                    s.env,
-                    s.arch,
-                    bias_label(s.bias)
-                );
-                Some((
-                    label,
-                    means.iter().filter_map(|&m| s.normalise(m)).collect(),
-                ))
-            })
-        })
-        .collect()
 }
 
 #[cfg(test)]

@@ -10,8 +10,10 @@
 //! calls when it finishes.
 
 pub mod compare;
+pub mod compare_page;
 pub mod fmt;
 pub mod plot;
+pub mod ranking;
 pub mod report;
 pub mod table;
 pub mod tables;

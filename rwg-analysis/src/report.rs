@@ -18,7 +18,9 @@ use rwg_study::stats::CellSummary;
 /// File name of the report in the run directory.
 pub const REPORT_HTML: &str = "report.html";
 
-const STYLE: &str = r#"
+/// The stylesheet of the report and the comparison page: fits a 1280 px
+/// window; wide tables scroll inside their own box.
+pub(crate) const STYLE: &str = r#"
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; margin: 2em auto; max-width: 1500px; padding: 0 1em; color: #222; }
 h1 { margin-bottom: 0.2em; }
 h2 { border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 2em; }
@@ -32,15 +34,23 @@ table.meta td { text-align: left; }
 .note { font-size: 0.9em; color: #555; }
 figure.rwg-figure { margin: 1em 0; }
 figure.rwg-figure svg { max-width: 100%; height: auto; border: 1px solid #eee; }
+figure.zoomable svg { cursor: zoom-in; }
+figure.zoomable.zoomed { overflow-x: auto; }
+figure.zoomable.zoomed svg { max-width: none; cursor: zoom-out; }
+table.meta td { white-space: normal; overflow-wrap: anywhere; }
+body { box-sizing: border-box; }
 figcaption { font-size: 0.9em; color: #444; margin-top: 0.3em; }
 .row { display: flex; flex-wrap: wrap; gap: 1em; }
 .row figure.rwg-figure { flex: 1 1 480px; }
 pre { background: #f6f6f6; padding: 1em; overflow-x: auto; }
+.table-scroll { overflow-x: auto; max-width: 100%; }
+.ranking-table td:nth-child(-n+5) { text-align: left; }
 #render-status { color: #555; font-size: 0.9em; }
 nav a { margin-right: 1em; }
 "#;
 
-const SCRIPT: &str = r#"
+/// The page's self-check (see the module doc).
+pub(crate) const SCRIPT: &str = r#"
 function rasterOk(im) {
   const w = Number(im.getAttribute('width')), h = Number(im.getAttribute('height'));
   const c = document.createElement('canvas');
@@ -52,6 +62,8 @@ function rasterOk(im) {
   return false;
 }
 window.addEventListener('load', () => {
+  for (const f of document.querySelectorAll('figure.zoomable'))
+    f.querySelector('svg').addEventListener('click', () => f.classList.toggle('zoomed'));
   const figs = Array.from(document.querySelectorAll('figure.rwg-figure'));
   let ok = 0;
   for (const f of figs) {
@@ -66,10 +78,38 @@ window.addEventListener('load', () => {
   document.body.dataset.rendered = String(ok);
   document.getElementById('render-status').textContent =
     ok + ' of ' + figs.length + ' figures rendered';
+  document.body.dataset.errors = String((window.rwgErrors || []).length);
+  document.body.dataset.scrollWidth = String(document.documentElement.scrollWidth);
+  document.body.dataset.viewportWidth = String(window.innerWidth);
 });
 "#;
 
-fn figure_html(f: &Figure) -> String {
+/// Collects script errors, failed resource loads and `console.error` calls
+/// into `window.rwgErrors`; [`SCRIPT`] reports their count as
+/// `data-errors` on `<body>`. Goes first in `<head>`.
+pub(crate) const ERROR_PROBE: &str = r#"<script>
+window.rwgErrors = [];
+window.addEventListener('error', e => window.rwgErrors.push(String(e.message || (e.target && (e.target.src || e.target.href)) || 'error')), true);
+(() => { const ce = console.error.bind(console); console.error = (...a) => { window.rwgErrors.push(a.join(' ')); ce(...a); }; })();
+</script>
+"#;
+
+/// A figure inline, with its caption.
+pub(crate) fn figure_html(f: &Figure) -> String {
+    figure_html_class(f, "rwg-figure", "")
+}
+
+/// A figure wider than the page: shown to fit, full size on a click (it
+/// then scrolls inside its own box).
+fn zoomable_figure_html(f: &Figure) -> String {
+    figure_html_class(
+        f,
+        "rwg-figure zoomable",
+        " (click the figure to see it at full size)",
+    )
+}
+
+fn figure_html_class(f: &Figure, class: &str, hint: &str) -> String {
     assert_eq!(f.format, ImageFormat::Svg, "the report inlines SVG figures");
     let svg = String::from_utf8_lossy(&f.bytes);
     // drop an XML declaration if any: not allowed inside HTML
@@ -78,11 +118,20 @@ fn figure_html(f: &Figure) -> String {
         None => &svg[..],
     };
     format!(
-        "<figure class=\"rwg-figure\" id=\"fig-{}\" data-name=\"{}\">\n{}\n<figcaption>{}</figcaption>\n</figure>\n",
+        "<figure class=\"{class}\" id=\"fig-{}\" data-name=\"{}\">\n{}\n<figcaption>{}{hint}</figcaption>\n</figure>\n",
         html_escape(&f.name),
         html_escape(&f.name),
         svg.trim_end(),
         html_escape(&f.caption)
+    )
+}
+
+/// A table in its own horizontally scrolling box, so a wide table never
+/// widens the page.
+pub(crate) fn table_html(t: &crate::table::Table) -> String {
+    format!(
+        "<div class=\"table-scroll\">\n{}</div>\n",
+        t.render(TableFormat::Html)
     )
 }
 
@@ -127,9 +176,9 @@ fn meta_table(run: &Run) -> String {
 
 fn cell_numbers(s: &CellSummary) -> String {
     let mut parts = vec![
-        format!("best mean {:.2}", s.best_mean),
-        format!("99.9th percentile of M {:.2}", s.p99_9_mean),
-        format!("median M {:.2}", s.median_mean),
+        format!("best mean {}", crate::fmt::score(s.best_mean)),
+        format!("99.9th percentile of M {}", crate::fmt::score(s.p99_9_mean)),
+        format!("median M {}", crate::fmt::score(s.median_mean)),
     ];
     if let Some(p) = s.solved_fraction {
         parts.push(format!(
@@ -160,6 +209,7 @@ pub fn report_html(run: &Run, stats: &RunStats, figures: &[Figure]) -> String {
         .unwrap_or_else(|| run.dir.display().to_string());
     let mut h = String::new();
     h.push_str("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n");
+    h.push_str(ERROR_PROBE);
     h.push_str(&format!(
         "<title>RWG report: {}</title>\n",
         html_escape(&name)
@@ -183,7 +233,7 @@ pub fn report_html(run: &Run, stats: &RunStats, figures: &[Figure]) -> String {
          (1/E, as numpy's var) of its episode scores. Intervals are 95% Wilson score intervals.</p>\n",
     );
     for t in run_tables(stats) {
-        h.push_str(&t.render(TableFormat::Html));
+        h.push_str(&table_html(&t));
     }
     h.push_str("</section>\n");
 
@@ -195,7 +245,7 @@ pub fn report_html(run: &Run, stats: &RunStats, figures: &[Figure]) -> String {
     };
     h.push_str("<section id=\"overview\">\n<h2>Overview</h2>\n");
     for f in figures.iter().filter(|f| !is_cell_fig(f)) {
-        h.push_str(&figure_html(f));
+        h.push_str(&zoomable_figure_html(f));
     }
     h.push_str("</section>\n");
 

@@ -162,6 +162,41 @@ pub fn guesses_table(cells: &[CellSummary], bias: bool) -> Option<Table> {
     )
 }
 
+/// Gives every plain decimal number of column `col` the same number of
+/// decimals (the most any has: `1.00` next to `0.999` becomes `1.000`), so a
+/// column reads in one format. A column holding anything else (scientific
+/// notation, text other than `–`) is left as it is.
+pub fn uniform_decimals(rows: &mut [Vec<Cell>], col: usize) {
+    let plain = |t: &str| {
+        let t = t.strip_prefix('-').unwrap_or(t);
+        !t.is_empty()
+            && t.chars().all(|c| c.is_ascii_digit() || c == '.')
+            && t.matches('.').count() <= 1
+    };
+    let texts: Vec<&str> = rows
+        .iter()
+        .filter_map(|r| r.get(col))
+        .map(|c| c.text.as_str())
+        .filter(|t| *t != "–")
+        .collect();
+    if texts.is_empty() || !texts.iter().all(|t| plain(t)) {
+        return;
+    }
+    let decimals = texts
+        .iter()
+        .map(|t| t.split_once('.').map_or(0, |(_, d)| d.len()))
+        .max()
+        .unwrap_or(0);
+    for r in rows.iter_mut() {
+        if let Some(c) = r.get_mut(col) {
+            if c.text != "–" {
+                let v: f64 = c.text.parse().expect("a plain decimal");
+                *c = Cell::plain(format!("{v:.decimals$}"));
+            }
+        }
+    }
+}
+
 /// One row per cell with every headline number.
 pub fn detail_table(cells: &[CellSummary]) -> Table {
     let mut header: Vec<Cell> = [
@@ -204,10 +239,15 @@ pub fn detail_table(cells: &[CellSummary]) -> Table {
                     .map_or_else(|| Cell::plain("–"), |o| prob(o.p))
             }));
             r.push(Cell::plain(score(c.top_episode_threshold)));
-            r.push(Cell::plain(sig(c.mean_episode_length, 4)));
+            r.push(Cell::plain(format!("{:.1}", c.mean_episode_length)));
             r
         })
-        .collect();
+        .collect::<Vec<_>>();
+    let mut rows = rows;
+    // the probability columns: p(solved) and P(≥1 in n)
+    for col in (6..7).chain(8..8 + GUESS_COUNTS.len()) {
+        uniform_decimals(&mut rows, col);
+    }
     Table {
         title: format!("Per cell, {}", shape(cells)),
         header,
@@ -236,4 +276,22 @@ pub fn run_tables(stats: &RunStats) -> Vec<Table> {
     }
     out.push(detail_table(cells));
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_column_reads_in_one_format() {
+        let col =
+            |ts: &[&str]| -> Vec<Vec<Cell>> { ts.iter().map(|t| vec![Cell::plain(*t)]).collect() };
+        let mut rows = col(&["1.00", "0.999", "–", "0"]);
+        uniform_decimals(&mut rows, 0);
+        let t: Vec<&str> = rows.iter().map(|r| r[0].text.as_str()).collect();
+        assert_eq!(t, ["1.000", "0.999", "–", "0.000"]);
+        let mut rows = col(&["1.00", "3.84e-4"]);
+        uniform_decimals(&mut rows, 0);
+        assert_eq!(rows[0][0].text, "1.00");
+    }
 }

@@ -7,6 +7,7 @@
 mod cluster;
 mod cmd;
 mod fault_guard;
+mod progress;
 mod slurm_script;
 mod stdio;
 mod step_lines;

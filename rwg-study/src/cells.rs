@@ -301,12 +301,6 @@ impl Cell {
     /// `steps_per_s` is `None` where it is not known (a merged run); unknown
     /// values print as `-`, never as NaN.
     pub fn summary_line(&self, means: &[f64], steps_per_s: Option<f64>) -> String {
-        // Unknown or undefined values print as `-`, never as NaN.
-        let num = |x: Option<f64>, prec: usize, exp: bool| match x {
-            Some(x) if x.is_finite() && exp => format!("{x:.prec$e}"),
-            Some(x) if x.is_finite() => format!("{x:.prec$}"),
-            _ => "-".into(),
-        };
         let best = stats::max(means);
         let median = stats::percentile(means, 50.0);
         let solved = match self.solved {
@@ -319,11 +313,26 @@ impl Cell {
         format!(
             "{:<44} {:>11} {:>12} {:>8} {:>11}",
             self.dir,
-            num(Some(best), 2, false),
-            num(Some(median), 2, false),
+            summary_num(Some(best), 2, false),
+            summary_num(Some(median), 2, false),
             solved,
-            num(steps_per_s, 3, true)
+            summary_num(steps_per_s, 3, true)
         )
+    }
+}
+
+/// A summary number: `-` where unknown or not finite (never NaN), `prec`
+/// decimals (in scientific notation if `exp`), and a negative value that
+/// rounds to zero without its sign (as the tables print it: never `-0.00`).
+fn summary_num(x: Option<f64>, prec: usize, exp: bool) -> String {
+    let s = match x {
+        Some(x) if x.is_finite() && exp => format!("{x:.prec$e}"),
+        Some(x) if x.is_finite() => format!("{x:.prec$}"),
+        _ => return "-".into(),
+    };
+    match s.strip_prefix('-') {
+        Some(rest) if rest.bytes().all(|b| b == b'0' || b == b'.') => rest.to_string(),
+        _ => s,
     }
 }
 
@@ -361,5 +370,18 @@ pub fn new_meta(
         cells: vec![],
         block_samples: BLOCK_SAMPLES,
         shard,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn no_negative_zero() {
+        assert_eq!(super::summary_num(Some(-0.004), 2, false), "0.00");
+        assert_eq!(super::summary_num(Some(-0.006), 2, false), "-0.01");
+        assert_eq!(super::summary_num(Some(195.0), 2, false), "195.00");
+        assert_eq!(super::summary_num(Some(f64::NAN), 2, false), "-");
+        assert_eq!(super::summary_num(None, 3, true), "-");
+        assert_eq!(super::summary_num(Some(12346.0), 3, true), "1.235e4");
     }
 }

@@ -12,12 +12,18 @@
 //! settings, the with/without-bias histogram comparison
 //! ([`bias_figure`]). The solved score is drawn as a dashed red line.
 //!
+//! For `rwg compare`: the performance profiles per architecture
+//! ([`profiles_figure`]) and the difficulty ranking ([`ranking_figure`]).
+//!
 //! Text in PNG figures is rendered with DejaVu Sans, embedded in the binary:
 //! no system font is needed. SVG figures name the `sans-serif` family and
 //! leave the glyphs to the viewer.
 
+mod compare;
 mod panels;
 pub mod raster;
+
+pub use compare::{profiles_figure, ranking_figure};
 
 use panels::{histogram_panel, scores_panel, variance_panel, HistSeries, PanelText};
 use plotters::coord::Shift;
@@ -513,39 +519,6 @@ pub fn run_figures(
         out.extend(cell_figures(c, s, format)?);
     }
     Ok(out)
-}
-
-struct ComparePaint<'a> {
-    series: &'a [(String, Vec<f64>)],
-}
-
-impl Paint for ComparePaint<'_> {
-    fn paint<DB: DrawingBackend>(
-        &self,
-        root: &DrawingArea<DB, Shift>,
-        _layers: &mut Layers,
-    ) -> Result<(), PlotError> {
-        panels::survival_panel(root, self.series, PanelText::LARGE)
-    }
-}
-
-/// The combined figure of `rwg compare`: for every cell with a solved score,
-/// the fraction of samples whose normalised mean (median random network 0,
-/// solved score 1) is at least x, on a log scale; the solved score is the
-/// dashed line at 1.
-pub fn compare_figure(
-    series: &[(String, Vec<f64>)],
-    format: ImageFormat,
-) -> Result<Figure, PlotError> {
-    let height = 520 + 18 * series.len() as u32;
-    Ok(Figure {
-        name: "compare".into(),
-        caption: "Fraction of random networks whose normalised mean score reaches x \
-                  (0: median random network, 1: solved)"
-            .into(),
-        format,
-        bytes: render(&ComparePaint { series }, (1000, height), format)?,
-    })
 }
 
 #[cfg(test)]

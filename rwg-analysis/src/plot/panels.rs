@@ -85,7 +85,7 @@ fn padded_range(values: impl Iterator<Item = f64>, extra: Option<f64>, pad: f64)
 }
 
 /// Compact tick labels: `1.2e5` for large or tiny magnitudes.
-fn tick(v: &f64) -> String {
+pub(super) fn tick(v: &f64) -> String {
     let a = v.abs();
     if a == 0.0 {
         "0".into()
@@ -121,7 +121,7 @@ type Chart<'a, DB, X, Y> = ChartContext<
 
 /// A chart with what every panel shares: caption, margins, label areas, the
 /// mesh's line and text styles, and [`tick`] labels on both axes.
-fn chart<'a, DB, X, Y>(
+pub(super) fn chart<'a, DB, X, Y>(
     area: &'a DrawingArea<DB, Shift>,
     title: &str,
     t: PanelText,
@@ -388,73 +388,6 @@ pub(crate) fn variance_panel<DB: DrawingBackend>(
             .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], RED.stroke_width(2)));
     }
     legend_style(&mut chart, SeriesLabelPosition::UpperLeft, t)
-}
-
-/// Survival curves of normalised sample means: for each series, the
-/// fraction of samples with normalised mean ≥ x (log scale) for x ≥ 0, the
-/// solved score (1) as a dashed line.
-pub(crate) fn survival_panel<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    series: &[(String, Vec<f64>)],
-    t: PanelText,
-) -> Result<(), PlotError> {
-    let xmax = series
-        .iter()
-        .flat_map(|(_, v)| v.iter().copied())
-        .filter(|v| v.is_finite())
-        .fold(1.1f64, f64::max);
-    let nmax = series
-        .iter()
-        .map(|(_, v)| v.len())
-        .max()
-        .unwrap_or(1)
-        .max(1);
-    let (y0, y1) = (0.5 / nmax as f64, 1.0);
-    let mut chart = chart(
-        area,
-        "Fraction of random networks with normalised mean ≥ x",
-        t,
-        0.0..xmax * 1.02,
-        (y0..y1).log_scale(),
-        (
-            "normalised mean score (0: median random network, 1: solved)",
-            "fraction of samples (log scale)",
-        ),
-    )?;
-    for (k, (label, values)) in series.iter().enumerate() {
-        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-        v.sort_by(|a, b| b.partial_cmp(a).expect("finite"));
-        let n = v.len().max(1) as f64;
-        // (x_k, (k+1)/n): the fraction of samples at or above the k-th largest
-        let step = (v.len() / CURVE_POINTS).max(1);
-        let mut pts: Vec<(f64, f64)> = v
-            .iter()
-            .enumerate()
-            .filter(|&(i, &x)| x >= 0.0 && (i % step == 0 || i + 1 == v.len()))
-            .map(|(i, &x)| (x, (i + 1) as f64 / n))
-            .collect();
-        if pts.is_empty() {
-            continue;
-        }
-        pts.sort_by(|a, b| a.0.partial_cmp(&b.0).expect("finite"));
-        let color = Palette99::pick(k).to_rgba();
-        chart
-            .draw_series(LineSeries::new(pts, color.stroke_width(2)))
-            .map_err(draw_err)?
-            .label(label.clone())
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 16, y)], color.stroke_width(2)));
-    }
-    chart
-        .draw_series(DashedLineSeries::new(
-            [(1.0, y0), (1.0, y1)],
-            8,
-            5,
-            RED.stroke_width(2),
-        ))
-        .map_err(draw_err)?
-        .label("solved (1)")
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 16, y)], RED.stroke_width(2)));
-    legend_style(&mut chart, SeriesLabelPosition::UpperRight, t)
 }
 
 #[cfg(test)]

@@ -545,7 +545,7 @@ pub fn run(args: PeersArgs) -> Result<()> {
         rows,
     };
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        crate::outln!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         print_table(&report);
     }
@@ -555,7 +555,7 @@ pub fn run(args: PeersArgs) -> Result<()> {
 /// The human-readable report.
 fn print_table(r: &Report) {
     let s = &r.setup;
-    println!(
+    crate::outln!(
         "rwg bench peers, {} UTC, {} ({} CPUs), {}, {} rounds, load average {} -> {}",
         s.date_utc,
         s.cpu_model,
@@ -566,18 +566,21 @@ fn print_table(r: &Report) {
         s.load_avg_start,
         s.load_avg_end
     );
-    println!("rwg:        {}", s.rwg_command);
-    println!("gymnax-raw: {}", s.peer_command);
-    println!(
+    crate::outln!("rwg:        {}", s.rwg_command);
+    crate::outln!("gymnax-raw: {}", s.peer_command);
+    crate::outln!(
         "env steps per CPU-second, median [min-max]; rwg: whole process; gymnax-raw: its run, compile excluded\n"
     );
-    println!(
+    crate::outln!(
         "{:<34}  {:>26}  {:>26}  {:>20}",
-        "workload", "rwg run", "gymnax-raw", "rwg / gymnax-raw"
+        "workload",
+        "rwg run",
+        "gymnax-raw",
+        "rwg / gymnax-raw"
     );
     let sci = |s: &Side| format!("{:.3e} [{:.2e}-{:.2e}]", s.median, s.min, s.max);
     for row in &r.rows {
-        println!(
+        crate::outln!(
             "{:<34}  {:>26}  {:>26}  {:>20}",
             format!("{} {}", row.env, hidden_label(&row.hidden)),
             sci(&row.rwg),

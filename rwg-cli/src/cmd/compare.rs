@@ -3,9 +3,11 @@
 use super::stats::Format;
 use anyhow::{bail, Context, Result};
 use rwg_analysis::compare::{
-    compare_csv, compare_rows, compare_table, normalised_series, settings_differences, CompareRun,
+    compare_csv, compare_rows, compare_table, settings_differences, CompareRun,
 };
-use rwg_analysis::plot::{compare_figure, ImageFormat};
+use rwg_analysis::compare_page::compare_html;
+use rwg_analysis::plot::{profiles_figure, ranking_figure, ImageFormat};
+use rwg_analysis::ranking::ranking_table;
 use rwg_study::rundir::data::Run;
 use std::path::PathBuf;
 
@@ -22,10 +24,36 @@ pub struct Args {
     /// architectures differ.
     #[arg(long)]
     force: bool,
-    /// Also write the combined figure (normalised-score curves of every cell)
+    /// Also write the profiles figure (one panel per architecture: each env's
+    /// fraction of networks reaching a normalised score, the first run grey)
     /// to this file: SVG, or PNG if the name ends in `.png`.
     #[arg(long, value_name = "FILE")]
     figure: Option<PathBuf>,
+    /// Also write the difficulty-ranking figure to this file: SVG, or PNG if
+    /// the name ends in `.png`.
+    #[arg(long, value_name = "FILE")]
+    ranking_figure: Option<PathBuf>,
+    /// Also write a self-contained HTML page: the ranking, the figures, every
+    /// cell and the runs' metadata.
+    #[arg(long, value_name = "FILE")]
+    html: Option<PathBuf>,
+}
+
+fn image_format(path: &std::path::Path) -> ImageFormat {
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"))
+    {
+        ImageFormat::Png
+    } else {
+        ImageFormat::Svg
+    }
+}
+
+fn write(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
+    std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))?;
+    eprintln!("wrote {}", path.display());
+    Ok(())
 }
 
 /// Runs `rwg compare`.
@@ -77,23 +105,29 @@ pub fn run(args: Args) -> Result<()> {
     }
     let rows = compare_rows(&inputs);
     match args.format.table_format() {
-        Some(f) => crate::out!("{}", compare_table(&rows).render(f)),
+        Some(f) => crate::out!(
+            "{}\n{}",
+            compare_table(&rows).render(f),
+            ranking_table(&rows).render(f)
+        ),
         None if args.format == Format::Csv => crate::out!("{}", compare_csv(&rows)),
         None => crate::outln!("{}", serde_json::to_string_pretty(&rows)?),
     }
-    if let Some(path) = args.figure {
-        let png = path
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
-        let format = if png {
-            ImageFormat::Png
-        } else {
-            ImageFormat::Svg
-        };
-        let fig = compare_figure(&normalised_series(&inputs), format)?;
-        std::fs::write(&path, &fig.bytes)
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+    if let Some(path) = &args.figure {
+        write(path, &profiles_figure(&inputs, image_format(path))?.bytes)?;
+    }
+    if let Some(path) = &args.ranking_figure {
+        write(
+            path,
+            &ranking_figure(&inputs, &rows, image_format(path))?.bytes,
+        )?;
+    }
+    if let Some(path) = &args.html {
+        let figures = [
+            ranking_figure(&inputs, &rows, ImageFormat::Svg)?,
+            profiles_figure(&inputs, ImageFormat::Svg)?,
+        ];
+        write(path, compare_html(&inputs, &rows, &figures).as_bytes())?;
     }
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! The study itself is `rwg_study::runner`; this is its arguments and output.
 
 use crate::fault_guard;
+use crate::progress::{Lines, Silent};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rwg_study::cells::{summary_header, Cell};
@@ -10,6 +11,7 @@ use rwg_study::manifest::Manifest;
 use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome};
 use rwg_study::StudyError;
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -67,6 +69,12 @@ pub struct Args {
     /// memory, 12 bytes per episode.
     #[arg(long)]
     no_report: bool,
+    /// No progress on stderr. Otherwise a progress bar on a terminal, and
+    /// without one (a pipe, a batch job's log) a plain line every 5 s: cells,
+    /// networks done of total, networks/s, ETA (`RWG_PROGRESS_INTERVAL=SECONDS`
+    /// changes the interval).
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 /// Writes stats, figures and report.html into a finished run directory.
@@ -142,9 +150,20 @@ pub fn run(args: Args) -> Result<()> {
         force_new: args.force_new,
         stop: fault_guard::interrupt_flag(),
     };
-    let mut bar = Bar::default();
-    let outcome = run_study(&mut m, &opts, &mut bar);
-    for w in bar
+    let (mut bar, mut lines, mut silent) = (Bar::default(), Lines::new(), Silent);
+    let display: &mut dyn Progress = if args.quiet {
+        &mut silent
+    } else if std::io::stderr().is_terminal() {
+        &mut bar
+    } else {
+        &mut lines
+    };
+    let mut progress = WithChecks {
+        display,
+        checks: vec![],
+    };
+    let outcome = run_study(&mut m, &opts, &mut progress);
+    for w in progress
         .checks
         .drain(..)
         .flat_map(|c| c.join().unwrap_or_default())
@@ -226,19 +245,16 @@ fn shard_flag(s: Option<ShardMeta>) -> String {
     })
 }
 
-/// The progress bar on stderr: networks done, networks/s and env steps/s.
-/// Also starts the contract checks of the study's plugin envs.
-#[derive(Default)]
-struct Bar {
-    bar: Option<ProgressBar>,
-    t0: Option<Instant>,
-    steps: u64,
+/// Starts the contract checks of the study's plugin envs when the cells
+/// are planned, and passes every event on to the progress display.
+struct WithChecks<'a> {
+    display: &'a mut dyn Progress,
     /// `rwg check`'s determinism and thread-safety checks, one per plugin
     /// env, each giving the warnings to print.
     checks: Vec<std::thread::JoinHandle<Vec<String>>>,
 }
 
-impl Progress for Bar {
+impl Progress for WithChecks<'_> {
     fn planned(&mut self, cells: &[Cell]) {
         // In child processes, in the background: the run does not wait.
         let mut seen = std::collections::HashSet::new();
@@ -258,8 +274,35 @@ impl Progress for Bar {
                 }));
             }
         }
+        self.display.planned(cells);
     }
 
+    fn start(&mut self, networks: u64) {
+        self.display.start(networks);
+    }
+
+    fn cell(&mut self, label: &str) {
+        self.display.cell(label);
+    }
+
+    fn block(&mut self, label: &str, networks: u64, env_steps: u64) {
+        self.display.block(label, networks, env_steps);
+    }
+
+    fn finish(&mut self, ok: bool) {
+        self.display.finish(ok);
+    }
+}
+
+/// The progress bar on stderr: networks done, networks/s and env steps/s.
+#[derive(Default)]
+struct Bar {
+    bar: Option<ProgressBar>,
+    t0: Option<Instant>,
+    steps: u64,
+}
+
+impl Progress for Bar {
     fn start(&mut self, networks: u64) {
         let bar = ProgressBar::with_draw_target(Some(networks), ProgressDrawTarget::stderr());
         bar.set_style(
