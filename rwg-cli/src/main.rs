@@ -2,6 +2,7 @@
 
 mod cmd;
 mod step_lines;
+mod summary;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};

@@ -1,7 +1,7 @@
 //! Combining the shards of a study (`rwg run --shard K/N`) into one run
 //! directory, byte-identical to an unsharded run's (timing metadata aside).
 
-use crate::cells::{new_meta, plan_cells, summary_header};
+use crate::cells::{new_meta, plan_cells, SummaryLine};
 use crate::manifest::Manifest;
 use crate::rundir::blocks::{block_done, block_path, n_blocks};
 use crate::rundir::export::{rfc3339, write_atomic};
@@ -22,12 +22,13 @@ pub struct MergeReport {
 
 /// Checks that the directories in `shards` come from the same study and
 /// together hold every block exactly once, then writes the merged run into
-/// `out` (which must not hold a run). `on_line` receives the summary header,
-/// then each cell's summary line as the cell is finalised.
+/// `out` (which must not hold a run). `on_cell` is called with `None` once
+/// the shards are checked and copying starts, then with each cell's summary
+/// line as the cell is finalised.
 pub fn merge_shards(
     shards: &[PathBuf],
     out: &Path,
-    mut on_line: impl FnMut(&str),
+    mut on_cell: impl FnMut(Option<&SummaryLine>),
 ) -> Result<MergeReport, StudyError> {
     let refuse = |msg: String| Err(StudyError::Refused(msg));
     let mut dirs: Vec<(PathBuf, Manifest, RunMeta)> = vec![];
@@ -99,13 +100,13 @@ pub fn merge_shards(
     for (ci, cell) in cells.iter().enumerate() {
         for b in 0..nb {
             let k = ((ci as u64 * nb + b) % count) as usize;
-            let dir = cell_dir(owner[k].expect("checked"), &cell.dir);
+            let dir = cell_dir(owner[k].expect("checked"), &cell.id.dir);
             if !block_done(&dir, b) {
                 return refuse(format!(
                     "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; finish it with \
                      rwg run <manifest> --shard {k}/{count} --out {}",
                     owner[k].expect("checked").display(),
-                    cell.dir,
+                    cell.id.dir,
                     owner[k].expect("checked").display()
                 ));
             }
@@ -133,12 +134,12 @@ pub fn merge_shards(
         .unwrap_or_default();
     let mut meta = new_meta(m, threads, start, None);
     meta.wall_s = dirs.iter().map(|s| s.2.wall_s).sum();
-    on_line(&summary_header());
+    on_cell(None);
     for (ci, cell) in cells.iter().enumerate() {
-        let dest = cell_dir(out, &cell.dir);
+        let dest = cell_dir(out, &cell.id.dir);
         for b in 0..nb {
             let k = ((ci as u64 * nb + b) % count) as usize;
-            let src = block_path(&cell_dir(owner[k].expect("checked"), &cell.dir), b);
+            let src = block_path(&cell_dir(owner[k].expect("checked"), &cell.id.dir), b);
             let dst = block_path(&dest, b);
             let parent = dst.parent().expect("has parent");
             std::fs::create_dir_all(parent).map_err(StudyError::io(format!(
@@ -152,7 +153,7 @@ pub fn merge_shards(
             )))?;
         }
         let (cm, totals) = cell.finalize(m, out, 0.0)?;
-        on_line(&cell.summary_line(&totals.means, f64::NAN));
+        on_cell(Some(&cell.summary_line(&totals.means, f64::NAN)));
         meta.env_steps += cm.env_steps;
         meta.cells.push(cm);
     }

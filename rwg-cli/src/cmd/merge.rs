@@ -26,7 +26,10 @@ pub struct Args {
 
 /// Runs `rwg merge`.
 pub fn run(args: Args) -> Result<()> {
-    let report = merge_shards(&args.shards, &args.out, |line| println!("{line}"))?;
+    let report = merge_shards(&args.shards, &args.out, |cell| match cell {
+        None => println!("{}", crate::summary::header()),
+        Some(l) => println!("{}", crate::summary::line(l)),
+    })?;
     println!(
         "\nMerged {} shards ({} env steps) into {}",
         report.shards,

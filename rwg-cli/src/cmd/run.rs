@@ -3,7 +3,6 @@
 
 use anyhow::{bail, Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rwg_study::cells::summary_header;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome};
@@ -160,9 +159,9 @@ pub fn run(args: Args) -> Result<()> {
 
     let lines = &report.lines;
     if args.shard.is_none() {
-        println!("{}", summary_header());
+        println!("{}", crate::summary::header());
         for l in lines {
-            println!("{l}");
+            println!("{}", crate::summary::line(l));
         }
         if lines.len() < report.cells {
             println!(
