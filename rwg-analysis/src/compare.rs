@@ -50,9 +50,9 @@ fn architectures(meta: &RunMeta) -> Vec<String> {
         .map(|c| {
             format!(
                 "{} {:?} {}",
-                c.arch,
-                c.hidden,
-                if c.bias { "bias" } else { "nobias" }
+                c.id.arch,
+                c.id.hidden,
+                if c.id.bias { "bias" } else { "nobias" }
             )
         })
         .collect();
@@ -137,20 +137,20 @@ pub fn compare_rows(runs: &[CompareRun]) -> Vec<CompareRow> {
     let mut envs: Vec<String> = Vec::new();
     let mut archs: Vec<String> = Vec::new();
     for r in &rows {
-        if !envs.contains(&r.summary.env) {
-            envs.push(r.summary.env.clone());
+        if !envs.contains(&r.summary.id.env) {
+            envs.push(r.summary.id.env.clone());
         }
-        if !archs.contains(&r.summary.arch) {
-            archs.push(r.summary.arch.clone());
+        if !archs.contains(&r.summary.id.arch) {
+            archs.push(r.summary.id.arch.clone());
         }
     }
     let pos = |v: &[String], x: &str| v.iter().position(|y| y == x);
     // stable: runs keep their argument order within a group
     rows.sort_by_key(|r| {
         (
-            pos(&envs, &r.summary.env),
-            pos(&archs, &r.summary.arch),
-            r.summary.bias,
+            pos(&envs, &r.summary.id.env),
+            pos(&archs, &r.summary.id.arch),
+            r.summary.id.bias,
         )
     });
     let ranks = crate::ranking::difficulty_ranks(&rows);
@@ -189,10 +189,10 @@ pub fn compare_table(rows: &[CompareRow]) -> Table {
         .map(|r| {
             let s = &r.summary;
             vec![
-                Cell::plain(s.env.clone()),
+                Cell::plain(s.id.env.clone()),
                 Cell::plain(r.run.clone()),
-                Cell::plain(s.arch.clone()),
-                Cell::plain(if s.bias { "yes" } else { "no" }),
+                Cell::plain(s.id.arch.clone()),
+                Cell::plain(if s.id.bias { "yes" } else { "no" }),
                 Cell::plain(s.samples.to_string()),
                 s.solved_fraction.map_or_else(
                     || Cell::plain("no solved score"),
@@ -249,9 +249,9 @@ pub fn compare_csv(rows: &[CompareRow]) -> String {
         };
         let fields = [
             csv_field(&r.run),
-            csv_field(&s.env),
-            csv_field(&s.arch),
-            s.bias.to_string(),
+            csv_field(&s.id.env),
+            csv_field(&s.id.arch),
+            s.id.bias.to_string(),
             s.samples.to_string(),
             s.episodes.to_string(),
             opt(s.solved),
@@ -276,7 +276,7 @@ pub fn compare_csv(rows: &[CompareRow]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rwg_study::rundir::meta::{CellMeta, WeightsMeta};
+    use rwg_study::rundir::meta::{CellId, CellMeta, WeightsMeta};
 
     fn meta(episodes: u32, dist: &str, archs: &[&str]) -> RunMeta {
         RunMeta {
@@ -298,11 +298,7 @@ mod tests {
             cells: archs
                 .iter()
                 .map(|a| CellMeta {
-                    dir: format!("E__{a}__nobias"),
-                    env: "E".into(),
-                    arch: a.to_string(),
-                    hidden: vec![],
-                    bias: false,
+                    id: CellId::new("E", a, &[], false),
                     n_weights: 1,
                     obs_dim: 1,
                     max_episode_steps: 1,

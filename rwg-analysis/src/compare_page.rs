@@ -35,8 +35,8 @@ fn meta_rows(runs: &[CompareRun]) -> Vec<(&'static str, Vec<String>)> {
             f(&|r| {
                 let mut envs: Vec<&str> = Vec::new();
                 for c in &r.meta.cells {
-                    if !envs.contains(&c.env.as_str()) {
-                        envs.push(&c.env);
+                    if !envs.contains(&c.id.env.as_str()) {
+                        envs.push(&c.id.env);
                     }
                 }
                 envs.join(", ")

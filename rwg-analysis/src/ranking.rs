@@ -110,9 +110,9 @@ pub fn ranking_table(rows: &[CompareRow]) -> Table {
             let s = &r.summary;
             let mut cells = vec![
                 Cell::plain((k + 1).to_string()),
-                Cell::plain(s.env.clone()),
-                Cell::plain(s.arch.clone()),
-                Cell::plain(bias_label(s.bias)),
+                Cell::plain(s.id.env.clone()),
+                Cell::plain(s.id.arch.clone()),
+                Cell::plain(bias_label(s.id.bias)),
             ];
             if multi {
                 cells.insert(1, Cell::plain(r.run.clone()));
@@ -160,15 +160,18 @@ pub fn guesses_short(row: &CompareRow) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rwg_study::rundir::meta::CellId;
     use rwg_study::stats::{CellSummary, Proportion};
 
     fn row(run: &str, env: &str, g: Option<ExpectedGuesses>, norm: Option<f64>) -> CompareRow {
         let summary = CellSummary {
-            dir: env.into(),
-            env: env.into(),
-            arch: "0HL".into(),
-            hidden: vec![],
-            bias: false,
+            id: CellId {
+                dir: env.into(),
+                env: env.into(),
+                arch: "0HL".into(),
+                hidden: vec![],
+                bias: false,
+            },
             n_weights: 1,
             samples: 100,
             episodes: 1,
@@ -227,7 +230,7 @@ mod tests {
         ];
         let order: Vec<&str> = difficulty_order(&rows)
             .into_iter()
-            .map(|i| rows[i].summary.env.as_str())
+            .map(|i| rows[i].summary.id.env.as_str())
             .collect();
         assert_eq!(
             order,

@@ -241,7 +241,7 @@ pub fn report_html(run: &Run, stats: &RunStats, figures: &[Figure]) -> String {
         stats
             .cells
             .iter()
-            .any(|c| f.name.starts_with(&format!("{}.", c.dir)))
+            .any(|c| f.name.starts_with(&format!("{}.", c.id.dir)))
     };
     h.push_str("<section id=\"overview\">\n<h2>Overview</h2>\n");
     for f in figures.iter().filter(|f| !is_cell_fig(f)) {
@@ -253,12 +253,12 @@ pub fn report_html(run: &Run, stats: &RunStats, figures: &[Figure]) -> String {
     for c in &stats.cells {
         h.push_str(&format!(
             "<h3 id=\"cell-{}\">{}</h3>\n",
-            html_escape(&c.dir),
+            html_escape(&c.id.dir),
             html_escape(&cell_label(c))
         ));
         h.push_str(&cell_numbers(c));
         h.push_str("<div class=\"row\">\n");
-        let prefix = format!("{}.", c.dir);
+        let prefix = format!("{}.", c.id.dir);
         for f in figures.iter().filter(|f| f.name.starts_with(&prefix)) {
             h.push_str(&figure_html(f));
         }

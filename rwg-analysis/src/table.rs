@@ -54,6 +54,82 @@ pub fn latex_escape(s: &str) -> String {
     out
 }
 
+/// How a text column is aligned.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Align {
+    /// Padded on the right.
+    Left,
+    /// Padded on the left (numbers).
+    Right,
+}
+
+/// Fixed-width text columns: the one way rwg lays out a terminal table.
+/// Each cell is padded to its column's width (in characters) and aligned,
+/// cells are joined by a separator, and trailing spaces are trimmed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TextColumns {
+    columns: Vec<(usize, Align)>,
+    sep: &'static str,
+}
+
+impl TextColumns {
+    /// Columns of the given widths and alignments, joined by `sep`.
+    pub fn new(columns: &[(usize, Align)], sep: &'static str) -> Self {
+        TextColumns {
+            columns: columns.to_vec(),
+            sep,
+        }
+    }
+
+    /// Columns as wide as the widest of `header` and `rows` in each column,
+    /// aligned by `align(column index)`, joined by `sep`.
+    pub fn fit<S: AsRef<str>>(
+        header: &[S],
+        rows: &[Vec<S>],
+        align: impl Fn(usize) -> Align,
+        sep: &'static str,
+    ) -> Self {
+        let mut widths: Vec<usize> = header.iter().map(|c| c.as_ref().chars().count()).collect();
+        for row in rows {
+            for (w, c) in widths.iter_mut().zip(row) {
+                *w = (*w).max(c.as_ref().chars().count());
+            }
+        }
+        TextColumns {
+            columns: widths
+                .iter()
+                .enumerate()
+                .map(|(i, &w)| (w, align(i)))
+                .collect(),
+            sep,
+        }
+    }
+
+    /// The column widths.
+    pub fn widths(&self) -> impl Iterator<Item = usize> + '_ {
+        self.columns.iter().map(|c| c.0)
+    }
+
+    /// One line (no newline): each cell padded and aligned to its column.
+    /// Cells beyond the last column are ignored.
+    pub fn line<S: AsRef<str>>(&self, cells: &[S]) -> String {
+        let parts: Vec<String> = cells
+            .iter()
+            .zip(&self.columns)
+            .map(|(c, &(w, align))| match align {
+                Align::Left => format!("{:<w$}", c.as_ref()),
+                Align::Right => format!("{:>w$}", c.as_ref()),
+            })
+            .collect();
+        parts.join(self.sep).trim_end().to_string()
+    }
+}
+
+/// The plain texts of a row of cells.
+fn texts(cells: &[Cell]) -> Vec<&str> {
+    cells.iter().map(|c| c.text.as_str()).collect()
+}
+
 /// A titled table: a header row and body rows; the first column is the row
 /// label (left-aligned), the others are values (right-aligned).
 #[derive(Debug, Clone, PartialEq)]
@@ -118,33 +194,12 @@ impl Table {
         }
     }
 
-    fn widths(&self) -> Vec<usize> {
-        let mut w: Vec<usize> = self.header.iter().map(|c| c.text.chars().count()).collect();
-        for r in &self.rows {
-            for (w, c) in w.iter_mut().zip(r) {
-                *w = (*w).max(c.text.chars().count());
-            }
-        }
-        w
-    }
-
     fn text(&self) -> String {
-        let w = self.widths();
-        let line = |cells: &[Cell]| -> String {
-            let parts: Vec<String> = cells
-                .iter()
-                .zip(&w)
-                .enumerate()
-                .map(|(i, (c, &w))| {
-                    if i == 0 {
-                        format!("{:<w$}", c.text)
-                    } else {
-                        format!("{:>w$}", c.text)
-                    }
-                })
-                .collect();
-            parts.join("  ").trim_end().to_string()
-        };
+        let rows: Vec<Vec<&str>> = self.rows.iter().map(|r| texts(r)).collect();
+        let align = |i: usize| if i == 0 { Align::Left } else { Align::Right };
+        let columns = TextColumns::fit(&texts(&self.header), &rows, align, "  ");
+        let w: Vec<usize> = columns.widths().collect();
+        let line = |cells: &[Cell]| -> String { columns.line(&texts(cells)) };
         let mut out = format!("{}\n", self.title);
         out.push_str(&line(&self.header));
         out.push('\n');
@@ -261,6 +316,20 @@ mod tests {
             rows: vec![vec!["CartPole-v0".into(), "200.00 (200.00)".into()]],
             notes: vec!["N = 10".into()],
         }
+    }
+
+    #[test]
+    fn text_columns_pad_align_and_trim() {
+        let c = TextColumns::new(
+            &[(4, Align::Left), (6, Align::Right), (5, Align::Left)],
+            " ",
+        );
+        assert_eq!(c.line(&["ab", "1.5", "x"]), "ab      1.5 x");
+        assert_eq!(c.line(&["abcdef", "1", ""]), "abcdef      1");
+        let rows = vec![vec!["é–x", "2"], vec!["a", "100"]];
+        let fit = TextColumns::fit(&["id", "n"], &rows, |_| Align::Left, "  ");
+        assert_eq!(fit.widths().collect::<Vec<_>>(), [3, 3]);
+        assert_eq!(fit.line(&rows[0]), "é–x  2");
     }
 
     #[test]

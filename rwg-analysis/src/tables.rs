@@ -29,7 +29,7 @@ fn distinct<T: PartialEq + Clone>(xs: impl IntoIterator<Item = T>) -> Vec<T> {
 
 /// The bias settings present, in order of appearance.
 pub fn bias_settings(cells: &[CellSummary]) -> Vec<bool> {
-    distinct(cells.iter().map(|c| c.bias))
+    distinct(cells.iter().map(|c| c.id.bias))
 }
 
 /// A grid: rows envs, columns architectures, for one bias setting; `None`
@@ -41,12 +41,12 @@ fn grid(
     notes: Vec<String>,
     value: impl Fn(&CellSummary) -> Cell,
 ) -> Option<Table> {
-    let cells: Vec<&CellSummary> = cells.iter().filter(|c| c.bias == bias).collect();
+    let cells: Vec<&CellSummary> = cells.iter().filter(|c| c.id.bias == bias).collect();
     if cells.is_empty() {
         return None;
     }
-    let envs = distinct(cells.iter().map(|c| c.env.clone()));
-    let archs = distinct(cells.iter().map(|c| c.arch.clone()));
+    let envs = distinct(cells.iter().map(|c| c.id.env.clone()));
+    let archs = distinct(cells.iter().map(|c| c.id.arch.clone()));
     let mut header = vec![Cell::plain("env")];
     header.extend(archs.iter().map(|a| Cell::plain(a.clone())));
     let rows = envs
@@ -56,7 +56,7 @@ fn grid(
             row.extend(archs.iter().map(|arch| {
                 cells
                     .iter()
-                    .find(|c| &c.env == env && &c.arch == arch)
+                    .find(|c| &c.id.env == env && &c.id.arch == arch)
                     .map_or_else(|| Cell::plain("–"), |c| value(c))
             }));
             row
@@ -150,7 +150,8 @@ pub fn guesses_table(cells: &[CellSummary], bias: bool) -> Option<Table> {
             bias_label(bias)
         ),
         if cells.iter().any(|c| {
-            c.bias == bias && matches!(c.expected_guesses, Some(ExpectedGuesses::NoneSeen { .. }))
+            c.id.bias == bias
+                && matches!(c.expected_guesses, Some(ExpectedGuesses::NoneSeen { .. }))
         }) {
             vec![
                 "none seen: no sample solved; the bound is 1 / (upper end of p's interval).".into(),
@@ -222,9 +223,9 @@ pub fn detail_table(cells: &[CellSummary]) -> Table {
         .iter()
         .map(|c| {
             let mut r = vec![
-                Cell::plain(c.env.clone()),
-                Cell::plain(c.arch.clone()),
-                Cell::plain(if c.bias { "yes" } else { "no" }),
+                Cell::plain(c.id.env.clone()),
+                Cell::plain(c.id.arch.clone()),
+                Cell::plain(if c.id.bias { "yes" } else { "no" }),
                 Cell::plain(score(c.best_mean)),
                 Cell::plain(score(c.p99_9_mean)),
                 Cell::plain(score(c.median_mean)),

@@ -11,6 +11,7 @@ mod progress;
 mod slurm_script;
 mod stdio;
 mod step_lines;
+mod summary;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};

@@ -14,7 +14,7 @@
 //! - the angles are wrapped by *repeated* ±2π and the velocities clamped only
 //!   after the RK4 step, with Python's `min(max(x, lo), hi)`.
 
-use rwg_env::env::{check_state_len, discrete_action};
+use rwg_env::env::discrete_action;
 use rwg_env::float::{f32r, pow2};
 use rwg_env::seeding::Pcg64;
 use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
@@ -234,22 +234,9 @@ impl Environment for Acrobot {
         })
     }
 
-    fn state_len(&self) -> usize {
-        4
-    }
-
-    fn state(&self, out: &mut [f64]) -> Result<(), EnvError> {
-        check_state_len(out, 4)?;
-        out.copy_from_slice(&self.state);
-        Ok(())
-    }
-
-    fn set_state(&mut self, state: &[f64], obs: &mut [f64]) -> Result<(), EnvError> {
-        check_state_len(state, 4)?;
-        self.state.copy_from_slice(state);
-        self.write_obs(self.state[0].cos(), obs);
-        Ok(())
-    }
+    array_state!(4, |env, obs| {
+        env.write_obs(env.state[0].cos(), obs);
+    });
 }
 
 #[cfg(test)]

@@ -3,7 +3,7 @@
 //! v0 and v1 share the dynamics; only the time limit (200 / 500) and the
 //! reward threshold (195 / 475) differ.
 
-use rwg_env::env::{check_state_len, discrete_action};
+use rwg_env::env::discrete_action;
 use rwg_env::float::f32r;
 use rwg_env::seeding::Pcg64;
 use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
@@ -131,21 +131,8 @@ impl Environment for CartPole {
         })
     }
 
-    fn state_len(&self) -> usize {
-        4
-    }
-
-    fn state(&self, out: &mut [f64]) -> Result<(), EnvError> {
-        check_state_len(out, 4)?;
-        out.copy_from_slice(&self.state);
-        Ok(())
-    }
-
-    fn set_state(&mut self, state: &[f64], obs: &mut [f64]) -> Result<(), EnvError> {
-        check_state_len(state, 4)?;
-        self.state.copy_from_slice(state);
-        self.terminated_before = false;
-        self.write_obs(obs);
-        Ok(())
-    }
+    array_state!(4, |env, obs| {
+        env.terminated_before = false;
+        env.write_obs(obs);
+    });
 }

@@ -4,6 +4,34 @@
 //! numbers bit for bit (and gym 0.17.2's for Pendulum-v0). Each env lives in
 //! its own module; [`registry`] builds them by id with Gymnasium's time limits.
 
+/// The `state_len`, `state` and `set_state` methods of an environment
+/// whose internal state is the array `self.state: [f64; N]` (Gymnasium's
+/// `env.unwrapped.state`), written once for every env here. `set_state`
+/// copies the state in, then runs the given block with `$env` bound to
+/// `&mut self` and `$obs` to the observation buffer: the env resets its
+/// episode flags and writes the observation there.
+macro_rules! array_state {
+    ($n:expr, |$env:ident, $obs:ident| $after:block) => {
+        fn state_len(&self) -> usize {
+            $n
+        }
+
+        fn state(&self, out: &mut [f64]) -> Result<(), EnvError> {
+            rwg_env::env::check_state_len(out, $n)?;
+            out.copy_from_slice(&self.state);
+            Ok(())
+        }
+
+        fn set_state(&mut self, state: &[f64], $obs: &mut [f64]) -> Result<(), EnvError> {
+            rwg_env::env::check_state_len(state, $n)?;
+            self.state.copy_from_slice(state);
+            let $env = self;
+            $after
+            Ok(())
+        }
+    };
+}
+
 pub mod acrobot;
 pub mod cartpole;
 pub mod mountain_car;

@@ -4,7 +4,7 @@
 //! scalars), so numpy 2's promotion rules change nothing here; only the
 //! observation is cast to float32.
 
-use rwg_env::env::{check_state_len, discrete_action};
+use rwg_env::env::discrete_action;
 use rwg_env::float::f32r;
 use rwg_env::seeding::Pcg64;
 use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
@@ -108,22 +108,9 @@ impl Environment for MountainCar {
         })
     }
 
-    fn state_len(&self) -> usize {
-        2
-    }
-
-    fn state(&self, out: &mut [f64]) -> Result<(), EnvError> {
-        check_state_len(out, 2)?;
-        out.copy_from_slice(&self.state);
-        Ok(())
-    }
-
-    fn set_state(&mut self, state: &[f64], obs: &mut [f64]) -> Result<(), EnvError> {
-        check_state_len(state, 2)?;
-        self.state.copy_from_slice(state);
-        self.write_obs(obs);
-        Ok(())
-    }
+    array_state!(2, |env, obs| {
+        env.write_obs(obs);
+    });
 }
 
 #[cfg(test)]

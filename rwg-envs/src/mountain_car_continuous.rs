@@ -24,7 +24,7 @@
 //! `OverflowError`; here the reward is simply −inf. ±inf gives force ±1 and
 //! reward −inf, as in Python.
 
-use rwg_env::env::{check_state_len, continuous_action};
+use rwg_env::env::continuous_action;
 use rwg_env::float::{f32r, pow2};
 use rwg_env::{Action, ActionDtype, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
@@ -271,25 +271,12 @@ impl Environment for MountainCarContinuous {
         })
     }
 
-    fn state_len(&self) -> usize {
-        2
-    }
-
-    fn state(&self, out: &mut [f64]) -> Result<(), EnvError> {
-        check_state_len(out, 2)?;
-        out.copy_from_slice(&self.state);
-        Ok(())
-    }
-
-    /// Starts from `state` as a reset would: the state is taken as float64
-    /// (Gymnasium's reset array), whatever its values.
-    fn set_state(&mut self, state: &[f64], obs: &mut [f64]) -> Result<(), EnvError> {
-        check_state_len(state, 2)?;
-        self.state.copy_from_slice(state);
-        self.state_is_f32 = false;
-        self.write_obs(obs);
-        Ok(())
-    }
+    // set_state starts from `state` as a reset would: the state is taken as
+    // float64 (Gymnasium's reset array), whatever its values.
+    array_state!(2, |env, obs| {
+        env.state_is_f32 = false;
+        env.write_obs(obs);
+    });
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@
 //!   float64 observations, does all arithmetic in float64, and seeds its reset
 //!   with gym 0.17.2's SHA-512 + MT19937 scheme.
 
-use rwg_env::env::{check_state_len, continuous_action};
+use rwg_env::env::continuous_action;
 use rwg_env::float::{f32r, fmod_pos, pow2, pow2_f32};
 use rwg_env::seeding::{gym_np_random, Pcg64};
 use rwg_env::{Action, ActionDtype, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
@@ -211,22 +211,9 @@ impl Environment for Pendulum {
         })
     }
 
-    fn state_len(&self) -> usize {
-        2
-    }
-
-    fn state(&self, out: &mut [f64]) -> Result<(), EnvError> {
-        check_state_len(out, 2)?;
-        out.copy_from_slice(&self.state);
-        Ok(())
-    }
-
-    fn set_state(&mut self, state: &[f64], obs: &mut [f64]) -> Result<(), EnvError> {
-        check_state_len(state, 2)?;
-        self.state.copy_from_slice(state);
-        self.write_obs(obs);
-        Ok(())
-    }
+    array_state!(2, |env, obs| {
+        env.write_obs(obs);
+    });
 }
 
 #[cfg(test)]

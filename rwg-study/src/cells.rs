@@ -4,7 +4,7 @@ use crate::env_source::{describe, is_builtin, EnvSource, Found, PluginSource, Pl
 use crate::manifest::{EnvEntry, Manifest, ManifestError};
 use crate::rundir::blocks::{finalize_cell, CellTotals, BLOCK_SAMPLES};
 use crate::rundir::cell_dir;
-use crate::rundir::meta::{cell_dir_name, CellMeta, RunMeta, ShardMeta, WeightsMeta, RUN_FORMAT};
+use crate::rundir::meta::{CellId, CellMeta, RunMeta, ShardMeta, WeightsMeta, RUN_FORMAT};
 use crate::stats;
 use crate::StudyError;
 use rwg_core::policy::{Architecture, NetShape};
@@ -15,10 +15,10 @@ use std::path::Path;
 
 /// One cell (env × architecture × bias) with everything resolved.
 pub struct Cell {
+    /// Which cell (env, architecture name and layers, bias, directory).
+    pub id: CellId,
     /// What the sampler runs.
     pub plan: CellPlan,
-    /// Architecture name from the manifest.
-    pub arch_name: String,
     /// How the env is built.
     pub source: EnvSource,
     /// The env's description (with overrides applied).
@@ -27,8 +27,6 @@ pub struct Cell {
     pub solved: Option<f64>,
     /// `manifest` or `env`.
     pub solved_source: Option<String>,
-    /// Directory name under `cells/`.
-    pub dir: String,
 }
 
 struct SpecOf;
@@ -201,6 +199,7 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
                         .into());
                 }
                 cells.push(Cell {
+                    id: CellId::new(&e.id, &a.name, &a.hidden, bias),
                     plan: CellPlan {
                         seed: m.seed,
                         env_id: e.id.clone(),
@@ -211,12 +210,10 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
                         episodes: m.episodes,
                         dist: m.weights,
                     },
-                    arch_name: a.name.clone(),
                     source: source.clone(),
                     spec: spec.clone(),
                     solved,
                     solved_source: solved_source.clone(),
-                    dir: cell_dir_name(&e.id, &a.name, bias),
                 });
             }
         }
@@ -252,11 +249,7 @@ impl Cell {
             NetShape::outputs_for(&self.spec.action_space),
         );
         CellMeta {
-            dir: self.dir.clone(),
-            env: self.spec.id.clone(),
-            arch: self.arch_name.clone(),
-            hidden: self.plan.arch.hidden.clone(),
-            bias: self.plan.arch.bias,
+            id: self.id.clone(),
             n_weights: shape.n_weights(),
             obs_dim: self.spec.obs_dim(),
             max_episode_steps: self.spec.max_episode_steps.unwrap_or(0),
@@ -281,7 +274,7 @@ impl Cell {
         out: &Path,
         wall_s: f64,
     ) -> Result<(CellMeta, CellTotals), StudyError> {
-        let dir = cell_dir(out, &self.dir);
+        let dir = cell_dir(out, &self.id.dir);
         let mut meta = None;
         let totals = finalize_cell(&dir, m.samples, m.episodes, |t| {
             let cm = self.meta(m, t.env_steps, wall_s);
@@ -290,7 +283,7 @@ impl Cell {
             Some(json)
         })
         .map_err(|source| StudyError::RunDir {
-            context: format!("cannot finalise cell {}", self.dir),
+            context: format!("cannot finalise cell {}", self.id.dir),
             source,
         })?;
         Ok((meta.expect("set by finalize_cell"), totals))
@@ -298,50 +291,34 @@ impl Cell {
 
     /// One line of the end-of-run summary, computed by the statistics code
     /// that writes `stats.csv` (the same median, best mean and solved count).
-    /// `steps_per_s` is `None` where it is not known (a merged run); unknown
-    /// values print as `-`, never as NaN.
-    pub fn summary_line(&self, means: &[f64], steps_per_s: Option<f64>) -> String {
-        let best = stats::max(means);
-        let median = stats::percentile(means, 50.0);
-        let solved = match self.solved {
-            Some(s) if !means.is_empty() => {
+    pub fn summary_line(&self, means: &[f64], steps_per_s: Option<f64>) -> SummaryLine {
+        SummaryLine {
+            dir: self.id.dir.clone(),
+            best_mean: stats::max(means),
+            median_mean: stats::percentile(means, 50.0),
+            solved_percent: self.solved.map(|s| {
                 let prop = stats::solved_fraction(means, s);
-                format!("{:.2}%", 100.0 * prop.successes as f64 / prop.trials as f64)
-            }
-            _ => "-".into(),
-        };
-        format!(
-            "{:<44} {:>11} {:>12} {:>8} {:>11}",
-            self.dir,
-            summary_num(Some(best), 2, false),
-            summary_num(Some(median), 2, false),
-            solved,
-            summary_num(steps_per_s, 3, true)
-        )
+                100.0 * prop.successes as f64 / prop.trials as f64
+            }),
+            steps_per_s,
+        }
     }
 }
 
-/// A summary number: `-` where unknown or not finite (never NaN), `prec`
-/// decimals (in scientific notation if `exp`), and a negative value that
-/// rounds to zero without its sign (as the tables print it: never `-0.00`).
-fn summary_num(x: Option<f64>, prec: usize, exp: bool) -> String {
-    let s = match x {
-        Some(x) if x.is_finite() && exp => format!("{x:.prec$e}"),
-        Some(x) if x.is_finite() => format!("{x:.prec$}"),
-        _ => return "-".into(),
-    };
-    match s.strip_prefix('-') {
-        Some(rest) if rest.bytes().all(|b| b == b'0' || b == b'.') => rest.to_string(),
-        _ => s,
-    }
-}
-
-/// Header of the summary lines.
-pub fn summary_header() -> String {
-    format!(
-        "{:<44} {:>11} {:>12} {:>8} {:>11}",
-        "cell", "best mean", "median mean", "solved", "steps/s"
-    )
+/// A finished cell's line in the end-of-run summary of `rwg run` / `rwg merge`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SummaryLine {
+    /// The cell's directory name.
+    pub dir: String,
+    /// Highest sample mean.
+    pub best_mean: f64,
+    /// Median of the sample means (as in `stats.csv`).
+    pub median_mean: f64,
+    /// Percentage of samples whose mean reaches the solved score (`None`
+    /// without a solved score).
+    pub solved_percent: Option<f64>,
+    /// Env steps per second of the cell (`None` when unknown, as after a merge).
+    pub steps_per_s: Option<f64>,
 }
 
 /// Fresh run metadata for manifest `m`.
@@ -370,18 +347,5 @@ pub fn new_meta(
         cells: vec![],
         block_samples: BLOCK_SAMPLES,
         shard,
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    #[test]
-    fn no_negative_zero() {
-        assert_eq!(super::summary_num(Some(-0.004), 2, false), "0.00");
-        assert_eq!(super::summary_num(Some(-0.006), 2, false), "-0.01");
-        assert_eq!(super::summary_num(Some(195.0), 2, false), "195.00");
-        assert_eq!(super::summary_num(Some(f64::NAN), 2, false), "-");
-        assert_eq!(super::summary_num(None, 3, true), "-");
-        assert_eq!(super::summary_num(Some(12346.0), 3, true), "1.235e4");
     }
 }

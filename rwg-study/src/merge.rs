@@ -4,7 +4,7 @@
 //! blocks are copied under a temporary name and renamed, finalised cells are
 //! kept, and `run.json` gets its end time last.
 
-use crate::cells::{new_meta, plan_cells, summary_header};
+use crate::cells::{new_meta, plan_cells, SummaryLine};
 use crate::manifest::Manifest;
 use crate::rundir::blocks::{block_done, block_path, cell_complete, n_blocks, tidy_complete_cell};
 use crate::rundir::export::{rfc3339, write_atomic};
@@ -30,13 +30,13 @@ pub struct MergeReport {
 /// Checks that the directories in `shards` come from the same study and
 /// together hold every block exactly once, then writes the merged run into
 /// `out`, which must be empty or hold a merge of the same study (an
-/// interrupted one is finished, a complete one left alone). `on_line`
-/// receives the summary header, then each cell's summary line as the cell is
-/// finalised.
+/// interrupted one is finished, a complete one left alone). `on_cell` is
+/// called with `None` once the shards are checked and copying starts, then
+/// with each cell's summary line as the cell is finalised.
 pub fn merge_shards(
     shards: &[PathBuf],
     out: &Path,
-    mut on_line: impl FnMut(&str),
+    mut on_cell: impl FnMut(Option<&SummaryLine>),
 ) -> Result<MergeReport, StudyError> {
     let refuse = |msg: String| Err(StudyError::Refused(msg));
     let mut dirs: Vec<(PathBuf, Manifest, RunMeta)> = vec![];
@@ -108,13 +108,13 @@ pub fn merge_shards(
     for (ci, cell) in cells.iter().enumerate() {
         for b in 0..nb {
             let k = ((ci as u64 * nb + b) % count) as usize;
-            let dir = cell_dir(owner[k].expect("checked"), &cell.dir);
+            let dir = cell_dir(owner[k].expect("checked"), &cell.id.dir);
             if !block_done(&dir, b) {
                 return refuse(format!(
                     "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; finish it with \
                      rwg run {} --shard {k}/{count} --out {}",
                     owner[k].expect("checked").display(),
-                    cell.dir,
+                    cell.id.dir,
                     owner[k].expect("checked").join(MANIFEST).display(),
                     owner[k].expect("checked").display()
                 ));
@@ -147,14 +147,14 @@ pub fn merge_shards(
         .unwrap_or_default();
     let mut meta = new_meta(m, threads, start, None);
     meta.wall_s = dirs.iter().map(|s| s.2.wall_s).sum();
-    on_line(&summary_header());
+    on_cell(None);
     let mut cells_kept = 0;
     for (ci, cell) in cells.iter().enumerate() {
-        let dest = cell_dir(out, &cell.dir);
+        let dest = cell_dir(out, &cell.id.dir);
         // A cell finalised by an interrupted merge is kept as it is.
         if cell_complete(&dest) {
             tidy_complete_cell(&dest).map_err(|source| StudyError::RunDir {
-                context: format!("cannot tidy cell {}", cell.dir),
+                context: format!("cannot tidy cell {}", cell.id.dir),
                 source,
             })?;
             let cm = read_cell_meta(&dest)?;
@@ -169,11 +169,11 @@ pub fn merge_shards(
                 continue; // copied (atomically) by an interrupted merge
             }
             let k = ((ci as u64 * nb + b) % count) as usize;
-            let src = block_path(&cell_dir(owner[k].expect("checked"), &cell.dir), b);
+            let src = block_path(&cell_dir(owner[k].expect("checked"), &cell.id.dir), b);
             copy_atomic(&src, &dst)?;
         }
         let (cm, totals) = cell.finalize(m, out, 0.0)?;
-        on_line(&cell.summary_line(&totals.means, None));
+        on_cell(Some(&cell.summary_line(&totals.means, None)));
         meta.env_steps += cm.env_steps;
         meta.cells.push(cm);
         write_run_meta(out, &meta)?;

@@ -7,7 +7,7 @@
 //! keeps `run.json` current. What it reports while running goes to a
 //! [`Progress`]; the caller prints.
 
-use crate::cells::{new_meta, plan_cells, Cell};
+use crate::cells::{new_meta, plan_cells, Cell, SummaryLine};
 use crate::env_source::EnvSource;
 use crate::error::CellError;
 use crate::fault_context::{self, Watched};
@@ -71,7 +71,7 @@ pub struct RunReport {
     pub meta: RunMeta,
     /// The summary line of each cell finalised in this session (whole
     /// studies only; see [`Cell::summary_line`]).
-    pub lines: Vec<String>,
+    pub lines: Vec<SummaryLine>,
     /// Cells in the study.
     pub cells: usize,
     /// Env steps computed in this session.
@@ -118,7 +118,7 @@ pub fn run_study(
         .iter()
         .enumerate()
         .map(|(ci, c)| {
-            let dir = cell_dir(out, &c.dir);
+            let dir = cell_dir(out, &c.id.dir);
             if opts.shard.is_none() && cell_complete(&dir) {
                 return 0;
             }
@@ -138,10 +138,10 @@ pub fn run_study(
     let mut steps_now = 0u64;
 
     for (ci, cell) in cells.iter().enumerate() {
-        let dir = cell_dir(out, &cell.dir);
+        let dir = cell_dir(out, &cell.id.dir);
         if opts.shard.is_none() && cell_complete(&dir) {
             tidy_complete_cell(&dir).map_err(|source| StudyError::RunDir {
-                context: format!("cannot tidy cell {}", cell.dir),
+                context: format!("cannot tidy cell {}", cell.id.dir),
                 source,
             })?;
             let cm = read_cell_meta(&dir)?;
@@ -154,7 +154,7 @@ pub fn run_study(
             ci + 1,
             cells.len(),
             ci,
-            cell.dir
+            cell.id.dir
         );
         progress.cell(&label);
         fault_context::set_cell_label(match &cell.source {
@@ -163,9 +163,9 @@ pub fn run_study(
                 p.ty.plugin().id,
                 p.path().display(),
                 cell.plan.env_id,
-                cell.dir
+                cell.id.dir
             ),
-            EnvSource::Builtin(_) => format!("env '{}', cell {}", cell.plan.env_id, cell.dir),
+            EnvSource::Builtin(_) => format!("env '{}', cell {}", cell.plan.env_id, cell.id.dir),
         });
         let blocks: Vec<_> = (0..nb)
             .filter(|&b| owned(ci, b) && !block_done(&dir, b))
@@ -198,7 +198,7 @@ pub fn run_study(
             return Err(match e {
                 CellError::Interrupted => StudyError::Interrupted,
                 source => StudyError::Cell {
-                    cell: cell.dir.clone(),
+                    cell: cell.id.dir.clone(),
                     plugin: match &cell.source {
                         EnvSource::Plugin(p) => Some(p.path().to_path_buf()),
                         EnvSource::Builtin(_) => None,

@@ -21,7 +21,7 @@
 //! variance `1/N`. rwg follows the code: [`variance`] divides by the number of
 //! episodes.
 
-use crate::rundir::meta::CellMeta;
+use crate::rundir::meta::{CellId, CellMeta};
 use serde::{Deserialize, Serialize};
 use std::cmp::Ordering;
 
@@ -390,16 +390,9 @@ pub struct GuessOdds {
 /// entry of `stats.json`, one row of `stats.csv`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CellSummary {
-    /// Directory of the cell under `cells/`.
-    pub dir: String,
-    /// Environment id.
-    pub env: String,
-    /// Architecture name.
-    pub arch: String,
-    /// Hidden layer sizes.
-    pub hidden: Vec<usize>,
-    /// Whether the networks have bias inputs.
-    pub bias: bool,
+    /// Which cell.
+    #[serde(flatten)]
+    pub id: CellId,
     /// Weights per network.
     pub n_weights: usize,
     /// Samples (networks) `N`.
@@ -478,7 +471,7 @@ pub fn summarize_cell(
     steps: &[u32],
     stats: &[SampleStats],
 ) -> CellSummary {
-    assert!(!stats.is_empty(), "cell {} has no samples", meta.dir);
+    assert!(!stats.is_empty(), "cell {} has no samples", meta.id.dir);
     assert_eq!(scores.len(), stats.len() * episodes, "scores are not N × E");
     assert_eq!(
         steps.len(),
@@ -513,11 +506,7 @@ pub fn summarize_cell(
         .unwrap_or_default();
     let threshold = top_episode_threshold(scores);
     CellSummary {
-        dir: meta.dir.clone(),
-        env: meta.env.clone(),
-        arch: meta.arch.clone(),
-        hidden: meta.hidden.clone(),
-        bias: meta.bias,
+        id: meta.id.clone(),
         n_weights: meta.n_weights,
         samples: stats.len() as u64,
         episodes: episodes as u32,

@@ -70,7 +70,7 @@ impl Looks {
         let (mut keys, mut looks) = (Vec::new(), Vec::new());
         let mut k = 0;
         for (i, r) in runs.iter().enumerate() {
-            for env in distinct(r.cells.iter().map(|(s, _)| s.env.clone())) {
+            for env in distinct(r.cells.iter().map(|(s, _)| s.id.env.clone())) {
                 let backdrop = has_reference && i == 0;
                 looks.push(if backdrop {
                     Look {
@@ -348,15 +348,16 @@ impl Paint for ProfilesPaint {
 fn panel_keys(runs: &[CompareRun]) -> Vec<(String, bool)> {
     let archs = distinct(
         runs.iter()
-            .flat_map(|r| r.cells.iter().map(|(s, _)| s.arch.clone())),
+            .flat_map(|r| r.cells.iter().map(|(s, _)| s.id.arch.clone())),
     );
     let mut keys = Vec::new();
     for bias in [false, true] {
         for a in &archs {
-            if runs
-                .iter()
-                .any(|r| r.cells.iter().any(|(s, _)| &s.arch == a && s.bias == bias))
-            {
+            if runs.iter().any(|r| {
+                r.cells
+                    .iter()
+                    .any(|(s, _)| &s.id.arch == a && s.id.bias == bias)
+            }) {
                 keys.push((a.clone(), bias));
             }
         }
@@ -393,13 +394,13 @@ pub fn profiles_figure(runs: &[CompareRun], format: ImageFormat) -> Result<Figur
                 for (s, m) in r
                     .cells
                     .iter()
-                    .filter(|(s, _)| s.arch == arch && s.bias == bias)
+                    .filter(|(s, _)| s.id.arch == arch && s.id.bias == bias)
                 {
-                    let look = looks.get(i, &s.env);
+                    let look = looks.get(i, &s.id.env);
                     let label = if multi && !look.backdrop {
-                        format!("{} ({})", s.env, r.label)
+                        format!("{} ({})", s.id.env, r.label)
                     } else {
-                        s.env.clone()
+                        s.id.env.clone()
                     };
                     curves.extend(curve(&norm(s, m), label, look, xmax));
                 }
@@ -556,9 +557,9 @@ impl Paint for RankingPaint<'_> {
             let (_, py) = gl.backend_coord(&(1.0, y));
             let label = format!(
                 "{rank:>2}. {} · {} · {} — {}",
-                s.env,
-                s.arch,
-                bias_label(s.bias),
+                s.id.env,
+                s.id.arch,
+                bias_label(s.id.bias),
                 row.run
             );
             labels
@@ -642,7 +643,7 @@ pub fn ranking_figure(
         .enumerate()
         .map(|(k, i)| {
             let r = &rows[i];
-            (k + 1, r, looks.get(run_index(&r.run), &r.summary.env))
+            (k + 1, r, looks.get(run_index(&r.run), &r.summary.id.env))
         })
         .collect();
     let gmax = rows

@@ -207,7 +207,7 @@ fn render(what: &impl Paint, size: (u32, u32), format: ImageFormat) -> Result<Ve
 
 /// `env · arch · bias`.
 pub fn cell_label(s: &CellSummary) -> String {
-    format!("{} · {} · {}", s.env, s.arch, bias_label(s.bias))
+    format!("{} · {} · {}", s.id.env, s.id.arch, bias_label(s.id.bias))
 }
 
 /// The three figures of a cell.
@@ -300,7 +300,7 @@ pub fn cell_figure(
         CellFigure::Variance => "Variance V of each sample's episode scores over its mean M",
     };
     Ok(Figure {
-        name: format!("{}.{}", summary.dir, kind.suffix()),
+        name: format!("{}.{}", summary.id.dir, kind.suffix()),
         caption: format!("{}: {caption}", cell_label(summary)),
         format,
         bytes: render(
@@ -354,7 +354,7 @@ impl Paint for OverviewPaint<'_> {
         let text = PanelText::SMALL;
         for (r, row) in self.rows.iter().enumerate() {
             for (c, (cell, s)) in row.iter().enumerate() {
-                let title = format!("{} · {}: scores by rank", s.env, s.arch);
+                let title = format!("{} · {}: scores by rank", s.id.env, s.id.arch);
                 scores_panel(&grid[r * self.cols + c], layers, &title, cell, s, text)?;
             }
             let (cell, s) = *row
@@ -362,9 +362,9 @@ impl Paint for OverviewPaint<'_> {
                 .max_by_key(|(_, s)| s.n_weights)
                 .expect("non-empty row");
             let base = r * self.cols + self.cols - 2;
-            let title = format!("{} · {}: V over M", s.env, s.arch);
+            let title = format!("{} · {}: V over M", s.id.env, s.id.arch);
             variance_panel(&grid[base], layers, &title, cell, s, text)?;
-            let title = format!("{} · {}: histogram of M", s.env, s.arch);
+            let title = format!("{} · {}: histogram of M", s.id.env, s.id.arch);
             histogram_panel(
                 &grid[base + 1],
                 &title,
@@ -391,17 +391,17 @@ pub fn overview_figure(
     format: ImageFormat,
 ) -> Result<Option<Figure>, PlotError> {
     let chosen: Vec<&(CellData, CellSummary)> =
-        cells.iter().filter(|(_, s)| s.bias == bias).collect();
+        cells.iter().filter(|(_, s)| s.id.bias == bias).collect();
     if chosen.is_empty() {
         return Ok(None);
     }
-    let envs = distinct(chosen.iter().map(|(_, s)| s.env.clone()));
+    let envs = distinct(chosen.iter().map(|(_, s)| s.id.env.clone()));
     let rows: Vec<Vec<(&CellData, &CellSummary)>> = envs
         .iter()
         .map(|e| {
             chosen
                 .iter()
-                .filter(|(_, s)| &s.env == e)
+                .filter(|(_, s)| &s.id.env == e)
                 .map(|(c, s)| (c, s))
                 .collect()
         })
@@ -438,12 +438,16 @@ impl Paint for BiasPaint<'_> {
     ) -> Result<(), PlotError> {
         let grid = root.split_evenly((self.rows, self.cols));
         for (s0, c0, _, c1) in &self.pairs {
-            let r = self.envs.iter().position(|e| e == &s0.env).expect("env");
-            let c = self.archs.iter().position(|a| a == &s0.arch).expect("arch");
+            let r = self.envs.iter().position(|e| e == &s0.id.env).expect("env");
+            let c = self
+                .archs
+                .iter()
+                .position(|a| a == &s0.id.arch)
+                .expect("arch");
             let (m0, m1) = (c0.means(), c1.means());
             histogram_panel(
                 &grid[r * self.cols + c],
-                &format!("{} · {}: M with and without bias", s0.env, s0.arch),
+                &format!("{} · {}: M with and without bias", s0.id.env, s0.id.arch),
                 &[
                     HistSeries {
                         label: Some("no bias"),
@@ -471,10 +475,10 @@ pub fn bias_figure(
     format: ImageFormat,
 ) -> Result<Option<Figure>, PlotError> {
     let mut pairs = Vec::new();
-    for (c0, s0) in cells.iter().filter(|(_, s)| !s.bias) {
+    for (c0, s0) in cells.iter().filter(|(_, s)| !s.id.bias) {
         if let Some((c1, s1)) = cells
             .iter()
-            .find(|(_, s)| s.bias && s.env == s0.env && s.arch == s0.arch)
+            .find(|(_, s)| s.id.bias && s.id.env == s0.id.env && s.id.arch == s0.id.arch)
         {
             pairs.push((s0, c0, s1, c1));
         }
@@ -482,8 +486,8 @@ pub fn bias_figure(
     if pairs.is_empty() {
         return Ok(None);
     }
-    let envs = distinct(pairs.iter().map(|p| p.0.env.clone()));
-    let archs = distinct(pairs.iter().map(|p| p.0.arch.clone()));
+    let envs = distinct(pairs.iter().map(|p| p.0.id.env.clone()));
+    let archs = distinct(pairs.iter().map(|p| p.0.id.arch.clone()));
     let (rows, cols) = (envs.len(), archs.len());
     let size = (cols as u32 * 420, rows as u32 * 300);
     Ok(Some(Figure {
@@ -511,7 +515,7 @@ pub fn run_figures(
     format: ImageFormat,
 ) -> Result<Vec<Figure>, PlotError> {
     let mut out = Vec::new();
-    for bias in distinct(cells.iter().map(|(_, s)| s.bias)) {
+    for bias in distinct(cells.iter().map(|(_, s)| s.id.bias)) {
         out.extend(overview_figure(cells, bias, format)?);
     }
     out.extend(bias_figure(cells, format)?);

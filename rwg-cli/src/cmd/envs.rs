@@ -1,6 +1,7 @@
 //! `rwg envs`: list the environments.
 
 use anyhow::Result;
+use rwg_analysis::table::{Align, TextColumns};
 use rwg_env::float::fmt_f64;
 use rwg_envs::{make, EnvOptions, REGISTRY};
 use rwg_plugin_host::{load_plugin, Plugin, PLUGIN_PATH_VAR};
@@ -114,25 +115,16 @@ pub fn run(args: Args) -> Result<()> {
     if with_plugins {
         header.push("plugin");
     }
-    let mut width: Vec<usize> = header.iter().map(|h| h.len()).collect();
-    for row in &table {
-        for (w, c) in width.iter_mut().zip(row) {
-            *w = (*w).max(c.len());
-        }
-    }
+    let rows: Vec<Vec<&str>> = table
+        .iter()
+        .map(|r| r.iter().map(String::as_str).collect())
+        .collect();
+    let columns = TextColumns::fit(&header, &rows, |_| Align::Left, "  ");
     // (writeln, not println: `rwg envs | head` must not panic.)
     let mut out = crate::stdio::stdout().lock();
-    let mut line = |cells: &[&str]| -> std::io::Result<()> {
-        let parts: Vec<String> = cells
-            .iter()
-            .zip(&width)
-            .map(|(c, w)| format!("{c:<w$}"))
-            .collect();
-        writeln!(out, "{}", parts.join("  ").trim_end())
-    };
-    line(&header)?;
-    for row in &table {
-        line(&row.iter().map(String::as_str).collect::<Vec<_>>())?;
+    writeln!(out, "{}", columns.line(&header))?;
+    for row in &rows {
+        writeln!(out, "{}", columns.line(row))?;
     }
     Ok(())
 }

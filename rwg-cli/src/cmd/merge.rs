@@ -34,7 +34,10 @@ pub struct Args {
 /// Runs `rwg merge`.
 pub fn run(args: Args) -> Result<()> {
     let out = &args.out;
-    let report = merge_shards(&args.shards, out, |line| crate::outln!("{line}"))?;
+    let report = merge_shards(&args.shards, out, |cell| match cell {
+        None => crate::outln!("{}", crate::summary::header()),
+        Some(l) => crate::outln!("{}", crate::summary::line(l)),
+    })?;
     if report.already_complete {
         crate::outln!(
             "{} already holds this study, merged and complete; nothing to do.",

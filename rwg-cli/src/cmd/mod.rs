@@ -1,7 +1,6 @@
 //! One module per `rwg` subcommand.
 
 pub mod bench;
-pub mod bench_peers;
 pub mod check;
 pub mod compare;
 pub mod envs;

@@ -61,9 +61,9 @@ pub fn find_cell<'a>(
     let matching: Vec<&Cell> = cells
         .iter()
         .filter(|c| {
-            c.plan.env_id == env
-                && c.arch_name == arch
-                && bias.is_none_or(|b| c.plan.arch.bias == b)
+            bias.map_or(c.id.env == env && c.id.arch == arch, |b| {
+                c.id.is(env, arch, b)
+            })
         })
         .collect();
     match matching.as_slice() {
@@ -156,10 +156,10 @@ fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Ex
         ),
     };
     Export {
-        env: &cell.plan.env_id,
-        arch: &cell.arch_name,
-        hidden: &cell.plan.arch.hidden,
-        bias: cell.plan.arch.bias,
+        env: &cell.id.env,
+        arch: &cell.id.arch,
+        hidden: &cell.id.hidden,
+        bias: cell.id.bias,
         sample,
         max_episode_steps: cell.spec.max_episode_steps,
         action_space: &cell.spec.action_space,
@@ -240,7 +240,7 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     let stored = stored_scores(
-        &rundir::cell_dir(&args.run_dir, &cell.dir).join(rundir::SCORES_CSV),
+        &rundir::cell_dir(&args.run_dir, &cell.id.dir).join(rundir::SCORES_CSV),
         args.sample,
         m.episodes,
     )?;

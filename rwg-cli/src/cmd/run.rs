@@ -5,7 +5,7 @@ use crate::fault_guard;
 use crate::progress::{Lines, Silent};
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rwg_study::cells::{summary_header, Cell};
+use rwg_study::cells::Cell;
 use rwg_study::env_source::EnvSource;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::meta::ShardMeta;
@@ -198,9 +198,9 @@ pub fn run(args: Args) -> Result<()> {
 
     let lines = &report.lines;
     if args.shard.is_none() {
-        crate::outln!("{}", summary_header());
+        crate::outln!("{}", crate::summary::header());
         for l in lines {
-            crate::outln!("{l}");
+            crate::outln!("{}", crate::summary::line(l));
         }
         if lines.len() < report.cells {
             crate::outln!(

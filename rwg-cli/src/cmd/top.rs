@@ -1,6 +1,7 @@
 //! `rwg top`: the best networks of each cell, with the command that replays each.
 
 use anyhow::{Context, Result};
+use rwg_analysis::table::{Align, TextColumns};
 use rwg_env::float::fmt_f64;
 use rwg_study::rundir;
 use rwg_study::rundir::meta::read_run_meta;
@@ -24,7 +25,7 @@ pub fn run(args: Args) -> Result<()> {
     let stdout = crate::stdio::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     for cell in &meta.cells {
-        let path = rundir::cell_dir(&args.run_dir, &cell.dir).join(rundir::SAMPLES_CSV);
+        let path = rundir::cell_dir(&args.run_dir, &cell.id.dir).join(rundir::SAMPLES_CSV);
         let text = std::fs::read_to_string(&path)
             .with_context(|| format!("cannot read {}", path.display()))?;
         let mut rows: Vec<(u64, f64, f64, f64, f64)> = vec![];
@@ -54,19 +55,39 @@ pub fn run(args: Args) -> Result<()> {
         writeln!(
             out,
             "{} (solved at {})",
-            cell.dir,
+            cell.id.dir,
             cell.solved.map_or("-".into(), fmt_f64)
         )?;
+        let columns = TextColumns::new(
+            &[
+                (8, Align::Right),
+                (12, Align::Right),
+                (10, Align::Right),
+                (10, Align::Right),
+                (10, Align::Right),
+            ],
+            " ",
+        );
         writeln!(
             out,
-            "  {:>8} {:>12} {:>10} {:>10} {:>10}  replay",
-            "sample", "mean", "std", "min", "max"
+            "  {}  replay",
+            columns.line(&["sample", "mean", "std", "min", "max"])
         )?;
         for (s, mean, std, min, max) in rows.iter().take(args.n) {
+            let values = [
+                s.to_string(),
+                format!("{mean:.3}"),
+                format!("{std:.3}"),
+                format!("{min:.3}"),
+                format!("{max:.3}"),
+            ];
             writeln!(
                 out,
-                "  {s:>8} {mean:>12.3} {std:>10.3} {min:>10.3} {max:>10.3}  rwg replay {run} --env {} --arch {} --bias {} --sample {s}",
-                cell.env, cell.arch, cell.bias
+                "  {}  rwg replay {run} --env {} --arch {} --bias {} --sample {s}",
+                columns.line(&values),
+                cell.id.env,
+                cell.id.arch,
+                cell.id.bias
             )?;
         }
     }

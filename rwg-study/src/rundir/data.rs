@@ -215,7 +215,7 @@ impl Run {
 
     /// The directory of a cell.
     pub fn cell_dir(&self, cell: &CellMeta) -> PathBuf {
-        cell_dir(&self.dir, &cell.dir)
+        cell_dir(&self.dir, &cell.id.dir)
     }
 
     /// Reads one cell's `scores.csv`, checks its shape against `run.json`,
@@ -227,7 +227,7 @@ impl Run {
         if episodes == 0 || cell.samples == 0 {
             return Err(RunReadError::Mismatch {
                 path: self.dir.join(RUN_JSON),
-                message: format!("cell {} has no episodes to analyse", cell.dir),
+                message: format!("cell {} has no episodes to analyse", cell.id.dir),
             });
         }
         let (scores, steps) = read_scores_csv(&spath, episodes)?;
@@ -528,7 +528,7 @@ pub fn write_cell_files(
     scores: &[f64],
     steps: &[u32],
 ) -> std::io::Result<()> {
-    let dir = cell_dir(run_dir, &cell.dir);
+    let dir = cell_dir(run_dir, &cell.id.dir);
     std::fs::create_dir_all(&dir)?;
     let e = cell.episodes as usize;
     std::fs::write(dir.join(SCORES_CSV), scores_csv(scores, steps, e))?;
@@ -606,13 +606,13 @@ pub fn stats_csv_header() -> Vec<String> {
 /// `expected_guesses` is empty and `expected_guesses_lo` is the 95% lower
 /// bound when no sample solved).
 pub fn stats_csv_row(s: &CellSummary) -> Vec<String> {
-    let hidden: Vec<String> = s.hidden.iter().map(|h| h.to_string()).collect();
+    let hidden: Vec<String> = s.id.hidden.iter().map(|h| h.to_string()).collect();
     let mut r = vec![
-        csv_field(&s.dir),
-        csv_field(&s.env),
-        csv_field(&s.arch),
+        csv_field(&s.id.dir),
+        csv_field(&s.id.env),
+        csv_field(&s.id.arch),
         hidden.join(" "),
-        s.bias.to_string(),
+        s.id.bias.to_string(),
         s.n_weights.to_string(),
         s.samples.to_string(),
         s.episodes.to_string(),

@@ -111,10 +111,13 @@ pub struct WeightsMeta {
     pub scale: f64,
 }
 
-/// One cell: an environment × architecture × bias setting.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CellMeta {
-    /// Directory of the cell under `cells/`.
+/// Which cell: an environment × architecture × bias setting, and the
+/// directory that holds it. Written flat into `run.json`, `cell.json` and
+/// `stats.json` (as the first fields of a cell), and passed by reference
+/// wherever a cell is named.
+#[derive(Debug, Clone, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct CellId {
+    /// Directory of the cell under `cells/` ([`cell_dir_name`]).
     pub dir: String,
     /// Environment id.
     pub env: String,
@@ -124,6 +127,33 @@ pub struct CellMeta {
     pub hidden: Vec<usize>,
     /// Whether the networks have bias inputs.
     pub bias: bool,
+}
+
+impl CellId {
+    /// The cell of env `env`, architecture `arch` (named `arch`, with hidden
+    /// layers `hidden`) and bias setting `bias`, in its usual directory.
+    pub fn new(env: &str, arch: &str, hidden: &[usize], bias: bool) -> CellId {
+        CellId {
+            dir: cell_dir_name(env, arch, bias),
+            env: env.to_string(),
+            arch: arch.to_string(),
+            hidden: hidden.to_vec(),
+            bias,
+        }
+    }
+
+    /// Whether this is the cell of `env`, architecture name `arch` and `bias`.
+    pub fn is(&self, env: &str, arch: &str, bias: bool) -> bool {
+        self.env == env && self.arch == arch && self.bias == bias
+    }
+}
+
+/// One cell: an environment × architecture × bias setting.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CellMeta {
+    /// Which cell.
+    #[serde(flatten)]
+    pub id: CellId,
     /// Weights per network.
     pub n_weights: usize,
     /// Observation length.

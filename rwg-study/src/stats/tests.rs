@@ -6,11 +6,7 @@ use super::*;
 
 fn meta(solved: Option<f64>) -> CellMeta {
     CellMeta {
-        dir: "Fixture-v0__0HL__nobias".into(),
-        env: "Fixture-v0".into(),
-        arch: "0HL".into(),
-        hidden: vec![],
-        bias: false,
+        id: CellId::new("Fixture-v0", "0HL", &[], false),
         n_weights: 8,
         obs_dim: 4,
         max_episode_steps: 200,

@@ -2,7 +2,7 @@
 //! analysis: scores are drawn from a simple model, no environment is run.
 
 use super::{write_cell_files, write_run_json};
-use crate::rundir::meta::{cell_dir_name, CellMeta, RunMeta, WeightsMeta, RUN_FORMAT};
+use crate::rundir::meta::{CellId, CellMeta, RunMeta, WeightsMeta, RUN_FORMAT};
 use std::path::Path;
 
 /// One synthetic cell.
@@ -124,11 +124,7 @@ pub fn write_synthetic_run(dir: &Path, spec: &SyntheticRun) -> std::io::Result<R
         let env_steps: u64 = steps.iter().map(|&s| u64::from(s)).sum();
         total_steps += env_steps;
         let meta = CellMeta {
-            dir: cell_dir_name(&c.env, &c.arch, c.bias),
-            env: c.env.clone(),
-            arch: c.arch.clone(),
-            hidden: c.hidden.clone(),
-            bias: c.bias,
+            id: CellId::new(&c.env, &c.arch, &c.hidden, c.bias),
             n_weights: 4 * (c.hidden.first().copied().unwrap_or(2)),
             obs_dim: 4,
             max_episode_steps: c.max_episode_steps,

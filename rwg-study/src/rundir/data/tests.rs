@@ -30,7 +30,7 @@ fn small_run(name: &str) -> (PathBuf, RunMeta) {
 
 fn scores_path(dir: &Path, meta: &RunMeta) -> PathBuf {
     dir.join("cells")
-        .join(&meta.cells[0].dir)
+        .join(&meta.cells[0].id.dir)
         .join("scores.csv")
 }
 
@@ -167,7 +167,7 @@ fn inconsistent_samples_csv_is_refused() {
     let (dir, meta) = small_run("samples");
     let path = dir
         .join("cells")
-        .join(&meta.cells[0].dir)
+        .join(&meta.cells[0].id.dir)
         .join("samples.csv");
     let good = std::fs::read_to_string(&path).unwrap();
     let mut lines: Vec<String> = good.lines().map(String::from).collect();

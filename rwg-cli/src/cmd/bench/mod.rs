@@ -1,0 +1,201 @@
+//! `rwg bench`: throughput of the built-in environments and of the RWG sampler.
+//!
+//! Two measurements, both statically dispatched through [`rwg_envs::visit`]
+//! (the step loop is monomorphised for each concrete env type):
+//!
+//! - `rwg bench envs`: raw `Environment::step` throughput under a fixed,
+//!   pre-generated pseudo-random action sequence, resetting with successive
+//!   seeds whenever an episode ends;
+//! - `rwg bench sampler`: the whole RWG workload (weight draws, reset seed
+//!   derivation, resets, policy forward pass, env steps) through
+//!   [`rwg_core::sampler::run_cell`], for the configurations the peer
+//!   implementations were measured on.
+//!
+//! Every figure comes from one timed run; the machine's noise is not averaged
+//! out. Env steps are counted exactly: every step of every episode. The
+//! comparison with the peers, by contrast, measures both sides in the same
+//! invocation: `rwg bench peers` ([`peers`]).
+//!
+//! One file per benchmark: `envs` (built-in envs), `plugin` (a plugin's
+//! envs against the built-ins they re-export), `sampler` (the RWG
+//! workload), `peers` (the whole `rwg run` against gymnax-raw, side by
+//! side); the timing and the table output are shared, here.
+
+mod envs;
+mod peers;
+mod plugin;
+mod sampler;
+
+use anyhow::Result;
+use rwg_analysis::table::{Align, TextColumns};
+use rwg_envs::EnvOptions;
+use std::time::Instant;
+
+/// Arguments of `rwg bench`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+`envs` and `sampler` run in this process and report one timed run; repeat them to \
+see the noise. `peers` runs rwg and a peer as child processes, interleaved, and \
+reports medians with their spread. Build with --release for meaningful figures.")]
+pub struct Args {
+    #[command(subcommand)]
+    what: What,
+}
+
+#[derive(clap::Subcommand)]
+enum What {
+    /// Raw environment steps per second under a fixed pseudo-random action sequence.
+    #[command(after_help = "\
+Measures Environment::step alone (plus the resets between episodes): for each env, a \
+sequence of 4096 pseudo-random actions (discrete: uniform integers; continuous: uniform \
+within the action bounds) is generated before timing and replayed cyclically. When an \
+episode terminates or is truncated by the time limit, the env is reset with the next \
+seed (0, 1, 2, ...); the resets are inside the timed span. No policy is evaluated.
+
+Columns: steps = env steps timed, episodes = episodes started, steps/s and ns/step (wall \
+clock), steps/CPU-s (process CPU time: steadier on a busy machine), and the sum of all \
+rewards. With --hash, a hash of the bits of every observation and reward follows: it \
+must be the same for every build (on the same libm) for the same --steps (the envs \
+are bit-exact), so it checks that an optimisation changed no result.")]
+    Envs(envs::EnvsArgs),
+    /// The RWG workload (env + policy) through the sampler alone.
+    #[command(after_help = "\
+Measures what `rwg` spends its time on: for each configuration, SAMPLES networks with \
+i.i.d. N(0,1) weights (no bias) each run EPISODES episodes through rwg_core's sampler \
+(weight draws, reset seeds, resets, policy forward passes and env steps, on a rayon \
+pool of THREADS threads). Reported: env steps (every step of every episode), wall \
+time, env steps/s in total and per thread, and env steps per CPU-second of the process \
+(steadier than wall time on a busy machine). The sampler alone is not the whole `rwg \
+run` command: compare with other implementations with `rwg bench peers`, which \
+measures both sides in one invocation. Each thread runs several episodes side by side \
+(the JSON's `lanes`); the results are those of running them one by one (`mean_score` \
+does not depend on the build, the thread count or the lanes).
+
+Configurations (the peers' workload): CartPole-v0 0HL, CartPole-v0 [4,4], Acrobot-v1 \
+0HL, MountainCarContinuous-v0 [4,4], Pendulum-v1 [4].")]
+    Sampler(sampler::SamplerArgs),
+    /// The whole `rwg run --threads 1` against gymnax-raw, side by side, pinned to one core.
+    #[command(after_help = "\
+For each of the peers' five workloads (CartPole-v0 0HL, CartPole-v0 [4,4], Acrobot-v1 \
+0HL, MountainCarContinuous-v0 [4,4], Pendulum-v1 [4]; no bias), runs ROUNDS times, \
+interleaved (alternating which side goes first), with this process and its children \
+pinned to one core:
+  - `rwg run --threads 1` on a one-cell manifest (RWG_SAMPLES networks x EPISODES \
+episodes, the report included): the child's whole CPU time (getrusage);
+  - gymnax-raw (`gymnax_rwg.py --step raw` of the peer scripts, PEER_SAMPLES networks): \
+the CPU time its JSON reports for the compiled run (JAX start-up and XLA compile \
+excluded, as the peer reports them apart).
+Prints env steps per CPU-second of each side and their ratio per round: median \
+[min-max]. Env steps are the transitions inside episodes on both sides.
+
+The peer needs a Python with jax and gymnax: --python (or RWG_PEER_PYTHON), or the \
+virtualenv --venv, which --create-venv makes with
+  python3 -m venv target/peers-venv
+  target/peers-venv/bin/pip install numpy==2.4.6 gymnasium==1.3.0 jax==0.10.2 \
+jaxlib==0.10.2 gymnax==1.0.1 flax==0.12.8 six==1.17.0
+Build rwg with --release for meaningful figures.")]
+    Peers(peers::PeersArgs),
+}
+
+/// Runs `rwg bench`.
+pub fn run(args: Args) -> Result<()> {
+    match args.what {
+        What::Envs(a) => envs::run(a),
+        What::Sampler(a) => sampler::run(a),
+        What::Peers(a) => peers::run(a),
+    }
+}
+
+/// Checks `--env` ids against the registry (with a suggestion for typos).
+pub(super) fn check_ids(ids: &[String]) -> Result<()> {
+    for id in ids {
+        rwg_envs::make(id, &EnvOptions::default())?;
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------
+// timing
+
+/// Wall clock and process CPU time of a timed span.
+pub(super) struct Clock {
+    wall: Instant,
+    cpu: Option<f64>,
+}
+
+impl Clock {
+    pub(super) fn start() -> Clock {
+        Clock {
+            cpu: process_cpu_seconds(),
+            wall: Instant::now(),
+        }
+    }
+
+    /// (wall seconds, CPU seconds) since `start`.
+    pub(super) fn stop(self) -> (f64, Option<f64>) {
+        let wall = self.wall.elapsed().as_secs_f64();
+        let cpu = process_cpu_seconds().zip(self.cpu).map(|(b, a)| b - a);
+        (wall, cpu)
+    }
+}
+
+/// CPU time of this process (all threads) in seconds, where measurable.
+fn process_cpu_seconds() -> Option<f64> {
+    #[cfg(unix)]
+    {
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `ts` is a valid, writable timespec for the call's duration.
+        let rc = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+        (rc == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
+}
+
+// ---------------------------------------------------------------------------
+// table output
+
+/// Prints one table line: each cell padded to its column's width (a negative
+/// width left-aligns), columns separated by two spaces. Rows are printed as
+/// soon as they are measured, so the widths are fixed in advance.
+pub(super) fn print_row<const N: usize>(columns: &[(&str, i32); N], cells: &[String; N]) {
+    let columns: Vec<(usize, Align)> = columns
+        .iter()
+        .map(|&(_, w)| {
+            let align = if w < 0 { Align::Left } else { Align::Right };
+            (w.unsigned_abs() as usize, align)
+        })
+        .collect();
+    crate::outln!("{}", TextColumns::new(&columns, "  ").line(cells));
+}
+
+/// `1234567` -> `1,234,567`.
+pub(super) fn group(n: u64) -> String {
+    let s = n.to_string();
+    let mut out = String::with_capacity(s.len() + s.len() / 3);
+    for (i, ch) in s.chars().enumerate() {
+        if i > 0 && (s.len() - i) % 3 == 0 {
+            out.push(',');
+        }
+        out.push(ch);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn digit_grouping() {
+        assert_eq!(group(0), "0");
+        assert_eq!(group(999), "999");
+        assert_eq!(group(1000), "1,000");
+        assert_eq!(group(8_774_515), "8,774,515");
+    }
+}
