@@ -109,6 +109,8 @@ const CONTRACT_CHECK_TIMEOUT: Duration = Duration::from_secs(120);
 /// Runs `rwg check`'s checks of one plugin env in a child process and returns
 /// a warning for each failed determinism or thread-safety check (what `rwg
 /// run` prints: such an env gives results that depend on the thread count).
+/// None for an env whose rollouts fail outright (a crash, a panic, a NaN):
+/// the run stops on that with its own error.
 pub fn contract_warnings(plugin: &Path, env: &str, config: &str) -> Vec<String> {
     let args = [
         plugin.as_os_str(),
@@ -120,6 +122,14 @@ pub fn contract_warnings(plugin: &Path, env: &str, config: &str) -> Vec<String> 
     let Ok(run) = spawn_child(&args, CONTRACT_CHECK_TIMEOUT) else {
         return vec![];
     };
+    // An env that fails its plain rollouts fails the determinism checks for
+    // that reason, not for hidden state; the run reports that failure itself.
+    let rollout_fails = run.lines.iter().any(
+        |l| matches!(l, Line::Result(r) if r.name == "rollout" && r.status == CheckStatus::Failed),
+    );
+    if rollout_fails {
+        return vec![];
+    }
     run.lines
         .into_iter()
         .filter_map(|l| match l {

@@ -670,11 +670,16 @@ pub fn stats_csv(stats: &RunStats) -> String {
     out
 }
 
-/// Writes `stats.json` and `stats.csv` into `dir`.
+/// Writes `stats.json` and `stats.csv` into `dir`; an error names the file.
 pub fn write_stats(dir: &Path, stats: &RunStats) -> std::io::Result<()> {
+    let write = |name: &str, text: String| {
+        let p = dir.join(name);
+        std::fs::write(&p, text)
+            .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", p.display())))
+    };
     let json = serde_json::to_string_pretty(stats).map_err(std::io::Error::other)?;
-    std::fs::write(dir.join(STATS_JSON), json + "\n")?;
-    std::fs::write(dir.join(STATS_CSV), stats_csv(stats))
+    write(STATS_JSON, json + "\n")?;
+    write(STATS_CSV, stats_csv(stats))
 }
 
 pub mod synthetic;
