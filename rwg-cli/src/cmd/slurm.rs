@@ -9,6 +9,7 @@ use anyhow::{bail, Context, Result};
 use rwg_study::cells::plan_cells;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::export::write_atomic;
+use rwg_study::rundir::{MANIFEST, RUN_JSON};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -119,7 +120,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         plan
     } else {
-        if root.join("manifest.toml").exists() || root.join("run.json").exists() {
+        if root.join(MANIFEST).exists() || root.join(RUN_JSON).exists() {
             bail!(
                 "{} already holds a run that rwg slurm did not start; choose another --out",
                 root.display()
