@@ -41,7 +41,7 @@ pub struct Args {
     /// The study's TOML manifest.
     manifest: PathBuf,
     /// Number of shards (array tasks).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=rwg_study::limits::MAX_SHARDS))]
     shards: u64,
     /// Study directory; the merged run ends here (default: the manifest's `out`,
     /// else runs/NAME for a manifest NAME.toml).
