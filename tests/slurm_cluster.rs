@@ -51,11 +51,17 @@ fn sbin(cmd: &str) -> PathBuf {
     PathBuf::from(cmd)
 }
 
+/// The short host name (what slurmd and slurmctld compare their names with).
 fn hostname() -> String {
     let o = Command::new("hostname")
         .output()
         .expect("cannot run hostname");
-    String::from_utf8(o.stdout).unwrap().trim().to_string()
+    let name = String::from_utf8(o.stdout).unwrap();
+    name.trim()
+        .split('.')
+        .next()
+        .unwrap_or_default()
+        .to_string()
 }
 
 fn read_pid(p: &Path) -> Option<i32> {
@@ -181,12 +187,12 @@ impl Cluster {
         );
         std::fs::write(&c.conf, conf).unwrap();
         for (daemon, pid) in [("slurmctld", "slurmctld.pid"), ("slurmd", "slurmd.pid")] {
-            let o = Command::new(sbin(daemon))
-                .arg("-f")
-                .arg(&c.conf)
-                .env("SLURM_CONF", &c.conf)
-                .output()
-                .unwrap();
+            let mut cmd = Command::new(sbin(daemon));
+            cmd.arg("-f").arg(&c.conf);
+            if daemon == "slurmd" {
+                cmd.args(["-N", &host]);
+            }
+            let o = cmd.env("SLURM_CONF", &c.conf).output().unwrap();
             c.started.push((daemon, dir.join(pid)));
             assert!(
                 o.status.success(),

@@ -16,6 +16,7 @@ use rwg_study::manifest::Manifest;
 use rwg_study::rundir::meta::read_run_meta as read_meta;
 use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::rundir::status::{progress, Totals};
+use rwg_study::rundir::MANIFEST;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -33,7 +34,7 @@ impl ShardedDir {
     }
     /// `DIR/slurm/manifest.toml`.
     pub fn manifest(&self) -> PathBuf {
-        self.slurm_dir().join("manifest.toml")
+        self.slurm_dir().join(MANIFEST)
     }
     /// `DIR/slurm/plan.json`.
     pub fn plan_file(&self) -> PathBuf {
@@ -114,7 +115,7 @@ pub enum ShardState {
 
 /// The state of shard `k` of `count` of study `m` in `dir`.
 pub fn shard_state(dir: &Path, m: &Manifest, k: u64, count: u64) -> ShardState {
-    if !dir.join("manifest.toml").is_file() {
+    if !dir.join(MANIFEST).is_file() {
         return ShardState::Missing;
     }
     let s = ShardMeta { index: k, count };

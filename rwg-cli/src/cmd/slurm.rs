@@ -9,6 +9,7 @@ use anyhow::{bail, Context, Result};
 use rwg_study::cells::plan_cells;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::export::write_atomic;
+use rwg_study::rundir::{MANIFEST, RUN_JSON};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -40,7 +41,7 @@ pub struct Args {
     /// The study's TOML manifest.
     manifest: PathBuf,
     /// Number of shards (array tasks).
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=100_000))]
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..=rwg_study::limits::MAX_SHARDS))]
     shards: u64,
     /// Study directory; the merged run ends here (default: the manifest's `out`,
     /// else runs/NAME for a manifest NAME.toml).
@@ -119,7 +120,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         plan
     } else {
-        if root.join("manifest.toml").exists() || root.join("run.json").exists() {
+        if root.join(MANIFEST).exists() || root.join(RUN_JSON).exists() {
             bail!(
                 "{} already holds a run that rwg slurm did not start; choose another --out",
                 root.display()

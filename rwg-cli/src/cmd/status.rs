@@ -3,11 +3,13 @@
 
 use crate::cluster::{merged_complete, sh_path, shard_state, Plan, ShardState, ShardedDir};
 use anyhow::{bail, Result};
+use rwg_analysis::report::REPORT_HTML;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::blocks::n_blocks;
 use rwg_study::rundir::meta::read_run_meta as read_meta;
 use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::rundir::status::{cell_dirs, progress, CellProgress, Totals};
+use rwg_study::rundir::{MANIFEST, RUN_JSON};
 use std::path::PathBuf;
 
 /// Arguments of `rwg status`.
@@ -38,13 +40,13 @@ pub fn run(args: Args) -> Result<()> {
     if sharded.exists() {
         return sharded_status(&sharded, sharded.read_plan()?, sharded.manifest(), true);
     }
-    let manifest_path = dir.join("manifest.toml");
+    let manifest_path = dir.join(MANIFEST);
     if let Some((count, shard0)) = shards_without_plan(&sharded)? {
         let plan = Plan {
             shards: count,
             ..Plan::default()
         };
-        return sharded_status(&sharded, plan, shard0.join("manifest.toml"), false);
+        return sharded_status(&sharded, plan, shard0.join(MANIFEST), false);
     }
     if !manifest_path.is_file() {
         if !dir.is_dir() {
@@ -56,7 +58,7 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     let m = Manifest::load(&manifest_path)?;
-    let meta = if dir.join("run.json").exists() {
+    let meta = if dir.join(RUN_JSON).exists() {
         Some(read_meta(dir)?)
     } else {
         None
@@ -100,7 +102,7 @@ pub fn run(args: Args) -> Result<()> {
         crate::outln!(
             "Nothing left to do in this shard; combine the shards with rwg merge DIR... --out DIR"
         );
-    } else if !dir.join("report.html").exists() {
+    } else if !dir.join(REPORT_HTML).exists() {
         crate::outln!(
             "No report yet; write stats, figures and report.html with:\n  rwg report {}",
             sh_path(dir)
@@ -162,7 +164,7 @@ fn shards_without_plan(sd: &ShardedDir) -> Result<Option<(u64, PathBuf)>> {
     };
     let mut dirs: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.join("run.json").is_file())
+        .filter(|p| p.join(RUN_JSON).is_file())
         .collect();
     dirs.sort();
     for d in dirs {
@@ -228,7 +230,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     let merged = merged_complete(root);
     let merge_state = if merged {
         "complete".to_string()
-    } else if root.join("manifest.toml").is_file() {
+    } else if root.join(MANIFEST).is_file() {
         let t = Totals::of(&progress(root, &m, None), false);
         format!(
             "incomplete: {} of {} cells merged (rerun the merge to finish it)",
@@ -251,7 +253,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
         );
     }
     if merged {
-        if !root.join("report.html").exists() {
+        if !root.join(REPORT_HTML).exists() {
             crate::outln!(
                 "No report yet; write it with:\n  rwg report {}",
                 sh_path(root)

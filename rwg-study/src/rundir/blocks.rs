@@ -76,6 +76,17 @@ pub fn block_path(cell_dir: &Path, b: u64) -> PathBuf {
     cell_dir.join(BLOCKS).join(format!("b{b:07}.csv"))
 }
 
+/// The block index of a file name in a cell's `blocks/` folder, if it is the
+/// name [`block_path`] gives a block (temporary files and strays are not).
+pub fn block_index(file_name: &str) -> Option<u64> {
+    let digits = file_name.strip_prefix('b')?.strip_suffix(".csv")?;
+    if !digits.bytes().all(|c| c.is_ascii_digit()) {
+        return None;
+    }
+    let b: u64 = digits.parse().ok()?;
+    (format!("b{b:07}.csv") == file_name).then_some(b)
+}
+
 /// Whether block `b` is committed.
 pub fn block_done(cell_dir: &Path, b: u64) -> bool {
     block_path(cell_dir, b).is_file()

@@ -7,8 +7,9 @@
 //! committed at that instant, never a half-written file.
 
 use crate::manifest::Manifest;
-use crate::rundir::blocks::{cell_complete, n_blocks};
+use crate::rundir::blocks::{block_index, cell_complete, n_blocks};
 use crate::rundir::meta::{cell_dir_name, ShardMeta};
+use crate::rundir::{cell_dir, BLOCKS};
 use std::path::Path;
 
 /// Progress of one cell.
@@ -56,20 +57,12 @@ pub fn cell_dirs(m: &Manifest) -> Vec<String> {
 /// The indices of the committed blocks of the cell in `cell_dir` (sorted).
 /// A missing directory has none; temporary files do not count.
 pub fn committed_blocks(cell_dir: &Path) -> Vec<u64> {
-    let Ok(entries) = std::fs::read_dir(cell_dir.join("blocks")) else {
+    let Ok(entries) = std::fs::read_dir(cell_dir.join(BLOCKS)) else {
         return vec![];
     };
     let mut found: Vec<u64> = entries
         .filter_map(|e| e.ok())
-        .filter_map(|e| {
-            let name = e.file_name();
-            let name = name.to_str()?;
-            let digits = name.strip_prefix('b')?.strip_suffix(".csv")?;
-            if digits.is_empty() || !digits.bytes().all(|c| c.is_ascii_digit()) {
-                return None;
-            }
-            digits.parse().ok()
-        })
+        .filter_map(|e| block_index(e.file_name().to_str()?))
         .collect();
     found.sort_unstable();
     found
@@ -83,7 +76,7 @@ pub fn progress(run_dir: &Path, m: &Manifest, shard: Option<ShardMeta>) -> Vec<C
         .into_iter()
         .enumerate()
         .map(|(ci, dir)| {
-            let cell_dir = run_dir.join("cells").join(&dir);
+            let cell_dir = cell_dir(run_dir, &dir);
             let owns = |b: u64| shard.is_none_or(|s| s.owns(ci, nb, b));
             let blocks_total = (0..nb).filter(|&b| owns(b)).count() as u64;
             let finalised = shard.is_none() && cell_complete(&cell_dir);
@@ -170,9 +163,10 @@ id = "CartPole-v1"
         let c1 = dir.join("cells/CartPole-v1__0HL__bias");
         touch(&block_path(&c0, 0));
         touch(&block_path(&c0, 2));
-        // a temporary file and a stray name do not count
+        // a temporary file and stray names do not count
         touch(&c0.join("blocks/b0000001.csv.tmp"));
         touch(&c0.join("blocks/notes.csv"));
+        touch(&c0.join("blocks/b1.csv"));
         touch(&c1.join("samples.csv"));
         let p = progress(&dir, &m, None);
         assert_eq!((p[0].blocks_done, p[0].blocks_total), (2, 3));
