@@ -177,9 +177,17 @@ fn console_median_is_stats_csv_median_and_merge_prints_no_nan() {
 
 #[test]
 fn io_errors_name_their_path_once() {
+    // a missing run directory is named as such (issue 15), once
     let err = rwg_err(&["stats", "/nonexistent-rwg-run"]);
     assert!(
-        err.starts_with("error: cannot read /nonexistent-rwg-run/run.json: "),
+        err.starts_with("error: /nonexistent-rwg-run is not a run directory (it does not exist)"),
+        "{err}"
+    );
+    assert_eq!(err.matches("/nonexistent-rwg-run").count(), 1, "{err}");
+    // any other missing file: its path, the OS error once
+    let err = rwg_err(&["run", "/nonexistent-rwg-manifest.toml"]);
+    assert!(
+        err.starts_with("error: cannot read manifest /nonexistent-rwg-manifest.toml: "),
         "{err}"
     );
     assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");

@@ -6,6 +6,7 @@
 
 mod cluster;
 mod cmd;
+mod errors;
 mod fault_guard;
 mod progress;
 mod slurm_script;
@@ -128,6 +129,10 @@ fn main() {
             std::process::exit(0);
         }
         eprintln!("error: {}", error_text(&e));
+        let args: Vec<String> = std::env::args().skip(2).collect();
+        if let Some(h) = errors::hint(&e, &args) {
+            eprintln!("hint: {h}");
+        }
         std::process::exit(1);
     }
 }

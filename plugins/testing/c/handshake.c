@@ -17,6 +17,8 @@
  *
  * ENV_ID (e.g. -DENV_ID='"CartPole-v0"') replaces the id "handshake/Ok-v0".
  * NO_TIME_LIMIT sets max_episode_steps = 0 (none; a valid plugin).
+ * THRESHOLD_LEFT_AT_ZERO sets reward_threshold = 0.0 (legal, but "solved at
+ * 0", usually a field left unset: rwg check warns).
  * PRINTF_IN_STEP makes step printf a line to stdout (a valid plugin that
  * talks: its output must never reach rwg's own stdout).
  *
@@ -100,7 +102,12 @@ static const rwg_env_desc_t DESC = {
 #else
     .max_episode_steps = 5,
 #endif
+#ifdef THRESHOLD_LEFT_AT_ZERO
+    /* the trap: a field left at its zero initialiser means "solved at 0" */
+    .reward_threshold = 0.0,
+#else
     .reward_threshold = NAN,
+#endif
 };
 
 static const rwg_env_vtable_t VTABLE = {

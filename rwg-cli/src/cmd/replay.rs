@@ -176,6 +176,7 @@ fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Ex
 
 /// Runs `rwg replay`.
 pub fn run(args: Args) -> Result<()> {
+    rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
     let mut m = Manifest::load(&args.run_dir.join(rundir::MANIFEST))
         .with_context(|| format!("{} is not an rwg run directory", args.run_dir.display()))?;
     let cells = plan_cells(&mut m)?;

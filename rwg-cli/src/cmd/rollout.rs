@@ -58,8 +58,9 @@ pub struct Args {
     /// RWG_PLUGIN_PATH).
     #[arg(long, value_name = "FILE")]
     plugin: Option<PathBuf>,
-    /// Configuration string handed to the plugin's `create` (plugin envs only).
-    #[arg(long, value_name = "TEXT", requires = "plugin")]
+    /// Configuration string handed to the plugin's `create` (plugin envs only:
+    /// from --plugin or found on RWG_PLUGIN_PATH).
+    #[arg(long, value_name = "TEXT")]
     config: Option<String>,
     /// Output format.
     #[arg(long, default_value = "jsonl", value_parser = ["jsonl", "csv"])]
@@ -184,6 +185,10 @@ fn make_env(args: &Args, opts: &EnvOptions) -> Result<Box<dyn Environment + Send
         return plugin_env(ty);
     }
     match plugins.find(&args.env) {
+        Found::Builtin if args.config.is_some() => bail!(
+            "--config is for plugin envs: {} is built in and takes no configuration",
+            args.env
+        ),
         Found::Builtin => Ok(make(&args.env, opts)?),
         Found::OnPath(ty) => plugin_env(&ty),
         Found::Unknown(msg) => bail!(msg),

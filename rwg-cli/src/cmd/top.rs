@@ -20,6 +20,7 @@ pub struct Args {
 
 /// Runs `rwg top`.
 pub fn run(args: Args) -> Result<()> {
+    rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
     let meta = read_run_meta(&args.run_dir)?;
     let run = args.run_dir.display().to_string();
     let stdout = crate::stdio::stdout();

@@ -89,6 +89,16 @@ pub(super) fn spaces(spec: &EnvSpec) -> Outcome {
         if !t.is_finite() {
             return (Failed, format!("reward_threshold is {t}"));
         }
+        if t == 0.0 {
+            // a C descriptor's field left at its zero initialiser says
+            // "solved at 0.0", not "no solved score"
+            warnings.push(
+                "reward_threshold is exactly 0.0, so a mean score of 0 counts as solved; if the \
+                 env has no solved score, declare none: NAN in a C descriptor \
+                 (`.reward_threshold = NAN`), None in Rust"
+                    .to_string(),
+            );
+        }
     }
     if spec.max_episode_steps == Some(0) {
         return (Failed, "max_episode_steps is Some(0)".into());

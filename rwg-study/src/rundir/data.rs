@@ -62,6 +62,20 @@ pub enum RunReadError {
         /// What is wrong.
         message: String,
     },
+    /// The directory holds no `run.json`: it is not a run directory.
+    #[error(
+        "{} is not a run directory ({why}): a run directory is what `rwg run` writes, \
+         run.json, manifest.toml and cells/<env>__<arch>__<bias|nobias>/{hint}",
+        dir.display()
+    )]
+    NotARunDir {
+        /// The directory given.
+        dir: PathBuf,
+        /// Why not: it does not exist, or it has no `run.json`.
+        why: String,
+        /// A hint: nearby run directories, if any (empty or `; ...`).
+        hint: String,
+    },
     /// A file disagrees with `run.json` or with another file.
     #[error("{path}: {message}")]
     Mismatch {
@@ -76,6 +90,82 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RunReadError + '_ {
     move |source| RunReadError::Io {
         path: path.to_path_buf(),
         source,
+    }
+}
+
+/// Whether `dir` holds a `run.json`.
+fn is_run_dir(dir: &Path) -> bool {
+    dir.join(RUN_JSON).is_file()
+}
+
+/// The run directories directly inside `dir`, sorted.
+fn run_dirs_in(dir: &Path) -> Vec<PathBuf> {
+    let mut out: Vec<PathBuf> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| is_run_dir(p))
+        .collect();
+    out.sort();
+    out
+}
+
+/// The error for a directory without `run.json`, with a hint: the run
+/// directories inside it, or the nearest-named run directory beside it.
+fn not_a_run_dir(dir: &Path) -> RunReadError {
+    let why = if dir.is_dir() {
+        "it has no run.json"
+    } else if dir.exists() {
+        "it is a file"
+    } else {
+        "it does not exist"
+    };
+    let inside = if dir.is_dir() {
+        run_dirs_in(dir)
+    } else {
+        vec![]
+    };
+    let hint = if !inside.is_empty() {
+        let list: Vec<String> = inside
+            .iter()
+            .take(5)
+            .map(|p| p.display().to_string())
+            .collect();
+        format!("; run directories inside it: {}", list.join(", "))
+    } else {
+        let parent = match dir.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        let siblings = run_dirs_in(&parent);
+        let names: Vec<String> = siblings
+            .iter()
+            .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .collect();
+        let name = dir
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        match rwg_env::suggest::nearest(&name, names.iter().map(String::as_str)) {
+            Some(n) => format!("; did you mean {}?", dir.with_file_name(n).display()),
+            None => String::new(),
+        }
+    };
+    RunReadError::NotARunDir {
+        dir: dir.to_path_buf(),
+        why: why.into(),
+        hint,
+    }
+}
+
+/// `Ok` when `dir` holds a `run.json` (a run or a shard's directory), else
+/// the "not a run directory" error with its hint.
+pub fn require_run_dir(dir: &Path) -> Result<(), RunReadError> {
+    if is_run_dir(dir) {
+        Ok(())
+    } else {
+        Err(not_a_run_dir(dir))
     }
 }
 
@@ -178,7 +268,11 @@ impl Run {
     pub fn open(dir: impl AsRef<Path>) -> Result<Run, RunReadError> {
         let dir = dir.as_ref().to_path_buf();
         let path = dir.join(RUN_JSON);
-        let text = std::fs::read_to_string(&path).map_err(io_err(&path))?;
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(not_a_run_dir(&dir)),
+            Err(e) => return Err(io_err(&path)(e)),
+        };
         let meta: RunMeta = serde_json::from_str(&text).map_err(|source| RunReadError::Json {
             path: path.clone(),
             source,

@@ -202,7 +202,7 @@ fn bad_run_json() {
     let dir = temp_dir("badjson");
     let e = Run::open(&dir).unwrap_err().to_string();
     assert!(
-        e.starts_with("cannot read") && e.contains("run.json"),
+        e.contains("is not a run directory (it has no run.json)"),
         "{e}"
     );
     std::fs::write(dir.join(RUN_JSON), "{\"format\": 1}").unwrap();

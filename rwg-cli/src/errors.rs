@@ -1,0 +1,95 @@
+//! The hint under an error: when a file was not found, a "did you mean"
+//! for a path on the command line that does not exist but nearly matches
+//! one that does.
+
+use std::path::{Path, PathBuf};
+
+/// Whether some cause of `e` is a "not found" I/O error.
+fn not_found(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::NotFound)
+    })
+}
+
+/// The existing entry of `missing`'s folder whose name is nearest to
+/// `missing`'s, if one is close enough to be a typo.
+pub fn nearby(missing: &Path) -> Option<PathBuf> {
+    let name = missing.file_name()?.to_str()?;
+    let parent = match missing.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    // a misspelt folder: correct it first
+    let parent = if parent.is_dir() {
+        parent
+    } else {
+        nearby(&parent).filter(|p| p.is_dir())?
+    };
+    let missing = parent.join(name);
+    let names: Vec<String> = std::fs::read_dir(&parent)
+        .ok()?
+        .flatten()
+        .filter_map(|e| e.file_name().into_string().ok())
+        .collect();
+    let best = rwg_env::suggest::nearest(name, names.iter().map(String::as_str))?;
+    let found = missing.with_file_name(best);
+    // keep the path relative as given: no "./" the user did not type
+    Some(match found.strip_prefix(".") {
+        Ok(rel) if !rel.as_os_str().is_empty() => rel.to_path_buf(),
+        _ => found,
+    })
+}
+
+/// A hint for a "not found" error: the command-line arguments that name a
+/// missing file, each with the nearest existing one.
+pub fn hint(e: &anyhow::Error, args: &[String]) -> Option<String> {
+    if !not_found(e) {
+        return None;
+    }
+    let hints: Vec<String> = args
+        .iter()
+        .filter(|a| !a.starts_with('-') && (a.contains('/') || a.contains('.')))
+        .map(Path::new)
+        .filter(|p| !p.exists())
+        .filter_map(|p| {
+            nearby(p).map(|n| {
+                format!(
+                    "{} does not exist; did you mean {}?",
+                    p.display(),
+                    n.display()
+                )
+            })
+        })
+        .collect();
+    (!hints.is_empty()).then(|| hints.join("\n"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_for_not_found() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
+        assert!(not_found(&anyhow::Error::new(io).context("cannot read x")));
+        let io = std::io::Error::new(std::io::ErrorKind::PermissionDenied, "no");
+        assert!(!not_found(&anyhow::Error::new(io)));
+    }
+
+    #[test]
+    fn did_you_mean_a_nearby_file() {
+        let dir = std::env::temp_dir().join(format!("rwg-hint-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("quick.toml"), "").unwrap();
+        let missing = dir.join("qick.toml");
+        assert_eq!(nearby(&missing), Some(dir.join("quick.toml")));
+        assert_eq!(nearby(&dir.join("completely-else.json")), None);
+        std::fs::create_dir_all(dir.join("examples")).unwrap();
+        std::fs::write(dir.join("examples/actions.txt"), "").unwrap();
+        assert_eq!(
+            nearby(&dir.join("exampels/actions.txt")),
+            Some(dir.join("examples/actions.txt"))
+        );
+    }
+}
