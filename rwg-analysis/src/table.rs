@@ -174,14 +174,6 @@ pub fn html_escape(s: &str) -> String {
     out
 }
 
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
-
 impl Table {
     /// Renders the table.
     pub fn render(&self, format: TableFormat) -> String {
@@ -292,16 +284,16 @@ impl Table {
     }
 
     fn csv(&self) -> String {
-        let row = |cells: &[Cell]| -> String {
-            let parts: Vec<String> = cells.iter().map(|c| csv_field(&c.text)).collect();
-            format!("{}\n", parts.join(","))
-        };
-        let mut out = format!("# {}\n", self.title);
-        out.push_str(&row(&self.header));
-        for r in &self.rows {
-            out.push_str(&row(r));
+        let mut out = format!("# {}\n", self.title).into_bytes();
+        let mut w = csv::WriterBuilder::new()
+            .has_headers(false)
+            .terminator(csv::Terminator::Any(b'\n'))
+            .from_writer(&mut out);
+        for r in std::iter::once(&self.header).chain(&self.rows) {
+            w.write_record(texts(r)).expect("writing to memory");
         }
-        out
+        drop(w);
+        String::from_utf8(out).expect("UTF-8 cells")
     }
 }
 

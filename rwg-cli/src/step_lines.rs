@@ -1,8 +1,10 @@
 //! The step-by-step output of `rwg rollout` and `rwg replay --episode`:
-//! JSON lines or CSV, floats in shortest round-trip form.
+//! JSON lines or CSV (through the `csv` crate), floats in shortest
+//! round-trip form.
 
 use rwg_env::float::fmt_f64;
 use rwg_env::{Action, Step};
+use rwg_study::rundir::export::{csv_io_error, csv_writer};
 use std::io::{self, Write};
 
 /// Writes the lines of one episode.
@@ -23,6 +25,13 @@ fn json_num(x: f64) -> String {
 
 fn join(v: impl Iterator<Item = String>, sep: &str) -> String {
     v.collect::<Vec<_>>().join(sep)
+}
+
+/// Writes one CSV record (and flushes it to `out`).
+fn csv_line(out: &mut dyn Write, fields: &[String]) -> io::Result<()> {
+    let mut w = csv_writer(out);
+    w.write_record(fields).map_err(csv_io_error)?;
+    w.flush()
 }
 
 impl StepLines {
@@ -48,18 +57,17 @@ impl StepLines {
         }
         cols.extend((0..self.obs_dim).map(|i| format!("obs_{i}")));
         cols.extend(["reward", "terminated", "truncated"].map(String::from));
-        writeln!(out, "{}", cols.join(","))
+        csv_line(out, &cols)
     }
 
     /// Line 0: the observation after the reset.
     pub fn reset(&self, out: &mut dyn Write, obs: &[f64]) -> io::Result<()> {
         if self.csv {
-            let blanks = ",".repeat(self.act_dim);
-            writeln!(
-                out,
-                "0{blanks},{},,,",
-                join(obs.iter().map(|v| fmt_f64(*v)), ",")
-            )
+            let mut fields = vec!["0".to_string()];
+            fields.extend(std::iter::repeat_n(String::new(), self.act_dim));
+            fields.extend(obs.iter().map(|v| fmt_f64(*v)));
+            fields.extend(std::iter::repeat_n(String::new(), 3));
+            csv_line(out, &fields)
         } else {
             writeln!(
                 out,
@@ -79,18 +87,16 @@ impl StepLines {
         s: Step,
     ) -> io::Result<()> {
         if self.csv {
-            let action = match action {
-                Action::Discrete(d) => d.to_string(),
-                Action::Continuous(a) => join(a.iter().map(|v| fmt_f64(*v)), ","),
-            };
-            writeln!(
-                out,
-                "{step},{action},{},{},{},{}",
-                join(obs.iter().map(|v| fmt_f64(*v)), ","),
-                fmt_f64(s.reward),
-                s.terminated,
-                s.truncated
-            )
+            let mut fields = vec![step.to_string()];
+            match action {
+                Action::Discrete(d) => fields.push(d.to_string()),
+                Action::Continuous(a) => fields.extend(a.iter().map(|v| fmt_f64(*v))),
+            }
+            fields.extend(obs.iter().map(|v| fmt_f64(*v)));
+            fields.push(fmt_f64(s.reward));
+            fields.push(s.terminated.to_string());
+            fields.push(s.truncated.to_string());
+            csv_line(out, &fields)
         } else {
             let action = match action {
                 Action::Discrete(d) => d.to_string(),

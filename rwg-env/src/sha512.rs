@@ -2,6 +2,12 @@
 //!
 //! gym 0.17.2 derives its RNG seed from `hashlib.sha512(str(seed))`; this is
 //! the only use, so a small allocation-free implementation is enough.
+//!
+//! Why not the `sha2` crate: it gives the same digests (tested below, with
+//! `sha2` as a dev-dependency only), but as a dependency of `rwg-env` it
+//! would add nine crates (sha2 0.11 with digest, block-buffer,
+//! crypto-common, hybrid-array, typenum, const-oid, cpufeatures, cfg-if) to
+//! every environment plugin's build, which compiles nine crates in all today.
 
 const K: [u64; 80] = [
     0x428a2f98d728ae22,
@@ -166,6 +172,26 @@ pub fn sha512(data: &[u8]) -> [u8; 64] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The `sha2` crate (a dev-dependency only) gives the same digests for
+    /// every length around the block boundaries.
+    #[test]
+    fn same_bits_as_the_sha2_crate() {
+        use sha2::{Digest, Sha512};
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let data: Vec<u8> = (0..700)
+            .map(|_| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                x as u8
+            })
+            .collect();
+        for len in 0..data.len() {
+            let theirs = Sha512::digest(&data[..len]);
+            assert_eq!(sha512(&data[..len])[..], theirs[..], "length {len}");
+        }
+    }
 
     fn hex(d: &[u8]) -> String {
         d.iter().map(|b| format!("{b:02x}")).collect()

@@ -9,9 +9,10 @@ use rwg_env::{Environment, Space};
 use rwg_study::cells::{plan_cells, Cell};
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir;
+use rwg_study::rundir::export::csv_writer;
 use serde::Serialize;
-use std::io::{BufRead, BufReader, BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::io::{BufWriter, Write};
+use std::path::PathBuf;
 
 /// Arguments of `rwg replay`.
 #[derive(clap::Args)]
@@ -81,28 +82,6 @@ pub fn find_cell<'a>(
         }
         _ => bail!("the run has both bias settings: add --bias true or --bias false"),
     }
-}
-
-/// The stored scores of `sample` (one per episode) from a cell's scores.csv.
-fn stored_scores(path: &Path, sample: u64, episodes: u32) -> Result<Vec<f64>> {
-    let f = std::fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let prefix = format!("{sample},");
-    let mut out = vec![];
-    for line in BufReader::new(f).lines().skip(1) {
-        let line = line?;
-        if let Some(rest) = line.strip_prefix(&prefix) {
-            let score = rest.split(',').nth(1).context("bad scores.csv row")?;
-            out.push(
-                score
-                    .parse::<f64>()
-                    .with_context(|| format!("{}: bad score '{score}'", path.display()))?,
-            );
-            if out.len() == episodes as usize {
-                break;
-            }
-        }
-    }
-    Ok(out)
 }
 
 #[derive(Serialize)]
@@ -240,12 +219,20 @@ pub fn run(args: Args) -> Result<()> {
         return Ok(());
     }
 
-    let stored = stored_scores(
+    let stored = rundir::data::read_sample_scores(
         &rundir::cell_dir(&args.run_dir, &cell.id.dir).join(rundir::SCORES_CSV),
         args.sample,
         m.episodes,
     )?;
-    writeln!(out, "episode,reset_seed,score,steps,stored_score,same")?;
+    let mut csv = csv_writer(&mut out);
+    csv.write_record([
+        "episode",
+        "reset_seed",
+        "score",
+        "steps",
+        "stored_score",
+        "same",
+    ])?;
     let mut differ = 0;
     for e in 0..m.episodes {
         let r = reset_seed(cell.plan.seed, &cell.plan.env_id, args.sample, e);
@@ -254,14 +241,17 @@ pub fn run(args: Args) -> Result<()> {
         let st = stored.get(e as usize).copied();
         let same = st.is_some_and(|s| s.to_bits() == res.score.to_bits());
         differ += usize::from(!same);
-        writeln!(
-            out,
-            "{e},{r},{},{},{},{same}",
+        csv.write_record([
+            e.to_string(),
+            r.to_string(),
             fmt_f64(res.score),
-            res.steps,
-            st.map_or("-".into(), fmt_f64)
-        )?;
+            res.steps.to_string(),
+            st.map_or("-".into(), fmt_f64),
+            same.to_string(),
+        ])?;
     }
+    csv.flush()?;
+    drop(csv);
     out.flush()?;
     if differ > 0 {
         bail!("{differ} episode(s) differ from the stored scores");

@@ -1,9 +1,10 @@
 //! `rwg top`: the best networks of each cell, with the command that replays each.
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use rwg_analysis::table::{Align, TextColumns};
 use rwg_env::float::fmt_f64;
 use rwg_study::rundir;
+use rwg_study::rundir::data::read_samples_csv;
 use rwg_study::rundir::meta::read_run_meta;
 use std::io::Write;
 use std::path::PathBuf;
@@ -27,30 +28,18 @@ pub fn run(args: Args) -> Result<()> {
     let mut out = std::io::BufWriter::new(stdout.lock());
     for cell in &meta.cells {
         let path = rundir::cell_dir(&args.run_dir, &cell.id.dir).join(rundir::SAMPLES_CSV);
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let mut rows: Vec<(u64, f64, f64, f64, f64)> = vec![];
-        for (i, line) in text.lines().enumerate().skip(1) {
-            let f: Vec<&str> = line.split(',').collect();
-            let bad = || {
-                anyhow::anyhow!(
-                    "{}:{}: not a samples.csv row: '{line}'",
-                    path.display(),
-                    i + 1
+        let mut rows: Vec<(u64, f64, f64, f64, f64)> = read_samples_csv(&path)?
+            .iter()
+            .map(|r| {
+                (
+                    r.sample,
+                    r.stats.mean,
+                    r.stats.std,
+                    r.stats.min,
+                    r.stats.max,
                 )
-            };
-            if f.len() != 7 {
-                return Err(bad());
-            }
-            let num = |k: usize| f[k].parse::<f64>().map_err(|_| bad());
-            rows.push((
-                f[0].parse().map_err(|_| bad())?,
-                num(1)?,
-                num(3)?,
-                num(4)?,
-                num(5)?,
-            ));
-        }
+            })
+            .collect();
         // best first; ties keep sample order
         rows.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
         writeln!(

@@ -10,11 +10,14 @@
 //! so they are byte-identical whether the cell ran in one go, was resumed, or
 //! was computed in shards and merged.
 
-use crate::rundir::export::{write_atomic, write_sample_rows, write_score_rows, AtomicFile};
+use crate::rundir::export::{
+    csv_io_error, csv_reader, csv_writer, write_atomic, write_sample_rows, write_score_rows,
+    AtomicFile,
+};
 use crate::rundir::{BLOCKS, CELL_JSON, SAMPLES_CSV, SCORES_CSV, SCORES_HEADER};
 use crate::stats::{ranks, sample_stats};
 use rwg_core::sampler::BlockResult;
-use std::io::{self, BufRead, BufReader, Write};
+use std::io;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -51,6 +54,19 @@ pub enum RunDirError {
         /// Block index.
         block: u64,
     },
+}
+
+/// A CSV read error of a block file: I/O, or a malformed row with its line.
+fn read_error(path: &Path, e: csv::Error) -> RunDirError {
+    let line = e.position().map_or(0, |p| p.line() as usize);
+    match e.into_kind() {
+        csv::ErrorKind::Io(e) => io_err(path)(e),
+        other => RunDirError::Corrupt {
+            path: path.to_path_buf(),
+            line,
+            message: format!("{other:?}"),
+        },
+    }
 }
 
 fn io_err(path: &Path) -> impl FnOnce(io::Error) -> RunDirError + '_ {
@@ -128,14 +144,11 @@ pub struct CellTotals {
 }
 
 /// Parses one `sample,episode,score,steps` row, checking it is the expected one.
-fn parse_row(line: &str, sample: u64, episode: u32) -> Result<(f64, u64), String> {
-    let mut it = line.split(',');
-    let (s, e, score, steps) = (it.next(), it.next(), it.next(), it.next());
-    if it.next().is_some() {
-        return Err(format!("expected 4 columns: '{line}'"));
-    }
-    let (Some(s), Some(e), Some(score), Some(steps)) = (s, e, score, steps) else {
-        return Err(format!("expected 4 columns: '{line}'"));
+fn parse_row(row: &csv::StringRecord, sample: u64, episode: u32) -> Result<(f64, u64), String> {
+    let line = row.iter().collect::<Vec<_>>().join(",");
+    let [s, e, score, steps] = match row.iter().collect::<Vec<_>>()[..] {
+        [s, e, score, steps] => [s, e, score, steps],
+        _ => return Err(format!("expected 4 columns: '{line}'")),
     };
     if s.parse::<u64>().ok() != Some(sample) || e.parse::<u32>().ok() != Some(episode) {
         return Err(format!(
@@ -169,15 +182,19 @@ pub fn finalize_cell(
         }
     }
     let scores_path = cell_dir.join(SCORES_CSV);
-    let mut scores = AtomicFile::create(&scores_path).map_err(io_err(&scores_path))?;
-    writeln!(scores, "{SCORES_HEADER}").map_err(io_err(&scores_path))?;
+    let scores_file = AtomicFile::create(&scores_path).map_err(io_err(&scores_path))?;
+    let mut scores = csv_writer(scores_file);
+    let write_err = |e: csv::Error| io_err(&scores_path)(csv_io_error(e));
+    scores
+        .write_record(SCORES_HEADER.split(','))
+        .map_err(write_err)?;
     let mut summaries = Vec::with_capacity(samples as usize);
     let mut env_steps = 0u64;
     let mut buf = Vec::with_capacity(episodes as usize);
     for b in 0..n_blocks(samples) {
         let path = block_path(cell_dir, b);
         let file = std::fs::File::open(&path).map_err(io_err(&path))?;
-        let mut lines = BufReader::new(file).lines();
+        let mut rows = csv_reader(file, false).into_records();
         let mut line_no = 0;
         for sample in block_samples(b, samples) {
             buf.clear();
@@ -188,22 +205,20 @@ pub fn finalize_cell(
                     line: line_no,
                     message,
                 };
-                let line = match lines.next() {
-                    Some(l) => l.map_err(io_err(&path))?,
+                let row = match rows.next() {
+                    Some(r) => r.map_err(|e| read_error(&path, e))?,
                     None => return Err(corrupt("file ends early".into())),
                 };
-                let (score, steps) = parse_row(&line, sample, episode).map_err(corrupt)?;
+                let (score, steps) = parse_row(&row, sample, episode).map_err(corrupt)?;
                 buf.push(score);
                 env_steps += steps;
-                writeln!(scores, "{line}").map_err(io_err(&scores_path))?;
+                scores.write_record(&row).map_err(write_err)?;
             }
             summaries.push(sample_stats(&buf));
         }
-        if let Some(extra) = lines.next() {
-            let message = format!(
-                "unexpected row after the block's last sample: '{}'",
-                extra.unwrap_or_default()
-            );
+        if let Some(extra) = rows.next() {
+            let extra = extra.map_or(String::new(), |r| r.iter().collect::<Vec<_>>().join(","));
+            let message = format!("unexpected row after the block's last sample: '{extra}'");
             return Err(RunDirError::Corrupt {
                 path,
                 line: line_no + 1,
@@ -211,6 +226,9 @@ pub fn finalize_cell(
             });
         }
     }
+    let scores = scores
+        .into_inner()
+        .map_err(|e| io_err(&scores_path)(e.into_error()))?;
     scores.commit().map_err(io_err(&scores_path))?;
     let means: Vec<f64> = summaries.iter().map(|s| s.mean).collect();
     let totals = CellTotals { env_steps, means };

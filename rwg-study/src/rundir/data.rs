@@ -10,6 +10,7 @@
 //! Malformed files give a [`RunReadError`] naming the file and, for CSV, the
 //! 1-based line.
 
+use crate::rundir::export::{csv_reader, csv_writer};
 use crate::rundir::meta::{CellMeta, RunMeta, RUN_FORMAT};
 use crate::rundir::{
     cell_dir, MANIFEST, RUN_JSON, SAMPLES_CSV, SAMPLES_HEADER, SCORES_CSV, SCORES_HEADER,
@@ -18,9 +19,7 @@ use crate::rundir::{
 use crate::stats::{self, CellSummary, ExpectedGuesses, SampleStats, MEAN_PERCENTILES};
 use rwg_env::float::fmt_f64;
 use serde::{Deserialize, Serialize};
-use std::fmt::Write as _;
 use std::fs::File;
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 /// Why a run directory could not be read.
@@ -360,26 +359,22 @@ impl Run {
     }
 }
 
-/// Splits one CSV line into its fields, checking the count.
+/// The fields of one CSV record, checking the count.
 fn fields<'a, const K: usize>(
-    line: &'a str,
+    row: &'a csv::StringRecord,
     path: &Path,
     lineno: usize,
 ) -> Result<[&'a str; K], RunReadError> {
     let mut out = [""; K];
-    let mut n = 0;
-    for f in line.split(',') {
-        if n < K {
-            out[n] = f.trim();
-        }
-        n += 1;
-    }
-    if n != K {
+    if row.len() != K {
         return Err(RunReadError::Csv {
             path: path.to_path_buf(),
             line: lineno,
-            message: format!("expected {K} fields, found {n}"),
+            message: format!("expected {K} fields, found {}", row.len()),
         });
+    }
+    for (o, f) in out.iter_mut().zip(row) {
+        *o = f;
     }
     Ok(out)
 }
@@ -397,45 +392,53 @@ fn parse<T: std::str::FromStr>(
     })
 }
 
-/// Reads a CSV file line by line: checks the header, then calls `row` with
-/// each non-empty data line and its 1-based line number.
+/// A CSV reading error: I/O, or malformed text with its line.
+fn csv_error(path: &Path, e: csv::Error) -> RunReadError {
+    let line = e.position().map_or(0, |p| p.line() as usize);
+    match e.into_kind() {
+        csv::ErrorKind::Io(e) => io_err(path)(e),
+        other => RunReadError::Csv {
+            path: path.to_path_buf(),
+            line,
+            message: format!("{other:?}"),
+        },
+    }
+}
+
+/// Reads a CSV file through the `csv` crate (fields trimmed, empty lines
+/// skipped): checks the header, then calls `row` with each data record and
+/// its 1-based line number. `row` returns `false` to stop early.
 fn read_csv(
     path: &Path,
     header: &str,
-    mut row: impl FnMut(&str, usize) -> Result<(), RunReadError>,
+    mut row: impl FnMut(&csv::StringRecord, usize) -> Result<bool, RunReadError>,
 ) -> Result<(), RunReadError> {
     let file = File::open(path).map_err(io_err(path))?;
-    let mut reader = BufReader::with_capacity(1 << 16, file);
-    let mut line = String::new();
-    let mut lineno = 0;
-    loop {
-        line.clear();
-        if reader.read_line(&mut line).map_err(io_err(path))? == 0 {
-            break;
+    let mut records = csv_reader(file, true).into_records();
+    let first = match records.next() {
+        None => {
+            return Err(RunReadError::Csv {
+                path: path.to_path_buf(),
+                line: 1,
+                message: format!("empty file, expected header {header:?}"),
+            })
         }
-        lineno += 1;
-        let l = line.trim_end_matches(['\n', '\r']);
-        if lineno == 1 {
-            if l.trim_start_matches('\u{feff}') != header {
-                return Err(RunReadError::Csv {
-                    path: path.to_path_buf(),
-                    line: 1,
-                    message: format!("header is {l:?}, expected {header:?}"),
-                });
-            }
-            continue;
-        }
-        if l.is_empty() {
-            continue;
-        }
-        row(l, lineno)?;
-    }
-    if lineno == 0 {
+        Some(r) => r.map_err(|e| csv_error(path, e))?,
+    };
+    let found = first.iter().collect::<Vec<_>>().join(",");
+    if found.trim_start_matches('\u{feff}') != header {
         return Err(RunReadError::Csv {
             path: path.to_path_buf(),
             line: 1,
-            message: format!("empty file, expected header {header:?}"),
+            message: format!("header is {found:?}, expected {header:?}"),
         });
+    }
+    for r in records {
+        let r = r.map_err(|e| csv_error(path, e))?;
+        let lineno = r.position().map_or(0, |p| p.line() as usize);
+        if !row(&r, lineno)? {
+            break;
+        }
     }
     Ok(())
 }
@@ -464,7 +467,7 @@ pub fn read_scores_csv(path: &Path, episodes: usize) -> Result<(Vec<f64>, Vec<u3
         }
         scores.push(parse::<f64>(score, "score", path, lineno)?);
         steps.push(parse::<u32>(st, "steps", path, lineno)?);
-        Ok(())
+        Ok(true)
     })?;
     if scores.len() % episodes != 0 {
         return Err(RunReadError::Mismatch {
@@ -506,9 +509,27 @@ pub fn read_samples_csv(path: &Path) -> Result<Vec<SampleRow>, RunReadError> {
             },
             rank: parse(f[6], "rank", path, lineno)?,
         });
-        Ok(())
+        Ok(true)
     })?;
     Ok(rows)
+}
+
+/// Reads the episode scores of one sample from a `scores.csv`, streaming up
+/// to that sample's last episode (what `rwg replay` compares against).
+pub fn read_sample_scores(
+    path: &Path,
+    sample: u64,
+    episodes: u32,
+) -> Result<Vec<f64>, RunReadError> {
+    let mut out = Vec::with_capacity(episodes as usize);
+    read_csv(path, SCORES_HEADER, |l, lineno| {
+        let [s, _, score, _] = fields::<4>(l, path, lineno)?;
+        if parse::<u64>(s, "sample", path, lineno)? == sample {
+            out.push(parse::<f64>(score, "score", path, lineno)?);
+        }
+        Ok(out.len() < episodes as usize)
+    })?;
+    Ok(out)
 }
 
 /// Whether two floats agree to ~1e-9 relative (the same value computed with a
@@ -592,19 +613,19 @@ pub fn write_samples_csv(path: &Path, scores: &[f64], episodes: usize) -> std::i
 
 /// The text of a `scores.csv` for row-major `N × episodes` scores and steps.
 pub fn scores_csv(scores: &[f64], steps: &[u32], episodes: usize) -> String {
-    let mut out = String::with_capacity(24 * (scores.len() + 1));
-    out.push_str(SCORES_HEADER);
-    out.push('\n');
+    let mut w = csv_writer(Vec::with_capacity(24 * (scores.len() + 1)));
+    w.write_record(SCORES_HEADER.split(','))
+        .expect("writing to memory");
     for (i, (s, st)) in scores.iter().zip(steps).enumerate() {
-        let _ = writeln!(
-            out,
-            "{},{},{},{st}",
-            i / episodes,
-            i % episodes,
-            fmt_f64(*s)
-        );
+        w.write_record([
+            (i / episodes).to_string(),
+            (i % episodes).to_string(),
+            fmt_f64(*s),
+            st.to_string(),
+        ])
+        .expect("writing to memory");
     }
-    out
+    String::from_utf8(w.into_inner().expect("writing to memory")).expect("ASCII")
 }
 
 /// Writes `run.json` into `dir`.
@@ -631,14 +652,6 @@ pub fn write_cell_files(
 
 fn opt(x: Option<f64>) -> String {
     x.map(fmt_f64).unwrap_or_default()
-}
-
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
 }
 
 /// The columns of `stats.csv`.
@@ -702,9 +715,9 @@ pub fn stats_csv_header() -> Vec<String> {
 pub fn stats_csv_row(s: &CellSummary) -> Vec<String> {
     let hidden: Vec<String> = s.id.hidden.iter().map(|h| h.to_string()).collect();
     let mut r = vec![
-        csv_field(&s.id.dir),
-        csv_field(&s.id.env),
-        csv_field(&s.id.arch),
+        s.id.dir.clone(),
+        s.id.env.clone(),
+        s.id.arch.clone(),
         hidden.join(" "),
         s.id.bias.to_string(),
         s.n_weights.to_string(),
@@ -755,13 +768,13 @@ pub fn stats_csv_row(s: &CellSummary) -> Vec<String> {
 
 /// The text of `stats.csv`: one row per cell.
 pub fn stats_csv(stats: &RunStats) -> String {
-    let mut out = stats_csv_header().join(",");
-    out.push('\n');
+    let mut w = csv_writer(Vec::new());
+    w.write_record(stats_csv_header())
+        .expect("writing to memory");
     for c in &stats.cells {
-        out.push_str(&stats_csv_row(c).join(","));
-        out.push('\n');
+        w.write_record(stats_csv_row(c)).expect("writing to memory");
     }
-    out
+    String::from_utf8(w.into_inner().expect("writing to memory")).expect("UTF-8 fields")
 }
 
 /// Writes `stats.json` and `stats.csv` into `dir`; an error names the file.

@@ -1,4 +1,6 @@
 //! Writers of the run directory's CSV files, and small formatting helpers.
+//! Every CSV file rwg writes goes through [`csv_writer`] (the `csv` crate),
+//! every one it reads through [`csv_reader`].
 //!
 //! Floats are written in shortest round-trip form (parsing gives the same
 //! `f64` back). Files are written to a temporary name and renamed into place
@@ -61,6 +63,41 @@ pub fn write_atomic(path: &Path, contents: &[u8]) -> io::Result<()> {
     f.commit()
 }
 
+/// A CSV writer as rwg writes every CSV file: comma-separated, `\n` line
+/// ends, a field quoted only when it must be (it holds a comma, a quote or a
+/// line break). Headers are written as ordinary records.
+pub fn csv_writer<W: Write>(out: W) -> csv::Writer<W> {
+    csv::WriterBuilder::new()
+        .has_headers(false)
+        .terminator(csv::Terminator::Any(b'\n'))
+        .from_writer(out)
+}
+
+/// A CSV reader as rwg reads its files: no header handling (the caller
+/// checks the first record), records of any length (the caller checks the
+/// count and names the file and line), fields trimmed of surrounding spaces
+/// if `trim`. Empty lines are skipped.
+pub fn csv_reader<R: io::Read>(input: R, trim: bool) -> csv::Reader<R> {
+    csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .trim(if trim {
+            csv::Trim::All
+        } else {
+            csv::Trim::None
+        })
+        .buffer_capacity(1 << 16)
+        .from_reader(input)
+}
+
+/// A CSV writer's error as an I/O error: writing CSV fails only on I/O.
+pub fn csv_io_error(e: csv::Error) -> io::Error {
+    match e.into_kind() {
+        csv::ErrorKind::Io(e) => e,
+        other => io::Error::other(format!("{other:?}")),
+    }
+}
+
 /// Appends a block's rows to a `scores.csv` writer: `sample,episode,score,steps`.
 pub fn write_score_rows<W: Write>(
     out: &mut W,
@@ -68,12 +105,19 @@ pub fn write_score_rows<W: Write>(
     episodes: u32,
 ) -> io::Result<()> {
     let e = episodes as usize;
+    let mut w = csv_writer(out);
     for (k, sample) in block.samples.clone().enumerate() {
         for (ep, r) in block.episodes[k * e..(k + 1) * e].iter().enumerate() {
-            writeln!(out, "{sample},{ep},{},{}", fmt_f64(r.score), r.steps)?;
+            w.write_record([
+                sample.to_string(),
+                ep.to_string(),
+                fmt_f64(r.score),
+                r.steps.to_string(),
+            ])
+            .map_err(csv_io_error)?;
         }
     }
-    Ok(())
+    w.flush()
 }
 
 /// Writes `samples.csv` rows for samples `0..summaries.len()`.
@@ -82,19 +126,22 @@ pub fn write_sample_rows<W: Write>(
     summaries: &[SampleStats],
     ranks: &[usize],
 ) -> io::Result<()> {
-    writeln!(out, "{SAMPLES_HEADER}")?;
+    let mut w = csv_writer(out);
+    w.write_record(SAMPLES_HEADER.split(','))
+        .map_err(csv_io_error)?;
     for (i, (s, r)) in summaries.iter().zip(ranks).enumerate() {
-        writeln!(
-            out,
-            "{i},{},{},{},{},{},{r}",
+        w.write_record([
+            i.to_string(),
             fmt_f64(s.mean),
             fmt_f64(s.variance),
             fmt_f64(s.std),
             fmt_f64(s.min),
-            fmt_f64(s.max)
-        )?;
+            fmt_f64(s.max),
+            r.to_string(),
+        ])
+        .map_err(csv_io_error)?;
     }
-    Ok(())
+    w.flush()
 }
 
 /// A time as RFC 3339 UTC with second precision, e.g. `2026-11-22T05:40:00Z`.
