@@ -1,0 +1,710 @@
+//! Batched environments: many instances stepped together in one call, and the
+//! sampler loop that drives them.
+//!
+//! The built-in and plugin environments are stepped one instance at a time
+//! ([`crate::sampler::LaneWorker`], static dispatch). An environment hosted
+//! elsewhere — a Python process running Gymnasium (the `rwg-gym` crate) —
+//! pays a round trip per call, so it implements [`BatchEnv`] instead: one
+//! call resets or steps every lane of a worker at once. [`run_blocks_batched`]
+//! is [`crate::sampler::run_blocks`] for such environments, with the same
+//! weights, reset seeds, network arithmetic and episode bookkeeping, so the
+//! results are identical to running the same environment one episode after
+//! the other.
+
+use rwg_env::{EnvError, EnvSpec, Step};
+use crate::policy::{NetShape, PolicyLanes};
+use crate::sampler::{
+    draw_weights, reset_seed, weight_rng, BlockResult, CellPlan, EpisodeResult, SampleError, LANES,
+};
+use rwg_env::Action;
+use rayon::prelude::*;
+use std::ops::Range;
+use std::sync::Mutex;
+
+/// What one lane does in an exchange.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LaneOp {
+    /// Nothing (its observation slot is left alone).
+    Idle,
+    /// `env.reset(seed=...)`.
+    Reset(u64),
+    /// `env.step(action)` with the lane's action.
+    Step,
+}
+
+/// What one lane reported in an exchange.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LaneOutcome {
+    /// The lane was idle.
+    Idle,
+    /// The reset succeeded; its observation was written.
+    Reset,
+    /// The step succeeded; its observation was written.
+    Step(Step),
+    /// The environment failed on this lane.
+    Failed(EnvError),
+}
+
+/// The actions of one exchange, for the lanes whose op is [`LaneOp::Step`].
+#[derive(Debug, Clone, Copy)]
+pub struct LaneActions<'a> {
+    /// Discrete actions, one per lane (unused for continuous spaces).
+    pub discrete: &'a [i64],
+    /// Continuous actions, `action_dim` per lane, lane-major (empty for
+    /// discrete spaces).
+    pub continuous: &'a [f64],
+}
+
+/// Many instances of one environment, reset and stepped together.
+pub trait BatchEnv {
+    /// The environment's description (the same for every lane).
+    fn spec(&self) -> &EnvSpec;
+
+    /// Number of lanes (instances).
+    fn lanes(&self) -> usize;
+
+    /// One exchange: lane `i` does `ops[i]`, writing its observation into
+    /// `obs[i * obs_dim..]` and its outcome into `out[i]`. An `Err` means the
+    /// whole batch failed (e.g. the process hosting it died): no lane's
+    /// outcome is valid and the batch must not be used again.
+    fn exchange(
+        &mut self,
+        ops: &[LaneOp],
+        actions: LaneActions<'_>,
+        obs: &mut [f64],
+        out: &mut [LaneOutcome],
+    ) -> Result<(), EnvError>;
+}
+
+/// A set of idle batch environments, shared by the worker threads: a worker
+/// takes one (or makes a new one) and gives it back when done, so a costly
+/// instance (a process) is reused across blocks and cells.
+pub struct BatchPool<B> {
+    idle: Mutex<Vec<B>>,
+}
+
+impl<B> Default for BatchPool<B> {
+    fn default() -> Self {
+        BatchPool {
+            idle: Mutex::new(Vec::new()),
+        }
+    }
+}
+
+impl<B> BatchPool<B> {
+    /// Gives `b` back for reuse.
+    pub fn put(&self, b: B) {
+        self.idle.lock().unwrap_or_else(|p| p.into_inner()).push(b);
+    }
+
+    /// An idle instance, if there is one.
+    pub fn take(&self) -> Option<B> {
+        self.idle.lock().unwrap_or_else(|p| p.into_inner()).pop()
+    }
+
+    /// Number of idle instances.
+    pub fn idle(&self) -> usize {
+        self.idle.lock().unwrap_or_else(|p| p.into_inner()).len()
+    }
+}
+
+/// What one lane of a [`BatchLaneWorker`] is doing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum LaneState {
+    Free,
+    /// Waiting for its reset (with this seed) in the next exchange.
+    Resetting(u64),
+    Running,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Lane {
+    state: LaneState,
+    item: usize,
+    weights_of: usize,
+    score: f64,
+    steps: u32,
+}
+
+/// [`crate::sampler::LaneWorker`] for a [`BatchEnv`]: [`LANES`] episodes side
+/// by side, one exchange per batch step. A lane whose episode ends is reset
+/// in the next exchange (while the other lanes step), so every exchange is a
+/// single round trip.
+pub struct BatchLaneWorker<B> {
+    env: B,
+    policy: PolicyLanes<LANES>,
+    obs: Vec<f64>,
+    action_dim: usize,
+    block_weights: Vec<f64>,
+    ops: Vec<LaneOp>,
+    out: Vec<LaneOutcome>,
+    discrete: Vec<i64>,
+    continuous: Vec<f64>,
+    /// Set when the environment failed: it must not be reused.
+    poisoned: bool,
+}
+
+impl<B: BatchEnv> BatchLaneWorker<B> {
+    /// A worker for `plan` on `env`, which must have [`LANES`] lanes.
+    pub fn new(env: B, plan: &CellPlan) -> Self {
+        assert_eq!(env.lanes(), LANES, "a batch env of {LANES} lanes");
+        let spec = env.spec();
+        let n_out = NetShape::outputs_for(&spec.action_space);
+        let shape = NetShape::new(spec.obs_dim(), &plan.arch, n_out);
+        let obs_dim = spec.obs_dim();
+        let action_dim = match &spec.action_space {
+            rwg_env::Space::Discrete { .. } => 0,
+            rwg_env::Space::Box(b) => b.dim(),
+        };
+        BatchLaneWorker {
+            policy: PolicyLanes::new(shape, &spec.action_space),
+            obs: vec![0.0; LANES * obs_dim],
+            action_dim,
+            block_weights: Vec::new(),
+            ops: vec![LaneOp::Idle; LANES],
+            out: vec![LaneOutcome::Idle; LANES],
+            discrete: vec![0; LANES],
+            continuous: vec![0.0; LANES * action_dim],
+            env,
+            poisoned: false,
+        }
+    }
+
+    /// The environment back, unless it failed (then it is dropped).
+    pub fn into_env(self) -> Option<B> {
+        (!self.poisoned).then_some(self.env)
+    }
+
+    /// Runs every episode of `samples` into `out`, exactly as
+    /// [`crate::sampler::LaneWorker::run_block`] does (same results, same
+    /// first failing episode).
+    pub fn run_block(
+        &mut self,
+        plan: &CellPlan,
+        samples: Range<u64>,
+        out: &mut [EpisodeResult],
+    ) -> Result<(), SampleError> {
+        let e = plan.episodes as usize;
+        let n = (samples.end - samples.start) as usize;
+        assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
+        let total = n * e;
+        let nw = self.policy.shape().n_weights();
+        self.block_weights.resize(n * nw, 0.0);
+        for k in 0..n {
+            let mut rng = weight_rng(
+                plan.seed,
+                &plan.env_id,
+                &plan.arch,
+                samples.start + k as u64,
+            );
+            draw_weights(
+                &mut rng,
+                plan.dist,
+                &mut self.block_weights[k * nw..(k + 1) * nw],
+            );
+        }
+        let free = Lane {
+            state: LaneState::Free,
+            item: 0,
+            weights_of: usize::MAX,
+            score: 0.0,
+            steps: 0,
+        };
+        let mut lanes = [free; LANES];
+        let mut next = 0;
+        let mut failure: Option<(usize, u32, EnvError)> = None;
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            self.start_next(plan, &samples, i, lane, &mut next, total);
+        }
+        let ad = self.action_dim;
+        while lanes.iter().any(|l| l.state != LaneState::Free) {
+            if lanes.iter().any(|l| l.state == LaneState::Running) {
+                self.policy.forward(&self.obs);
+            }
+            for (i, lane) in lanes.iter().enumerate() {
+                self.ops[i] = match lane.state {
+                    LaneState::Free => LaneOp::Idle,
+                    LaneState::Resetting(seed) => LaneOp::Reset(seed),
+                    LaneState::Running => {
+                        match self.policy.action(i) {
+                            Action::Discrete(a) => self.discrete[i] = a,
+                            Action::Continuous(a) => {
+                                self.continuous[i * ad..(i + 1) * ad].copy_from_slice(a)
+                            }
+                        }
+                        LaneOp::Step
+                    }
+                };
+            }
+            let actions = LaneActions {
+                discrete: &self.discrete,
+                continuous: &self.continuous,
+            };
+            if let Err(err) = self
+                .env
+                .exchange(&self.ops, actions, &mut self.obs, &mut self.out)
+            {
+                // The whole batch is gone: every busy lane failed with it.
+                self.poisoned = true;
+                for lane in lanes.iter().filter(|l| l.state != LaneState::Free) {
+                    let step = match lane.state {
+                        LaneState::Running => lane.steps + 1,
+                        _ => 0,
+                    };
+                    record_failure(&mut failure, lane.item, step, err.clone());
+                }
+                break;
+            }
+            for (i, lane) in lanes.iter_mut().enumerate() {
+                match std::mem::replace(&mut self.out[i], LaneOutcome::Idle) {
+                    LaneOutcome::Idle => {}
+                    LaneOutcome::Reset => {
+                        lane.state = LaneState::Running;
+                        lane.score = 0.0;
+                        lane.steps = 0;
+                    }
+                    LaneOutcome::Step(s) => {
+                        lane.score += s.reward;
+                        lane.steps += 1;
+                        if s.terminated || s.truncated {
+                            out[lane.item] = EpisodeResult {
+                                score: lane.score,
+                                steps: lane.steps,
+                            };
+                            lane.state = LaneState::Free;
+                            if failure.is_none() {
+                                self.start_next(plan, &samples, i, lane, &mut next, total);
+                            }
+                        }
+                    }
+                    LaneOutcome::Failed(err) => {
+                        self.poisoned = true;
+                        let step = match lane.state {
+                            LaneState::Running => lane.steps + 1,
+                            _ => 0,
+                        };
+                        lane.state = LaneState::Free;
+                        record_failure(&mut failure, lane.item, step, err);
+                    }
+                }
+            }
+            if let Some((first, _, _)) = &failure {
+                for lane in lanes.iter_mut().filter(|l| l.item > *first) {
+                    lane.state = LaneState::Free;
+                }
+            }
+        }
+        match failure {
+            None => Ok(()),
+            Some((item, step, error)) => Err(SampleError {
+                env: plan.env_id.clone(),
+                sample: samples.start + (item / e) as u64,
+                episode: (item % e) as u32,
+                step,
+                error,
+            }),
+        }
+    }
+
+    /// Gives lane `i` the next episode of the block (its network's weights
+    /// and a pending reset), unless all have started.
+    fn start_next(
+        &mut self,
+        plan: &CellPlan,
+        samples: &Range<u64>,
+        i: usize,
+        lane: &mut Lane,
+        next: &mut usize,
+        total: usize,
+    ) {
+        if *next >= total {
+            return;
+        }
+        let item = *next;
+        *next += 1;
+        let e = plan.episodes as usize;
+        let (k, episode) = (item / e, item % e);
+        if lane.weights_of != k {
+            let nw = self.policy.shape().n_weights();
+            self.policy
+                .set_weights(i, &self.block_weights[k * nw..(k + 1) * nw]);
+            lane.weights_of = k;
+        }
+        let r = reset_seed(
+            plan.seed,
+            &plan.env_id,
+            samples.start + k as u64,
+            episode as u32,
+        );
+        lane.item = item;
+        lane.state = LaneState::Resetting(r);
+    }
+}
+
+/// Keeps the failure of the earliest episode.
+fn record_failure(
+    failure: &mut Option<(usize, u32, EnvError)>,
+    item: usize,
+    step: u32,
+    err: EnvError,
+) {
+    if failure.as_ref().is_none_or(|(first, _, _)| item < *first) {
+        *failure = Some((item, step, err));
+    }
+}
+
+/// A worker on loan from a [`BatchPool`], given back when dropped (unless its
+/// environment failed).
+struct Lease<'p, B: BatchEnv> {
+    pool: &'p BatchPool<B>,
+    worker: Option<BatchLaneWorker<B>>,
+}
+
+impl<B: BatchEnv> Drop for Lease<'_, B> {
+    fn drop(&mut self) {
+        if let Some(env) = self.worker.take().and_then(BatchLaneWorker::into_env) {
+            self.pool.put(env);
+        }
+    }
+}
+
+/// [`crate::sampler::run_blocks`] for a batched environment: the blocks run
+/// in parallel on the current rayon pool, each worker thread on a batch env
+/// taken from `pool` (or made by `make` when none is idle) and given back
+/// afterwards, so at most one batch env per thread exists. Results, their
+/// order and the first error are those of `run_blocks`.
+pub fn run_blocks_batched<B, F, G, X>(
+    plan: &CellPlan,
+    blocks: &[Range<u64>],
+    wave: usize,
+    pool: &BatchPool<B>,
+    make: F,
+    mut on_block: G,
+) -> Result<(), X>
+where
+    B: BatchEnv + Send,
+    F: Fn() -> Result<B, EnvError> + Sync,
+    G: FnMut(BlockResult) -> Result<(), X>,
+    X: From<SampleError> + Send,
+{
+    let e = plan.episodes as usize;
+    for wave_blocks in blocks.chunks(wave.max(1)) {
+        let results: Vec<Result<BlockResult, SampleError>> = wave_blocks
+            .par_iter()
+            .map_init(
+                || -> Result<Lease<'_, B>, EnvError> {
+                    let env = match pool.take() {
+                        Some(b) => b,
+                        None => make()?,
+                    };
+                    Ok(Lease {
+                        pool,
+                        worker: Some(BatchLaneWorker::new(env, plan)),
+                    })
+                },
+                |lease, range| {
+                    let lease = lease.as_mut().map_err(|err| SampleError {
+                        env: plan.env_id.clone(),
+                        sample: range.start,
+                        episode: 0,
+                        step: 0,
+                        error: err.clone(),
+                    })?;
+                    let worker = lease.worker.as_mut().expect("a leased worker");
+                    let n = (range.end - range.start) as usize;
+                    let mut episodes = vec![
+                        EpisodeResult {
+                            score: 0.0,
+                            steps: 0
+                        };
+                        n * e
+                    ];
+                    worker.run_block(plan, range.clone(), &mut episodes)?;
+                    Ok(BlockResult {
+                        samples: range.clone(),
+                        episodes,
+                    })
+                },
+            )
+            .collect();
+        for r in results {
+            on_block(r?)?;
+        }
+    }
+    Ok(())
+}
+
+/// Runs one instance of a batch environment as a plain [`rwg_env::Environment`]
+/// (lane 0 only): for rollouts, checks and replays outside the sampler.
+pub struct SingleLane<B: BatchEnv> {
+    env: B,
+    ops: Vec<LaneOp>,
+    out: Vec<LaneOutcome>,
+    discrete: Vec<i64>,
+    continuous: Vec<f64>,
+    obs: Vec<f64>,
+    dead: Option<EnvError>,
+}
+
+impl<B: BatchEnv> SingleLane<B> {
+    /// Wraps `env` (any number of lanes; lane 0 is used).
+    pub fn new(env: B) -> Self {
+        let n = env.lanes();
+        let d = env.spec().obs_dim();
+        SingleLane {
+            ops: vec![LaneOp::Idle; n],
+            out: vec![LaneOutcome::Idle; n],
+            discrete: vec![0; n],
+            continuous: vec![0.0; n * NetShape::outputs_for(&env.spec().action_space)],
+            obs: vec![0.0; n * d],
+            env,
+            dead: None,
+        }
+    }
+
+    fn run(&mut self, op: LaneOp, obs: &mut [f64]) -> Result<LaneOutcome, EnvError> {
+        if let Some(e) = &self.dead {
+            return Err(e.clone());
+        }
+        self.ops[0] = op;
+        let actions = LaneActions {
+            discrete: &self.discrete,
+            continuous: &self.continuous,
+        };
+        if let Err(e) = self
+            .env
+            .exchange(&self.ops, actions, &mut self.obs, &mut self.out)
+        {
+            self.dead = Some(e.clone());
+            return Err(e);
+        }
+        let d = obs.len();
+        obs.copy_from_slice(&self.obs[..d]);
+        Ok(std::mem::replace(&mut self.out[0], LaneOutcome::Idle))
+    }
+}
+
+impl<B: BatchEnv> rwg_env::Environment for SingleLane<B> {
+    fn spec(&self) -> &EnvSpec {
+        self.env.spec()
+    }
+
+    fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+        match self.run(LaneOp::Reset(seed), obs)? {
+            LaneOutcome::Failed(e) => Err(e),
+            _ => Ok(()),
+        }
+    }
+
+    fn step(&mut self, action: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+        match action {
+            Action::Discrete(a) => self.discrete[0] = a,
+            Action::Continuous(a) => {
+                let n = a.len().min(self.continuous.len());
+                self.continuous[..n].copy_from_slice(&a[..n]);
+            }
+        }
+        match self.run(LaneOp::Step, obs)? {
+            LaneOutcome::Step(s) => Ok(s),
+            LaneOutcome::Failed(e) => Err(e),
+            other => Err(EnvError::Other(format!("unexpected outcome {other:?}"))),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rwg_env::{Environment, Step};
+    use crate::policy::Architecture;
+    use crate::sampler::{LaneWorker, WeightDist};
+    use rwg_env::{BoxSpace, Space};
+
+    /// A toy env: episodes of 1 + (seed % 7) steps; fails at step 2 of
+    /// episodes whose seed is a multiple of `fail_every`, and at reset when
+    /// it is also odd.
+    #[derive(Clone)]
+    struct Toy {
+        spec: EnvSpec,
+        seed: u64,
+        t: u64,
+        fail_every: u64,
+    }
+
+    impl Toy {
+        fn new(fail_every: u64, continuous: bool) -> Self {
+            Toy {
+                spec: EnvSpec {
+                    id: "Toy-v0".into(),
+                    observation_space: Space::Box(BoxSpace::symmetric(&[1e9, 1e9])),
+                    action_space: if continuous {
+                        Space::Box(BoxSpace::symmetric(&[2.0]))
+                    } else {
+                        Space::Discrete { n: 3 }
+                    },
+                    max_episode_steps: None,
+                    reward_threshold: None,
+                },
+                seed: 0,
+                t: 0,
+                fail_every,
+            }
+        }
+    }
+
+    impl Environment for Toy {
+        fn spec(&self) -> &EnvSpec {
+            &self.spec
+        }
+        fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+            if seed % self.fail_every == 0 && seed % 2 == 1 {
+                return Err(EnvError::Other(format!("reset {seed}")));
+            }
+            self.seed = seed;
+            self.t = 0;
+            obs[0] = (seed % 1000) as f64 / 1000.0;
+            obs[1] = -obs[0];
+            Ok(())
+        }
+        fn step(&mut self, a: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+            let a = match a {
+                Action::Discrete(a) => a as f64,
+                Action::Continuous(v) => v[0],
+            };
+            self.t += 1;
+            if self.seed % self.fail_every == 0 && self.t == 2 {
+                return Err(EnvError::Other(format!("step {}", self.seed)));
+            }
+            obs[0] = obs[0] * 0.5 + a;
+            obs[1] = obs[1] * 0.25 - a;
+            Ok(Step {
+                reward: obs[0] - obs[1],
+                terminated: self.t > self.seed % 7,
+                truncated: false,
+            })
+        }
+    }
+
+    /// `LANES` plain envs behind the batch interface, as a bridge would host them.
+    struct Hosted(Vec<Toy>);
+
+    impl BatchEnv for Hosted {
+        fn spec(&self) -> &EnvSpec {
+            self.0[0].spec()
+        }
+        fn lanes(&self) -> usize {
+            self.0.len()
+        }
+        fn exchange(
+            &mut self,
+            ops: &[LaneOp],
+            actions: LaneActions<'_>,
+            obs: &mut [f64],
+            out: &mut [LaneOutcome],
+        ) -> Result<(), EnvError> {
+            for (i, env) in self.0.iter_mut().enumerate() {
+                let o = &mut obs[i * 2..(i + 1) * 2];
+                out[i] = match ops[i] {
+                    LaneOp::Idle => LaneOutcome::Idle,
+                    LaneOp::Reset(s) => match env.reset(s, o) {
+                        Ok(()) => LaneOutcome::Reset,
+                        Err(e) => LaneOutcome::Failed(e),
+                    },
+                    LaneOp::Step => {
+                        let a = if actions.continuous.is_empty() {
+                            Action::Discrete(actions.discrete[i])
+                        } else {
+                            Action::Continuous(&actions.continuous[i..i + 1])
+                        };
+                        match env.step(a, o) {
+                            Ok(s) => LaneOutcome::Step(s),
+                            Err(e) => LaneOutcome::Failed(e),
+                        }
+                    }
+                };
+            }
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn batched_lanes_give_the_lane_workers_results_and_first_error() {
+        let (mut oks, mut errs) = (0, 0);
+        for continuous in [false, true] {
+            for episodes in [1, 3] {
+                let plan = CellPlan {
+                    seed: 5,
+                    env_id: "Toy-v0".into(),
+                    arch: Architecture {
+                        hidden: vec![3],
+                        bias: true,
+                    },
+                    episodes,
+                    dist: WeightDist::Normal { std: 1.0 },
+                };
+                for fail_every in [1 << 40, 3, 13, 41] {
+                    for samples in [0..1, 0..9, 20..40] {
+                        let n = (samples.end - samples.start) as usize * episodes as usize;
+                        let blank = EpisodeResult {
+                            score: f64::NAN,
+                            steps: 0,
+                        };
+                        let mut want = vec![blank; n];
+                        let mut lw =
+                            LaneWorker::<_, LANES>::new(|| Toy::new(fail_every, continuous), &plan);
+                        let r_want = lw.run_block(&plan, samples.clone(), &mut want);
+                        let hosted = Hosted(vec![Toy::new(fail_every, continuous); LANES]);
+                        let mut bw = BatchLaneWorker::new(hosted, &plan);
+                        let mut got = vec![blank; n];
+                        let r_got = bw.run_block(&plan, samples.clone(), &mut got);
+                        assert_eq!(r_got, r_want, "{continuous} {fail_every} {samples:?}");
+                        if r_want.is_ok() {
+                            assert_eq!(got, want);
+                            oks += 1;
+                        } else {
+                            errs += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(oks > 0 && errs > 0, "{oks} {errs}");
+    }
+
+    #[test]
+    fn pool_reuses_and_drops_failed_envs() {
+        let plan = CellPlan {
+            seed: 1,
+            env_id: "Toy-v0".into(),
+            arch: Architecture {
+                hidden: vec![],
+                bias: false,
+            },
+            episodes: 2,
+            dist: WeightDist::Normal { std: 1.0 },
+        };
+        let pool = BatchPool::default();
+        let made = std::sync::atomic::AtomicUsize::new(0);
+        let make = || {
+            made.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            Ok(Hosted(vec![Toy::new(1 << 40, false); LANES]))
+        };
+        let blocks = [0..4, 4..8, 8..12];
+        let mut n = 0;
+        let pool_ref = &pool;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| {
+                run_blocks_batched(&plan, &blocks, 2, pool_ref, make, |b| {
+                    n += b.episodes.len();
+                    Ok::<(), SampleError>(())
+                })
+            })
+            .unwrap();
+        assert_eq!(n, 24);
+        assert_eq!(pool.idle(), 1);
+        assert_eq!(made.load(std::sync::atomic::Ordering::SeqCst), 1);
+    }
+}

@@ -1,0 +1,277 @@
+"""rwg's Gymnasium worker: hosts N environment instances, stepped in lockstep.
+
+rwg starts this program with `python -c` and speaks the protocol described in
+docs/bridge-protocol.md over the child's stdin/stdout. Everything the
+environments print goes to stderr: the protocol uses private duplicates of the
+original stdin/stdout, and fd 0/1 are redirected before gymnasium is imported.
+"""
+
+import os
+import sys
+
+PROTOCOL = 1
+
+# --- protocol channels: private copies of fd 0/1, then fd 1 -> stderr, fd 0 -> /dev/null
+_in_fd = os.dup(0)
+_out_fd = os.dup(1)
+os.dup2(2, 1)
+_null = os.open(os.devnull, os.O_RDONLY)
+os.dup2(_null, 0)
+os.close(_null)
+sys.stdout = sys.stderr
+
+import faulthandler  # noqa: E402
+import json  # noqa: E402
+import struct  # noqa: E402
+import traceback  # noqa: E402
+
+faulthandler.enable(file=sys.stderr)
+
+_HEAD = struct.Struct("<IB")
+
+
+def read_exact(n):
+    buf = bytearray(n)
+    view = memoryview(buf)
+    got = 0
+    while got < n:
+        k = os.readv(_in_fd, [view[got:]])
+        if k == 0:
+            sys.exit(0)  # rwg closed the pipe: quit quietly
+        got += k
+    return buf
+
+
+def read_msg():
+    length, tag = _HEAD.unpack(read_exact(5))
+    return tag, read_exact(length - 1)
+
+
+def write_msg(tag, *parts):
+    n = 1 + sum(len(p) for p in parts)
+    data = b"".join((_HEAD.pack(n, tag),) + parts)
+    view = memoryview(data)
+    while view:
+        k = os.write(_out_fd, view)
+        view = view[k:]
+
+
+def send_json(tag, obj):
+    write_msg(tag, json.dumps(obj, allow_nan=False).encode())
+
+
+def fail(kind, message, tb=None):
+    send_json(ord("E"), {"kind": kind, "message": message, "traceback": tb or ""})
+    sys.exit(0)
+
+
+def floats(a):
+    """A list of floats for JSON, infinities as the strings "inf"/"-inf"."""
+    out = []
+    for v in a:
+        v = float(v)
+        if v == float("inf"):
+            out.append("inf")
+        elif v == float("-inf"):
+            out.append("-inf")
+        elif v != v:
+            out.append("nan")
+        else:
+            out.append(v)
+    return out
+
+
+def main():
+    tag, payload = read_msg()
+    if tag != ord("H"):
+        fail("protocol", "expected a hello message")
+    hello = json.loads(payload.decode())
+    if hello.get("protocol") != PROTOCOL:
+        fail("protocol", f"rwg speaks protocol {hello.get('protocol')}, this worker {PROTOCOL}")
+    try:
+        import numpy as np
+        import gymnasium as gym
+        from gymnasium import spaces
+    except ImportError as e:
+        fail("python", f"{e} (Python {sys.version.split()[0]} at {sys.executable})")
+
+    env_id = hello["env"]
+    name = env_id
+    if ":" in env_id:
+        module, name = env_id.split(":", 1)
+        import importlib
+
+        try:
+            importlib.import_module(module)
+        except BaseException as e:  # noqa: BLE001 -- anything the import raises
+            fail("import", f"cannot import module '{module}': {type(e).__name__}: {e}",
+                 traceback.format_exc())
+    kwargs = dict(hello.get("kwargs") or {})
+    if hello.get("max_episode_steps") is not None:
+        kwargs["max_episode_steps"] = int(hello["max_episode_steps"])
+    lanes = int(hello["lanes"])
+    envs = []
+    for _ in range(lanes):
+        try:
+            envs.append(gym.make(name, **kwargs))
+        except gym.error.UnregisteredEnv as e:
+            fail("not_registered", f"{type(e).__name__}: {e}")
+        except BaseException as e:  # noqa: BLE001
+            fail("make", f"gym.make({name!r}, **{kwargs!r}) raised {type(e).__name__}: {e}",
+                 traceback.format_exc())
+    env0 = envs[0]
+    obs_space, act_space = env0.observation_space, env0.action_space
+
+    # --- observation space: Box flattened row-major, others through spaces.flatten
+    if isinstance(obs_space, spaces.Box):
+        flat_space, boxed = obs_space, True
+    else:
+        try:
+            flat_space = spaces.flatten_space(obs_space)
+        except BaseException as e:  # noqa: BLE001
+            fail("space", f"observation space {obs_space} cannot be flattened "
+                          f"({type(e).__name__}: {e}); rwg takes Box, Discrete, MultiDiscrete, "
+                          f"MultiBinary, Dict and Tuple observations: wrap the env "
+                          f"(gymnasium.ObservationWrapper) to give one of those")
+        if not isinstance(flat_space, spaces.Box):
+            fail("space", f"observation space {obs_space} does not flatten to a Box; wrap the env "
+                          f"(gymnasium.ObservationWrapper) to give a Box")
+        boxed = False
+    obs_dim = int(np.prod(flat_space.shape, dtype=np.int64))
+    max_obs = int(hello["max_obs"])
+    if obs_dim > max_obs:
+        hint = ("for Atari, pass kwargs = { obs_type = \"ram\" } (128 bytes of RAM)"
+                if name.startswith("ALE/") else
+                "wrap the env to give smaller observations (e.g. gymnasium.wrappers."
+                "ResizeObservation + GrayscaleObservation for images)")
+        fail("space", f"observation space {obs_space} has {obs_dim} values, more than the "
+                      f"limit of {max_obs} (rwg's networks take the flat observation as input); {hint}")
+    obs_low = np.asarray(flat_space.low, dtype=np.float64).reshape(-1)
+    obs_high = np.asarray(flat_space.high, dtype=np.float64).reshape(-1)
+
+    # --- action space: Discrete, or a bounded Box
+    if isinstance(act_space, spaces.Discrete):
+        action = {"type": "Discrete", "n": int(act_space.n), "start": int(act_space.start)}
+        act_dim = 0
+        start = int(act_space.start)
+    elif isinstance(act_space, spaces.Box):
+        low = np.asarray(act_space.low, dtype=np.float64).reshape(-1)
+        high = np.asarray(act_space.high, dtype=np.float64).reshape(-1)
+        if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
+            fail("space", f"action space {act_space} is unbounded; rwg maps tanh outputs onto the "
+                          f"bounds, so every dimension needs finite low and high: wrap the env "
+                          f"(gymnasium.wrappers.RescaleAction, or an ActionWrapper) to give bounds")
+        action = {"type": "Box", "low": floats(low), "high": floats(high),
+                  "shape": list(act_space.shape)}
+        act_dim = int(low.size)
+        act_shape = tuple(act_space.shape)
+        act_dtype = np.float32 if hello.get("action_dtype") == "float32" else np.float64
+    else:
+        fail("space", f"action space {act_space} is not supported: rwg takes Discrete and bounded "
+                      f"Box actions (MultiDiscrete, MultiBinary, Dict, Tuple, Text, Graph are not); "
+                      f"wrap the env (gymnasium.ActionWrapper) to give one of those")
+
+    spec = env0.spec
+    max_steps = spec.max_episode_steps if spec is not None else None
+    threshold = spec.reward_threshold if spec is not None else None
+
+    def flat_obs(o):
+        a = np.asarray(o) if boxed else spaces.flatten(obs_space, o)
+        if a.size != obs_dim:
+            raise ObsShape(f"observation shape {np.shape(a)} ({a.size} values) differs from the "
+                           f"observation space's {obs_space.shape} ({obs_dim} values)")
+        return a.reshape(obs_dim)
+
+    # --- determinism: two resets with the same seed give the same observation
+    if hello.get("check_reset"):
+        s = int(hello["check_reset"])
+        try:
+            first = np.array(flat_obs(env0.reset(seed=s)[0]), dtype=np.float64)
+            second = np.array(flat_obs(envs[-1].reset(seed=s)[0]), dtype=np.float64)
+            third = np.array(flat_obs(env0.reset(seed=s)[0]), dtype=np.float64)
+        except BaseException as e:  # noqa: BLE001
+            fail("reset", f"reset(seed={s}) raised {type(e).__name__}: {e}", traceback.format_exc())
+        for other, how in ((second, "another instance"), (third, "the same instance again")):
+            if not np.array_equal(first, other, equal_nan=True):
+                fail("nondeterministic",
+                     f"reset(seed={s}) gave different observations on {how} "
+                     f"({floats(first[:4])}... vs {floats(other[:4])}...); rwg needs "
+                     f"environments whose reset(seed=s) determines the episode")
+
+    send_json(ord("R"), {
+        "protocol": PROTOCOL,
+        "gymnasium": gym.__version__,
+        "python": sys.version.split()[0],
+        "spec_id": spec.id if spec is not None else None,
+        "observation_space": str(obs_space),
+        "obs_dim": obs_dim,
+        "obs_low": floats(obs_low),
+        "obs_high": floats(obs_high),
+        "action_space": str(act_space),
+        "action": action,
+        "max_episode_steps": max_steps,
+        "reward_threshold": None if threshold is None else float(threshold),
+    })
+
+    # --- the batch loop
+    n = lanes
+    words = max(1, act_dim)
+    ops_len = (n + 7) // 8 * 8
+    res_len = ops_len + 8 * n + 8 * n * obs_dim
+    while True:
+        tag, payload = read_msg()
+        if tag == ord("Q"):
+            return
+        if tag != ord("S"):
+            fail("protocol", f"unexpected message tag {tag}")
+        ops = payload[:n]
+        if act_dim:
+            acts = np.frombuffer(payload, np.float64, n * words, ops_len).reshape(n, words)
+        else:
+            acts = np.frombuffer(payload, np.int64, n, ops_len).tolist()
+        seeds = np.frombuffer(payload, np.uint64, n, ops_len).tolist()
+        res = bytearray(res_len)
+        flags = memoryview(res)[:n]
+        rewards = np.frombuffer(res, np.float64, n, ops_len)
+        obs_out = np.frombuffer(res, np.float64, n * obs_dim, ops_len + 8 * n).reshape(n, obs_dim)
+        errors = []
+        for i in range(n):
+            op = ops[i]
+            if op == 0:
+                continue
+            try:
+                if op == 2:
+                    if act_dim:
+                        a = np.array(acts[i], dtype=act_dtype).reshape(act_shape)
+                    else:
+                        a = acts[i] + start
+                    o, r, term, trunc, _ = envs[i].step(a)
+                    obs_out[i] = flat_obs(o)
+                    rewards[i] = r
+                    flags[i] = 1 | (2 if term else 0) | (4 if trunc else 0)
+                elif op == 1:
+                    o, _ = envs[i].reset(seed=seeds[i])
+                    obs_out[i] = flat_obs(o)
+                    flags[i] = 1
+                else:
+                    fail("protocol", f"unknown lane op {op}")
+            except ObsShape as e:
+                flags[i] = 8
+                errors.append({"lane": i, "message": str(e), "traceback": ""})
+            except Exception as e:  # noqa: BLE001 -- the env's own failure, reported to rwg
+                flags[i] = 8
+                what = "step" if op == 2 else "reset"
+                errors.append({"lane": i, "message": f"{what} raised {type(e).__name__}: {e}",
+                               "traceback": traceback.format_exc()})
+        if errors:
+            write_msg(ord("O"), res, json.dumps(errors).encode())
+        else:
+            write_msg(ord("O"), res)
+
+
+class ObsShape(Exception):
+    pass
+
+
+if __name__ == "__main__":
+    main()
