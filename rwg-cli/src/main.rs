@@ -7,6 +7,7 @@
 mod cluster;
 mod cmd;
 mod fault_guard;
+mod gym;
 mod progress;
 mod slurm_script;
 mod stdio;

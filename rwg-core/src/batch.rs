@@ -11,13 +11,13 @@
 //! results are identical to running the same environment one episode after
 //! the other.
 
-use rwg_env::{EnvError, EnvSpec, Step};
 use crate::policy::{NetShape, PolicyLanes};
 use crate::sampler::{
     draw_weights, reset_seed, weight_rng, BlockResult, CellPlan, EpisodeResult, SampleError, LANES,
 };
-use rwg_env::Action;
 use rayon::prelude::*;
+use rwg_env::Action;
+use rwg_env::{EnvError, EnvSpec, Step};
 use std::ops::Range;
 use std::sync::Mutex;
 
@@ -515,10 +515,10 @@ impl<B: BatchEnv> rwg_env::Environment for SingleLane<B> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rwg_env::{Environment, Step};
     use crate::policy::Architecture;
     use crate::sampler::{LaneWorker, WeightDist};
     use rwg_env::{BoxSpace, Space};
+    use rwg_env::{Environment, Step};
 
     /// A toy env: episodes of 1 + (seed % 7) steps; fails at step 2 of
     /// episodes whose seed is a multiple of `fail_every`, and at reset when
