@@ -8,6 +8,35 @@ pub fn is_gym(id: &str) -> bool {
     rwg_gym::gym_id(id).is_some()
 }
 
+/// The command-line options of a `gymnasium:` env.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct GymArgs {
+    /// gym.make keyword arguments of a gymnasium: env, as a JSON object
+    /// (e.g. '{"continuous": true}').
+    #[arg(long, value_name = "JSON")]
+    pub kwargs: Option<String>,
+    /// Python interpreter for gymnasium: envs (default: RWG_PYTHON, then python3).
+    #[arg(long, value_name = "PATH")]
+    pub python: Option<String>,
+}
+
+impl GymArgs {
+    /// The config of `id` (a `gymnasium:` id) with these options.
+    pub fn config(&self, id: &str) -> anyhow::Result<GymConfig> {
+        config_from_args(id, self.kwargs.as_deref(), self.python.as_deref())
+    }
+
+    /// An error if options were given for an env that is not a Gymnasium one.
+    pub fn refuse_for(&self, id: &str) -> anyhow::Result<()> {
+        if self.kwargs.is_some() || self.python.is_some() {
+            anyhow::bail!(
+                "--kwargs and --python apply to Gymnasium environments only (write gymnasium:{id})"
+            );
+        }
+        Ok(())
+    }
+}
+
 /// The config of a command-line id (`gymnasium:...`) with `--kwargs` JSON and
 /// an optional interpreter.
 pub fn config_from_args(

@@ -55,6 +55,21 @@ pub struct LaneActions<'a> {
     pub continuous: &'a [f64],
 }
 
+/// A whole batch failed (e.g. the process hosting it died or hung).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BatchFailure {
+    /// The lane that was running when it happened, if known.
+    pub lane: Option<usize>,
+    /// What happened.
+    pub error: EnvError,
+}
+
+impl From<EnvError> for BatchFailure {
+    fn from(error: EnvError) -> Self {
+        BatchFailure { lane: None, error }
+    }
+}
+
 /// Many instances of one environment, reset and stepped together.
 pub trait BatchEnv {
     /// The environment's description (the same for every lane).
@@ -66,14 +81,15 @@ pub trait BatchEnv {
     /// One exchange: lane `i` does `ops[i]`, writing its observation into
     /// `obs[i * obs_dim..]` and its outcome into `out[i]`. An `Err` means the
     /// whole batch failed (e.g. the process hosting it died): no lane's
-    /// outcome is valid and the batch must not be used again.
+    /// outcome is valid and the batch must not be used again; the failure
+    /// names the lane that was running, if known.
     fn exchange(
         &mut self,
         ops: &[LaneOp],
         actions: LaneActions<'_>,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), EnvError>;
+    ) -> Result<(), BatchFailure>;
 }
 
 /// A set of idle batch environments, shared by the worker threads: a worker
@@ -240,13 +256,20 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
                 discrete: &self.discrete,
                 continuous: &self.continuous,
             };
-            if let Err(err) = self
+            if let Err(BatchFailure {
+                lane: culprit,
+                error: err,
+            }) = self
                 .env
                 .exchange(&self.ops, actions, &mut self.obs, &mut self.out)
             {
-                // The whole batch is gone: every busy lane failed with it.
+                // The whole batch is gone: the lane it names failed (or, if
+                // unknown, every busy lane).
                 self.poisoned = true;
-                for lane in lanes.iter().filter(|l| l.state != LaneState::Free) {
+                let busy = |(i, l): &(usize, &Lane)| {
+                    l.state != LaneState::Free && culprit.is_none_or(|c| c == *i)
+                };
+                for (_, lane) in lanes.iter().enumerate().filter(busy) {
                     let step = match lane.state {
                         LaneState::Running => lane.steps + 1,
                         _ => 0,
@@ -455,11 +478,22 @@ impl<B: BatchEnv> SingleLane<B> {
             ops: vec![LaneOp::Idle; n],
             out: vec![LaneOutcome::Idle; n],
             discrete: vec![0; n],
-            continuous: vec![0.0; n * NetShape::outputs_for(&env.spec().action_space)],
+            continuous: vec![
+                0.0;
+                n * match &env.spec().action_space {
+                    rwg_env::Space::Box(b) => b.dim(),
+                    rwg_env::Space::Discrete { .. } => 0,
+                }
+            ],
             obs: vec![0.0; n * d],
             env,
             dead: None,
         }
+    }
+
+    /// The batch environment.
+    pub fn inner(&self) -> &B {
+        &self.env
     }
 
     fn run(&mut self, op: LaneOp, obs: &mut [f64]) -> Result<LaneOutcome, EnvError> {
@@ -471,12 +505,12 @@ impl<B: BatchEnv> SingleLane<B> {
             discrete: &self.discrete,
             continuous: &self.continuous,
         };
-        if let Err(e) = self
+        if let Err(f) = self
             .env
             .exchange(&self.ops, actions, &mut self.obs, &mut self.out)
         {
-            self.dead = Some(e.clone());
-            return Err(e);
+            self.dead = Some(f.error.clone());
+            return Err(f.error);
         }
         let d = obs.len();
         obs.copy_from_slice(&self.obs[..d]);
@@ -497,11 +531,22 @@ impl<B: BatchEnv> rwg_env::Environment for SingleLane<B> {
     }
 
     fn step(&mut self, action: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+        let dim = self.continuous.len() / self.env.lanes();
         match action {
-            Action::Discrete(a) => self.discrete[0] = a,
+            Action::Discrete(a) if dim == 0 => self.discrete[0] = a,
+            Action::Discrete(a) => {
+                return Err(EnvError::InvalidAction(format!(
+                    "discrete action {a} given to a continuous action space"
+                )))
+            }
             Action::Continuous(a) => {
-                let n = a.len().min(self.continuous.len());
-                self.continuous[..n].copy_from_slice(&a[..n]);
+                if a.len() != dim {
+                    return Err(EnvError::InvalidAction(format!(
+                        "action has {} values, the action space has {dim}",
+                        a.len()
+                    )));
+                }
+                self.continuous[..dim].copy_from_slice(a);
             }
         }
         match self.run(LaneOp::Step, obs)? {
@@ -601,7 +646,7 @@ mod tests {
             actions: LaneActions<'_>,
             obs: &mut [f64],
             out: &mut [LaneOutcome],
-        ) -> Result<(), EnvError> {
+        ) -> Result<(), BatchFailure> {
             for (i, env) in self.0.iter_mut().enumerate() {
                 let o = &mut obs[i * 2..(i + 1) * 2];
                 out[i] = match ops[i] {

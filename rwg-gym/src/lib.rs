@@ -25,7 +25,8 @@ pub mod protocol;
 use process::Worker;
 use protocol::*;
 use rwg_core::batch::{
-    run_blocks_batched, BatchEnv, BatchPool, LaneActions, LaneOp, LaneOutcome, SingleLane,
+    run_blocks_batched, BatchEnv, BatchFailure, BatchPool, LaneActions, LaneOp, LaneOutcome,
+    SingleLane,
 };
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError, LANES};
 use rwg_env::{ActionDtype, BoxSpace, EnvError, EnvSpec, Space, Step};
@@ -77,6 +78,10 @@ pub struct GymConfig {
     pub action_dtype: ActionDtype,
     /// How long one batch step may take.
     pub timeout: Duration,
+    /// Whether every episode gets a fresh `gym.make` instance; `None`: the
+    /// worker finds out (it runs an episode on a used and on a fresh
+    /// instance and compares them).
+    pub fresh_per_episode: Option<bool>,
 }
 
 impl GymConfig {
@@ -91,6 +96,7 @@ impl GymConfig {
             max_episode_steps: None,
             action_dtype: ActionDtype::F64,
             timeout: default_timeout(),
+            fresh_per_episode: None,
         }
     }
 
@@ -151,10 +157,12 @@ pub enum GymError {
     },
     /// The worker did not answer in time.
     #[error("the Python worker did not answer within {secs} s (the environment hangs in reset or step?) \
-             and was killed; set {TIMEOUT_VAR} (seconds) to allow more")]
+             and was killed; set {TIMEOUT_VAR} (seconds) to allow more{}", tail(.stderr))]
     Timeout {
         /// The limit.
         secs: f64,
+        /// The end of its stderr (with the traceback of where it hung).
+        stderr: String,
     },
     /// The worker said something unexpected.
     #[error("bridge protocol error: {0}")]
@@ -195,6 +203,15 @@ impl From<GymError> for EnvError {
     }
 }
 
+impl From<GymError> for BatchFailure {
+    fn from(e: GymError) -> Self {
+        BatchFailure {
+            lane: None,
+            error: e.into(),
+        }
+    }
+}
+
 /// What the worker says about the environment in its ready message.
 #[derive(Debug, Clone, Deserialize)]
 struct Ready {
@@ -208,6 +225,7 @@ struct Ready {
     action: serde_json::Value,
     max_episode_steps: Option<u32>,
     reward_threshold: Option<f64>,
+    fresh_per_episode: bool,
 }
 
 /// The environment as the worker described it.
@@ -223,6 +241,9 @@ pub struct GymInfo {
     pub gymnasium: String,
     /// Python's version.
     pub python: String,
+    /// Whether the env's episodes depend on the instance's earlier episodes,
+    /// so that every episode runs on a fresh instance.
+    pub fresh_per_episode: bool,
 }
 
 fn parse_ready(cfg: &GymConfig, r: Ready) -> Result<GymInfo, GymError> {
@@ -261,12 +282,15 @@ fn parse_ready(cfg: &GymConfig, r: Ready) -> Result<GymInfo, GymError> {
         action_space: r.action_space,
         gymnasium: r.gymnasium,
         python: r.python,
+        fresh_per_episode: r.fresh_per_episode,
     })
 }
 
 /// A worker process hosting `lanes` instances of one Gymnasium env.
 pub struct GymBatch {
     worker: Worker,
+    /// The file holding the lane being stepped (see the worker).
+    lane_file: LaneFile,
     info: GymInfo,
     lanes: usize,
     obs_dim: usize,
@@ -281,7 +305,9 @@ impl GymBatch {
     /// checks that two `reset(seed=s)` give the same observation.
     pub fn spawn(cfg: &GymConfig, lanes: usize, check_reset: bool) -> Result<GymBatch, GymError> {
         let mut worker = Worker::spawn(&cfg.python, WORKER_PY)?;
+        let lane_file = LaneFile::create();
         let hello = serde_json::json!({
+            "lane_file": lane_file.path(),
             "protocol": PROTOCOL,
             "env": cfg.id,
             "kwargs": cfg.kwargs,
@@ -290,6 +316,8 @@ impl GymBatch {
             "action_dtype": cfg.action_dtype.name(),
             "max_obs": MAX_OBS,
             "check_reset": if check_reset { Some(CHECK_SEED) } else { None },
+            "probe_history": cfg.fresh_per_episode.is_none(),
+            "fresh_per_episode": cfg.fresh_per_episode.unwrap_or(false),
         });
         let mut buf = vec![];
         begin(&mut buf, TAG_HELLO);
@@ -320,6 +348,7 @@ impl GymBatch {
         };
         Ok(GymBatch {
             worker,
+            lane_file,
             info,
             lanes,
             obs_dim,
@@ -364,15 +393,25 @@ impl BatchEnv for GymBatch {
         actions: LaneActions<'_>,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), EnvError> {
+    ) -> Result<(), BatchFailure> {
         let n = self.lanes;
         encode_step(&mut self.send, ops, actions, self.action_dim);
-        self.worker.send(&self.send)?;
         let mut head = [0u8; 5];
-        self.worker.recv_exact(&mut head, self.timeout)?;
-        let len = u32::from_le_bytes(head[..4].try_into().expect("4 bytes")) as usize;
-        self.recv.resize(len.saturating_sub(1), 0);
-        self.worker.recv_exact(&mut self.recv, self.timeout)?;
+        let answer = self
+            .worker
+            .send(&self.send)
+            .and_then(|()| self.worker.recv_exact(&mut head, self.timeout))
+            .and_then(|()| {
+                let len = u32::from_le_bytes(head[..4].try_into().expect("4 bytes")) as usize;
+                self.recv.resize(len.saturating_sub(1), 0);
+                self.worker.recv_exact(&mut self.recv, self.timeout)
+            });
+        if let Err(e) = answer {
+            return Err(BatchFailure {
+                lane: self.lane_file.lane().filter(|&l| l < n),
+                error: e.into(),
+            });
+        }
         if head[4] == TAG_ERROR {
             let error: WorkerError = serde_json::from_slice(&self.recv)
                 .map_err(|e| GymError::Protocol(format!("error message: {e}")))?;
@@ -413,7 +452,12 @@ impl BatchEnv for GymBatch {
                     Some(e) => e.message.clone(),
                     None => "failed (no message)".into(),
                 };
-                LaneOutcome::Failed(EnvError::Other(text))
+                if text.starts_with("step raised ResetNeeded") {
+                    // Gymnasium's OrderEnforcing: a step before reset
+                    LaneOutcome::Failed(EnvError::ResetNeeded)
+                } else {
+                    LaneOutcome::Failed(EnvError::Other(text))
+                }
             } else if flags & F_OK == 0 {
                 LaneOutcome::Idle
             } else {
@@ -451,6 +495,42 @@ impl BatchEnv for GymBatch {
     }
 }
 
+/// An 8-byte file the worker maps and writes the lane it is stepping into,
+/// so that rwg can name the episode when the worker dies or hangs.
+struct LaneFile(Option<std::path::PathBuf>);
+
+impl LaneFile {
+    fn create() -> LaneFile {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static NEXT: AtomicU64 = AtomicU64::new(0);
+        let p = std::env::temp_dir().join(format!(
+            "rwg-gym-lane-{}-{}",
+            std::process::id(),
+            NEXT.fetch_add(1, Ordering::Relaxed)
+        ));
+        // Without the file the worker still runs; failures just name no lane.
+        LaneFile(std::fs::write(&p, [255u8; 8]).ok().map(|()| p))
+    }
+
+    fn path(&self) -> Option<String> {
+        self.0.as_ref().map(|p| p.to_string_lossy().into_owned())
+    }
+
+    /// The lane the worker was resetting or stepping, if any.
+    fn lane(&self) -> Option<usize> {
+        let bytes = std::fs::read(self.0.as_ref()?).ok()?;
+        bytes.first().filter(|&&b| b != 255).map(|&b| b as usize)
+    }
+}
+
+impl Drop for LaneFile {
+    fn drop(&mut self) {
+        if let Some(p) = &self.0 {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}
+
 impl Drop for GymBatch {
     fn drop(&mut self) {
         let mut buf = vec![];
@@ -479,9 +559,11 @@ impl std::fmt::Debug for GymSource {
 impl GymSource {
     /// Starts one worker (checking that the env builds, its spaces are
     /// supported and its reset is deterministic) and keeps it for the run.
-    pub fn open(config: GymConfig) -> Result<GymSource, GymError> {
+    pub fn open(mut config: GymConfig) -> Result<GymSource, GymError> {
         let first = GymBatch::spawn(&config, LANES, true)?;
         let info = first.info().clone();
+        // The workers started later (and single instances) need not probe again.
+        config.fresh_per_episode = Some(info.fresh_per_episode);
         let pool = BatchPool::default();
         pool.put(first);
         Ok(GymSource { config, info, pool })
@@ -523,6 +605,7 @@ impl GymSource {
     /// A single instance behind [`rwg_env::Environment`] (for rollouts,
     /// checks and replays), in a worker of its own.
     pub fn make_single(&self) -> Result<SingleLane<GymBatch>, GymError> {
+        // (the config carries the probe's verdict on fresh instances)
         Ok(SingleLane::new(GymBatch::spawn(&self.config, 1, false)?))
     }
 }

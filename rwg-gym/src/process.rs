@@ -81,9 +81,14 @@ impl Worker {
         let deadline = Instant::now() + timeout;
         while got < buf.len() {
             if !self.wait_readable(deadline) {
+                self.dump_traceback();
                 self.kill();
+                if let Some(d) = self.drain.take() {
+                    let _ = d.join();
+                }
                 return Err(GymError::Timeout {
                     secs: timeout.as_secs_f64(),
+                    stderr: self.stderr_tail(),
                 });
             }
             match self.stdout.read(&mut buf[got..]) {
@@ -123,6 +128,19 @@ impl Worker {
     #[cfg(not(unix))]
     fn wait_readable(&self, _deadline: Instant) -> bool {
         true
+    }
+
+    /// Asks a hung worker for its Python traceback (SIGUSR1, which the
+    /// worker's faulthandler answers on stderr) and gives it a moment.
+    fn dump_traceback(&mut self) {
+        #[cfg(unix)]
+        {
+            // SAFETY: sending a signal to our own child process.
+            unsafe {
+                libc::kill(self.child.id() as libc::pid_t, libc::SIGUSR1);
+            }
+            std::thread::sleep(Duration::from_millis(300));
+        }
     }
 
     /// Kills the process (if still running) and reaps it.

@@ -10,6 +10,8 @@ import os
 import sys
 
 PROTOCOL = 1
+CHECK_SEED_1 = 1234567
+CHECK_SEED_2 = 7654321
 
 # --- protocol channels: private copies of fd 0/1, then fd 1 -> stderr, fd 0 -> /dev/null
 _in_fd = os.dup(0)
@@ -26,6 +28,11 @@ import struct  # noqa: E402
 import traceback  # noqa: E402
 
 faulthandler.enable(file=sys.stderr)
+if hasattr(faulthandler, "register"):
+    import signal  # noqa: E402
+
+    # rwg sends SIGUSR1 to a worker that does not answer in time, to learn where it hangs.
+    faulthandler.register(signal.SIGUSR1, file=sys.stderr, all_threads=True)
 
 _HEAD = struct.Struct("<IB")
 
@@ -178,8 +185,8 @@ def main():
     def flat_obs(o):
         a = np.asarray(o) if boxed else spaces.flatten(obs_space, o)
         if a.size != obs_dim:
-            raise ObsShape(f"observation shape {np.shape(a)} ({a.size} values) differs from the "
-                           f"observation space's {obs_space.shape} ({obs_dim} values)")
+            raise ObsShape(f"observation of {a.size} values (shape {np.shape(a)}) where the "
+                           f"observation space {obs_space} has {obs_dim}")
         return a.reshape(obs_dim)
 
     # --- determinism: two resets with the same seed give the same observation
@@ -198,7 +205,41 @@ def main():
                      f"({floats(first[:4])}... vs {floats(other[:4])}...); rwg needs "
                      f"environments whose reset(seed=s) determines the episode")
 
+    # --- history: does an episode depend on the episodes the instance ran
+    # before? (Some envs keep state across reset, e.g. BipedalWalker-v3.) Then
+    # every episode gets a fresh instance, so results do not depend on which
+    # worker ran which episodes before.
+    def probe(env, seed, steps=200):
+        rng = np.random.default_rng(seed)
+        out = [np.array(flat_obs(env.reset(seed=seed)[0]), dtype=np.float64)]
+        for _ in range(steps):
+            if act_dim:
+                a = rng.uniform(low, high).astype(act_dtype).reshape(act_shape)
+            else:
+                a = start + int(rng.integers(action["n"]))
+            o, r, term, trunc, _ = env.step(a)
+            out.append(np.append(np.array(flat_obs(o), dtype=np.float64), float(r)))
+            if term or trunc:
+                break
+        return out
+
+    fresh = bool(hello.get("fresh_per_episode"))
+    if hello.get("probe_history"):
+        try:
+            other = gym.make(name, **kwargs)
+            want = probe(other, CHECK_SEED_2)
+            other.close()
+            probe(env0, CHECK_SEED_1)
+            got = probe(env0, CHECK_SEED_2)
+        except BaseException as e:  # noqa: BLE001
+            fail("reset", f"the env raised while rwg probed it with random actions: "
+                          f"{type(e).__name__}: {e}", traceback.format_exc())
+        same = len(want) == len(got) and all(
+            np.array_equal(x, y, equal_nan=True) for x, y in zip(want, got))
+        fresh = fresh or not same
+
     send_json(ord("R"), {
+        "fresh_per_episode": fresh,
         "protocol": PROTOCOL,
         "gymnasium": gym.__version__,
         "python": sys.version.split()[0],
@@ -212,6 +253,16 @@ def main():
         "max_episode_steps": max_steps,
         "reward_threshold": None if threshold is None else float(threshold),
     })
+
+    # --- the lane marker: the lane being reset/stepped (255: none), for rwg to
+    # name the episode when this process dies or hangs
+    mark = bytearray(1)
+    if hello.get("lane_file"):
+        import mmap
+
+        with open(hello["lane_file"], "r+b") as f:
+            mark = mmap.mmap(f.fileno(), 8)
+    mark[0] = 255
 
     # --- the batch loop
     n = lanes
@@ -229,7 +280,7 @@ def main():
             acts = np.frombuffer(payload, np.float64, n * words, ops_len).reshape(n, words)
         else:
             acts = np.frombuffer(payload, np.int64, n, ops_len).tolist()
-        seeds = np.frombuffer(payload, np.uint64, n, ops_len).tolist()
+        seeds = np.frombuffer(payload, np.uint64, n * words, ops_len)[::words].tolist()
         res = bytearray(res_len)
         flags = memoryview(res)[:n]
         rewards = np.frombuffer(res, np.float64, n, ops_len)
@@ -239,6 +290,7 @@ def main():
             op = ops[i]
             if op == 0:
                 continue
+            mark[0] = i
             try:
                 if op == 2:
                     if act_dim:
@@ -250,6 +302,9 @@ def main():
                     rewards[i] = r
                     flags[i] = 1 | (2 if term else 0) | (4 if trunc else 0)
                 elif op == 1:
+                    if fresh:
+                        envs[i].close()
+                        envs[i] = gym.make(name, **kwargs)
                     o, _ = envs[i].reset(seed=seeds[i])
                     obs_out[i] = flat_obs(o)
                     flags[i] = 1
@@ -263,6 +318,7 @@ def main():
                 what = "step" if op == 2 else "reset"
                 errors.append({"lane": i, "message": f"{what} raised {type(e).__name__}: {e}",
                                "traceback": traceback.format_exc()})
+        mark[0] = 255
         if errors:
             write_msg(ord("O"), res, json.dumps(errors).encode())
         else:

@@ -43,7 +43,7 @@ pub fn open_entry(m: &Manifest, i: usize) -> Result<GymSource, ManifestError> {
         ));
     }
     let cfg = config_of(e);
-    GymSource::open(cfg).map_err(|err| {
+    let src = GymSource::open(cfg).map_err(|err| {
         let at = match &err {
             GymError::NoPython { .. } => e.python_span.clone(),
             GymError::Worker { error, .. } if error.kind == "python" => e.python_span.clone(),
@@ -52,7 +52,16 @@ pub fn open_entry(m: &Manifest, i: usize) -> Result<GymSource, ManifestError> {
         }
         .unwrap_or(e.id_span.clone());
         m.error_at(at, format!("{key}: {}: {err}", e.id))
-    })
+    })?;
+    if src.info().fresh_per_episode {
+        eprintln!(
+            "note: {}: an episode depends on the episodes an instance ran before, so every \
+             episode runs on a fresh gym.make instance (slower, but the results do not depend \
+             on scheduling)",
+            e.id
+        );
+    }
+    Ok(src)
 }
 
 /// The error for `kwargs`/`python` given to an env that is not a Gymnasium one.

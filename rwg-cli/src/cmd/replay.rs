@@ -58,14 +58,25 @@ pub fn find_cell<'a>(
     arch: &str,
     bias: Option<bool>,
 ) -> Result<&'a Cell> {
-    let matching: Vec<&Cell> = cells
-        .iter()
-        .filter(|c| {
-            c.plan.env_id == env
-                && c.arch_name == arch
-                && bias.is_none_or(|b| c.plan.arch.bias == b)
-        })
-        .collect();
+    // The env as the manifest names it (`gymnasium:CartPole-v1`), else by the
+    // id that enters the seeds.
+    let pick = |by_spec: bool| -> Vec<&Cell> {
+        cells
+            .iter()
+            .filter(|c| {
+                (if by_spec {
+                    c.spec.id == env
+                } else {
+                    c.plan.env_id == env
+                }) && c.arch_name == arch
+                    && bias.is_none_or(|b| c.plan.arch.bias == b)
+            })
+            .collect()
+    };
+    let mut matching = pick(true);
+    if matching.is_empty() {
+        matching = pick(false);
+    }
     match matching.as_slice() {
         [c] => Ok(c),
         [] => {
@@ -128,6 +139,10 @@ struct Export<'a> {
     action: String,
     layers: Vec<Layer>,
     reset_seeds: Vec<u64>,
+    /// `gym.make`'s keyword arguments, for a `gymnasium:` env (whose `env`
+    /// is then the id to give `gym.make`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gym_kwargs: Option<serde_json::Map<String, serde_json::Value>>,
 }
 
 fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Export<'a> {
@@ -171,6 +186,10 @@ fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Ex
         reset_seeds: (0..episodes)
             .map(|e| reset_seed(cell.plan.seed, &cell.plan.env_id, sample, e))
             .collect(),
+        gym_kwargs: match &cell.source {
+            rwg_study::env_source::EnvSource::Gym(g) => Some(g.config().kwargs.clone()),
+            _ => None,
+        },
     }
 }
 
