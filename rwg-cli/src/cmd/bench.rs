@@ -90,6 +90,19 @@ virtualenv --venv, which --create-venv makes with
 jaxlib==0.10.2 gymnax==1.0.1 flax==0.12.8 six==1.17.0
 Build rwg with --release for meaningful figures.")]
     Peers(super::bench_peers::PeersArgs),
+    /// Gymnasium envs through the bridge, beside a pure-Python loop (the ceiling) and a peer script.
+    #[command(after_help = "\
+For each gymnasium: env, interleaved REPEATS times: (1) the RWG workload (SAMPLES 0HL \
+networks x EPISODES episodes, no bias) through the bridge on one sampler thread = one \
+Python worker; (2) a pure-Python loop in one process that only calls env.step with \
+pre-drawn random actions for the same number of steps (resetting with successive seeds), \
+the ceiling for any bridge; (3) the same RWG workload on two threads = two workers; \
+(4) with --peer, a peer script on SAMPLES/5 networks. Worker start-up is not timed. \
+Reported: median [min-max] env steps/s, bridge / ceiling and 2 workers / 1 worker.
+
+Example:
+  rwg bench gym --env gymnasium:CartPole-v1 --peer ../shared/peers/ref_numpy.py")]
+    Gym(super::bench_gym::GymBenchArgs),
 }
 
 /// Arguments of `rwg bench envs`.
@@ -145,6 +158,7 @@ pub fn run(args: Args) -> Result<()> {
         What::Envs(a) => run_envs(a),
         What::Sampler(a) => run_sampler(a),
         What::Peers(a) => super::bench_peers::run(a),
+        What::Gym(a) => super::bench_gym::run(a),
     }
 }
 

@@ -308,7 +308,7 @@ fn run_gym(args: &Args, id: &str) -> Result<()> {
     }
     for r in &results {
         if !args.json {
-            writeln!(std::io::stdout(), "{r}")?;
+            writeln!(crate::stdio::stdout(), "{r}")?;
         }
     }
     finish(args, &results)

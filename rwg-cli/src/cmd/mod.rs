@@ -1,6 +1,7 @@
 //! One module per `rwg` subcommand.
 
 pub mod bench;
+pub mod bench_gym;
 pub mod bench_peers;
 pub mod check;
 pub mod compare;

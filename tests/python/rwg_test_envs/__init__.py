@@ -12,7 +12,7 @@ on PYTHONPATH).
   `nan` (a NaN observation), `shape` (an observation of another shape),
   `segfault` (reads address 0 through ctypes), `hang` (sleeps for an hour),
   `reset_raise` (raises in that episode's reset).
-- `Memory-v0`: Drift-v0 whose start depends on how many episodes the
+- `Memory-v0`: Drift-v0 whose rewards depend on how many episodes the
   instance ran before (state kept across reset, as BipedalWalker-v3 keeps
   some): rwg must notice and give every episode a fresh instance.
 - `Unseeded-v0`: ignores the seed (its reset draws from global state), so two
@@ -94,10 +94,12 @@ class Memory(Drift):
         self.episodes = 0
 
     def reset(self, *, seed=None, options=None):
-        obs, info = super().reset(seed=seed)
         self.episodes += 1
-        self.pos[0] = np.float32(0.01 * self.episodes)
-        return self._obs(), info
+        return super().reset(seed=seed)
+
+    def step(self, action):
+        obs, r, term, trunc, info = super().step(action)
+        return obs, r + 0.001 * self.episodes, term, trunc, info
 
 
 gym.register("Memory-v0", entry_point=Memory, max_episode_steps=60)
