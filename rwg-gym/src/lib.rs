@@ -367,15 +367,9 @@ impl GymBatch {
 
 /// Reads one message: (tag, payload).
 fn read_message(w: &mut Worker, timeout: Duration) -> Result<(u8, Vec<u8>), GymError> {
-    let mut head = [0u8; 5];
-    w.recv_exact(&mut head, timeout)?;
-    let len = u32::from_le_bytes(head[..4].try_into().expect("4 bytes")) as usize;
-    if len == 0 {
-        return Err(GymError::Protocol("empty message".into()));
-    }
-    let mut payload = vec![0u8; len - 1];
-    w.recv_exact(&mut payload, timeout)?;
-    Ok((head[4], payload))
+    let mut buf = Vec::new();
+    let tag = w.recv_message(&mut buf, timeout)?;
+    Ok((tag, buf.split_off(5)))
 }
 
 impl BatchEnv for GymBatch {
@@ -396,24 +390,46 @@ impl BatchEnv for GymBatch {
     ) -> Result<(), BatchFailure> {
         let n = self.lanes;
         encode_step(&mut self.send, ops, actions, self.action_dim);
-        let mut head = [0u8; 5];
+        let d = self.obs_dim;
+        let base = outcome_len(n, d);
+        // Room for the usual answer, so that one read takes it.
+        if self.recv.len() < 5 + base {
+            self.recv.resize(5 + base, 0);
+        }
         let answer = self
             .worker
             .send(&self.send)
-            .and_then(|()| self.worker.recv_exact(&mut head, self.timeout))
-            .and_then(|()| {
-                let len = u32::from_le_bytes(head[..4].try_into().expect("4 bytes")) as usize;
-                self.recv.resize(len.saturating_sub(1), 0);
-                self.worker.recv_exact(&mut self.recv, self.timeout)
-            });
-        if let Err(e) = answer {
-            return Err(BatchFailure {
-                lane: self.lane_file.lane().filter(|&l| l < n),
-                error: e.into(),
-            });
-        }
-        if head[4] == TAG_ERROR {
-            let error: WorkerError = serde_json::from_slice(&self.recv)
+            .and_then(|()| self.worker.recv_message(&mut self.recv, self.timeout));
+        let tag = match answer {
+            Ok(tag) => tag,
+            Err(e) => {
+                return Err(BatchFailure {
+                    lane: self.lane_file.lane().filter(|&l| l < n),
+                    error: e.into(),
+                })
+            }
+        };
+        let msg = std::mem::take(&mut self.recv);
+        let result = self.decode(tag, &msg[5..], ops, obs, out);
+        self.recv = msg;
+        self.recv.resize(5 + base, 0);
+        result
+    }
+}
+
+impl GymBatch {
+    /// Decodes an outcome message's payload into the lanes' outcomes.
+    fn decode(
+        &self,
+        tag: u8,
+        payload: &[u8],
+        ops: &[LaneOp],
+        obs: &mut [f64],
+        out: &mut [LaneOutcome],
+    ) -> Result<(), BatchFailure> {
+        let n = self.lanes;
+        if tag == TAG_ERROR {
+            let error: WorkerError = serde_json::from_slice(payload)
                 .map_err(|e| GymError::Protocol(format!("error message: {e}")))?;
             return Err(GymError::Worker {
                 python: self.worker.python().to_string(),
@@ -423,24 +439,24 @@ impl BatchEnv for GymBatch {
         }
         let d = self.obs_dim;
         let base = outcome_len(n, d);
-        if head[4] != TAG_OUTCOME || self.recv.len() < base {
+        if tag != TAG_OUTCOME || payload.len() < base {
             return Err(GymError::Protocol(format!(
                 "expected an outcome of {base} bytes, got tag {} with {} bytes",
-                head[4],
-                self.recv.len()
+                tag,
+                payload.len()
             ))
             .into());
         }
         let mut lane_errors: Vec<LaneError> = vec![];
-        if self.recv.len() > base {
-            lane_errors = serde_json::from_slice(&self.recv[base..])
+        if payload.len() > base {
+            lane_errors = serde_json::from_slice(&payload[base..])
                 .map_err(|e| GymError::Protocol(format!("lane errors: {e}")))?;
         }
         let word = |b: &[u8], i: usize| f64::from_le_bytes(b[i..i + 8].try_into().expect("8"));
         let rew_at = pad8(n);
         let obs_at = rew_at + 8 * n;
         for i in 0..n {
-            let flags = self.recv[i];
+            let flags = payload[i];
             out[i] = if flags & F_ERROR != 0 {
                 let e = lane_errors.iter().find(|e| e.lane == i);
                 let text = match e {
@@ -463,14 +479,14 @@ impl BatchEnv for GymBatch {
             } else {
                 let o = &mut obs[i * d..(i + 1) * d];
                 for (j, v) in o.iter_mut().enumerate() {
-                    *v = word(&self.recv, obs_at + 8 * (i * d + j));
+                    *v = word(payload, obs_at + 8 * (i * d + j));
                 }
                 let what = if matches!(ops[i], LaneOp::Reset(_)) {
                     "reset"
                 } else {
                     "step"
                 };
-                let reward = word(&self.recv, rew_at + 8 * i);
+                let reward = word(payload, rew_at + 8 * i);
                 if let Some(j) = o.iter().position(|v| !v.is_finite()) {
                     LaneOutcome::Failed(EnvError::Other(format!(
                         "{what} returned a non-finite observation: value {j} of {d} is {}",

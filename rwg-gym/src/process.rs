@@ -75,11 +75,22 @@ impl Worker {
         }
     }
 
-    /// Fills `buf`, waiting at most `timeout` for each piece.
-    pub(crate) fn recv_exact(&mut self, buf: &mut [u8], timeout: Duration) -> Result<(), GymError> {
-        let mut got = 0;
+    /// Reads one whole message (header included) into `buf`, in as few
+    /// reads as the pipe allows (usually one: the worker writes a message at
+    /// once and sends nothing unasked). Returns the tag; the payload is
+    /// `buf[5..]`.
+    pub(crate) fn recv_message(
+        &mut self,
+        buf: &mut Vec<u8>,
+        timeout: Duration,
+    ) -> Result<u8, GymError> {
         let deadline = Instant::now() + timeout;
-        while got < buf.len() {
+        if buf.len() < 5 {
+            buf.resize(5, 0);
+        }
+        let mut got = 0;
+        let mut need = 5;
+        while got < need {
             if !self.wait_readable(deadline) {
                 self.dump_traceback();
                 self.kill();
@@ -91,12 +102,20 @@ impl Worker {
                     stderr: self.stderr_tail(),
                 });
             }
-            match self.stdout.read(&mut buf[got..]) {
+            let cap = buf.len();
+            match self.stdout.read(&mut buf[got..cap]) {
                 Ok(0) | Err(_) => return Err(self.died()),
                 Ok(n) => got += n,
             }
+            if need == 5 && got >= 5 {
+                need = 4 + u32::from_le_bytes(buf[..4].try_into().expect("4 bytes")) as usize;
+                if buf.len() < need {
+                    buf.resize(need, 0);
+                }
+            }
         }
-        Ok(())
+        buf.truncate(need);
+        Ok(buf[4])
     }
 
     #[cfg(unix)]

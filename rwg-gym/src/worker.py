@@ -264,28 +264,49 @@ def main():
             mark = mmap.mmap(f.fileno(), 8)
     mark[0] = 255
 
-    # --- the batch loop
+    # --- the batch loop (the hot path: one message in, one out, per batch step)
     n = lanes
     words = max(1, act_dim)
     ops_len = (n + 7) // 8 * 8
     res_len = ops_len + 8 * n + 8 * n * obs_dim
+    inbuf = bytearray(5 + ops_len + 8 * n * words)
+    inview = memoryview(inbuf)
+    res = bytearray(res_len)
+    head = bytearray(_HEAD.pack(res_len + 1, ord("O")))
+    flags = memoryview(res)[:n]
+    no_flags = bytes(n)
+    rewards = np.frombuffer(res, np.float64, n, ops_len)
+    obs_out = np.frombuffer(res, np.float64, n * obs_dim, ops_len + 8 * n).reshape(n, obs_dim)
+    rew = [0.0] * n
+    steps = [e.step for e in envs]
+    shp = obs_space.shape if boxed and len(obs_space.shape) == 1 else None
+    ndarray = np.ndarray
     while True:
-        tag, payload = read_msg()
+        # The host sends the next message only after this one's answer, so a
+        # read never takes bytes of the next message.
+        got = 0
+        need = 5
+        while got < need:
+            k = os.readv(_in_fd, [inview[got:]])
+            if k == 0:
+                sys.exit(0)
+            got += k
+            if need == 5 and got >= 5:
+                need = 4 + _HEAD.unpack_from(inbuf)[0]
+                if need > len(inbuf):
+                    fail("protocol", f"message of {need} bytes, at most {len(inbuf)} expected")
+        tag = inbuf[4]
         if tag == ord("Q"):
             return
         if tag != ord("S"):
             fail("protocol", f"unexpected message tag {tag}")
-        ops = payload[:n]
+        ops = inbuf[5:5 + n]
         if act_dim:
-            acts = np.frombuffer(payload, np.float64, n * words, ops_len).reshape(n, words)
+            acts = np.frombuffer(inbuf, np.float64, n * words, 5 + ops_len).reshape(n, words)
         else:
-            acts = np.frombuffer(payload, np.int64, n, ops_len).tolist()
-        seeds = np.frombuffer(payload, np.uint64, n * words, ops_len)[::words].tolist()
-        res = bytearray(res_len)
-        flags = memoryview(res)[:n]
-        rewards = np.frombuffer(res, np.float64, n, ops_len)
-        obs_out = np.frombuffer(res, np.float64, n * obs_dim, ops_len + 8 * n).reshape(n, obs_dim)
-        errors = []
+            acts = np.frombuffer(inbuf, np.int64, n, 5 + ops_len).tolist()
+        flags[:] = no_flags
+        errors = None
         for i in range(n):
             op = ops[i]
             if op == 0:
@@ -297,32 +318,49 @@ def main():
                         a = np.array(acts[i], dtype=act_dtype).reshape(act_shape)
                     else:
                         a = acts[i] + start
-                    o, r, term, trunc, _ = envs[i].step(a)
-                    obs_out[i] = flat_obs(o)
-                    rewards[i] = r
+                    o, r, term, trunc, _ = steps[i](a)
+                    if type(o) is ndarray and o.shape == shp:
+                        obs_out[i] = o
+                    else:
+                        obs_out[i] = flat_obs(o)
+                    rew[i] = float(r)
                     flags[i] = 1 | (2 if term else 0) | (4 if trunc else 0)
                 elif op == 1:
                     if fresh:
                         envs[i].close()
                         envs[i] = gym.make(name, **kwargs)
-                    o, _ = envs[i].reset(seed=seeds[i])
+                        steps[i] = envs[i].step
+                    at = 5 + ops_len + 8 * words * i
+                    seed = int.from_bytes(inview[at:at + 8], "little")
+                    o, _ = envs[i].reset(seed=seed)
                     obs_out[i] = flat_obs(o)
+                    rew[i] = 0.0
                     flags[i] = 1
                 else:
                     fail("protocol", f"unknown lane op {op}")
             except ObsShape as e:
                 flags[i] = 8
+                errors = errors or []
                 errors.append({"lane": i, "message": str(e), "traceback": ""})
             except Exception as e:  # noqa: BLE001 -- the env's own failure, reported to rwg
                 flags[i] = 8
                 what = "step" if op == 2 else "reset"
+                errors = errors or []
                 errors.append({"lane": i, "message": f"{what} raised {type(e).__name__}: {e}",
                                "traceback": traceback.format_exc()})
         mark[0] = 255
+        rewards[:] = rew
         if errors:
-            write_msg(ord("O"), res, json.dumps(errors).encode())
+            write_msg(ord("O"), bytes(res), json.dumps(errors).encode())
         else:
-            write_msg(ord("O"), res)
+            out = [head, res]
+            while out:
+                k = os.writev(_out_fd, out)
+                while out and k >= len(out[0]):
+                    k -= len(out[0])
+                    out.pop(0)
+                if out and k:
+                    out[0] = memoryview(out[0])[k:]
 
 
 class ObsShape(Exception):
