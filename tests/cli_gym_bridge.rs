@@ -686,3 +686,26 @@ fn sigkill_resume_and_shards_merge_give_identical_bytes() {
         "merged run differs"
     );
 }
+
+#[test]
+fn check_runs_the_plugin_checks_and_determinism_on_gymnasium_envs() {
+    let Some(py) = python() else { return };
+    let out = run_ok(&py, &["check", "gymnasium:CartPole-v1"]);
+    for check in [
+        "reset determinism: the same seed gives the same observation",
+        "trajectory determinism: the same seed and actions give the same trajectory",
+        "step before reset: refused with reset-needed",
+        "12 passed, 0 warned, 0 failed",
+    ] {
+        assert!(out.contains(check), "{out}");
+    }
+    let out = rwg_cmd(&py, &["check", "gymnasium:rwg_test_envs:Unseeded-v0"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("[FAIL] gymnasium:rwg_test_envs:Unseeded-v0: reset determinism: reset(seed=42) twice on one instance"),
+        "{text}"
+    );
+}

@@ -58,7 +58,8 @@ pub struct LaneActions<'a> {
 /// A whole batch failed (e.g. the process hosting it died or hung).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BatchFailure {
-    /// The lane that was running when it happened, if known.
+    /// The lane that was running when it happened, if known, counted across
+    /// groups (`group * lanes + lane`).
     pub lane: Option<usize>,
     /// What happened.
     pub error: EnvError,
@@ -71,25 +72,56 @@ impl From<EnvError> for BatchFailure {
 }
 
 /// Many instances of one environment, reset and stepped together.
+///
+/// The instances form `groups()` groups of `lanes()` lanes. An exchange with
+/// a group is split in two, [`BatchEnv::send`] and [`BatchEnv::recv`], so
+/// that one group can be in flight while the caller works on another (a
+/// remote host then never waits for the caller); the groups' answers come
+/// back in the order they were sent.
 pub trait BatchEnv {
     /// The environment's description (the same for every lane).
     fn spec(&self) -> &EnvSpec;
 
-    /// Number of lanes (instances).
+    /// Number of lanes (instances) per group.
     fn lanes(&self) -> usize;
 
-    /// One exchange: lane `i` does `ops[i]`, writing its observation into
-    /// `obs[i * obs_dim..]` and its outcome into `out[i]`. An `Err` means the
-    /// whole batch failed (e.g. the process hosting it died): no lane's
-    /// outcome is valid and the batch must not be used again; the failure
-    /// names the lane that was running, if known.
+    /// Number of groups.
+    fn groups(&self) -> usize {
+        1
+    }
+
+    /// Starts an exchange with `group`: its lane `i` is to do `ops[i]`.
+    fn send(
+        &mut self,
+        group: usize,
+        ops: &[LaneOp],
+        actions: LaneActions<'_>,
+    ) -> Result<(), BatchFailure>;
+
+    /// Finishes the oldest exchange in flight, which must be `group`'s: lane
+    /// `i`'s observation goes into `obs[i * obs_dim..]`, its outcome into
+    /// `out[i]`. An `Err` (from either half) means the whole batch failed
+    /// (e.g. the process hosting it died): no lane's outcome is valid and
+    /// the batch must not be used again; the failure names the lane that was
+    /// running, if known.
+    fn recv(
+        &mut self,
+        group: usize,
+        obs: &mut [f64],
+        out: &mut [LaneOutcome],
+    ) -> Result<(), BatchFailure>;
+
+    /// [`BatchEnv::send`] then [`BatchEnv::recv`] with group 0.
     fn exchange(
         &mut self,
         ops: &[LaneOp],
         actions: LaneActions<'_>,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), BatchFailure>;
+    ) -> Result<(), BatchFailure> {
+        self.send(0, ops, actions)?;
+        self.recv(0, obs, out)
+    }
 }
 
 /// A set of idle batch environments, shared by the worker threads: a worker
@@ -142,28 +174,48 @@ struct Lane {
     steps: u32,
 }
 
-/// [`crate::sampler::LaneWorker`] for a [`BatchEnv`]: [`LANES`] episodes side
-/// by side, one exchange per batch step. A lane whose episode ends is reset
-/// in the next exchange (while the other lanes step), so every exchange is a
-/// single round trip.
-pub struct BatchLaneWorker<B> {
-    env: B,
+/// One group of [`LANES`] lanes of a [`BatchLaneWorker`], with its networks.
+struct Group {
     policy: PolicyLanes<LANES>,
     obs: Vec<f64>,
-    action_dim: usize,
-    block_weights: Vec<f64>,
+    lanes: [Lane; LANES],
     ops: Vec<LaneOp>,
     out: Vec<LaneOutcome>,
     discrete: Vec<i64>,
     continuous: Vec<f64>,
+    in_flight: bool,
+}
+
+/// The block being run: what the lanes of all groups share.
+struct BlockRun<'a> {
+    plan: &'a CellPlan,
+    samples: Range<u64>,
+    next: usize,
+    total: usize,
+    failure: Option<(usize, u32, EnvError)>,
+}
+
+/// [`crate::sampler::LaneWorker`] for a [`BatchEnv`]: [`LANES`] episodes side
+/// by side in each of the env's groups, one exchange per group and batch
+/// step. A lane whose episode ends is reset in its group's next exchange
+/// (while the other lanes step), so every exchange is a single round trip;
+/// with several groups, one is in flight while the worker handles another.
+pub struct BatchLaneWorker<B> {
+    env: B,
+    groups: Vec<Group>,
+    action_dim: usize,
+    block_weights: Vec<f64>,
+    n_weights: usize,
     /// Set when the environment failed: it must not be reused.
     poisoned: bool,
+    /// Set when the whole batch failed: nothing more can be sent.
+    dead: bool,
 }
 
 impl<B: BatchEnv> BatchLaneWorker<B> {
-    /// A worker for `plan` on `env`, which must have [`LANES`] lanes.
+    /// A worker for `plan` on `env`, whose groups must have [`LANES`] lanes.
     pub fn new(env: B, plan: &CellPlan) -> Self {
-        assert_eq!(env.lanes(), LANES, "a batch env of {LANES} lanes");
+        assert_eq!(env.lanes(), LANES, "a batch env of {LANES} lanes per group");
         let spec = env.spec();
         let n_out = NetShape::outputs_for(&spec.action_space);
         let shape = NetShape::new(spec.obs_dim(), &plan.arch, n_out);
@@ -172,17 +224,33 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
             rwg_env::Space::Discrete { .. } => 0,
             rwg_env::Space::Box(b) => b.dim(),
         };
+        let free = Lane {
+            state: LaneState::Free,
+            item: 0,
+            weights_of: usize::MAX,
+            score: 0.0,
+            steps: 0,
+        };
+        let groups = (0..env.groups())
+            .map(|_| Group {
+                policy: PolicyLanes::new(shape.clone(), &spec.action_space),
+                obs: vec![0.0; LANES * obs_dim],
+                lanes: [free; LANES],
+                ops: vec![LaneOp::Idle; LANES],
+                out: vec![LaneOutcome::Idle; LANES],
+                discrete: vec![0; LANES],
+                continuous: vec![0.0; LANES * action_dim],
+                in_flight: false,
+            })
+            .collect();
         BatchLaneWorker {
-            policy: PolicyLanes::new(shape, &spec.action_space),
-            obs: vec![0.0; LANES * obs_dim],
+            n_weights: shape.n_weights(),
+            env,
+            groups,
             action_dim,
             block_weights: Vec::new(),
-            ops: vec![LaneOp::Idle; LANES],
-            out: vec![LaneOutcome::Idle; LANES],
-            discrete: vec![0; LANES],
-            continuous: vec![0.0; LANES * action_dim],
-            env,
             poisoned: false,
+            dead: false,
         }
     }
 
@@ -203,8 +271,7 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
         let e = plan.episodes as usize;
         let n = (samples.end - samples.start) as usize;
         assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
-        let total = n * e;
-        let nw = self.policy.shape().n_weights();
+        let nw = self.n_weights;
         self.block_weights.resize(n * nw, 0.0);
         for k in 0..n {
             let mut rng = weight_rng(
@@ -219,105 +286,54 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
                 &mut self.block_weights[k * nw..(k + 1) * nw],
             );
         }
-        let free = Lane {
-            state: LaneState::Free,
-            item: 0,
-            weights_of: usize::MAX,
-            score: 0.0,
-            steps: 0,
+        let mut run = BlockRun {
+            plan,
+            samples: samples.clone(),
+            next: 0,
+            total: n * e,
+            failure: None,
         };
-        let mut lanes = [free; LANES];
-        let mut next = 0;
-        let mut failure: Option<(usize, u32, EnvError)> = None;
-        for (i, lane) in lanes.iter_mut().enumerate() {
-            self.start_next(plan, &samples, i, lane, &mut next, total);
+        for g in 0..self.groups.len() {
+            let group = &mut self.groups[g];
+            for (i, lane) in group.lanes.iter_mut().enumerate() {
+                lane.state = LaneState::Free;
+                lane.weights_of = usize::MAX;
+                start_next(
+                    &mut group.policy,
+                    &self.block_weights,
+                    nw,
+                    &mut run,
+                    i,
+                    lane,
+                );
+            }
         }
-        let ad = self.action_dim;
-        while lanes.iter().any(|l| l.state != LaneState::Free) {
-            if lanes.iter().any(|l| l.state == LaneState::Running) {
-                self.policy.forward(&self.obs);
-            }
-            for (i, lane) in lanes.iter().enumerate() {
-                self.ops[i] = match lane.state {
-                    LaneState::Free => LaneOp::Idle,
-                    LaneState::Resetting(seed) => LaneOp::Reset(seed),
-                    LaneState::Running => {
-                        match self.policy.action(i) {
-                            Action::Discrete(a) => self.discrete[i] = a,
-                            Action::Continuous(a) => {
-                                self.continuous[i * ad..(i + 1) * ad].copy_from_slice(a)
-                            }
-                        }
-                        LaneOp::Step
-                    }
-                };
-            }
-            let actions = LaneActions {
-                discrete: &self.discrete,
-                continuous: &self.continuous,
-            };
-            if let Err(BatchFailure {
-                lane: culprit,
-                error: err,
-            }) = self
-                .env
-                .exchange(&self.ops, actions, &mut self.obs, &mut self.out)
-            {
-                // The whole batch is gone: the lane it names failed (or, if
-                // unknown, every busy lane).
-                self.poisoned = true;
-                let busy = |(i, l): &(usize, &Lane)| {
-                    l.state != LaneState::Free && culprit.is_none_or(|c| c == *i)
-                };
-                for (_, lane) in lanes.iter().enumerate().filter(busy) {
-                    let step = match lane.state {
-                        LaneState::Running => lane.steps + 1,
-                        _ => 0,
-                    };
-                    record_failure(&mut failure, lane.item, step, err.clone());
+        for g in 0..self.groups.len() {
+            self.send(g, &mut run);
+        }
+        while self.groups.iter().any(|g| g.in_flight) {
+            for g in 0..self.groups.len() {
+                if !self.groups[g].in_flight {
+                    continue;
                 }
-                break;
-            }
-            for (i, lane) in lanes.iter_mut().enumerate() {
-                match std::mem::replace(&mut self.out[i], LaneOutcome::Idle) {
-                    LaneOutcome::Idle => {}
-                    LaneOutcome::Reset => {
-                        lane.state = LaneState::Running;
-                        lane.score = 0.0;
-                        lane.steps = 0;
-                    }
-                    LaneOutcome::Step(s) => {
-                        lane.score += s.reward;
-                        lane.steps += 1;
-                        if s.terminated || s.truncated {
-                            out[lane.item] = EpisodeResult {
-                                score: lane.score,
-                                steps: lane.steps,
-                            };
+                self.groups[g].in_flight = false;
+                let group = &mut self.groups[g];
+                if let Err(f) = self.env.recv(g, &mut group.obs, &mut group.out) {
+                    self.whole_batch_failed(f, &mut run);
+                    break;
+                }
+                self.absorb(g, &mut run, out);
+                if let Some((first, _, _)) = &run.failure {
+                    for group in &mut self.groups {
+                        for lane in group.lanes.iter_mut().filter(|l| l.item > *first) {
                             lane.state = LaneState::Free;
-                            if failure.is_none() {
-                                self.start_next(plan, &samples, i, lane, &mut next, total);
-                            }
                         }
                     }
-                    LaneOutcome::Failed(err) => {
-                        self.poisoned = true;
-                        let step = match lane.state {
-                            LaneState::Running => lane.steps + 1,
-                            _ => 0,
-                        };
-                        lane.state = LaneState::Free;
-                        record_failure(&mut failure, lane.item, step, err);
-                    }
                 }
-            }
-            if let Some((first, _, _)) = &failure {
-                for lane in lanes.iter_mut().filter(|l| l.item > *first) {
-                    lane.state = LaneState::Free;
-                }
+                self.send(g, &mut run);
             }
         }
-        match failure {
+        match run.failure {
             None => Ok(()),
             Some((item, step, error)) => Err(SampleError {
                 env: plan.env_id.clone(),
@@ -329,39 +345,134 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
         }
     }
 
-    /// Gives lane `i` the next episode of the block (its network's weights
-    /// and a pending reset), unless all have started.
-    fn start_next(
-        &mut self,
-        plan: &CellPlan,
-        samples: &Range<u64>,
-        i: usize,
-        lane: &mut Lane,
-        next: &mut usize,
-        total: usize,
-    ) {
-        if *next >= total {
+    /// Sends group `g`'s next exchange, if any of its lanes is busy.
+    fn send(&mut self, g: usize, run: &mut BlockRun<'_>) {
+        if self.dead {
             return;
         }
-        let item = *next;
-        *next += 1;
-        let e = plan.episodes as usize;
-        let (k, episode) = (item / e, item % e);
-        if lane.weights_of != k {
-            let nw = self.policy.shape().n_weights();
-            self.policy
-                .set_weights(i, &self.block_weights[k * nw..(k + 1) * nw]);
-            lane.weights_of = k;
+        let ad = self.action_dim;
+        let group = &mut self.groups[g];
+        if group.lanes.iter().all(|l| l.state == LaneState::Free) {
+            return;
         }
-        let r = reset_seed(
-            plan.seed,
-            &plan.env_id,
-            samples.start + k as u64,
-            episode as u32,
-        );
-        lane.item = item;
-        lane.state = LaneState::Resetting(r);
+        if group.lanes.iter().any(|l| l.state == LaneState::Running) {
+            group.policy.forward(&group.obs);
+        }
+        for (i, lane) in group.lanes.iter().enumerate() {
+            group.ops[i] = match lane.state {
+                LaneState::Free => LaneOp::Idle,
+                LaneState::Resetting(seed) => LaneOp::Reset(seed),
+                LaneState::Running => {
+                    match group.policy.action(i) {
+                        Action::Discrete(a) => group.discrete[i] = a,
+                        Action::Continuous(a) => {
+                            group.continuous[i * ad..(i + 1) * ad].copy_from_slice(a)
+                        }
+                    }
+                    LaneOp::Step
+                }
+            };
+        }
+        let actions = LaneActions {
+            discrete: &group.discrete,
+            continuous: &group.continuous,
+        };
+        match self.env.send(g, &group.ops, actions) {
+            Ok(()) => group.in_flight = true,
+            Err(f) => self.whole_batch_failed(f, run),
+        }
     }
+
+    /// The whole batch failed: the lane it names failed (or, if unknown,
+    /// every busy lane of every group).
+    fn whole_batch_failed(&mut self, f: BatchFailure, run: &mut BlockRun<'_>) {
+        self.poisoned = true;
+        self.dead = true;
+        for (h, group) in self.groups.iter_mut().enumerate() {
+            group.in_flight = false;
+            for (i, lane) in group.lanes.iter().enumerate() {
+                let culprit = f.lane.is_none_or(|c| c == h * LANES + i);
+                if lane.state != LaneState::Free && culprit {
+                    let step = match lane.state {
+                        LaneState::Running => lane.steps + 1,
+                        _ => 0,
+                    };
+                    record_failure(&mut run.failure, lane.item, step, f.error.clone());
+                }
+            }
+        }
+    }
+
+    /// Takes group `g`'s outcomes into its lanes: scores, finished episodes
+    /// (their lanes get the next episode), failures.
+    fn absorb(&mut self, g: usize, run: &mut BlockRun<'_>, out: &mut [EpisodeResult]) {
+        let nw = self.n_weights;
+        let group = &mut self.groups[g];
+        for (i, lane) in group.lanes.iter_mut().enumerate() {
+            match std::mem::replace(&mut group.out[i], LaneOutcome::Idle) {
+                LaneOutcome::Idle => {}
+                LaneOutcome::Reset => {
+                    lane.state = LaneState::Running;
+                    lane.score = 0.0;
+                    lane.steps = 0;
+                }
+                LaneOutcome::Step(s) => {
+                    lane.score += s.reward;
+                    lane.steps += 1;
+                    if s.terminated || s.truncated {
+                        out[lane.item] = EpisodeResult {
+                            score: lane.score,
+                            steps: lane.steps,
+                        };
+                        lane.state = LaneState::Free;
+                        if run.failure.is_none() {
+                            start_next(&mut group.policy, &self.block_weights, nw, run, i, lane);
+                        }
+                    }
+                }
+                LaneOutcome::Failed(err) => {
+                    self.poisoned = true;
+                    let step = match lane.state {
+                        LaneState::Running => lane.steps + 1,
+                        _ => 0,
+                    };
+                    lane.state = LaneState::Free;
+                    record_failure(&mut run.failure, lane.item, step, err);
+                }
+            }
+        }
+    }
+}
+
+/// Gives lane `i` the next episode of the block (its network's weights and
+/// a pending reset), unless all have started.
+fn start_next(
+    policy: &mut PolicyLanes<LANES>,
+    block_weights: &[f64],
+    nw: usize,
+    run: &mut BlockRun<'_>,
+    i: usize,
+    lane: &mut Lane,
+) {
+    if run.next >= run.total {
+        return;
+    }
+    let item = run.next;
+    run.next += 1;
+    let e = run.plan.episodes as usize;
+    let (k, episode) = (item / e, item % e);
+    if lane.weights_of != k {
+        policy.set_weights(i, &block_weights[k * nw..(k + 1) * nw]);
+        lane.weights_of = k;
+    }
+    let r = reset_seed(
+        run.plan.seed,
+        &run.plan.env_id,
+        run.samples.start + k as u64,
+        episode as u32,
+    );
+    lane.item = item;
+    lane.state = LaneState::Resetting(r);
 }
 
 /// Keeps the failure of the earliest episode.
@@ -630,24 +741,58 @@ mod tests {
         }
     }
 
-    /// `LANES` plain envs behind the batch interface, as a bridge would host them.
-    struct Hosted(Vec<Toy>);
+    /// `groups` × `LANES` plain envs behind the batch interface, as a bridge
+    /// would host them; exchanges are answered in the order sent.
+    struct Hosted {
+        envs: Vec<Toy>,
+        groups: usize,
+        queue: std::collections::VecDeque<(usize, Vec<LaneOp>, Vec<i64>, Vec<f64>)>,
+    }
+
+    impl Hosted {
+        fn new(toy: Toy, groups: usize) -> Self {
+            Hosted {
+                envs: vec![toy; groups * LANES],
+                groups,
+                queue: Default::default(),
+            }
+        }
+    }
 
     impl BatchEnv for Hosted {
         fn spec(&self) -> &EnvSpec {
-            self.0[0].spec()
+            self.envs[0].spec()
         }
         fn lanes(&self) -> usize {
-            self.0.len()
+            LANES
         }
-        fn exchange(
+        fn groups(&self) -> usize {
+            self.groups
+        }
+        fn send(
             &mut self,
+            group: usize,
             ops: &[LaneOp],
             actions: LaneActions<'_>,
+        ) -> Result<(), BatchFailure> {
+            self.queue.push_back((
+                group,
+                ops.to_vec(),
+                actions.discrete.to_vec(),
+                actions.continuous.to_vec(),
+            ));
+            Ok(())
+        }
+        fn recv(
+            &mut self,
+            group: usize,
             obs: &mut [f64],
             out: &mut [LaneOutcome],
         ) -> Result<(), BatchFailure> {
-            for (i, env) in self.0.iter_mut().enumerate() {
+            let (g, ops, discrete, continuous) = self.queue.pop_front().expect("in flight");
+            assert_eq!(g, group, "answers come back in the order sent");
+            for i in 0..LANES {
+                let env = &mut self.envs[g * LANES + i];
                 let o = &mut obs[i * 2..(i + 1) * 2];
                 out[i] = match ops[i] {
                     LaneOp::Idle => LaneOutcome::Idle,
@@ -656,10 +801,10 @@ mod tests {
                         Err(e) => LaneOutcome::Failed(e),
                     },
                     LaneOp::Step => {
-                        let a = if actions.continuous.is_empty() {
-                            Action::Discrete(actions.discrete[i])
+                        let a = if continuous.is_empty() {
+                            Action::Discrete(discrete[i])
                         } else {
-                            Action::Continuous(&actions.continuous[i..i + 1])
+                            Action::Continuous(&continuous[i..i + 1])
                         };
                         match env.step(a, o) {
                             Ok(s) => LaneOutcome::Step(s),
@@ -698,16 +843,30 @@ mod tests {
                         let mut lw =
                             LaneWorker::<_, LANES>::new(|| Toy::new(fail_every, continuous), &plan);
                         let r_want = lw.run_block(&plan, samples.clone(), &mut want);
-                        let hosted = Hosted(vec![Toy::new(fail_every, continuous); LANES]);
-                        let mut bw = BatchLaneWorker::new(hosted, &plan);
-                        let mut got = vec![blank; n];
-                        let r_got = bw.run_block(&plan, samples.clone(), &mut got);
-                        assert_eq!(r_got, r_want, "{continuous} {fail_every} {samples:?}");
-                        if r_want.is_ok() {
-                            assert_eq!(got, want);
-                            oks += 1;
-                        } else {
-                            errs += 1;
+                        for groups in [1, 2, 3] {
+                            let hosted = Hosted::new(Toy::new(fail_every, continuous), groups);
+                            let mut bw = BatchLaneWorker::new(hosted, &plan);
+                            let mut got = vec![blank; n];
+                            let r_got = bw.run_block(&plan, samples.clone(), &mut got);
+                            assert_eq!(
+                                r_got, r_want,
+                                "{continuous} {fail_every} {samples:?} {groups}"
+                            );
+                            if r_want.is_ok() {
+                                assert_eq!(got, want);
+                                oks += 1;
+                            } else {
+                                errs += 1;
+                            }
+                            // the worker runs the next block on the same env
+                            if groups == 2 && r_want.is_ok() {
+                                let mut again = vec![blank; n];
+                                assert_eq!(
+                                    bw.run_block(&plan, samples.clone(), &mut again),
+                                    Ok(())
+                                );
+                                assert_eq!(again, want);
+                            }
                         }
                     }
                 }
@@ -732,7 +891,7 @@ mod tests {
         let made = std::sync::atomic::AtomicUsize::new(0);
         let make = || {
             made.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
-            Ok(Hosted(vec![Toy::new(1 << 40, false); LANES]))
+            Ok(Hosted::new(Toy::new(1 << 40, false), 2))
         };
         let blocks = [0..4, 4..8, 8..12];
         let mut n = 0;

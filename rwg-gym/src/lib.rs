@@ -1,10 +1,11 @@
 //! # rwg-gym: any Gymnasium environment through a crash-isolated bridge
 //!
 //! An environment id `gymnasium:ID` (or `gymnasium:module:ID`, which imports
-//! `module` first) runs in Python worker processes: each hosts
-//! [`rwg_core::sampler::LANES`] instances of the env, made with `gym.make`,
-//! and resets/steps them in lockstep, one exchange over its stdin/stdout per
-//! batch step, in the binary format of `docs/bridge-protocol.md`. Everything
+//! `module` first) runs in Python worker processes: each hosts [`GROUPS`]
+//! groups of [`rwg_core::sampler::LANES`] instances of the env, made with
+//! `gym.make`, and resets/steps a group in lockstep, one exchange over its
+//! stdin/stdout per batch step (one group in flight while rwg works on the
+//! other), in the binary format of `docs/bridge-protocol.md`. Everything
 //! else — weights, the network's forward pass, reset seeds, statistics —
 //! stays in rwg, so a Gymnasium env gives the numbers a built-in env of the
 //! same dynamics gives.
@@ -50,6 +51,10 @@ pub const DEFAULT_TIMEOUT_S: f64 = 60.0;
 
 /// The environment variable overriding [`DEFAULT_TIMEOUT_S`] (seconds).
 pub const TIMEOUT_VAR: &str = "RWG_GYM_TIMEOUT";
+
+/// Groups of [`LANES`] env instances per worker: while the worker steps one
+/// group, rwg computes the next actions of the other, so neither waits.
+pub const GROUPS: usize = 2;
 
 /// The seed of the determinism check made when a worker starts.
 const CHECK_SEED: u64 = 20_200_509;
@@ -289,6 +294,9 @@ fn parse_ready(cfg: &GymConfig, r: Ready) -> Result<GymInfo, GymError> {
 /// A worker process hosting `lanes` instances of one Gymnasium env.
 pub struct GymBatch {
     worker: Worker,
+    groups: usize,
+    /// The ops last sent to each group (to read its answer).
+    sent: Vec<Vec<LaneOp>>,
     /// The file holding the lane being stepped (see the worker).
     lane_file: LaneFile,
     info: GymInfo,
@@ -303,7 +311,12 @@ pub struct GymBatch {
 impl GymBatch {
     /// Starts a worker with `lanes` instances; with `check_reset`, it also
     /// checks that two `reset(seed=s)` give the same observation.
-    pub fn spawn(cfg: &GymConfig, lanes: usize, check_reset: bool) -> Result<GymBatch, GymError> {
+    pub fn spawn(
+        cfg: &GymConfig,
+        lanes: usize,
+        groups: usize,
+        check_reset: bool,
+    ) -> Result<GymBatch, GymError> {
         let mut worker = Worker::spawn(&cfg.python, WORKER_PY)?;
         let lane_file = LaneFile::create();
         let hello = serde_json::json!({
@@ -312,6 +325,7 @@ impl GymBatch {
             "env": cfg.id,
             "kwargs": cfg.kwargs,
             "lanes": lanes,
+            "groups": groups,
             "max_episode_steps": cfg.max_episode_steps,
             "action_dtype": cfg.action_dtype.name(),
             "max_obs": MAX_OBS,
@@ -348,6 +362,8 @@ impl GymBatch {
         };
         Ok(GymBatch {
             worker,
+            groups,
+            sent: vec![vec![LaneOp::Idle; lanes]; groups],
             lane_file,
             info,
             lanes,
@@ -381,53 +397,66 @@ impl BatchEnv for GymBatch {
         self.lanes
     }
 
-    fn exchange(
+    fn groups(&self) -> usize {
+        self.groups
+    }
+
+    fn send(
         &mut self,
+        group: usize,
         ops: &[LaneOp],
         actions: LaneActions<'_>,
+    ) -> Result<(), BatchFailure> {
+        encode_step(&mut self.send, group, ops, actions, self.action_dim);
+        self.sent[group].copy_from_slice(ops);
+        self.worker.send(&self.send).map_err(|e| self.failure(e))
+    }
+
+    fn recv(
+        &mut self,
+        group: usize,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
     ) -> Result<(), BatchFailure> {
-        let n = self.lanes;
-        encode_step(&mut self.send, ops, actions, self.action_dim);
-        let d = self.obs_dim;
-        let base = outcome_len(n, d);
+        let base = outcome_len(self.lanes, self.obs_dim);
         // Room for the usual answer, so that one read takes it.
         if self.recv.len() < 5 + base {
             self.recv.resize(5 + base, 0);
         }
-        let answer = self
-            .worker
-            .send(&self.send)
-            .and_then(|()| self.worker.recv_message(&mut self.recv, self.timeout));
-        let tag = match answer {
+        let tag = match self.worker.recv_message(&mut self.recv, self.timeout) {
             Ok(tag) => tag,
-            Err(e) => {
-                return Err(BatchFailure {
-                    lane: self.lane_file.lane().filter(|&l| l < n),
-                    error: e.into(),
-                })
-            }
+            Err(e) => return Err(self.failure(e)),
         };
         let msg = std::mem::take(&mut self.recv);
-        let result = self.decode(tag, &msg[5..], ops, obs, out);
+        let result = self.decode(tag, group, &msg[5..], obs, out);
         self.recv = msg;
-        self.recv.resize(5 + base, 0);
         result
     }
 }
 
 impl GymBatch {
-    /// Decodes an outcome message's payload into the lanes' outcomes.
+    /// A whole-batch failure, naming the lane the worker was on (if any).
+    fn failure(&self, e: GymError) -> BatchFailure {
+        BatchFailure {
+            lane: self
+                .lane_file
+                .lane()
+                .filter(|&l| l < self.lanes * self.groups),
+            error: e.into(),
+        }
+    }
+
+    /// Decodes group `group`'s outcome message (payload) into its lanes' outcomes.
     fn decode(
         &self,
         tag: u8,
+        group: usize,
         payload: &[u8],
-        ops: &[LaneOp],
         obs: &mut [f64],
         out: &mut [LaneOutcome],
     ) -> Result<(), BatchFailure> {
         let n = self.lanes;
+        let ops = &self.sent[group];
         if tag == TAG_ERROR {
             let error: WorkerError = serde_json::from_slice(payload)
                 .map_err(|e| GymError::Protocol(format!("error message: {e}")))?;
@@ -439,9 +468,9 @@ impl GymBatch {
         }
         let d = self.obs_dim;
         let base = outcome_len(n, d);
-        if tag != TAG_OUTCOME || payload.len() < base {
+        if tag != TAG_OUTCOME || payload.len() < base || payload[0] as usize != group {
             return Err(GymError::Protocol(format!(
-                "expected an outcome of {base} bytes, got tag {} with {} bytes",
+                "expected group {group}'s outcome of {base} bytes, got tag {} with {} bytes",
                 tag,
                 payload.len()
             ))
@@ -453,10 +482,10 @@ impl GymBatch {
                 .map_err(|e| GymError::Protocol(format!("lane errors: {e}")))?;
         }
         let word = |b: &[u8], i: usize| f64::from_le_bytes(b[i..i + 8].try_into().expect("8"));
-        let rew_at = pad8(n);
+        let rew_at = 8 + pad8(n);
         let obs_at = rew_at + 8 * n;
         for i in 0..n {
-            let flags = payload[i];
+            let flags = payload[8 + i];
             out[i] = if flags & F_ERROR != 0 {
                 let e = lane_errors.iter().find(|e| e.lane == i);
                 let text = match e {
@@ -576,7 +605,7 @@ impl GymSource {
     /// Starts one worker (checking that the env builds, its spaces are
     /// supported and its reset is deterministic) and keeps it for the run.
     pub fn open(mut config: GymConfig) -> Result<GymSource, GymError> {
-        let first = GymBatch::spawn(&config, LANES, true)?;
+        let first = GymBatch::spawn(&config, LANES, GROUPS, true)?;
         let info = first.info().clone();
         // The workers started later (and single instances) need not probe again.
         config.fresh_per_episode = Some(info.fresh_per_episode);
@@ -613,7 +642,7 @@ impl GymSource {
             blocks,
             wave,
             &self.pool,
-            || GymBatch::spawn(&self.config, LANES, false).map_err(EnvError::from),
+            || GymBatch::spawn(&self.config, LANES, GROUPS, false).map_err(EnvError::from),
             on_block,
         )
     }
@@ -622,12 +651,12 @@ impl GymSource {
     /// checks and replays), in a worker of its own.
     pub fn make_single(&self) -> Result<SingleLane<GymBatch>, GymError> {
         // (the config carries the probe's verdict on fresh instances)
-        Ok(SingleLane::new(GymBatch::spawn(&self.config, 1, false)?))
+        Ok(SingleLane::new(GymBatch::spawn(&self.config, 1, 1, false)?))
     }
 }
 
 /// A single instance of the env `config` describes, without the checks of
 /// [`GymSource::open`].
 pub fn make_single(config: &GymConfig) -> Result<SingleLane<GymBatch>, GymError> {
-    Ok(SingleLane::new(GymBatch::spawn(config, 1, false)?))
+    Ok(SingleLane::new(GymBatch::spawn(config, 1, 1, false)?))
 }

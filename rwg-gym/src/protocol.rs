@@ -54,13 +54,21 @@ pub fn finish(buf: &mut [u8]) {
     buf[..4].copy_from_slice(&n.to_le_bytes());
 }
 
-/// Encodes a step message: `lanes` op bytes (padded to 8), then per lane
+/// Encodes a step message for group `group`: the group (a byte padded to
+/// 8), `lanes` op bytes (padded to 8), then per lane
 /// `words` 8-byte little-endian words: the reset seed (u64), the discrete
 /// action (i64) or the continuous action (`words` f64).
-pub fn encode_step(buf: &mut Vec<u8>, ops: &[LaneOp], actions: LaneActions<'_>, action_dim: usize) {
+pub fn encode_step(
+    buf: &mut Vec<u8>,
+    group: usize,
+    ops: &[LaneOp],
+    actions: LaneActions<'_>,
+    action_dim: usize,
+) {
     let n = ops.len();
     let words = action_dim.max(1);
     begin(buf, TAG_STEP);
+    buf.extend_from_slice(&[group as u8, 0, 0, 0, 0, 0, 0, 0]);
     for op in ops {
         buf.push(match op {
             LaneOp::Idle => OP_IDLE,
@@ -68,7 +76,7 @@ pub fn encode_step(buf: &mut Vec<u8>, ops: &[LaneOp], actions: LaneActions<'_>, 
             LaneOp::Step => OP_STEP,
         });
     }
-    buf.resize(5 + pad8(n), 0);
+    buf.resize(13 + pad8(n), 0);
     for (i, op) in ops.iter().enumerate() {
         match op {
             LaneOp::Reset(seed) => {
@@ -89,9 +97,10 @@ pub fn encode_step(buf: &mut Vec<u8>, ops: &[LaneOp], actions: LaneActions<'_>, 
     finish(buf);
 }
 
-/// Size of an outcome payload without its error trailer.
+/// Size of an outcome payload without its error trailer: the group (a byte
+/// padded to 8), flags, rewards, observations.
 pub fn outcome_len(lanes: usize, obs_dim: usize) -> usize {
-    pad8(lanes) + 8 * lanes + 8 * lanes * obs_dim
+    8 + pad8(lanes) + 8 * lanes + 8 * lanes * obs_dim
 }
 
 /// A fatal error the worker reports before exiting.
@@ -146,22 +155,24 @@ mod tests {
             discrete: &[0, -2, 0],
             continuous: &[],
         };
-        encode_step(&mut buf, &ops, acts, 0);
-        assert_eq!(buf.len(), 4 + 1 + 8 + 3 * 8);
-        assert_eq!(u32::from_le_bytes(buf[..4].try_into().unwrap()), 33);
-        assert_eq!(&buf[4..8], &[TAG_STEP, OP_RESET, OP_STEP, OP_IDLE]);
-        assert_eq!(&buf[13..21], &7u64.to_le_bytes());
-        assert_eq!(&buf[21..29], &(-2i64).to_le_bytes());
+        encode_step(&mut buf, 1, &ops, acts, 0);
+        assert_eq!(buf.len(), 4 + 1 + 8 + 8 + 3 * 8);
+        assert_eq!(u32::from_le_bytes(buf[..4].try_into().unwrap()), 41);
+        assert_eq!(buf[4], TAG_STEP);
+        assert_eq!(&buf[5..13], &[1, 0, 0, 0, 0, 0, 0, 0]);
+        assert_eq!(&buf[13..16], &[OP_RESET, OP_STEP, OP_IDLE]);
+        assert_eq!(&buf[21..29], &7u64.to_le_bytes());
+        assert_eq!(&buf[29..37], &(-2i64).to_le_bytes());
         let acts = LaneActions {
             discrete: &[],
             continuous: &[0.0, 0.0, 1.5, -0.5, 0.0, 0.0],
         };
-        encode_step(&mut buf, &ops, acts, 2);
-        assert_eq!(buf.len(), 4 + 1 + 8 + 3 * 16);
-        assert_eq!(&buf[13..21], &7u64.to_le_bytes());
-        assert_eq!(&buf[21..29], &[0; 8]);
-        assert_eq!(&buf[29..37], &1.5f64.to_le_bytes());
-        assert_eq!(&buf[37..45], &(-0.5f64).to_le_bytes());
+        encode_step(&mut buf, 0, &ops, acts, 2);
+        assert_eq!(buf.len(), 4 + 1 + 8 + 8 + 3 * 16);
+        assert_eq!(&buf[21..29], &7u64.to_le_bytes());
+        assert_eq!(&buf[29..37], &[0; 8]);
+        assert_eq!(&buf[37..45], &1.5f64.to_le_bytes());
+        assert_eq!(&buf[45..53], &(-0.5f64).to_le_bytes());
     }
 
     #[test]

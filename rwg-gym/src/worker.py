@@ -117,8 +117,9 @@ def main():
     if hello.get("max_episode_steps") is not None:
         kwargs["max_episode_steps"] = int(hello["max_episode_steps"])
     lanes = int(hello["lanes"])
+    groups = int(hello.get("groups", 1))
     envs = []
-    for _ in range(lanes):
+    for _ in range(lanes * groups):
         try:
             envs.append(gym.make(name, **kwargs))
         except gym.error.UnregisteredEnv as e:
@@ -238,6 +239,13 @@ def main():
             np.array_equal(x, y, equal_nan=True) for x, y in zip(want, got))
         fresh = fresh or not same
 
+    # The checks used instances 0 and N-1: replace them, so that every lane
+    # starts as gym.make left it (no reset yet).
+    if hello.get("check_reset") or hello.get("probe_history"):
+        for idx in {0, len(envs) - 1}:
+            envs[idx].close()
+            envs[idx] = gym.make(name, **kwargs)
+
     send_json(ord("R"), {
         "fresh_per_episode": fresh,
         "protocol": PROTOCOL,
@@ -268,15 +276,15 @@ def main():
     n = lanes
     words = max(1, act_dim)
     ops_len = (n + 7) // 8 * 8
-    res_len = ops_len + 8 * n + 8 * n * obs_dim
-    inbuf = bytearray(5 + ops_len + 8 * n * words)
+    res_len = 8 + ops_len + 8 * n + 8 * n * obs_dim
+    inbuf = bytearray(13 + ops_len + 8 * n * words)
     inview = memoryview(inbuf)
     res = bytearray(res_len)
     head = bytearray(_HEAD.pack(res_len + 1, ord("O")))
-    flags = memoryview(res)[:n]
+    flags = memoryview(res)[8:8 + n]
     no_flags = bytes(n)
-    rewards = np.frombuffer(res, np.float64, n, ops_len)
-    obs_out = np.frombuffer(res, np.float64, n * obs_dim, ops_len + 8 * n).reshape(n, obs_dim)
+    rewards = np.frombuffer(res, np.float64, n, 8 + ops_len)
+    obs_out = np.frombuffer(res, np.float64, n * obs_dim, 8 + ops_len + 8 * n).reshape(n, obs_dim)
     rew = [0.0] * n
     steps = [e.step for e in envs]
     shp = obs_space.shape if boxed and len(obs_space.shape) == 1 else None
@@ -300,25 +308,30 @@ def main():
             return
         if tag != ord("S"):
             fail("protocol", f"unexpected message tag {tag}")
-        ops = inbuf[5:5 + n]
+        group = inbuf[5]
+        if group >= groups:
+            fail("protocol", f"group {group} of {groups}")
+        base = group * n
+        res[0] = group
+        ops = inbuf[13:13 + n]
         if act_dim:
-            acts = np.frombuffer(inbuf, np.float64, n * words, 5 + ops_len).reshape(n, words)
+            acts = np.frombuffer(inbuf, np.float64, n * words, 13 + ops_len).reshape(n, words)
         else:
-            acts = np.frombuffer(inbuf, np.int64, n, 5 + ops_len).tolist()
+            acts = np.frombuffer(inbuf, np.int64, n, 13 + ops_len).tolist()
         flags[:] = no_flags
         errors = None
         for i in range(n):
             op = ops[i]
             if op == 0:
                 continue
-            mark[0] = i
+            mark[0] = base + i
             try:
                 if op == 2:
                     if act_dim:
                         a = np.array(acts[i], dtype=act_dtype).reshape(act_shape)
                     else:
                         a = acts[i] + start
-                    o, r, term, trunc, _ = steps[i](a)
+                    o, r, term, trunc, _ = steps[base + i](a)
                     if type(o) is ndarray and o.shape == shp:
                         obs_out[i] = o
                     else:
@@ -327,12 +340,12 @@ def main():
                     flags[i] = 1 | (2 if term else 0) | (4 if trunc else 0)
                 elif op == 1:
                     if fresh:
-                        envs[i].close()
-                        envs[i] = gym.make(name, **kwargs)
-                        steps[i] = envs[i].step
-                    at = 5 + ops_len + 8 * words * i
+                        envs[base + i].close()
+                        envs[base + i] = gym.make(name, **kwargs)
+                        steps[base + i] = envs[base + i].step
+                    at = 13 + ops_len + 8 * words * i
                     seed = int.from_bytes(inview[at:at + 8], "little")
-                    o, _ = envs[i].reset(seed=seed)
+                    o, _ = envs[base + i].reset(seed=seed)
                     obs_out[i] = flat_obs(o)
                     rew[i] = 0.0
                     flags[i] = 1
