@@ -741,12 +741,15 @@ mod tests {
         }
     }
 
+    /// An exchange in flight: group, ops, discrete and continuous actions.
+    type Sent = (usize, Vec<LaneOp>, Vec<i64>, Vec<f64>);
+
     /// `groups` × `LANES` plain envs behind the batch interface, as a bridge
     /// would host them; exchanges are answered in the order sent.
     struct Hosted {
         envs: Vec<Toy>,
         groups: usize,
-        queue: std::collections::VecDeque<(usize, Vec<LaneOp>, Vec<i64>, Vec<f64>)>,
+        queue: std::collections::VecDeque<Sent>,
     }
 
     impl Hosted {

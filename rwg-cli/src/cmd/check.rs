@@ -317,7 +317,7 @@ fn run_gym(args: &Args, id: &str) -> Result<()> {
 /// Runs `rwg check`.
 pub fn run(args: Args) -> Result<()> {
     if let Some(id) = args.plugin.to_str().filter(|s| crate::gym::is_gym(s)) {
-        return run_gym(&args, &id.to_string());
+        return run_gym(&args, id);
     }
     args.gym.refuse_for(&args.plugin.display().to_string())?;
     let timeout = Duration::from_secs(args.timeout.max(1));
