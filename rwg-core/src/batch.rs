@@ -150,6 +150,11 @@ impl<B> BatchPool<B> {
         self.idle.lock().unwrap_or_else(|p| p.into_inner()).pop()
     }
 
+    /// Calls `f` with the idle instances.
+    pub fn with_idle<R>(&self, f: impl FnOnce(&[B]) -> R) -> R {
+        f(&self.idle.lock().unwrap_or_else(|p| p.into_inner()))
+    }
+
     /// Number of idle instances.
     pub fn idle(&self) -> usize {
         self.idle.lock().unwrap_or_else(|p| p.into_inner()).len()

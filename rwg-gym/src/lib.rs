@@ -647,6 +647,18 @@ impl GymSource {
         )
     }
 
+    /// CPU seconds used so far by the idle worker processes (all of them
+    /// between runs), where the OS reports it.
+    pub fn workers_cpu_seconds(&self) -> Option<f64> {
+        self.pool
+            .with_idle(|ws| ws.iter().map(|w| w.worker.cpu_seconds()).sum())
+    }
+
+    /// Number of worker processes started and idle.
+    pub fn workers(&self) -> usize {
+        self.pool.idle()
+    }
+
     /// A single instance behind [`rwg_env::Environment`] (for rollouts,
     /// checks and replays), in a worker of its own.
     pub fn make_single(&self) -> Result<SingleLane<GymBatch>, GymError> {

@@ -62,6 +62,23 @@ impl Worker {
         })
     }
 
+    /// CPU time (user + system) the process has used so far, in seconds
+    /// (Linux: from /proc; `None` elsewhere).
+    pub(crate) fn cpu_seconds(&self) -> Option<f64> {
+        let stat = std::fs::read_to_string(format!("/proc/{}/stat", self.child.id())).ok()?;
+        // Fields after the command name (which is in parentheses): state is
+        // field 3, utime 14, stime 15.
+        let rest = &stat[stat.rfind(')')? + 2..];
+        let f: Vec<&str> = rest.split_whitespace().collect();
+        let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+        #[cfg(unix)]
+        // SAFETY: sysconf has no preconditions.
+        let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64;
+        #[cfg(not(unix))]
+        let hz = 100.0;
+        Some(ticks / hz)
+    }
+
     /// The interpreter this worker runs.
     pub(crate) fn python(&self) -> &str {
         &self.python

@@ -57,22 +57,28 @@ else:
 env.reset(seed=seed)
 s = 1
 t = time.perf_counter()
+c = time.process_time()
 for i in range(n):
     obs, r, term, trunc, _ = env.step(acts[i & 4095])
     if term or trunc:
         env.reset(seed=seed + s)
         s += 1
-print(json.dumps({"steps": n, "wall_s": time.perf_counter() - t}))
+print(json.dumps({"steps": n, "wall_s": time.perf_counter() - t, "cpu_s": time.process_time() - c}))
 "#;
 
 #[derive(Serialize, Default)]
 struct Row {
     env: String,
-    /// Env steps/s of each repeat.
+    /// Env steps per wall-clock second, one per repeat.
     ceiling: Vec<f64>,
     bridge_1_worker: Vec<f64>,
     bridge_2_workers: Vec<f64>,
     peer: Vec<f64>,
+    /// Env steps per CPU-second (all processes involved), one per repeat.
+    ceiling_cpu: Vec<f64>,
+    bridge_1_worker_cpu: Vec<f64>,
+    bridge_2_workers_cpu: Vec<f64>,
+    peer_cpu: Vec<f64>,
     steps_per_run: u64,
 }
 
@@ -95,14 +101,26 @@ fn fmt_stat(v: &[f64]) -> String {
     format!("{:.0} [{:.0}-{:.0}]", median(v), lo, hi)
 }
 
+/// CPU time of this process (all threads) in seconds.
+fn own_cpu_seconds() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec for the call's duration.
+    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
 /// Runs the RWG workload through the bridge on `threads` threads; returns
-/// (env steps, seconds).
+/// (env steps, wall seconds, CPU seconds of rwg and its worker processes).
 fn bridge_run(
     src: &GymSource,
     plan: &CellPlan,
     samples: u64,
     threads: usize,
-) -> Result<(u64, f64)> {
+) -> Result<(u64, f64, f64)> {
+    let cpu0 = own_cpu_seconds() + src.workers_cpu_seconds().unwrap_or(f64::NAN);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
@@ -118,7 +136,9 @@ fn bridge_run(
             Ok::<(), SampleError>(())
         })
     })?;
-    Ok((steps, t.elapsed().as_secs_f64()))
+    let wall = t.elapsed().as_secs_f64();
+    let cpu = own_cpu_seconds() + src.workers_cpu_seconds().unwrap_or(f64::NAN) - cpu0;
+    Ok((steps, wall, cpu))
 }
 
 fn python_json(cmd: &mut Command) -> Result<serde_json::Value> {
@@ -156,18 +176,23 @@ pub fn run(args: GymBenchArgs) -> Result<()> {
         };
         let kwargs = serde_json::Value::Object(cfg.kwargs.clone()).to_string();
         for rep in 0..args.repeats {
-            let (steps, secs) = bridge_run(&src, &plan, args.samples, 1)?;
+            let (steps, secs, cpu) = bridge_run(&src, &plan, args.samples, 1)?;
             row.steps_per_run = steps;
             row.bridge_1_worker.push(steps as f64 / secs);
+            row.bridge_1_worker_cpu.push(steps as f64 / cpu);
             let c = python_json(
                 Command::new(&cfg.python)
                     .args(["-c", CEILING_PY, &gid, &kwargs, &steps.to_string()])
                     .arg(rep.to_string()),
             )?;
+            let n = c["steps"].as_f64().unwrap_or(0.0);
             row.ceiling
-                .push(c["steps"].as_f64().unwrap_or(0.0) / c["wall_s"].as_f64().unwrap_or(1.0));
-            let (steps2, secs2) = bridge_run(&src, &plan, args.samples, 2)?;
+                .push(n / c["wall_s"].as_f64().unwrap_or(f64::NAN));
+            row.ceiling_cpu
+                .push(n / c["cpu_s"].as_f64().unwrap_or(f64::NAN));
+            let (steps2, secs2, cpu2) = bridge_run(&src, &plan, args.samples, 2)?;
             row.bridge_2_workers.push(steps2 as f64 / secs2);
+            row.bridge_2_workers_cpu.push(steps2 as f64 / cpu2);
             if let Some(peer) = &args.peer {
                 let out =
                     std::env::temp_dir().join(format!("rwg-bench-peer-{}.csv", std::process::id()));
@@ -188,31 +213,64 @@ pub fn run(args: GymBenchArgs) -> Result<()> {
                 let p = python_json(&mut cmd)?;
                 let _ = std::fs::remove_file(&out);
                 row.peer.push(p["steps_per_s"].as_f64().unwrap_or(f64::NAN));
+                row.peer_cpu
+                    .push(p["steps_per_cpu_s"].as_f64().unwrap_or(f64::NAN));
             }
         }
         if !args.json {
             let m = |v: &[f64]| median(v);
             crate::outln!(
-                "{id}  ({} env steps per bridge run, {} repeats; median [min-max] env steps/s)",
+                "{id}  ({} env steps per bridge run, {} repeats; median [min-max])",
                 row.steps_per_run,
                 args.repeats
             );
             crate::outln!(
-                "  pure-Python loop, pre-drawn actions (ceiling)   {}",
-                fmt_stat(&row.ceiling)
+                "  {:<48} {:>26} {:>26}",
+                "",
+                "env steps/s (wall)",
+                "env steps/CPU-s"
             );
-            crate::outln!(
-                "  bridge, 1 worker                                {}   {:.2}x ceiling",
-                fmt_stat(&row.bridge_1_worker),
-                m(&row.bridge_1_worker) / m(&row.ceiling)
+            let line = |what: &str, wall: &[f64], cpu: &[f64], note: String| {
+                crate::outln!(
+                    "  {what:<48} {:>26} {:>26}  {note}",
+                    fmt_stat(wall),
+                    fmt_stat(cpu)
+                );
+            };
+            line(
+                "pure-Python loop, pre-drawn actions (ceiling)",
+                &row.ceiling,
+                &row.ceiling_cpu,
+                String::new(),
             );
-            crate::outln!(
-                "  bridge, 2 workers                               {}   {:.2}x 1 worker",
-                fmt_stat(&row.bridge_2_workers),
-                m(&row.bridge_2_workers) / m(&row.bridge_1_worker)
+            line(
+                "bridge, 1 worker",
+                &row.bridge_1_worker,
+                &row.bridge_1_worker_cpu,
+                format!(
+                    "{:.2}x ceiling per CPU-s",
+                    m(&row.bridge_1_worker_cpu) / m(&row.ceiling_cpu)
+                ),
+            );
+            line(
+                "bridge, 2 workers",
+                &row.bridge_2_workers,
+                &row.bridge_2_workers_cpu,
+                format!(
+                    "{:.2}x 1 worker (wall)",
+                    m(&row.bridge_2_workers) / m(&row.bridge_1_worker)
+                ),
             );
             if !row.peer.is_empty() {
-                crate::outln!("  peer script (paper's way, {} networks)          {}   bridge 1 worker = {:.1}x", (args.samples / 5).max(1), fmt_stat(&row.peer), m(&row.bridge_1_worker) / m(&row.peer));
+                line(
+                    &format!("peer script ({} networks)", (args.samples / 5).max(1)),
+                    &row.peer,
+                    &row.peer_cpu,
+                    format!(
+                        "bridge 1 worker = {:.1}x per CPU-s",
+                        m(&row.bridge_1_worker_cpu) / m(&row.peer_cpu)
+                    ),
+                );
             }
         }
         rows.push(row);
