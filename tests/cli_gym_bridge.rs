@@ -709,3 +709,36 @@ fn check_runs_the_plugin_checks_and_determinism_on_gymnasium_envs() {
         "{text}"
     );
 }
+
+#[test]
+fn help_examples_with_gymnasium_ids_work_as_printed() {
+    let Some(py) = python() else { return };
+    let bin_dir = rwg_bin().parent().unwrap().to_path_buf();
+    let path = format!(
+        "{}:{}",
+        bin_dir.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mut ran = 0;
+    for cmd in ["envs", "check", "rollout"] {
+        let help = run_ok(&py, &[cmd, "--help"]);
+        for line in help.lines().map(str::trim) {
+            if !(line.starts_with("rwg ") && line.contains("gymnasium:")) {
+                continue;
+            }
+            let out = Command::new("sh")
+                .args(["-c", line])
+                .env("PATH", &path)
+                .env("RWG_PYTHON", &py)
+                .output()
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "`{line}` failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            ran += 1;
+        }
+    }
+    assert!(ran >= 5, "only {ran} examples found");
+}
