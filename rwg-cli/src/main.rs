@@ -8,6 +8,7 @@ mod cluster;
 mod cmd;
 mod errors;
 mod fault_guard;
+mod gym;
 mod progress;
 mod slurm_script;
 mod stdio;

@@ -7,6 +7,7 @@
 //! `rwg-env`; the study runner around it (manifest, run directory,
 //! statistics) is `rwg-study`.
 
+pub mod batch;
 pub mod policy;
 pub mod sampler;
 pub mod tanh;

@@ -47,6 +47,12 @@ fn resolve_env(
     plugins: &mut Plugins,
 ) -> Result<(EnvSource, EnvSpec), ManifestError> {
     let e: &EnvEntry = &m.envs[i];
+    if crate::gym_source::is_gym(&e.id) {
+        let src = crate::gym_source::open_entry(m, i)?;
+        let spec = src.info().spec.clone();
+        return Ok((EnvSource::Gym(std::sync::Arc::new(src)), spec));
+    }
+    crate::gym_source::check_not_gym_fields(m, i)?;
     let key = format!("envs[{i}]");
     let id_err = |msg: String| m.error_at(e.id_span.clone(), msg);
     let ty = match &e.plugin {
@@ -173,6 +179,9 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
             (None, Some(t)) => (Some(t), Some("env".to_string())),
             (None, None) => (None, None),
         };
+        // The id that enters the seeds: a Gymnasium env's id without the
+        // `gymnasium:` prefix, so it meets what the built-in of that id meets.
+        let seed_id = rwg_gym::gym_id(&e.id).unwrap_or(&e.id).to_string();
         for (j, a) in m.architectures.iter().enumerate() {
             for &bias in &m.bias {
                 let shape = NetShape::new(
@@ -198,11 +207,25 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
                         )
                         .into());
                 }
+                let id = CellId::new(&e.id, &a.name, &a.hidden, bias);
+                let dir = &id.dir;
+                if let Some(other) = cells.iter().find(|c: &&Cell| &c.id.dir == dir) {
+                    return Err(m
+                        .error_at(
+                            e.id_span.clone(),
+                            format!(
+                                "envs[{i}]: '{}' and '{}' would share the cell directory {dir}; \
+                                 rename an architecture or drop one env",
+                                e.id, other.spec.id
+                            ),
+                        )
+                        .into());
+                }
                 cells.push(Cell {
-                    id: CellId::new(&e.id, &a.name, &a.hidden, bias),
+                    id,
                     plan: CellPlan {
                         seed: m.seed,
-                        env_id: e.id.clone(),
+                        env_id: seed_id.clone(),
                         arch: Architecture {
                             hidden: a.hidden.clone(),
                             bias,
@@ -229,6 +252,7 @@ impl Cell {
         match &self.source {
             EnvSource::Builtin(opts) => opts.action_dtype,
             EnvSource::Plugin(_) => ActionDtype::F64,
+            EnvSource::Gym(g) => g.config().action_dtype,
         }
     }
 
@@ -238,6 +262,7 @@ impl Cell {
         Ok(match &self.source {
             EnvSource::Builtin(opts) => rwg_envs::make(&self.plan.env_id, opts)?,
             EnvSource::Plugin(p) => Box::new(p.make()?),
+            EnvSource::Gym(g) => Box::new(g.make_single().map_err(rwg_env::EnvError::from)?),
         })
     }
 

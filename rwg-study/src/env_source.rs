@@ -1,6 +1,7 @@
 //! Where environments come from: built in (`rwg-envs`, statically
 //! dispatched) or a plugin library (an explicit file, or the
-//! `RWG_PLUGIN_PATH` scan, which never shadows a built-in id). A new kind of
+//! `RWG_PLUGIN_PATH` scan, which never shadows a built-in id), or a Gymnasium
+//! env (`gymnasium:ID`, run by `rwg-gym`'s Python workers). A new kind of
 //! environment source is a new [`EnvSource`] variant here.
 
 use rwg_env::{EnvError, TimeLimit};
@@ -19,6 +20,9 @@ pub enum EnvSource {
     Builtin(EnvOptions),
     /// From a plugin library (given with `plugin =` or found on `RWG_PLUGIN_PATH`).
     Plugin(Box<PluginSource>),
+    /// A Gymnasium env run by Python worker processes (`gymnasium:ID`); its
+    /// workers are shared by the env's cells.
+    Gym(std::sync::Arc<rwg_gym::GymSource>),
 }
 
 /// A plugin environment as a cell builds it.

@@ -61,8 +61,9 @@ pub enum StudyError {
     /// A cell failed while running; the blocks and cells finished before are
     /// saved.
     #[error(
-        "cell {cell}{} failed; the blocks and cells finished before are saved in {}",
+        "cell {cell}{}{} failed; the blocks and cells finished before are saved in {}",
         plugin.as_ref().map_or(String::new(), |p| format!(" (plugin {})", p.display())),
+        gym.as_ref().map_or(String::new(), |g| format!(" ({g})")),
         out.display()
     )]
     Cell {
@@ -70,6 +71,8 @@ pub enum StudyError {
         cell: String,
         /// The plugin file of the cell's env, if it is a plugin env.
         plugin: Option<PathBuf>,
+        /// For a Gymnasium env: its id and the Python that runs it.
+        gym: Option<String>,
         /// The run directory.
         out: PathBuf,
         /// The cause.

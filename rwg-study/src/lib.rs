@@ -7,12 +7,14 @@
 //! where it stopped and shards ([`merge`]) combine into the same bytes.
 //! [`stats`] summarises a finished run (`stats.json`, `stats.csv`, and the
 //! runner's console summary). Environments come from an [`env_source`]:
-//! built in (`rwg-envs`) or a plugin (`rwg-plugin-host`).
+//! built in (`rwg-envs`), a plugin (`rwg-plugin-host`), or a Gymnasium env
+//! run by Python worker processes (`rwg-gym`, see [`gym_source`]).
 
 pub mod cells;
 pub mod env_source;
 pub mod error;
 pub mod fault_context;
+pub mod gym_source;
 pub mod limits;
 pub mod manifest;
 pub mod manifest_text;

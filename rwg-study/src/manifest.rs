@@ -27,6 +27,11 @@
 //! plugin = "plugins/libacme.so"  # optional: the plugin library providing the env
 //!                                # (relative to the manifest's folder)
 //! config = "size=9"              # optional, plugin envs only: given to the plugin verbatim
+//!
+//! [[envs]]
+//! id = "gymnasium:LunarLander-v3"   # a Gymnasium env, run through Python (rwg-gym)
+//! kwargs = { continuous = true }     # optional: gym.make's keyword arguments
+//! python = ".venv/bin/python"        # optional: default RWG_PYTHON, then python3
 //! ```
 //!
 //! Unknown keys and bad values are errors that name the file, line, column
@@ -147,6 +152,8 @@ struct RawEnv {
     action_dtype: Option<Spanned<String>>,
     plugin: Option<Spanned<String>>,
     config: Option<Spanned<String>>,
+    kwargs: Option<Spanned<toml::Table>>,
+    python: Option<Spanned<String>>,
 }
 
 /// A named architecture of the manifest.
@@ -178,6 +185,19 @@ pub struct EnvEntry {
     /// Config string given verbatim to a plugin env's `create`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub config: Option<String>,
+    /// Keyword arguments of `gym.make` (`gymnasium:` envs only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub kwargs: Option<toml::Table>,
+    /// The Python interpreter of a `gymnasium:` env (a path with a `/` is
+    /// resolved against the manifest's folder; a bare name is looked up on PATH).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub python: Option<String>,
+    /// Where the `kwargs` value stands, if given.
+    #[serde(skip)]
+    pub kwargs_span: Option<Range<usize>>,
+    /// Where the `python` value stands, if given.
+    #[serde(skip)]
+    pub python_span: Option<Range<usize>>,
     /// Where the id stands in the manifest (byte range), for error messages.
     #[serde(skip)]
     pub id_span: Range<usize>,
@@ -489,6 +509,17 @@ impl Manifest {
                 action_dtype,
                 plugin,
                 config: e.config.as_ref().map(|c| c.get_ref().clone()),
+                kwargs: e.kwargs.as_ref().map(|k| k.get_ref().clone()),
+                python: e.python.as_ref().map(|p| {
+                    let v = p.get_ref();
+                    if v.contains('/') && !Path::new(v).is_absolute() {
+                        base.join(v).to_string_lossy().into_owned()
+                    } else {
+                        v.clone()
+                    }
+                }),
+                kwargs_span: e.kwargs.as_ref().map(|k| k.span()),
+                python_span: e.python.as_ref().map(|p| p.span()),
                 id_span: e.id.span(),
                 plugin_span: e.plugin.as_ref().map(|p| p.span()),
                 config_span: e.config.as_ref().map(|c| c.span()),

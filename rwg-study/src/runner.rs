@@ -166,6 +166,7 @@ pub fn run_study(
                 cell.id.dir
             ),
             EnvSource::Builtin(_) => format!("env '{}', cell {}", cell.plan.env_id, cell.id.dir),
+            EnvSource::Gym(_) => format!("env '{}', cell {}", cell.spec.id, cell.id.dir),
         });
         let blocks: Vec<_> = (0..nb)
             .filter(|&b| owned(ci, b) && !block_done(&dir, b))
@@ -201,7 +202,13 @@ pub fn run_study(
                     cell: cell.id.dir.clone(),
                     plugin: match &cell.source {
                         EnvSource::Plugin(p) => Some(p.path().to_path_buf()),
-                        EnvSource::Builtin(_) => None,
+                        EnvSource::Builtin(_) | EnvSource::Gym(_) => None,
+                    },
+                    gym: match &cell.source {
+                        EnvSource::Gym(g) => {
+                            Some(format!("{}, Python {}", cell.spec.id, g.config().python))
+                        }
+                        _ => None,
                     },
                     out: out.clone(),
                     source: Box::new(source),
@@ -237,6 +244,7 @@ pub fn run_study(
 /// Runs the given blocks of a cell, committing each. Built-in envs are
 /// statically dispatched (the sampler is monomorphised for each); plugin envs
 /// run through the same generic sampler as `Watched<TimeLimit<PluginEnv>>`.
+/// Gymnasium envs through the batched sampler (`rwg_core::batch`).
 fn run_cell_blocks(
     cell: &Cell,
     blocks: &[std::ops::Range<u64>],
@@ -307,6 +315,31 @@ fn run_cell_blocks(
                     .expect("an instance was created when the cells were planned")
             })
         }),
+        // Batched: one Python worker per thread steps its 16 lanes together.
+        EnvSource::Gym(g) => {
+            let Runner {
+                cell,
+                blocks,
+                dir,
+                episodes,
+                stop,
+                mut on_done,
+            } = runner;
+            let wave = rayon::current_num_threads() * 2;
+            g.run_blocks(
+                &cell.plan,
+                blocks,
+                wave,
+                |b: BlockResult| -> Result<(), CellError> {
+                    write_block(dir, &b, episodes)?;
+                    on_done(&b);
+                    if stop.load(Ordering::SeqCst) {
+                        return Err(CellError::Interrupted);
+                    }
+                    Ok(())
+                },
+            )
+        }
     }
 }
 

@@ -20,8 +20,19 @@ but rejected (not loadable, an id already taken) are listed on stderr with the r
 Examples:
   rwg envs
   rwg envs --plugin target/release/librwg_plugin_classic_control.so --json
-  RWG_PLUGIN_PATH=~/rwg-plugins rwg envs")]
+  RWG_PLUGIN_PATH=~/rwg-plugins rwg envs
+  rwg envs gymnasium:LunarLander-v3 gymnasium:InvertedPendulum-v5
+  rwg envs gymnasium:LunarLander-v3 --kwargs '{\"continuous\": true}' --json
+
+A gymnasium: id is described by Gymnasium itself (a Python worker is started):
+its spaces as rwg sees them (flattened), Gymnasium's own text of them, its
+registered time limit and reward threshold.")]
 pub struct Args {
+    /// Describe these gymnasium: envs (gymnasium:ID or gymnasium:module:ID)
+    /// instead of listing the built-in and plugin ones.
+    ids: Vec<String>,
+    #[command(flatten)]
+    gym: crate::gym::GymArgs,
     /// Print a JSON array instead of a table.
     #[arg(long)]
     json: bool,
@@ -39,6 +50,19 @@ struct Row {
     action_dtype_sensitive: bool,
     /// The plugin library providing the env (`null`: built in).
     plugin: Option<PathBuf>,
+    /// For a gymnasium: env: what Gymnasium says about it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gymnasium: Option<GymRow>,
+}
+
+#[derive(Serialize)]
+struct GymRow {
+    observation_space: String,
+    action_space: String,
+    obs_dim: usize,
+    gymnasium_version: String,
+    python_version: String,
+    python: String,
 }
 
 fn plugin_rows(p: &Plugin) -> impl Iterator<Item = Row> + '_ {
@@ -47,13 +71,39 @@ fn plugin_rows(p: &Plugin) -> impl Iterator<Item = Row> + '_ {
         summary: ty.summary().to_string(),
         action_dtype_sensitive: false,
         plugin: Some(ty.plugin().path.clone()),
+        gymnasium: None,
     })
 }
 
 /// Runs `rwg envs`.
 pub fn run(args: Args) -> Result<()> {
     let mut rows: Vec<Row> = vec![];
-    if args.plugin.is_empty() {
+    if !args.ids.is_empty() {
+        for id in &args.ids {
+            if !crate::gym::is_gym(id) {
+                anyhow::bail!(
+                    "'{id}': only gymnasium: ids are described one by one (rwg envs lists the others)"
+                );
+            }
+            let cfg = args.gym.config(id)?;
+            let env = rwg_gym::make_single(&cfg).map_err(|e| anyhow::anyhow!("{id}: {e}"))?;
+            let info = env.inner().info().clone();
+            rows.push(Row {
+                summary: format!("{} -> {}", info.observation_space, info.action_space),
+                action_dtype_sensitive: false,
+                plugin: None,
+                gymnasium: Some(GymRow {
+                    observation_space: info.observation_space.clone(),
+                    action_space: info.action_space.clone(),
+                    obs_dim: info.spec.obs_dim(),
+                    gymnasium_version: info.gymnasium.clone(),
+                    python_version: info.python.clone(),
+                    python: cfg.python.clone(),
+                }),
+                spec: info.spec,
+            });
+        }
+    } else if args.plugin.is_empty() {
         rows.extend(REGISTRY.iter().map(|r| {
             Row {
                 spec: make(r.id, &EnvOptions::default())
@@ -63,6 +113,7 @@ pub fn run(args: Args) -> Result<()> {
                 summary: r.summary.to_string(),
                 action_dtype_sensitive: r.dtype_sensitive,
                 plugin: None,
+                gymnasium: None,
             }
         }));
         let scan = scan_plugin_path();

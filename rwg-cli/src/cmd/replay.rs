@@ -59,14 +59,25 @@ pub fn find_cell<'a>(
     arch: &str,
     bias: Option<bool>,
 ) -> Result<&'a Cell> {
-    let matching: Vec<&Cell> = cells
-        .iter()
-        .filter(|c| {
-            bias.map_or(c.id.env == env && c.id.arch == arch, |b| {
-                c.id.is(env, arch, b)
+    // The env as the manifest names it (`gymnasium:CartPole-v1`), else by the
+    // id that enters the seeds.
+    let pick = |by_manifest_id: bool| -> Vec<&Cell> {
+        cells
+            .iter()
+            .filter(|c| {
+                (if by_manifest_id {
+                    c.id.env == env
+                } else {
+                    c.plan.env_id == env
+                }) && c.id.arch == arch
+                    && bias.is_none_or(|b| c.id.bias == b)
             })
-        })
-        .collect();
+            .collect()
+    };
+    let mut matching = pick(true);
+    if matching.is_empty() {
+        matching = pick(false);
+    }
     match matching.as_slice() {
         [c] => Ok(c),
         [] => {
@@ -107,6 +118,10 @@ struct Export<'a> {
     action: String,
     layers: Vec<Layer>,
     reset_seeds: Vec<u64>,
+    /// `gym.make`'s keyword arguments, for a `gymnasium:` env (whose `env`
+    /// is then the id to give `gym.make`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gym_kwargs: Option<serde_json::Map<String, serde_json::Value>>,
 }
 
 fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Export<'a> {
@@ -150,6 +165,10 @@ fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Ex
         reset_seeds: (0..episodes)
             .map(|e| reset_seed(cell.plan.seed, &cell.plan.env_id, sample, e))
             .collect(),
+        gym_kwargs: match &cell.source {
+            rwg_study::env_source::EnvSource::Gym(g) => Some(g.config().kwargs.clone()),
+            _ => None,
+        },
     }
 }
 

@@ -25,7 +25,8 @@ Examples:
   rwg rollout CartPole-v0 --seed 3 --actions 0,1,1,0
   rwg rollout Pendulum-v1 --seed 4 --actions 0.5,-2.5 --action-dtype float32
   rwg rollout Pendulum-v0 --state 3.0,0.5 --actions-file actions.txt --format csv
-  rwg rollout example/PointMass-v0 --plugin target/release/librwg_example_plugin.so --actions \"0.5 -0.5\"")]
+  rwg rollout example/PointMass-v0 --plugin target/release/librwg_example_plugin.so --actions \"0.5 -0.5\"
+  rwg rollout gymnasium:LunarLander-v3 --kwargs '{\"continuous\": true}' --seed 1 --actions \"0.5 -0.5,1 0\"")]
 pub struct Args {
     /// Environment id (see `rwg envs`).
     env: String,
@@ -65,6 +66,8 @@ pub struct Args {
     /// Output format.
     #[arg(long, default_value = "jsonl", value_parser = ["jsonl", "csv"])]
     format: String,
+    #[command(flatten)]
+    gym: crate::gym::GymArgs,
 }
 
 /// One parsed action: where it came from, and its components.
@@ -170,6 +173,13 @@ fn make_env(args: &Args, opts: &EnvOptions) -> Result<Box<dyn Environment + Send
             .with_context(|| format!("cannot create {} from {}", args.env, describe(ty)))?;
         Ok(Box::new(env))
     };
+    if crate::gym::is_gym(&args.env) {
+        let mut cfg = args.gym.config(&args.env)?;
+        cfg.max_episode_steps = args.max_episode_steps;
+        cfg.action_dtype = opts.action_dtype;
+        return Ok(Box::new(rwg_gym::make_single(&cfg)?));
+    }
+    args.gym.refuse_for(&args.env)?;
     let mut plugins = Plugins::default();
     if let Some(path) = &args.plugin {
         let p = plugins.file(path).map_err(|e| anyhow::anyhow!("{e}"))?;

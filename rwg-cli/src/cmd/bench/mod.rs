@@ -19,9 +19,11 @@
 //! One file per benchmark: `envs` (built-in envs), `plugin` (a plugin's
 //! envs against the built-ins they re-export), `sampler` (the RWG
 //! workload), `peers` (the whole `rwg run` against gymnax-raw, side by
-//! side); the timing and the table output are shared, here.
+//! side), `gym` (Gymnasium envs through the bridge against a pure-Python
+//! loop); the timing and the table output are shared, here.
 
 mod envs;
+mod gym;
 mod peers;
 mod plugin;
 mod sampler;
@@ -95,6 +97,19 @@ virtualenv --venv, which --create-venv makes with
 jaxlib==0.10.2 gymnax==1.0.1 flax==0.12.8 six==1.17.0
 Build rwg with --release for meaningful figures.")]
     Peers(peers::PeersArgs),
+    /// Gymnasium envs through the bridge, beside a pure-Python loop (the ceiling) and a peer script.
+    #[command(after_help = "\
+For each gymnasium: env, interleaved REPEATS times: (1) the RWG workload (SAMPLES 0HL \
+networks x EPISODES episodes, no bias) through the bridge on one sampler thread = one \
+Python worker; (2) a pure-Python loop in one process that only calls env.step with \
+pre-drawn random actions for the same number of steps (resetting with successive seeds), \
+the ceiling for any bridge; (3) the same RWG workload on two threads = two workers; \
+(4) with --peer, a peer script on SAMPLES/5 networks. Worker start-up is not timed. \
+Reported: median [min-max] env steps/s, bridge / ceiling and 2 workers / 1 worker.
+
+Example:
+  rwg bench gym --env gymnasium:CartPole-v1 --peer ../shared/peers/ref_numpy.py")]
+    Gym(gym::GymBenchArgs),
 }
 
 /// Runs `rwg bench`.
@@ -103,6 +118,7 @@ pub fn run(args: Args) -> Result<()> {
         What::Envs(a) => envs::run(a),
         What::Sampler(a) => sampler::run(a),
         What::Peers(a) => peers::run(a),
+        What::Gym(a) => gym::run(a),
     }
 }
 

@@ -1,0 +1,922 @@
+//! Batched environments: many instances stepped together in one call, and the
+//! sampler loop that drives them.
+//!
+//! The built-in and plugin environments are stepped one instance at a time
+//! ([`crate::sampler::LaneWorker`], static dispatch). An environment hosted
+//! elsewhere — a Python process running Gymnasium (the `rwg-gym` crate) —
+//! pays a round trip per call, so it implements [`BatchEnv`] instead: one
+//! call resets or steps every lane of a worker at once. [`run_blocks_batched`]
+//! is [`crate::sampler::run_blocks`] for such environments, with the same
+//! weights, reset seeds, network arithmetic and episode bookkeeping, so the
+//! results are identical to running the same environment one episode after
+//! the other.
+
+use crate::policy::{NetShape, PolicyLanes};
+use crate::sampler::{
+    draw_weights, reset_seed, weight_rng, BlockResult, CellPlan, EpisodeResult, SampleError, LANES,
+};
+use rayon::prelude::*;
+use rwg_env::Action;
+use rwg_env::{EnvError, EnvSpec, Step};
+use std::ops::Range;
+use std::sync::Mutex;
+
+/// What one lane does in an exchange.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LaneOp {
+    /// Nothing (its observation slot is left alone).
+    Idle,
+    /// `env.reset(seed=...)`.
+    Reset(u64),
+    /// `env.step(action)` with the lane's action.
+    Step,
+}
+
+/// What one lane reported in an exchange.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LaneOutcome {
+    /// The lane was idle.
+    Idle,
+    /// The reset succeeded; its observation was written.
+    Reset,
+    /// The step succeeded; its observation was written.
+    Step(Step),
+    /// The environment failed on this lane.
+    Failed(EnvError),
+}
+
+/// The actions of one exchange, for the lanes whose op is [`LaneOp::Step`].
+#[derive(Debug, Clone, Copy)]
+pub struct LaneActions<'a> {
+    /// Discrete actions, one per lane (unused for continuous spaces).
+    pub discrete: &'a [i64],
+    /// Continuous actions, `action_dim` per lane, lane-major (empty for
+    /// discrete spaces).
+    pub continuous: &'a [f64],
+}
+
+/// A whole batch failed (e.g. the process hosting it died or hung).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BatchFailure {
+    /// The lane that was running when it happened, if known, counted across
+    /// groups (`group * lanes + lane`).
+    pub lane: Option<usize>,
+    /// What happened.
+    pub error: EnvError,
+}
+
+impl From<EnvError> for BatchFailure {
+    fn from(error: EnvError) -> Self {
+        BatchFailure { lane: None, error }
+    }
+}
+
+/// Many instances of one environment, reset and stepped together.
+///
+/// The instances form `groups()` groups of `lanes()` lanes. An exchange with
+/// a group is split in two, [`BatchEnv::send`] and [`BatchEnv::recv`], so
+/// that one group can be in flight while the caller works on another (a
+/// remote host then never waits for the caller); the groups' answers come
+/// back in the order they were sent.
+pub trait BatchEnv {
+    /// The environment's description (the same for every lane).
+    fn spec(&self) -> &EnvSpec;
+
+    /// Number of lanes (instances) per group.
+    fn lanes(&self) -> usize;
+
+    /// Number of groups.
+    fn groups(&self) -> usize {
+        1
+    }
+
+    /// Starts an exchange with `group`: its lane `i` is to do `ops[i]`.
+    fn send(
+        &mut self,
+        group: usize,
+        ops: &[LaneOp],
+        actions: LaneActions<'_>,
+    ) -> Result<(), BatchFailure>;
+
+    /// Finishes the oldest exchange in flight, which must be `group`'s: lane
+    /// `i`'s observation goes into `obs[i * obs_dim..]`, its outcome into
+    /// `out[i]`. An `Err` (from either half) means the whole batch failed
+    /// (e.g. the process hosting it died): no lane's outcome is valid and
+    /// the batch must not be used again; the failure names the lane that was
+    /// running, if known.
+    fn recv(
+        &mut self,
+        group: usize,
+        obs: &mut [f64],
+        out: &mut [LaneOutcome],
+    ) -> Result<(), BatchFailure>;
+
+    /// [`BatchEnv::send`] then [`BatchEnv::recv`] with group 0.
+    fn exchange(
+        &mut self,
+        ops: &[LaneOp],
+        actions: LaneActions<'_>,
+        obs: &mut [f64],
+        out: &mut [LaneOutcome],
+    ) -> Result<(), BatchFailure> {
+        self.send(0, ops, actions)?;
+        self.recv(0, obs, out)
+    }
+}
+
+/// A set of idle batch environments, shared by the worker threads: a worker
+/// takes one (or makes a new one) and gives it back when done, so a costly
+/// instance (a process) is reused across blocks and cells.
+pub struct BatchPool<B> {
+    idle: Mutex<Vec<B>>,
+}
+
+impl<B> Default for BatchPool<B> {
+    fn default() -> Self {
+        BatchPool {
+            idle: Mutex::new(Vec::new()),
+        }
+    }
+}
+
+impl<B> BatchPool<B> {
+    /// Gives `b` back for reuse.
+    pub fn put(&self, b: B) {
+        self.idle.lock().unwrap_or_else(|p| p.into_inner()).push(b);
+    }
+
+    /// An idle instance, if there is one.
+    pub fn take(&self) -> Option<B> {
+        self.idle.lock().unwrap_or_else(|p| p.into_inner()).pop()
+    }
+
+    /// Calls `f` with the idle instances.
+    pub fn with_idle<R>(&self, f: impl FnOnce(&[B]) -> R) -> R {
+        f(&self.idle.lock().unwrap_or_else(|p| p.into_inner()))
+    }
+
+    /// Number of idle instances.
+    pub fn idle(&self) -> usize {
+        self.idle.lock().unwrap_or_else(|p| p.into_inner()).len()
+    }
+}
+
+/// What one lane of a [`BatchLaneWorker`] is doing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum LaneState {
+    Free,
+    /// Waiting for its reset (with this seed) in the next exchange.
+    Resetting(u64),
+    Running,
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Lane {
+    state: LaneState,
+    item: usize,
+    weights_of: usize,
+    score: f64,
+    steps: u32,
+}
+
+/// One group of [`LANES`] lanes of a [`BatchLaneWorker`], with its networks.
+struct Group {
+    policy: PolicyLanes<LANES>,
+    obs: Vec<f64>,
+    lanes: [Lane; LANES],
+    ops: Vec<LaneOp>,
+    out: Vec<LaneOutcome>,
+    discrete: Vec<i64>,
+    continuous: Vec<f64>,
+    in_flight: bool,
+}
+
+/// The block being run: what the lanes of all groups share.
+struct BlockRun<'a> {
+    plan: &'a CellPlan,
+    samples: Range<u64>,
+    next: usize,
+    total: usize,
+    failure: Option<(usize, u32, EnvError)>,
+}
+
+/// [`crate::sampler::LaneWorker`] for a [`BatchEnv`]: [`LANES`] episodes side
+/// by side in each of the env's groups, one exchange per group and batch
+/// step. A lane whose episode ends is reset in its group's next exchange
+/// (while the other lanes step), so every exchange is a single round trip;
+/// with several groups, one is in flight while the worker handles another.
+pub struct BatchLaneWorker<B> {
+    env: B,
+    groups: Vec<Group>,
+    action_dim: usize,
+    block_weights: Vec<f64>,
+    n_weights: usize,
+    /// Set when the environment failed: it must not be reused.
+    poisoned: bool,
+    /// Set when the whole batch failed: nothing more can be sent.
+    dead: bool,
+}
+
+impl<B: BatchEnv> BatchLaneWorker<B> {
+    /// A worker for `plan` on `env`, whose groups must have [`LANES`] lanes.
+    pub fn new(env: B, plan: &CellPlan) -> Self {
+        assert_eq!(env.lanes(), LANES, "a batch env of {LANES} lanes per group");
+        let spec = env.spec();
+        let n_out = NetShape::outputs_for(&spec.action_space);
+        let shape = NetShape::new(spec.obs_dim(), &plan.arch, n_out);
+        let obs_dim = spec.obs_dim();
+        let action_dim = match &spec.action_space {
+            rwg_env::Space::Discrete { .. } => 0,
+            rwg_env::Space::Box(b) => b.dim(),
+        };
+        let free = Lane {
+            state: LaneState::Free,
+            item: 0,
+            weights_of: usize::MAX,
+            score: 0.0,
+            steps: 0,
+        };
+        let groups = (0..env.groups())
+            .map(|_| Group {
+                policy: PolicyLanes::new(shape.clone(), &spec.action_space),
+                obs: vec![0.0; LANES * obs_dim],
+                lanes: [free; LANES],
+                ops: vec![LaneOp::Idle; LANES],
+                out: vec![LaneOutcome::Idle; LANES],
+                discrete: vec![0; LANES],
+                continuous: vec![0.0; LANES * action_dim],
+                in_flight: false,
+            })
+            .collect();
+        BatchLaneWorker {
+            n_weights: shape.n_weights(),
+            env,
+            groups,
+            action_dim,
+            block_weights: Vec::new(),
+            poisoned: false,
+            dead: false,
+        }
+    }
+
+    /// The environment back, unless it failed (then it is dropped).
+    pub fn into_env(self) -> Option<B> {
+        (!self.poisoned).then_some(self.env)
+    }
+
+    /// Runs every episode of `samples` into `out`, exactly as
+    /// [`crate::sampler::LaneWorker::run_block`] does (same results, same
+    /// first failing episode).
+    pub fn run_block(
+        &mut self,
+        plan: &CellPlan,
+        samples: Range<u64>,
+        out: &mut [EpisodeResult],
+    ) -> Result<(), SampleError> {
+        let e = plan.episodes as usize;
+        let n = (samples.end - samples.start) as usize;
+        assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
+        let nw = self.n_weights;
+        self.block_weights.resize(n * nw, 0.0);
+        for k in 0..n {
+            let mut rng = weight_rng(
+                plan.seed,
+                &plan.env_id,
+                &plan.arch,
+                samples.start + k as u64,
+            );
+            draw_weights(
+                &mut rng,
+                plan.dist,
+                &mut self.block_weights[k * nw..(k + 1) * nw],
+            );
+        }
+        let mut run = BlockRun {
+            plan,
+            samples: samples.clone(),
+            next: 0,
+            total: n * e,
+            failure: None,
+        };
+        for g in 0..self.groups.len() {
+            let group = &mut self.groups[g];
+            for (i, lane) in group.lanes.iter_mut().enumerate() {
+                lane.state = LaneState::Free;
+                lane.weights_of = usize::MAX;
+                start_next(
+                    &mut group.policy,
+                    &self.block_weights,
+                    nw,
+                    &mut run,
+                    i,
+                    lane,
+                );
+            }
+        }
+        for g in 0..self.groups.len() {
+            self.send(g, &mut run);
+        }
+        while self.groups.iter().any(|g| g.in_flight) {
+            for g in 0..self.groups.len() {
+                if !self.groups[g].in_flight {
+                    continue;
+                }
+                self.groups[g].in_flight = false;
+                let group = &mut self.groups[g];
+                if let Err(f) = self.env.recv(g, &mut group.obs, &mut group.out) {
+                    self.whole_batch_failed(f, &mut run);
+                    break;
+                }
+                self.absorb(g, &mut run, out);
+                if let Some((first, _, _)) = &run.failure {
+                    for group in &mut self.groups {
+                        for lane in group.lanes.iter_mut().filter(|l| l.item > *first) {
+                            lane.state = LaneState::Free;
+                        }
+                    }
+                }
+                self.send(g, &mut run);
+            }
+        }
+        match run.failure {
+            None => Ok(()),
+            Some((item, step, error)) => Err(SampleError {
+                env: plan.env_id.clone(),
+                sample: samples.start + (item / e) as u64,
+                episode: (item % e) as u32,
+                step,
+                error,
+            }),
+        }
+    }
+
+    /// Sends group `g`'s next exchange, if any of its lanes is busy.
+    fn send(&mut self, g: usize, run: &mut BlockRun<'_>) {
+        if self.dead {
+            return;
+        }
+        let ad = self.action_dim;
+        let group = &mut self.groups[g];
+        if group.lanes.iter().all(|l| l.state == LaneState::Free) {
+            return;
+        }
+        if group.lanes.iter().any(|l| l.state == LaneState::Running) {
+            group.policy.forward(&group.obs);
+        }
+        for (i, lane) in group.lanes.iter().enumerate() {
+            group.ops[i] = match lane.state {
+                LaneState::Free => LaneOp::Idle,
+                LaneState::Resetting(seed) => LaneOp::Reset(seed),
+                LaneState::Running => {
+                    match group.policy.action(i) {
+                        Action::Discrete(a) => group.discrete[i] = a,
+                        Action::Continuous(a) => {
+                            group.continuous[i * ad..(i + 1) * ad].copy_from_slice(a)
+                        }
+                    }
+                    LaneOp::Step
+                }
+            };
+        }
+        let actions = LaneActions {
+            discrete: &group.discrete,
+            continuous: &group.continuous,
+        };
+        match self.env.send(g, &group.ops, actions) {
+            Ok(()) => group.in_flight = true,
+            Err(f) => self.whole_batch_failed(f, run),
+        }
+    }
+
+    /// The whole batch failed: the lane it names failed (or, if unknown,
+    /// every busy lane of every group).
+    fn whole_batch_failed(&mut self, f: BatchFailure, run: &mut BlockRun<'_>) {
+        self.poisoned = true;
+        self.dead = true;
+        for (h, group) in self.groups.iter_mut().enumerate() {
+            group.in_flight = false;
+            for (i, lane) in group.lanes.iter().enumerate() {
+                let culprit = f.lane.is_none_or(|c| c == h * LANES + i);
+                if lane.state != LaneState::Free && culprit {
+                    let step = match lane.state {
+                        LaneState::Running => lane.steps + 1,
+                        _ => 0,
+                    };
+                    record_failure(&mut run.failure, lane.item, step, f.error.clone());
+                }
+            }
+        }
+    }
+
+    /// Takes group `g`'s outcomes into its lanes: scores, finished episodes
+    /// (their lanes get the next episode), failures.
+    fn absorb(&mut self, g: usize, run: &mut BlockRun<'_>, out: &mut [EpisodeResult]) {
+        let nw = self.n_weights;
+        let group = &mut self.groups[g];
+        for (i, lane) in group.lanes.iter_mut().enumerate() {
+            match std::mem::replace(&mut group.out[i], LaneOutcome::Idle) {
+                LaneOutcome::Idle => {}
+                LaneOutcome::Reset => {
+                    lane.state = LaneState::Running;
+                    lane.score = 0.0;
+                    lane.steps = 0;
+                }
+                LaneOutcome::Step(s) => {
+                    lane.score += s.reward;
+                    lane.steps += 1;
+                    if s.terminated || s.truncated {
+                        out[lane.item] = EpisodeResult {
+                            score: lane.score,
+                            steps: lane.steps,
+                        };
+                        lane.state = LaneState::Free;
+                        if run.failure.is_none() {
+                            start_next(&mut group.policy, &self.block_weights, nw, run, i, lane);
+                        }
+                    }
+                }
+                LaneOutcome::Failed(err) => {
+                    self.poisoned = true;
+                    let step = match lane.state {
+                        LaneState::Running => lane.steps + 1,
+                        _ => 0,
+                    };
+                    lane.state = LaneState::Free;
+                    record_failure(&mut run.failure, lane.item, step, err);
+                }
+            }
+        }
+    }
+}
+
+/// Gives lane `i` the next episode of the block (its network's weights and
+/// a pending reset), unless all have started.
+fn start_next(
+    policy: &mut PolicyLanes<LANES>,
+    block_weights: &[f64],
+    nw: usize,
+    run: &mut BlockRun<'_>,
+    i: usize,
+    lane: &mut Lane,
+) {
+    if run.next >= run.total {
+        return;
+    }
+    let item = run.next;
+    run.next += 1;
+    let e = run.plan.episodes as usize;
+    let (k, episode) = (item / e, item % e);
+    if lane.weights_of != k {
+        policy.set_weights(i, &block_weights[k * nw..(k + 1) * nw]);
+        lane.weights_of = k;
+    }
+    let r = reset_seed(
+        run.plan.seed,
+        &run.plan.env_id,
+        run.samples.start + k as u64,
+        episode as u32,
+    );
+    lane.item = item;
+    lane.state = LaneState::Resetting(r);
+}
+
+/// Keeps the failure of the earliest episode.
+fn record_failure(
+    failure: &mut Option<(usize, u32, EnvError)>,
+    item: usize,
+    step: u32,
+    err: EnvError,
+) {
+    if failure.as_ref().is_none_or(|(first, _, _)| item < *first) {
+        *failure = Some((item, step, err));
+    }
+}
+
+/// A worker on loan from a [`BatchPool`], given back when dropped (unless its
+/// environment failed).
+struct Lease<'p, B: BatchEnv> {
+    pool: &'p BatchPool<B>,
+    worker: Option<BatchLaneWorker<B>>,
+}
+
+impl<B: BatchEnv> Drop for Lease<'_, B> {
+    fn drop(&mut self) {
+        if let Some(env) = self.worker.take().and_then(BatchLaneWorker::into_env) {
+            self.pool.put(env);
+        }
+    }
+}
+
+/// [`crate::sampler::run_blocks`] for a batched environment: the blocks run
+/// in parallel on the current rayon pool, each worker thread on a batch env
+/// taken from `pool` (or made by `make` when none is idle) and given back
+/// afterwards, so at most one batch env per thread exists. Results, their
+/// order and the first error are those of `run_blocks`.
+pub fn run_blocks_batched<B, F, G, X>(
+    plan: &CellPlan,
+    blocks: &[Range<u64>],
+    wave: usize,
+    pool: &BatchPool<B>,
+    make: F,
+    mut on_block: G,
+) -> Result<(), X>
+where
+    B: BatchEnv + Send,
+    F: Fn() -> Result<B, EnvError> + Sync,
+    G: FnMut(BlockResult) -> Result<(), X>,
+    X: From<SampleError> + Send,
+{
+    let e = plan.episodes as usize;
+    for wave_blocks in blocks.chunks(wave.max(1)) {
+        let results: Vec<Result<BlockResult, SampleError>> = wave_blocks
+            .par_iter()
+            .map_init(
+                || -> Result<Lease<'_, B>, EnvError> {
+                    let env = match pool.take() {
+                        Some(b) => b,
+                        None => make()?,
+                    };
+                    Ok(Lease {
+                        pool,
+                        worker: Some(BatchLaneWorker::new(env, plan)),
+                    })
+                },
+                |lease, range| {
+                    let lease = lease.as_mut().map_err(|err| SampleError {
+                        env: plan.env_id.clone(),
+                        sample: range.start,
+                        episode: 0,
+                        step: 0,
+                        error: err.clone(),
+                    })?;
+                    let worker = lease.worker.as_mut().expect("a leased worker");
+                    let n = (range.end - range.start) as usize;
+                    let mut episodes = vec![
+                        EpisodeResult {
+                            score: 0.0,
+                            steps: 0
+                        };
+                        n * e
+                    ];
+                    worker.run_block(plan, range.clone(), &mut episodes)?;
+                    Ok(BlockResult {
+                        samples: range.clone(),
+                        episodes,
+                    })
+                },
+            )
+            .collect();
+        for r in results {
+            on_block(r?)?;
+        }
+    }
+    Ok(())
+}
+
+/// Runs one instance of a batch environment as a plain [`rwg_env::Environment`]
+/// (lane 0 only): for rollouts, checks and replays outside the sampler.
+pub struct SingleLane<B: BatchEnv> {
+    env: B,
+    ops: Vec<LaneOp>,
+    out: Vec<LaneOutcome>,
+    discrete: Vec<i64>,
+    continuous: Vec<f64>,
+    obs: Vec<f64>,
+    dead: Option<EnvError>,
+}
+
+impl<B: BatchEnv> SingleLane<B> {
+    /// Wraps `env` (any number of lanes; lane 0 is used).
+    pub fn new(env: B) -> Self {
+        let n = env.lanes();
+        let d = env.spec().obs_dim();
+        SingleLane {
+            ops: vec![LaneOp::Idle; n],
+            out: vec![LaneOutcome::Idle; n],
+            discrete: vec![0; n],
+            continuous: vec![
+                0.0;
+                n * match &env.spec().action_space {
+                    rwg_env::Space::Box(b) => b.dim(),
+                    rwg_env::Space::Discrete { .. } => 0,
+                }
+            ],
+            obs: vec![0.0; n * d],
+            env,
+            dead: None,
+        }
+    }
+
+    /// The batch environment.
+    pub fn inner(&self) -> &B {
+        &self.env
+    }
+
+    fn run(&mut self, op: LaneOp, obs: &mut [f64]) -> Result<LaneOutcome, EnvError> {
+        if let Some(e) = &self.dead {
+            return Err(e.clone());
+        }
+        self.ops[0] = op;
+        let actions = LaneActions {
+            discrete: &self.discrete,
+            continuous: &self.continuous,
+        };
+        if let Err(f) = self
+            .env
+            .exchange(&self.ops, actions, &mut self.obs, &mut self.out)
+        {
+            self.dead = Some(f.error.clone());
+            return Err(f.error);
+        }
+        let d = obs.len();
+        obs.copy_from_slice(&self.obs[..d]);
+        Ok(std::mem::replace(&mut self.out[0], LaneOutcome::Idle))
+    }
+}
+
+impl<B: BatchEnv> rwg_env::Environment for SingleLane<B> {
+    fn spec(&self) -> &EnvSpec {
+        self.env.spec()
+    }
+
+    fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+        match self.run(LaneOp::Reset(seed), obs)? {
+            LaneOutcome::Failed(e) => Err(e),
+            _ => Ok(()),
+        }
+    }
+
+    fn step(&mut self, action: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+        let dim = self.continuous.len() / self.env.lanes();
+        match action {
+            Action::Discrete(a) if dim == 0 => self.discrete[0] = a,
+            Action::Discrete(a) => {
+                return Err(EnvError::InvalidAction(format!(
+                    "discrete action {a} given to a continuous action space"
+                )))
+            }
+            Action::Continuous(a) => {
+                if a.len() != dim {
+                    return Err(EnvError::InvalidAction(format!(
+                        "action has {} values, the action space has {dim}",
+                        a.len()
+                    )));
+                }
+                self.continuous[..dim].copy_from_slice(a);
+            }
+        }
+        match self.run(LaneOp::Step, obs)? {
+            LaneOutcome::Step(s) => Ok(s),
+            LaneOutcome::Failed(e) => Err(e),
+            other => Err(EnvError::Other(format!("unexpected outcome {other:?}"))),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::policy::Architecture;
+    use crate::sampler::{LaneWorker, WeightDist};
+    use rwg_env::{BoxSpace, Space};
+    use rwg_env::{Environment, Step};
+
+    /// A toy env: episodes of 1 + (seed % 7) steps; fails at step 2 of
+    /// episodes whose seed is a multiple of `fail_every`, and at reset when
+    /// it is also odd.
+    #[derive(Clone)]
+    struct Toy {
+        spec: EnvSpec,
+        seed: u64,
+        t: u64,
+        fail_every: u64,
+    }
+
+    impl Toy {
+        fn new(fail_every: u64, continuous: bool) -> Self {
+            Toy {
+                spec: EnvSpec {
+                    id: "Toy-v0".into(),
+                    observation_space: Space::Box(BoxSpace::symmetric(&[1e9, 1e9])),
+                    action_space: if continuous {
+                        Space::Box(BoxSpace::symmetric(&[2.0]))
+                    } else {
+                        Space::Discrete { n: 3 }
+                    },
+                    max_episode_steps: None,
+                    reward_threshold: None,
+                },
+                seed: 0,
+                t: 0,
+                fail_every,
+            }
+        }
+    }
+
+    impl Environment for Toy {
+        fn spec(&self) -> &EnvSpec {
+            &self.spec
+        }
+        fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+            if seed % self.fail_every == 0 && seed % 2 == 1 {
+                return Err(EnvError::Other(format!("reset {seed}")));
+            }
+            self.seed = seed;
+            self.t = 0;
+            obs[0] = (seed % 1000) as f64 / 1000.0;
+            obs[1] = -obs[0];
+            Ok(())
+        }
+        fn step(&mut self, a: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+            let a = match a {
+                Action::Discrete(a) => a as f64,
+                Action::Continuous(v) => v[0],
+            };
+            self.t += 1;
+            if self.seed % self.fail_every == 0 && self.t == 2 {
+                return Err(EnvError::Other(format!("step {}", self.seed)));
+            }
+            obs[0] = obs[0] * 0.5 + a;
+            obs[1] = obs[1] * 0.25 - a;
+            Ok(Step {
+                reward: obs[0] - obs[1],
+                terminated: self.t > self.seed % 7,
+                truncated: false,
+            })
+        }
+    }
+
+    /// An exchange in flight: group, ops, discrete and continuous actions.
+    type Sent = (usize, Vec<LaneOp>, Vec<i64>, Vec<f64>);
+
+    /// `groups` × `LANES` plain envs behind the batch interface, as a bridge
+    /// would host them; exchanges are answered in the order sent.
+    struct Hosted {
+        envs: Vec<Toy>,
+        groups: usize,
+        queue: std::collections::VecDeque<Sent>,
+    }
+
+    impl Hosted {
+        fn new(toy: Toy, groups: usize) -> Self {
+            Hosted {
+                envs: vec![toy; groups * LANES],
+                groups,
+                queue: Default::default(),
+            }
+        }
+    }
+
+    impl BatchEnv for Hosted {
+        fn spec(&self) -> &EnvSpec {
+            self.envs[0].spec()
+        }
+        fn lanes(&self) -> usize {
+            LANES
+        }
+        fn groups(&self) -> usize {
+            self.groups
+        }
+        fn send(
+            &mut self,
+            group: usize,
+            ops: &[LaneOp],
+            actions: LaneActions<'_>,
+        ) -> Result<(), BatchFailure> {
+            self.queue.push_back((
+                group,
+                ops.to_vec(),
+                actions.discrete.to_vec(),
+                actions.continuous.to_vec(),
+            ));
+            Ok(())
+        }
+        fn recv(
+            &mut self,
+            group: usize,
+            obs: &mut [f64],
+            out: &mut [LaneOutcome],
+        ) -> Result<(), BatchFailure> {
+            let (g, ops, discrete, continuous) = self.queue.pop_front().expect("in flight");
+            assert_eq!(g, group, "answers come back in the order sent");
+            for i in 0..LANES {
+                let env = &mut self.envs[g * LANES + i];
+                let o = &mut obs[i * 2..(i + 1) * 2];
+                out[i] = match ops[i] {
+                    LaneOp::Idle => LaneOutcome::Idle,
+                    LaneOp::Reset(s) => match env.reset(s, o) {
+                        Ok(()) => LaneOutcome::Reset,
+                        Err(e) => LaneOutcome::Failed(e),
+                    },
+                    LaneOp::Step => {
+                        let a = if continuous.is_empty() {
+                            Action::Discrete(discrete[i])
+                        } else {
+                            Action::Continuous(&continuous[i..i + 1])
+                        };
+                        match env.step(a, o) {
+                            Ok(s) => LaneOutcome::Step(s),
+                            Err(e) => LaneOutcome::Failed(e),
+                        }
+                    }
+                };
+            }
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn batched_lanes_give_the_lane_workers_results_and_first_error() {
+        let (mut oks, mut errs) = (0, 0);
+        for continuous in [false, true] {
+            for episodes in [1, 3] {
+                let plan = CellPlan {
+                    seed: 5,
+                    env_id: "Toy-v0".into(),
+                    arch: Architecture {
+                        hidden: vec![3],
+                        bias: true,
+                    },
+                    episodes,
+                    dist: WeightDist::Normal { std: 1.0 },
+                };
+                for fail_every in [1 << 40, 3, 13, 41] {
+                    for samples in [0..1, 0..9, 20..40] {
+                        let n = (samples.end - samples.start) as usize * episodes as usize;
+                        let blank = EpisodeResult {
+                            score: f64::NAN,
+                            steps: 0,
+                        };
+                        let mut want = vec![blank; n];
+                        let mut lw =
+                            LaneWorker::<_, LANES>::new(|| Toy::new(fail_every, continuous), &plan);
+                        let r_want = lw.run_block(&plan, samples.clone(), &mut want);
+                        for groups in [1, 2, 3] {
+                            let hosted = Hosted::new(Toy::new(fail_every, continuous), groups);
+                            let mut bw = BatchLaneWorker::new(hosted, &plan);
+                            let mut got = vec![blank; n];
+                            let r_got = bw.run_block(&plan, samples.clone(), &mut got);
+                            assert_eq!(
+                                r_got, r_want,
+                                "{continuous} {fail_every} {samples:?} {groups}"
+                            );
+                            if r_want.is_ok() {
+                                assert_eq!(got, want);
+                                oks += 1;
+                            } else {
+                                errs += 1;
+                            }
+                            // the worker runs the next block on the same env
+                            if groups == 2 && r_want.is_ok() {
+                                let mut again = vec![blank; n];
+                                assert_eq!(
+                                    bw.run_block(&plan, samples.clone(), &mut again),
+                                    Ok(())
+                                );
+                                assert_eq!(again, want);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(oks > 0 && errs > 0, "{oks} {errs}");
+    }
+
+    #[test]
+    fn pool_reuses_and_drops_failed_envs() {
+        let plan = CellPlan {
+            seed: 1,
+            env_id: "Toy-v0".into(),
+            arch: Architecture {
+                hidden: vec![],
+                bias: false,
+            },
+            episodes: 2,
+            dist: WeightDist::Normal { std: 1.0 },
+        };
+        let pool = BatchPool::default();
+        let made = std::sync::atomic::AtomicUsize::new(0);
+        let make = || {
+            made.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            Ok(Hosted::new(Toy::new(1 << 40, false), 2))
+        };
+        let blocks = [0..4, 4..8, 8..12];
+        let mut n = 0;
+        let pool_ref = &pool;
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .unwrap()
+            .install(|| {
+                run_blocks_batched(&plan, &blocks, 2, pool_ref, make, |b| {
+                    n += b.episodes.len();
+                    Ok::<(), SampleError>(())
+                })
+            })
+            .unwrap();
+        assert_eq!(n, 24);
+        assert_eq!(pool.idle(), 1);
+        assert_eq!(made.load(std::sync::atomic::Ordering::SeqCst), 1);
+    }
+}

@@ -1,0 +1,674 @@
+//! # rwg-gym: any Gymnasium environment through a crash-isolated bridge
+//!
+//! An environment id `gymnasium:ID` (or `gymnasium:module:ID`, which imports
+//! `module` first) runs in Python worker processes: each hosts [`GROUPS`]
+//! groups of [`rwg_core::sampler::LANES`] instances of the env, made with
+//! `gym.make`, and resets/steps a group in lockstep, one exchange over its
+//! stdin/stdout per batch step (one group in flight while rwg works on the
+//! other), in the binary format of `docs/bridge-protocol.md`. Everything
+//! else — weights, the network's forward pass, reset seeds, statistics —
+//! stays in rwg, so a Gymnasium env gives the numbers a built-in env of the
+//! same dynamics gives.
+//!
+//! The worker program ([`WORKER_PY`]) ships inside rwg and is handed to
+//! `python -c`; the user installs only Gymnasium and the env's package. A
+//! worker that crashes (a segfault in a C extension), hangs (no answer within
+//! the timeout) or raises is reported as an error naming what happened, with
+//! the Python traceback; rwg itself keeps running.
+//!
+//! This is its own crate (not part of the runner's core) because it owns
+//! processes, pipes and a Python program, none of which the built-in or
+//! plugin environments need.
+
+mod process;
+pub mod protocol;
+
+use process::Worker;
+use protocol::*;
+use rwg_core::batch::{
+    run_blocks_batched, BatchEnv, BatchFailure, BatchPool, LaneActions, LaneOp, LaneOutcome,
+    SingleLane,
+};
+use rwg_core::sampler::{BlockResult, CellPlan, SampleError, LANES};
+use rwg_env::{ActionDtype, BoxSpace, EnvError, EnvSpec, Space, Step};
+use serde::Deserialize;
+use std::ops::Range;
+use std::time::Duration;
+use thiserror::Error;
+
+/// The worker program, run with `python -c`.
+pub const WORKER_PY: &str = include_str!("worker.py");
+
+/// The prefix of a Gymnasium env id in rwg.
+pub const PREFIX: &str = "gymnasium:";
+
+/// The largest flat observation accepted (values): rwg's networks take the
+/// whole observation as input, so an image is far beyond what RWG measures.
+pub const MAX_OBS: usize = 4096;
+
+/// Default time a batch step may take before the worker counts as hung.
+pub const DEFAULT_TIMEOUT_S: f64 = 60.0;
+
+/// The environment variable overriding [`DEFAULT_TIMEOUT_S`] (seconds).
+pub const TIMEOUT_VAR: &str = "RWG_GYM_TIMEOUT";
+
+/// Groups of [`LANES`] env instances per worker: while the worker steps one
+/// group, rwg computes the next actions of the other, so neither waits.
+pub const GROUPS: usize = 2;
+
+/// The seed of the determinism check made when a worker starts.
+const CHECK_SEED: u64 = 20_200_509;
+
+/// The Gymnasium id in a `gymnasium:` id (`gymnasium:CartPole-v1` ->
+/// `CartPole-v1`, `gymnasium:pkg.envs:Maze-v0` -> `pkg.envs:Maze-v0`), or
+/// `None` for any other id. This is also the id that enters the seeds, so
+/// `gymnasium:CartPole-v1` meets the networks and initial states rwg's
+/// built-in `CartPole-v1` meets.
+pub fn gym_id(id: &str) -> Option<&str> {
+    id.strip_prefix(PREFIX)
+}
+
+/// Everything that determines a Gymnasium environment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GymConfig {
+    /// The id after `gymnasium:` (`CartPole-v1`, `module:Id`).
+    pub id: String,
+    /// The Python interpreter.
+    pub python: String,
+    /// Keyword arguments of `gym.make`, as JSON.
+    pub kwargs: serde_json::Map<String, serde_json::Value>,
+    /// The manifest's time-limit override (passed to `gym.make`).
+    pub max_episode_steps: Option<u32>,
+    /// dtype of the continuous action arrays handed to `step()`.
+    pub action_dtype: ActionDtype,
+    /// How long one batch step may take.
+    pub timeout: Duration,
+    /// Whether every episode gets a fresh `gym.make` instance; `None`: the
+    /// worker finds out (it runs an episode on a used and on a fresh
+    /// instance and compares them).
+    pub fresh_per_episode: Option<bool>,
+}
+
+impl GymConfig {
+    /// A config for `id` (without the prefix) with defaults: the Python from
+    /// [`default_python`], no kwargs, the env's own time limit, float64
+    /// actions and the timeout from [`default_timeout`].
+    pub fn new(id: &str) -> Self {
+        GymConfig {
+            id: id.to_string(),
+            python: default_python(),
+            kwargs: Default::default(),
+            max_episode_steps: None,
+            action_dtype: ActionDtype::F64,
+            timeout: default_timeout(),
+            fresh_per_episode: None,
+        }
+    }
+
+    /// The full rwg id, `gymnasium:ID`.
+    pub fn rwg_id(&self) -> String {
+        format!("{PREFIX}{}", self.id)
+    }
+}
+
+/// `RWG_PYTHON` if set, else `python3`.
+pub fn default_python() -> String {
+    std::env::var("RWG_PYTHON")
+        .ok()
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "python3".into())
+}
+
+/// [`TIMEOUT_VAR`] if set to a positive number of seconds, else [`DEFAULT_TIMEOUT_S`].
+pub fn default_timeout() -> Duration {
+    let s = std::env::var(TIMEOUT_VAR)
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|s| *s > 0.0 && s.is_finite())
+        .unwrap_or(DEFAULT_TIMEOUT_S);
+    Duration::from_secs_f64(s)
+}
+
+/// What can go wrong with a Gymnasium environment.
+#[derive(Debug, Error)]
+pub enum GymError {
+    /// The interpreter could not be started.
+    #[error(
+        "cannot run Python '{python}': {source}; install Python 3 with Gymnasium \
+             (python3 -m pip install gymnasium), or name the interpreter with `python = \"...\"` \
+             in the manifest or the RWG_PYTHON environment variable"
+    )]
+    NoPython {
+        /// The interpreter.
+        python: String,
+        /// Why it did not start.
+        source: std::io::Error,
+    },
+    /// The worker reported a fatal error (import, registration, make, spaces...).
+    #[error("{}", worker_error_text(.python, .error))]
+    Worker {
+        /// The interpreter.
+        python: String,
+        /// What it reported.
+        error: WorkerError,
+    },
+    /// The worker process ended.
+    #[error("the Python worker {how}{}", tail(.stderr))]
+    Died {
+        /// How it ended ("was killed by signal 11 (SIGSEGV)").
+        how: String,
+        /// The end of its stderr.
+        stderr: String,
+    },
+    /// The worker did not answer in time.
+    #[error("the Python worker did not answer within {secs} s (the environment hangs in reset or step?) \
+             and was killed; set {TIMEOUT_VAR} (seconds) to allow more{}", tail(.stderr))]
+    Timeout {
+        /// The limit.
+        secs: f64,
+        /// The end of its stderr (with the traceback of where it hung).
+        stderr: String,
+    },
+    /// The worker said something unexpected.
+    #[error("bridge protocol error: {0}")]
+    Protocol(String),
+}
+
+fn tail(stderr: &str) -> String {
+    if stderr.trim().is_empty() {
+        String::new()
+    } else {
+        format!("; the end of its stderr:\n{stderr}")
+    }
+}
+
+fn worker_error_text(python: &str, e: &WorkerError) -> String {
+    let mut s = match e.kind.as_str() {
+        "python" => format!(
+            "Gymnasium is not installed for {python}: {}; install it with:\n  {python} -m pip install \"gymnasium[box2d,mujoco]\"\n(or name another interpreter with `python = \"...\"` in the manifest or RWG_PYTHON)",
+            e.message
+        ),
+        "not_registered" => format!(
+            "Gymnasium has no such environment: {} (for an env of your own package, write \
+             gymnasium:your_module:YourEnv-v0 so that rwg imports the module first)",
+            e.message
+        ),
+        _ => e.message.clone(),
+    };
+    if !e.traceback.trim().is_empty() {
+        s.push_str("\nPython traceback:\n");
+        s.push_str(e.traceback.trim_end());
+    }
+    s
+}
+
+impl From<GymError> for EnvError {
+    fn from(e: GymError) -> Self {
+        EnvError::Other(e.to_string())
+    }
+}
+
+impl From<GymError> for BatchFailure {
+    fn from(e: GymError) -> Self {
+        BatchFailure {
+            lane: None,
+            error: e.into(),
+        }
+    }
+}
+
+/// What the worker says about the environment in its ready message.
+#[derive(Debug, Clone, Deserialize)]
+struct Ready {
+    gymnasium: String,
+    python: String,
+    observation_space: String,
+    obs_dim: usize,
+    obs_low: Vec<serde_json::Value>,
+    obs_high: Vec<serde_json::Value>,
+    action_space: String,
+    action: serde_json::Value,
+    max_episode_steps: Option<u32>,
+    reward_threshold: Option<f64>,
+    fresh_per_episode: bool,
+}
+
+/// The environment as the worker described it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GymInfo {
+    /// The spec in rwg's terms (id `gymnasium:...`, flattened spaces).
+    pub spec: EnvSpec,
+    /// Gymnasium's text of the observation space (`Box(-inf, inf, (4,), float32)`).
+    pub observation_space: String,
+    /// Gymnasium's text of the action space.
+    pub action_space: String,
+    /// Gymnasium's version.
+    pub gymnasium: String,
+    /// Python's version.
+    pub python: String,
+    /// Whether the env's episodes depend on the instance's earlier episodes,
+    /// so that every episode runs on a fresh instance.
+    pub fresh_per_episode: bool,
+}
+
+fn parse_ready(cfg: &GymConfig, r: Ready) -> Result<GymInfo, GymError> {
+    let low = floats(&r.obs_low)?;
+    let high = floats(&r.obs_high)?;
+    if low.len() != r.obs_dim || high.len() != r.obs_dim {
+        return Err(GymError::Protocol(
+            "observation bounds of the wrong length".into(),
+        ));
+    }
+    let action_space = match r.action["type"].as_str() {
+        Some("Discrete") => {
+            let n = r.action["n"].as_u64().unwrap_or(0) as usize;
+            if n == 0 {
+                return Err(GymError::Protocol("Discrete(0) action space".into()));
+            }
+            Space::Discrete { n }
+        }
+        Some("Box") => {
+            let list = |k: &str| -> Result<Vec<f64>, GymError> {
+                floats(r.action[k].as_array().map_or(&[][..], |v| v))
+            };
+            Space::Box(BoxSpace::new(list("low")?, list("high")?))
+        }
+        _ => return Err(GymError::Protocol(format!("action {}", r.action))),
+    };
+    Ok(GymInfo {
+        spec: EnvSpec {
+            id: cfg.rwg_id(),
+            observation_space: Space::Box(BoxSpace::new(low, high)),
+            action_space,
+            max_episode_steps: r.max_episode_steps,
+            reward_threshold: r.reward_threshold,
+        },
+        observation_space: r.observation_space,
+        action_space: r.action_space,
+        gymnasium: r.gymnasium,
+        python: r.python,
+        fresh_per_episode: r.fresh_per_episode,
+    })
+}
+
+/// A worker process hosting `lanes` instances of one Gymnasium env.
+pub struct GymBatch {
+    worker: Worker,
+    groups: usize,
+    /// The ops last sent to each group (to read its answer).
+    sent: Vec<Vec<LaneOp>>,
+    /// The file holding the lane being stepped (see the worker).
+    lane_file: LaneFile,
+    info: GymInfo,
+    lanes: usize,
+    obs_dim: usize,
+    action_dim: usize,
+    timeout: Duration,
+    send: Vec<u8>,
+    recv: Vec<u8>,
+}
+
+impl GymBatch {
+    /// Starts a worker with `lanes` instances; with `check_reset`, it also
+    /// checks that two `reset(seed=s)` give the same observation.
+    pub fn spawn(
+        cfg: &GymConfig,
+        lanes: usize,
+        groups: usize,
+        check_reset: bool,
+    ) -> Result<GymBatch, GymError> {
+        let mut worker = Worker::spawn(&cfg.python, WORKER_PY)?;
+        let lane_file = LaneFile::create();
+        let hello = serde_json::json!({
+            "lane_file": lane_file.path(),
+            "protocol": PROTOCOL,
+            "env": cfg.id,
+            "kwargs": cfg.kwargs,
+            "lanes": lanes,
+            "groups": groups,
+            "max_episode_steps": cfg.max_episode_steps,
+            "action_dtype": cfg.action_dtype.name(),
+            "max_obs": MAX_OBS,
+            "check_reset": if check_reset { Some(CHECK_SEED) } else { None },
+            "probe_history": cfg.fresh_per_episode.is_none(),
+            "fresh_per_episode": cfg.fresh_per_episode.unwrap_or(false),
+        });
+        let mut buf = vec![];
+        begin(&mut buf, TAG_HELLO);
+        buf.extend_from_slice(hello.to_string().as_bytes());
+        finish(&mut buf);
+        worker.send(&buf)?;
+        // Starting takes imports and `lanes` gym.make calls: allow more time.
+        let start_timeout = cfg.timeout.max(Duration::from_secs(300));
+        let (tag, payload) = read_message(&mut worker, start_timeout)?;
+        let ready: Ready = match tag {
+            TAG_READY => serde_json::from_slice(&payload)
+                .map_err(|e| GymError::Protocol(format!("ready message: {e}")))?,
+            TAG_ERROR => {
+                let error: WorkerError = serde_json::from_slice(&payload)
+                    .map_err(|e| GymError::Protocol(format!("error message: {e}")))?;
+                return Err(GymError::Worker {
+                    python: worker.python().to_string(),
+                    error,
+                });
+            }
+            t => return Err(GymError::Protocol(format!("unexpected tag {t}"))),
+        };
+        let info = parse_ready(cfg, ready)?;
+        let obs_dim = info.spec.obs_dim();
+        let action_dim = match &info.spec.action_space {
+            Space::Discrete { .. } => 0,
+            Space::Box(b) => b.dim(),
+        };
+        Ok(GymBatch {
+            worker,
+            groups,
+            sent: vec![vec![LaneOp::Idle; lanes]; groups],
+            lane_file,
+            info,
+            lanes,
+            obs_dim,
+            action_dim,
+            timeout: cfg.timeout,
+            send: Vec::new(),
+            recv: Vec::new(),
+        })
+    }
+
+    /// The environment as the worker described it.
+    pub fn info(&self) -> &GymInfo {
+        &self.info
+    }
+}
+
+/// Reads one message: (tag, payload).
+fn read_message(w: &mut Worker, timeout: Duration) -> Result<(u8, Vec<u8>), GymError> {
+    let mut buf = Vec::new();
+    let tag = w.recv_message(&mut buf, timeout)?;
+    Ok((tag, buf.split_off(5)))
+}
+
+impl BatchEnv for GymBatch {
+    fn spec(&self) -> &EnvSpec {
+        &self.info.spec
+    }
+
+    fn lanes(&self) -> usize {
+        self.lanes
+    }
+
+    fn groups(&self) -> usize {
+        self.groups
+    }
+
+    fn send(
+        &mut self,
+        group: usize,
+        ops: &[LaneOp],
+        actions: LaneActions<'_>,
+    ) -> Result<(), BatchFailure> {
+        encode_step(&mut self.send, group, ops, actions, self.action_dim);
+        self.sent[group].copy_from_slice(ops);
+        self.worker.send(&self.send).map_err(|e| self.failure(e))
+    }
+
+    fn recv(
+        &mut self,
+        group: usize,
+        obs: &mut [f64],
+        out: &mut [LaneOutcome],
+    ) -> Result<(), BatchFailure> {
+        let base = outcome_len(self.lanes, self.obs_dim);
+        // Room for the usual answer, so that one read takes it.
+        if self.recv.len() < 5 + base {
+            self.recv.resize(5 + base, 0);
+        }
+        let tag = match self.worker.recv_message(&mut self.recv, self.timeout) {
+            Ok(tag) => tag,
+            Err(e) => return Err(self.failure(e)),
+        };
+        let msg = std::mem::take(&mut self.recv);
+        let result = self.decode(tag, group, &msg[5..], obs, out);
+        self.recv = msg;
+        result
+    }
+}
+
+impl GymBatch {
+    /// A whole-batch failure, naming the lane the worker was on (if any).
+    fn failure(&self, e: GymError) -> BatchFailure {
+        BatchFailure {
+            lane: self
+                .lane_file
+                .lane()
+                .filter(|&l| l < self.lanes * self.groups),
+            error: e.into(),
+        }
+    }
+
+    /// Decodes group `group`'s outcome message (payload) into its lanes' outcomes.
+    fn decode(
+        &self,
+        tag: u8,
+        group: usize,
+        payload: &[u8],
+        obs: &mut [f64],
+        out: &mut [LaneOutcome],
+    ) -> Result<(), BatchFailure> {
+        let n = self.lanes;
+        let ops = &self.sent[group];
+        if tag == TAG_ERROR {
+            let error: WorkerError = serde_json::from_slice(payload)
+                .map_err(|e| GymError::Protocol(format!("error message: {e}")))?;
+            return Err(GymError::Worker {
+                python: self.worker.python().to_string(),
+                error,
+            }
+            .into());
+        }
+        let d = self.obs_dim;
+        let base = outcome_len(n, d);
+        if tag != TAG_OUTCOME || payload.len() < base || payload[0] as usize != group {
+            return Err(GymError::Protocol(format!(
+                "expected group {group}'s outcome of {base} bytes, got tag {} with {} bytes",
+                tag,
+                payload.len()
+            ))
+            .into());
+        }
+        let mut lane_errors: Vec<LaneError> = vec![];
+        if payload.len() > base {
+            lane_errors = serde_json::from_slice(&payload[base..])
+                .map_err(|e| GymError::Protocol(format!("lane errors: {e}")))?;
+        }
+        let word = |b: &[u8], i: usize| f64::from_le_bytes(b[i..i + 8].try_into().expect("8"));
+        let rew_at = 8 + pad8(n);
+        let obs_at = rew_at + 8 * n;
+        for i in 0..n {
+            let flags = payload[8 + i];
+            out[i] = if flags & F_ERROR != 0 {
+                let e = lane_errors.iter().find(|e| e.lane == i);
+                let text = match e {
+                    Some(e) if !e.traceback.trim().is_empty() => format!(
+                        "{}\nPython traceback:\n{}",
+                        e.message,
+                        e.traceback.trim_end()
+                    ),
+                    Some(e) => e.message.clone(),
+                    None => "failed (no message)".into(),
+                };
+                if text.starts_with("step raised ResetNeeded") {
+                    // Gymnasium's OrderEnforcing: a step before reset
+                    LaneOutcome::Failed(EnvError::ResetNeeded)
+                } else {
+                    LaneOutcome::Failed(EnvError::Other(text))
+                }
+            } else if flags & F_OK == 0 {
+                LaneOutcome::Idle
+            } else {
+                let o = &mut obs[i * d..(i + 1) * d];
+                for (j, v) in o.iter_mut().enumerate() {
+                    *v = word(payload, obs_at + 8 * (i * d + j));
+                }
+                let what = if matches!(ops[i], LaneOp::Reset(_)) {
+                    "reset"
+                } else {
+                    "step"
+                };
+                let reward = word(payload, rew_at + 8 * i);
+                if let Some(j) = o.iter().position(|v| !v.is_finite()) {
+                    LaneOutcome::Failed(EnvError::Other(format!(
+                        "{what} returned a non-finite observation: value {j} of {d} is {}",
+                        o[j]
+                    )))
+                } else if !reward.is_finite() {
+                    LaneOutcome::Failed(EnvError::Other(format!(
+                        "step returned a non-finite reward ({reward})"
+                    )))
+                } else if let LaneOp::Reset(_) = ops[i] {
+                    LaneOutcome::Reset
+                } else {
+                    LaneOutcome::Step(Step {
+                        reward,
+                        terminated: flags & F_TERMINATED != 0,
+                        truncated: flags & F_TRUNCATED != 0,
+                    })
+                }
+            };
+        }
+        Ok(())
+    }
+}
+
+/// An 8-byte file the worker maps and writes the lane it is stepping into,
+/// so that rwg can name the episode when the worker dies or hangs.
+struct LaneFile(Option<std::path::PathBuf>);
+
+impl LaneFile {
+    fn create() -> LaneFile {
+        use std::sync::atomic::{AtomicU64, Ordering};
+        static NEXT: AtomicU64 = AtomicU64::new(0);
+        let p = std::env::temp_dir().join(format!(
+            "rwg-gym-lane-{}-{}",
+            std::process::id(),
+            NEXT.fetch_add(1, Ordering::Relaxed)
+        ));
+        // Without the file the worker still runs; failures just name no lane.
+        LaneFile(std::fs::write(&p, [255u8; 8]).ok().map(|()| p))
+    }
+
+    fn path(&self) -> Option<String> {
+        self.0.as_ref().map(|p| p.to_string_lossy().into_owned())
+    }
+
+    /// The lane the worker was resetting or stepping, if any.
+    fn lane(&self) -> Option<usize> {
+        let bytes = std::fs::read(self.0.as_ref()?).ok()?;
+        bytes.first().filter(|&&b| b != 255).map(|&b| b as usize)
+    }
+}
+
+impl Drop for LaneFile {
+    fn drop(&mut self) {
+        if let Some(p) = &self.0 {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+}
+
+impl Drop for GymBatch {
+    fn drop(&mut self) {
+        let mut buf = vec![];
+        begin(&mut buf, TAG_QUIT);
+        finish(&mut buf);
+        let _ = self.worker.send(&buf);
+    }
+}
+
+/// One Gymnasium environment of a study: its config, its description, and
+/// the worker processes kept between cells.
+pub struct GymSource {
+    config: GymConfig,
+    info: GymInfo,
+    pool: BatchPool<GymBatch>,
+}
+
+impl std::fmt::Debug for GymSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GymSource")
+            .field("config", &self.config)
+            .finish()
+    }
+}
+
+impl GymSource {
+    /// Starts one worker (checking that the env builds, its spaces are
+    /// supported and its reset is deterministic) and keeps it for the run.
+    pub fn open(mut config: GymConfig) -> Result<GymSource, GymError> {
+        let first = GymBatch::spawn(&config, LANES, GROUPS, true)?;
+        let info = first.info().clone();
+        // The workers started later (and single instances) need not probe again.
+        config.fresh_per_episode = Some(info.fresh_per_episode);
+        let pool = BatchPool::default();
+        pool.put(first);
+        Ok(GymSource { config, info, pool })
+    }
+
+    /// The config.
+    pub fn config(&self) -> &GymConfig {
+        &self.config
+    }
+
+    /// The environment as Gymnasium describes it.
+    pub fn info(&self) -> &GymInfo {
+        &self.info
+    }
+
+    /// Runs blocks of a cell (see [`run_blocks_batched`]): one worker process
+    /// per thread of the current rayon pool, reused across calls.
+    pub fn run_blocks<G, X>(
+        &self,
+        plan: &CellPlan,
+        blocks: &[Range<u64>],
+        wave: usize,
+        on_block: G,
+    ) -> Result<(), X>
+    where
+        G: FnMut(BlockResult) -> Result<(), X>,
+        X: From<SampleError> + Send,
+    {
+        run_blocks_batched(
+            plan,
+            blocks,
+            wave,
+            &self.pool,
+            || GymBatch::spawn(&self.config, LANES, GROUPS, false).map_err(EnvError::from),
+            on_block,
+        )
+    }
+
+    /// CPU seconds used so far by the idle worker processes (all of them
+    /// between runs), where the OS reports it.
+    pub fn workers_cpu_seconds(&self) -> Option<f64> {
+        self.pool
+            .with_idle(|ws| ws.iter().map(|w| w.worker.cpu_seconds()).sum())
+    }
+
+    /// Number of worker processes started and idle.
+    pub fn workers(&self) -> usize {
+        self.pool.idle()
+    }
+
+    /// A single instance behind [`rwg_env::Environment`] (for rollouts,
+    /// checks and replays), in a worker of its own.
+    pub fn make_single(&self) -> Result<SingleLane<GymBatch>, GymError> {
+        // (the config carries the probe's verdict on fresh instances)
+        Ok(SingleLane::new(GymBatch::spawn(&self.config, 1, 1, false)?))
+    }
+}
+
+/// A single instance of the env `config` describes, without the checks of
+/// [`GymSource::open`].
+pub fn make_single(config: &GymConfig) -> Result<SingleLane<GymBatch>, GymError> {
+    Ok(SingleLane::new(GymBatch::spawn(config, 1, 1, false)?))
+}

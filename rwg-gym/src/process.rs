@@ -1,0 +1,253 @@
+//! The worker process: spawning it, reading its answers with a deadline,
+//! and saying why it is gone when it dies.
+
+use crate::GymError;
+use std::collections::VecDeque;
+use std::io::{Read, Write};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// How much of the worker's stderr is kept for error messages.
+const STDERR_KEEP: usize = 16 * 1024;
+
+/// A running worker: its pipes and the tail of its stderr.
+pub(crate) struct Worker {
+    child: Child,
+    stdin: ChildStdin,
+    stdout: ChildStdout,
+    stderr: Arc<Mutex<VecDeque<u8>>>,
+    drain: Option<std::thread::JoinHandle<()>>,
+    python: String,
+}
+
+impl Worker {
+    /// Starts `python -c program`.
+    pub(crate) fn spawn(python: &str, program: &str) -> Result<Worker, GymError> {
+        let mut child = Command::new(python)
+            .arg("-c")
+            .arg(program)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|source| GymError::NoPython {
+                python: python.to_string(),
+                source,
+            })?;
+        let stdin = child.stdin.take().expect("piped");
+        let stdout = child.stdout.take().expect("piped");
+        let mut err = child.stderr.take().expect("piped");
+        let stderr = Arc::new(Mutex::new(VecDeque::new()));
+        let keep = stderr.clone();
+        let drain = std::thread::spawn(move || {
+            let mut buf = [0u8; 4096];
+            while let Ok(n) = err.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                let mut k = keep.lock().unwrap_or_else(|p| p.into_inner());
+                k.extend(&buf[..n]);
+                let excess = k.len().saturating_sub(STDERR_KEEP);
+                k.drain(..excess);
+            }
+        });
+        Ok(Worker {
+            child,
+            stdin,
+            stdout,
+            stderr,
+            drain: Some(drain),
+            python: python.to_string(),
+        })
+    }
+
+    /// CPU time (user + system) the process has used so far, in seconds
+    /// (Linux: from /proc; `None` elsewhere).
+    pub(crate) fn cpu_seconds(&self) -> Option<f64> {
+        let stat = std::fs::read_to_string(format!("/proc/{}/stat", self.child.id())).ok()?;
+        // Fields after the command name (which is in parentheses): state is
+        // field 3, utime 14, stime 15.
+        let rest = &stat[stat.rfind(')')? + 2..];
+        let f: Vec<&str> = rest.split_whitespace().collect();
+        let ticks: f64 = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+        #[cfg(unix)]
+        // SAFETY: sysconf has no preconditions.
+        let hz = unsafe { libc::sysconf(libc::_SC_CLK_TCK) } as f64;
+        #[cfg(not(unix))]
+        let hz = 100.0;
+        Some(ticks / hz)
+    }
+
+    /// The interpreter this worker runs.
+    pub(crate) fn python(&self) -> &str {
+        &self.python
+    }
+
+    /// Writes a whole message.
+    pub(crate) fn send(&mut self, bytes: &[u8]) -> Result<(), GymError> {
+        match self.stdin.write_all(bytes).and_then(|_| self.stdin.flush()) {
+            Ok(()) => Ok(()),
+            Err(_) => Err(self.died()),
+        }
+    }
+
+    /// Reads one whole message (header included) into `buf`, in as few
+    /// reads as the pipe allows (usually one: the worker writes a message at
+    /// once and sends nothing unasked). Returns the tag; the payload is
+    /// `buf[5..]`.
+    pub(crate) fn recv_message(
+        &mut self,
+        buf: &mut Vec<u8>,
+        timeout: Duration,
+    ) -> Result<u8, GymError> {
+        let deadline = Instant::now() + timeout;
+        if buf.len() < 5 {
+            buf.resize(5, 0);
+        }
+        let mut got = 0;
+        let mut need = 5;
+        while got < need {
+            if !self.wait_readable(deadline) {
+                self.dump_traceback();
+                self.kill();
+                if let Some(d) = self.drain.take() {
+                    let _ = d.join();
+                }
+                return Err(GymError::Timeout {
+                    secs: timeout.as_secs_f64(),
+                    stderr: self.stderr_tail(),
+                });
+            }
+            let cap = buf.len();
+            match self.stdout.read(&mut buf[got..cap]) {
+                Ok(0) | Err(_) => return Err(self.died()),
+                Ok(n) => got += n,
+            }
+            if need == 5 && got >= 5 {
+                need = 4 + u32::from_le_bytes(buf[..4].try_into().expect("4 bytes")) as usize;
+                if buf.len() < need {
+                    buf.resize(need, 0);
+                }
+            }
+        }
+        buf.truncate(need);
+        Ok(buf[4])
+    }
+
+    #[cfg(unix)]
+    fn wait_readable(&self, deadline: Instant) -> bool {
+        use std::os::unix::io::AsRawFd;
+        let fd = self.stdout.as_raw_fd();
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let ms = left.as_millis().min(i32::MAX as u128) as i32;
+            let mut p = libc::pollfd {
+                fd,
+                events: libc::POLLIN,
+                revents: 0,
+            };
+            // SAFETY: one valid pollfd for the duration of the call.
+            let r = unsafe { libc::poll(&mut p, 1, ms) };
+            if r > 0 {
+                return true; // readable, or hung up (the read says which)
+            }
+            if r == 0 {
+                return false;
+            }
+            if std::io::Error::last_os_error().kind() != std::io::ErrorKind::Interrupted {
+                return true;
+            }
+        }
+    }
+
+    #[cfg(not(unix))]
+    fn wait_readable(&self, _deadline: Instant) -> bool {
+        true
+    }
+
+    /// Asks a hung worker for its Python traceback (SIGUSR1, which the
+    /// worker's faulthandler answers on stderr) and gives it a moment.
+    fn dump_traceback(&mut self) {
+        #[cfg(unix)]
+        {
+            // SAFETY: sending a signal to our own child process.
+            unsafe {
+                libc::kill(self.child.id() as libc::pid_t, libc::SIGUSR1);
+            }
+            std::thread::sleep(Duration::from_millis(300));
+        }
+    }
+
+    /// Kills the process (if still running) and reaps it.
+    pub(crate) fn kill(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+
+    /// The error for a worker that stopped answering: how it ended and the
+    /// end of what it wrote to stderr.
+    pub(crate) fn died(&mut self) -> GymError {
+        // Give it a moment to finish dying, so the status is known.
+        let t0 = Instant::now();
+        let status = loop {
+            match self.child.try_wait() {
+                Ok(Some(s)) => break Some(s),
+                Ok(None) if t0.elapsed() < Duration::from_secs(2) => {
+                    std::thread::sleep(Duration::from_millis(10))
+                }
+                _ => {
+                    self.kill();
+                    break None;
+                }
+            }
+        };
+        if let Some(d) = self.drain.take() {
+            let _ = d.join();
+        }
+        GymError::Died {
+            how: status.map_or("stopped answering".into(), describe_status),
+            stderr: self.stderr_tail(),
+        }
+    }
+
+    /// The last lines the worker wrote to stderr.
+    pub(crate) fn stderr_tail(&self) -> String {
+        let k = self.stderr.lock().unwrap_or_else(|p| p.into_inner());
+        let bytes: Vec<u8> = k.iter().copied().collect();
+        let text = String::from_utf8_lossy(&bytes);
+        let lines: Vec<&str> = text.lines().collect();
+        lines[lines.len().saturating_sub(30)..].join("\n")
+    }
+}
+
+impl Drop for Worker {
+    fn drop(&mut self) {
+        self.kill();
+    }
+}
+
+/// "killed by signal 11 (SIGSEGV)", "exited with status 3".
+fn describe_status(s: std::process::ExitStatus) -> String {
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::ExitStatusExt;
+        if let Some(sig) = s.signal() {
+            let name = match sig {
+                4 => " (SIGILL)",
+                6 => " (SIGABRT)",
+                7 => " (SIGBUS)",
+                8 => " (SIGFPE)",
+                9 => " (SIGKILL)",
+                11 => " (SIGSEGV)",
+                15 => " (SIGTERM)",
+                _ => "",
+            };
+            return format!("was killed by signal {sig}{name}");
+        }
+    }
+    match s.code() {
+        Some(c) => format!("exited with status {c}"),
+        None => "ended".into(),
+    }
+}

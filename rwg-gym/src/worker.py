@@ -1,0 +1,384 @@
+"""rwg's Gymnasium worker: hosts N environment instances, stepped in lockstep.
+
+rwg starts this program with `python -c` and speaks the protocol described in
+docs/bridge-protocol.md over the child's stdin/stdout. Everything the
+environments print goes to stderr: the protocol uses private duplicates of the
+original stdin/stdout, and fd 0/1 are redirected before gymnasium is imported.
+"""
+
+import os
+import sys
+
+PROTOCOL = 1
+CHECK_SEED_1 = 1234567
+CHECK_SEED_2 = 7654321
+
+# --- protocol channels: private copies of fd 0/1, then fd 1 -> stderr, fd 0 -> /dev/null
+_in_fd = os.dup(0)
+_out_fd = os.dup(1)
+os.dup2(2, 1)
+_null = os.open(os.devnull, os.O_RDONLY)
+os.dup2(_null, 0)
+os.close(_null)
+sys.stdout = sys.stderr
+
+import faulthandler  # noqa: E402
+import json  # noqa: E402
+import struct  # noqa: E402
+import traceback  # noqa: E402
+
+faulthandler.enable(file=sys.stderr)
+if hasattr(faulthandler, "register"):
+    import signal  # noqa: E402
+
+    # rwg sends SIGUSR1 to a worker that does not answer in time, to learn where it hangs.
+    faulthandler.register(signal.SIGUSR1, file=sys.stderr, all_threads=True)
+
+_HEAD = struct.Struct("<IB")
+
+
+def read_exact(n):
+    buf = bytearray(n)
+    view = memoryview(buf)
+    got = 0
+    while got < n:
+        k = os.readv(_in_fd, [view[got:]])
+        if k == 0:
+            sys.exit(0)  # rwg closed the pipe: quit quietly
+        got += k
+    return buf
+
+
+def read_msg():
+    length, tag = _HEAD.unpack(read_exact(5))
+    return tag, read_exact(length - 1)
+
+
+def write_msg(tag, *parts):
+    n = 1 + sum(len(p) for p in parts)
+    data = b"".join((_HEAD.pack(n, tag),) + parts)
+    view = memoryview(data)
+    while view:
+        k = os.write(_out_fd, view)
+        view = view[k:]
+
+
+def send_json(tag, obj):
+    write_msg(tag, json.dumps(obj, allow_nan=False).encode())
+
+
+def fail(kind, message, tb=None):
+    send_json(ord("E"), {"kind": kind, "message": message, "traceback": tb or ""})
+    sys.exit(0)
+
+
+def floats(a):
+    """A list of floats for JSON, infinities as the strings "inf"/"-inf"."""
+    out = []
+    for v in a:
+        v = float(v)
+        if v == float("inf"):
+            out.append("inf")
+        elif v == float("-inf"):
+            out.append("-inf")
+        elif v != v:
+            out.append("nan")
+        else:
+            out.append(v)
+    return out
+
+
+def main():
+    tag, payload = read_msg()
+    if tag != ord("H"):
+        fail("protocol", "expected a hello message")
+    hello = json.loads(payload.decode())
+    if hello.get("protocol") != PROTOCOL:
+        fail("protocol", f"rwg speaks protocol {hello.get('protocol')}, this worker {PROTOCOL}")
+    try:
+        import numpy as np
+        import gymnasium as gym
+        from gymnasium import spaces
+    except ImportError as e:
+        fail("python", f"{e} (Python {sys.version.split()[0]} at {sys.executable})")
+
+    env_id = hello["env"]
+    name = env_id
+    if ":" in env_id:
+        module, name = env_id.split(":", 1)
+        import importlib
+
+        try:
+            importlib.import_module(module)
+        except BaseException as e:  # noqa: BLE001 -- anything the import raises
+            fail("import", f"cannot import module '{module}': {type(e).__name__}: {e}",
+                 traceback.format_exc())
+    kwargs = dict(hello.get("kwargs") or {})
+    if hello.get("max_episode_steps") is not None:
+        kwargs["max_episode_steps"] = int(hello["max_episode_steps"])
+    lanes = int(hello["lanes"])
+    groups = int(hello.get("groups", 1))
+    envs = []
+    for _ in range(lanes * groups):
+        try:
+            envs.append(gym.make(name, **kwargs))
+        except gym.error.UnregisteredEnv as e:
+            fail("not_registered", f"{type(e).__name__}: {e}")
+        except BaseException as e:  # noqa: BLE001
+            fail("make", f"gym.make({name!r}, **{kwargs!r}) raised {type(e).__name__}: {e}",
+                 traceback.format_exc())
+    env0 = envs[0]
+    obs_space, act_space = env0.observation_space, env0.action_space
+
+    # --- observation space: Box flattened row-major, others through spaces.flatten
+    if isinstance(obs_space, spaces.Box):
+        flat_space, boxed = obs_space, True
+    else:
+        try:
+            flat_space = spaces.flatten_space(obs_space)
+        except BaseException as e:  # noqa: BLE001
+            fail("space", f"observation space {obs_space} cannot be flattened "
+                          f"({type(e).__name__}: {e}); rwg takes Box, Discrete, MultiDiscrete, "
+                          f"MultiBinary, Dict and Tuple observations: wrap the env "
+                          f"(gymnasium.ObservationWrapper) to give one of those")
+        if not isinstance(flat_space, spaces.Box):
+            fail("space", f"observation space {obs_space} does not flatten to a Box; wrap the env "
+                          f"(gymnasium.ObservationWrapper) to give a Box")
+        boxed = False
+    obs_dim = int(np.prod(flat_space.shape, dtype=np.int64))
+    max_obs = int(hello["max_obs"])
+    if obs_dim > max_obs:
+        hint = ("for Atari, pass kwargs = { obs_type = \"ram\" } (128 bytes of RAM)"
+                if name.startswith("ALE/") else
+                "wrap the env to give smaller observations (e.g. gymnasium.wrappers."
+                "ResizeObservation + GrayscaleObservation for images)")
+        fail("space", f"observation space {obs_space} has {obs_dim} values, more than the "
+                      f"limit of {max_obs} (rwg's networks take the flat observation as input); {hint}")
+    obs_low = np.asarray(flat_space.low, dtype=np.float64).reshape(-1)
+    obs_high = np.asarray(flat_space.high, dtype=np.float64).reshape(-1)
+
+    # --- action space: Discrete, or a bounded Box
+    if isinstance(act_space, spaces.Discrete):
+        action = {"type": "Discrete", "n": int(act_space.n), "start": int(act_space.start)}
+        act_dim = 0
+        start = int(act_space.start)
+    elif isinstance(act_space, spaces.Box):
+        low = np.asarray(act_space.low, dtype=np.float64).reshape(-1)
+        high = np.asarray(act_space.high, dtype=np.float64).reshape(-1)
+        if not (np.all(np.isfinite(low)) and np.all(np.isfinite(high))):
+            fail("space", f"action space {act_space} is unbounded; rwg maps tanh outputs onto the "
+                          f"bounds, so every dimension needs finite low and high: wrap the env "
+                          f"(gymnasium.wrappers.RescaleAction, or an ActionWrapper) to give bounds")
+        action = {"type": "Box", "low": floats(low), "high": floats(high),
+                  "shape": list(act_space.shape)}
+        act_dim = int(low.size)
+        act_shape = tuple(act_space.shape)
+        act_dtype = np.float32 if hello.get("action_dtype") == "float32" else np.float64
+    else:
+        fail("space", f"action space {act_space} is not supported: rwg takes Discrete and bounded "
+                      f"Box actions (MultiDiscrete, MultiBinary, Dict, Tuple, Text, Graph are not); "
+                      f"wrap the env (gymnasium.ActionWrapper) to give one of those")
+
+    spec = env0.spec
+    max_steps = spec.max_episode_steps if spec is not None else None
+    threshold = spec.reward_threshold if spec is not None else None
+
+    def flat_obs(o):
+        a = np.asarray(o) if boxed else spaces.flatten(obs_space, o)
+        if a.size != obs_dim:
+            raise ObsShape(f"observation of {a.size} values (shape {np.shape(a)}) where the "
+                           f"observation space {obs_space} has {obs_dim}")
+        return a.reshape(obs_dim)
+
+    # --- determinism: two resets with the same seed give the same observation
+    if hello.get("check_reset"):
+        s = int(hello["check_reset"])
+        try:
+            first = np.array(flat_obs(env0.reset(seed=s)[0]), dtype=np.float64)
+            second = np.array(flat_obs(envs[-1].reset(seed=s)[0]), dtype=np.float64)
+            third = np.array(flat_obs(env0.reset(seed=s)[0]), dtype=np.float64)
+        except BaseException as e:  # noqa: BLE001
+            fail("reset", f"reset(seed={s}) raised {type(e).__name__}: {e}", traceback.format_exc())
+        for other, how in ((second, "another instance"), (third, "the same instance again")):
+            if not np.array_equal(first, other, equal_nan=True):
+                fail("nondeterministic",
+                     f"reset(seed={s}) gave different observations on {how} "
+                     f"({floats(first[:4])}... vs {floats(other[:4])}...); rwg needs "
+                     f"environments whose reset(seed=s) determines the episode")
+
+    # --- history: does an episode depend on the episodes the instance ran
+    # before? (Some envs keep state across reset, e.g. BipedalWalker-v3.) Then
+    # every episode gets a fresh instance, so results do not depend on which
+    # worker ran which episodes before.
+    def probe(env, seed, steps=200):
+        rng = np.random.default_rng(seed)
+        out = [np.array(flat_obs(env.reset(seed=seed)[0]), dtype=np.float64)]
+        for _ in range(steps):
+            if act_dim:
+                a = rng.uniform(low, high).astype(act_dtype).reshape(act_shape)
+            else:
+                a = start + int(rng.integers(action["n"]))
+            o, r, term, trunc, _ = env.step(a)
+            out.append(np.append(np.array(flat_obs(o), dtype=np.float64), float(r)))
+            if term or trunc:
+                break
+        return out
+
+    fresh = bool(hello.get("fresh_per_episode"))
+    if hello.get("probe_history"):
+        try:
+            other = gym.make(name, **kwargs)
+            want = probe(other, CHECK_SEED_2)
+            other.close()
+            probe(env0, CHECK_SEED_1)
+            got = probe(env0, CHECK_SEED_2)
+        except BaseException as e:  # noqa: BLE001
+            fail("reset", f"the env raised while rwg probed it with random actions: "
+                          f"{type(e).__name__}: {e}", traceback.format_exc())
+        same = len(want) == len(got) and all(
+            np.array_equal(x, y, equal_nan=True) for x, y in zip(want, got))
+        fresh = fresh or not same
+
+    # The checks used instances 0 and N-1: replace them, so that every lane
+    # starts as gym.make left it (no reset yet).
+    if hello.get("check_reset") or hello.get("probe_history"):
+        for idx in {0, len(envs) - 1}:
+            envs[idx].close()
+            envs[idx] = gym.make(name, **kwargs)
+
+    send_json(ord("R"), {
+        "fresh_per_episode": fresh,
+        "protocol": PROTOCOL,
+        "gymnasium": gym.__version__,
+        "python": sys.version.split()[0],
+        "spec_id": spec.id if spec is not None else None,
+        "observation_space": str(obs_space),
+        "obs_dim": obs_dim,
+        "obs_low": floats(obs_low),
+        "obs_high": floats(obs_high),
+        "action_space": str(act_space),
+        "action": action,
+        "max_episode_steps": max_steps,
+        "reward_threshold": None if threshold is None else float(threshold),
+    })
+
+    # --- the lane marker: the lane being reset/stepped (255: none), for rwg to
+    # name the episode when this process dies or hangs
+    mark = bytearray(1)
+    if hello.get("lane_file"):
+        import mmap
+
+        with open(hello["lane_file"], "r+b") as f:
+            mark = mmap.mmap(f.fileno(), 8)
+    mark[0] = 255
+
+    # --- the batch loop (the hot path: one message in, one out, per batch step)
+    n = lanes
+    words = max(1, act_dim)
+    ops_len = (n + 7) // 8 * 8
+    res_len = 8 + ops_len + 8 * n + 8 * n * obs_dim
+    inbuf = bytearray(13 + ops_len + 8 * n * words)
+    inview = memoryview(inbuf)
+    res = bytearray(res_len)
+    head = bytearray(_HEAD.pack(res_len + 1, ord("O")))
+    flags = memoryview(res)[8:8 + n]
+    no_flags = bytes(n)
+    rewards = np.frombuffer(res, np.float64, n, 8 + ops_len)
+    obs_out = np.frombuffer(res, np.float64, n * obs_dim, 8 + ops_len + 8 * n).reshape(n, obs_dim)
+    rew = [0.0] * n
+    steps = [e.step for e in envs]
+    shp = obs_space.shape if boxed and len(obs_space.shape) == 1 else None
+    ndarray = np.ndarray
+    while True:
+        # The host sends the next message only after this one's answer, so a
+        # read never takes bytes of the next message.
+        got = 0
+        need = 5
+        while got < need:
+            k = os.readv(_in_fd, [inview[got:]])
+            if k == 0:
+                sys.exit(0)
+            got += k
+            if need == 5 and got >= 5:
+                need = 4 + _HEAD.unpack_from(inbuf)[0]
+                if need > len(inbuf):
+                    fail("protocol", f"message of {need} bytes, at most {len(inbuf)} expected")
+        tag = inbuf[4]
+        if tag == ord("Q"):
+            return
+        if tag != ord("S"):
+            fail("protocol", f"unexpected message tag {tag}")
+        group = inbuf[5]
+        if group >= groups:
+            fail("protocol", f"group {group} of {groups}")
+        base = group * n
+        res[0] = group
+        ops = inbuf[13:13 + n]
+        if act_dim:
+            acts = np.frombuffer(inbuf, np.float64, n * words, 13 + ops_len).reshape(n, words)
+        else:
+            acts = np.frombuffer(inbuf, np.int64, n, 13 + ops_len).tolist()
+        flags[:] = no_flags
+        errors = None
+        for i in range(n):
+            op = ops[i]
+            if op == 0:
+                continue
+            mark[0] = base + i
+            try:
+                if op == 2:
+                    if act_dim:
+                        a = np.array(acts[i], dtype=act_dtype).reshape(act_shape)
+                    else:
+                        a = acts[i] + start
+                    o, r, term, trunc, _ = steps[base + i](a)
+                    if type(o) is ndarray and o.shape == shp:
+                        obs_out[i] = o
+                    else:
+                        obs_out[i] = flat_obs(o)
+                    rew[i] = float(r)
+                    flags[i] = 1 | (2 if term else 0) | (4 if trunc else 0)
+                elif op == 1:
+                    if fresh:
+                        envs[base + i].close()
+                        envs[base + i] = gym.make(name, **kwargs)
+                        steps[base + i] = envs[base + i].step
+                    at = 13 + ops_len + 8 * words * i
+                    seed = int.from_bytes(inview[at:at + 8], "little")
+                    o, _ = envs[base + i].reset(seed=seed)
+                    obs_out[i] = flat_obs(o)
+                    rew[i] = 0.0
+                    flags[i] = 1
+                else:
+                    fail("protocol", f"unknown lane op {op}")
+            except ObsShape as e:
+                flags[i] = 8
+                errors = errors or []
+                errors.append({"lane": i, "message": str(e), "traceback": ""})
+            except Exception as e:  # noqa: BLE001 -- the env's own failure, reported to rwg
+                flags[i] = 8
+                what = "step" if op == 2 else "reset"
+                errors = errors or []
+                errors.append({"lane": i, "message": f"{what} raised {type(e).__name__}: {e}",
+                               "traceback": traceback.format_exc()})
+        mark[0] = 255
+        rewards[:] = rew
+        if errors:
+            write_msg(ord("O"), bytes(res), json.dumps(errors).encode())
+        else:
+            out = [head, res]
+            while out:
+                k = os.writev(_out_fd, out)
+                while out and k >= len(out[0]):
+                    k -= len(out[0])
+                    out.pop(0)
+                if out and k:
+                    out[0] = memoryview(out[0])[k:]
+
+
+class ObsShape(Exception):
+    pass
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,744 @@
+//! Gymnasium environments through the bridge (`gymnasium:ID`), end to end
+//! with the real `rwg` binary and real Gymnasium: the same bytes as the
+//! built-ins, Box2D and MuJoCo studies whose episodes replay exactly in plain
+//! Python, a custom `module:Id` env, failing envs, SIGKILL + resume, shards.
+//!
+//! Needs `RWG_TEST_PYTHON`: a Python with `gymnasium[box2d,mujoco]==1.4.0`
+//! (`.ci/run` makes one). Without it each test prints SKIPPED and passes,
+//! except under `CI=true` or `RWG_NO_SKIP=1`, where it fails.
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+fn python() -> Option<String> {
+    match std::env::var("RWG_TEST_PYTHON") {
+        Ok(p) if !p.is_empty() => Some(p),
+        _ => {
+            let strict = std::env::var("CI").as_deref() == Ok("true")
+                || std::env::var("RWG_NO_SKIP").as_deref() == Ok("1");
+            assert!(
+                !strict,
+                "CI must run this test: set RWG_TEST_PYTHON to a Python with gymnasium[box2d,mujoco]==1.4.0"
+            );
+            eprintln!(
+                "SKIPPED: set RWG_TEST_PYTHON to a Python with gymnasium[box2d,mujoco]==1.4.0 to run this test"
+            );
+            None
+        }
+    }
+}
+
+fn python_dir() -> PathBuf {
+    data_dir().join("../python")
+}
+
+/// `rwg` with the test Python and the test env package on PYTHONPATH.
+fn rwg_cmd(py: &str, args: &[&str]) -> Command {
+    let mut c = Command::new(rwg_bin());
+    c.args(args)
+        .env("RWG_PYTHON", py)
+        .env("PYTHONPATH", python_dir())
+        .env_remove(rwg_gym::TIMEOUT_VAR);
+    c
+}
+
+fn run_ok(py: &str, args: &[&str]) -> String {
+    let out = rwg_cmd(py, args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "rwg {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn run_err(out: Output) -> String {
+    assert!(!out.status.success(), "should have failed");
+    String::from_utf8(out.stderr).unwrap()
+}
+
+fn write(dir: &Path, name: &str, body: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, body).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+fn read(p: PathBuf) -> Vec<u8> {
+    std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+const SAME_AS_BUILTINS: &str = r#"
+seed = 4
+samples = 70
+episodes = 3
+bias = [false, true]
+[[architectures]]
+name = "0HL"
+hidden = []
+[[architectures]]
+name = "1HL"
+hidden = [4]
+[[envs]]
+id = "CartPole-v1"
+[[envs]]
+id = "gymnasium:CartPole-v1"
+[[envs]]
+id = "Pendulum-v1"
+[[envs]]
+id = "gymnasium:Pendulum-v1"
+"#;
+
+#[test]
+fn gymnasium_cartpole_and_pendulum_give_the_builtins_bytes() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-same");
+    let m = write(&dir, "m.toml", SAME_AS_BUILTINS);
+    let run = dir.join("run");
+    run_ok(
+        &py,
+        &[
+            "run",
+            &m,
+            "--out",
+            run.to_str().unwrap(),
+            "--threads",
+            "2",
+            "--no-report",
+        ],
+    );
+    // The Gymnasium cells alone on one thread: the same bytes again.
+    let only = SAME_AS_BUILTINS
+        .replace("id = \"CartPole-v1\"\n", "id = \"gymnasium:CartPole-v1\"\n")
+        .replace("id = \"Pendulum-v1\"\n", "id = \"gymnasium:Pendulum-v1\"\n")
+        .replacen("[[envs]]\nid = \"gymnasium:CartPole-v1\"\n", "", 1)
+        .replacen("[[envs]]\nid = \"gymnasium:Pendulum-v1\"\n", "", 1);
+    let m1 = write(&dir, "gym.toml", &only);
+    let run1 = dir.join("run1");
+    run_ok(
+        &py,
+        &[
+            "run",
+            &m1,
+            "--out",
+            run1.to_str().unwrap(),
+            "--threads",
+            "1",
+            "--no-report",
+        ],
+    );
+    let mut compared = 0;
+    for env in ["CartPole-v1", "Pendulum-v1"] {
+        for arch in ["0HL", "1HL"] {
+            for bias in ["bias", "nobias"] {
+                let builtin = run.join(format!("cells/{env}__{arch}__{bias}"));
+                let gym = format!("cells/gymnasium_{env}__{arch}__{bias}");
+                for f in ["scores.csv", "samples.csv"] {
+                    let want = read(builtin.join(f));
+                    assert!(want == read(run.join(&gym).join(f)), "{gym}/{f}");
+                    assert!(want == read(run1.join(&gym).join(f)), "1 thread: {gym}/{f}");
+                    compared += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(compared, 16);
+    // run.json names the Gymnasium env and its registry's defaults.
+    let meta: serde_json::Value = serde_json::from_slice(&read(run.join("run.json"))).unwrap();
+    let cell = meta["cells"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["env"] == "gymnasium:CartPole-v1")
+        .expect("a gymnasium:CartPole-v1 cell");
+    assert_eq!(cell["max_episode_steps"], 500);
+    assert_eq!(cell["solved"], 475.0);
+    assert_eq!(cell["solved_source"], "env");
+}
+
+/// Runs `manifest`, exports networks 0..3 of every cell and replays them in
+/// plain Python (`tests/python/replay_exact.py`): every score must be rwg's
+/// to the bit.
+fn study_replays_exactly(py: &str, name: &str, manifest: &str, env: &str) {
+    let dir = temp_dir(name);
+    let m = write(&dir, "m.toml", manifest);
+    let run = dir.join("run");
+    let run_s = run.to_str().unwrap();
+    run_ok(
+        py,
+        &["run", &m, "--out", run_s, "--threads", "2", "--no-report"],
+    );
+    let mut files = vec![];
+    let mut stored = vec![];
+    for bias in ["false", "true"] {
+        for sample in 0..3 {
+            let f = dir.join(format!("{bias}-{sample}.json"));
+            let out = run_ok(
+                py,
+                &[
+                    "replay",
+                    run_s,
+                    "--env",
+                    env,
+                    "--arch",
+                    "1HL",
+                    "--bias",
+                    bias,
+                    "--sample",
+                    &sample.to_string(),
+                    "--export-weights",
+                    f.to_str().unwrap(),
+                ],
+            );
+            // rwg replay itself re-ran the episodes through the bridge
+            assert!(out.lines().skip(1).all(|l| l.ends_with(",true")), "{out}");
+            let scores: Vec<String> = out
+                .lines()
+                .skip(1)
+                .map(|l| l.split(',').nth(2).unwrap().to_string())
+                .collect();
+            files.push(f.to_str().unwrap().to_string());
+            stored.push(scores);
+        }
+    }
+    let out = Command::new(py)
+        .arg(python_dir().join("replay_exact.py"))
+        .args(&files)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<serde_json::Value> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), files.len());
+    for (line, ours) in lines.iter().zip(&stored) {
+        let theirs: Vec<f64> = line["scores"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let ours: Vec<f64> = ours.iter().map(|s| s.parse().unwrap()).collect();
+        assert_eq!(ours.len(), theirs.len());
+        for (a, b) in ours.iter().zip(&theirs) {
+            assert_eq!(
+                a.to_bits(),
+                b.to_bits(),
+                "{}: rwg {a} vs Python {b}",
+                line["file"]
+            );
+        }
+    }
+}
+
+fn box2d_mujoco_manifest(env: &str, extra: &str) -> String {
+    format!(
+        r#"
+seed = 9
+samples = 6
+episodes = 2
+bias = [false, true]
+[[architectures]]
+name = "1HL"
+hidden = [4]
+[[envs]]
+id = "{env}"
+{extra}
+"#
+    )
+}
+
+#[test]
+fn lunar_lander_discrete_replays_exactly_in_python() {
+    let Some(py) = python() else { return };
+    let m = box2d_mujoco_manifest("gymnasium:LunarLander-v3", "max_episode_steps = 300");
+    study_replays_exactly(&py, "gym-lunar", &m, "gymnasium:LunarLander-v3");
+}
+
+#[test]
+fn lunar_lander_continuous_replays_exactly_in_python() {
+    let Some(py) = python() else { return };
+    let m = box2d_mujoco_manifest(
+        "gymnasium:LunarLander-v3",
+        "kwargs = { continuous = true }\nmax_episode_steps = 300",
+    );
+    study_replays_exactly(&py, "gym-lunar-c", &m, "gymnasium:LunarLander-v3");
+}
+
+#[test]
+fn inverted_pendulum_replays_exactly_in_python() {
+    let Some(py) = python() else { return };
+    let m = box2d_mujoco_manifest("gymnasium:InvertedPendulum-v5", "");
+    study_replays_exactly(&py, "gym-ip", &m, "gymnasium:InvertedPendulum-v5");
+}
+
+#[test]
+fn custom_module_env_with_a_dict_observation_runs() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-custom");
+    let m = write(
+        &dir,
+        "m.toml",
+        r#"
+samples = 40
+episodes = 2
+[[architectures]]
+name = "1HL"
+hidden = [3]
+[[envs]]
+id = "gymnasium:rwg_test_envs:Drift-v0"
+"#,
+    );
+    let a = dir.join("a");
+    let b = dir.join("b");
+    run_ok(
+        &py,
+        &["run", &m, "--out", a.to_str().unwrap(), "--threads", "2"],
+    );
+    run_ok(
+        &py,
+        &[
+            "run",
+            &m,
+            "--out",
+            b.to_str().unwrap(),
+            "--threads",
+            "1",
+            "--no-report",
+        ],
+    );
+    let cell = "cells/gymnasium_rwg_test_envs_Drift-v0__1HL__nobias";
+    let scores = read(a.join(cell).join("scores.csv"));
+    assert!(scores == read(b.join(cell).join("scores.csv")));
+    assert_eq!(String::from_utf8(scores).unwrap().lines().count(), 81);
+    let meta: serde_json::Value =
+        serde_json::from_slice(&read(a.join(cell).join("cell.json"))).unwrap();
+    // Dict(phase: Discrete(3), pos: Box(2)) flattens to 3 + 2 values
+    assert_eq!(meta["obs_dim"], 5);
+    assert_eq!(meta["solved"], 50.0);
+    assert!(a.join("report.html").exists());
+    // the env is listed and described like a built-in
+    let out = run_ok(&py, &["envs", "--json", "gymnasium:rwg_test_envs:Drift-v0"]);
+    assert!(
+        out.contains("\"obs_dim\": 5") || out.contains("\"n\": 3"),
+        "{out}"
+    );
+}
+
+#[test]
+fn envs_that_remember_earlier_episodes_get_a_fresh_instance_per_episode() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-memory");
+    let m = write(
+        &dir,
+        "m.toml",
+        r#"
+samples = 40
+episodes = 3
+[[architectures]]
+name = "0HL"
+hidden = []
+[[envs]]
+id = "gymnasium:rwg_test_envs:Memory-v0"
+"#,
+    );
+    let (a, b) = (dir.join("a"), dir.join("b"));
+    let out = rwg_cmd(
+        &py,
+        &[
+            "run",
+            &m,
+            "--out",
+            a.to_str().unwrap(),
+            "--threads",
+            "2",
+            "--no-report",
+        ],
+    )
+    .output()
+    .unwrap();
+    assert!(out.status.success());
+    let note = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        note.contains("every episode runs on a fresh gym.make instance"),
+        "{note}"
+    );
+    run_ok(
+        &py,
+        &[
+            "run",
+            &m,
+            "--out",
+            b.to_str().unwrap(),
+            "--threads",
+            "1",
+            "--no-report",
+        ],
+    );
+    let cell = "cells/gymnasium_rwg_test_envs_Memory-v0__0HL__nobias/scores.csv";
+    assert!(read(a.join(cell)) == read(b.join(cell)));
+    for sample in ["0", "17", "39"] {
+        run_ok(
+            &py,
+            &[
+                "replay",
+                a.to_str().unwrap(),
+                "--env",
+                "gymnasium:rwg_test_envs:Memory-v0",
+                "--arch",
+                "0HL",
+                "--sample",
+                sample,
+            ],
+        );
+    }
+}
+
+/// The reset seed of sample `n`, episode 0, for the test env `Faulty-v0`
+/// (the id without the `gymnasium:` prefix enters the seed).
+fn faulty_seed(seed: u64, n: u64) -> u64 {
+    rwg_core::sampler::reset_seed(seed, "rwg_test_envs:Faulty-v0", n, 0)
+}
+
+fn faulty_manifest(mode: &str) -> String {
+    format!(
+        r#"
+samples = 96
+episodes = 2
+[[architectures]]
+name = "0HL"
+hidden = []
+[[envs]]
+id = "gymnasium:rwg_test_envs:Faulty-v0"
+kwargs = {{ mode = "{mode}", at_seed = "{}", at_step = 3 }}
+"#,
+        faulty_seed(0, 40)
+    )
+}
+
+#[test]
+fn failing_envs_are_named_and_committed_blocks_kept() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-faulty");
+    let cell = "cells/gymnasium_rwg_test_envs_Faulty-v0__0HL__nobias";
+    for (mode, says) in [
+        (
+            "raise",
+            "step raised RuntimeError: deliberate failure at step 3",
+        ),
+        (
+            "nan",
+            "step returned a non-finite observation: value 4 of 5 is NaN",
+        ),
+        (
+            "shape",
+            "observation of 8 values (shape (8,)) where the observation space",
+        ),
+        (
+            "segfault",
+            "the Python worker was killed by signal 11 (SIGSEGV)",
+        ),
+        ("hang", "did not answer within 3 s"),
+    ] {
+        let m = write(&dir, &format!("{mode}.toml"), &faulty_manifest(mode));
+        let run = dir.join(mode);
+        let t0 = Instant::now();
+        let out = rwg_cmd(
+            &py,
+            &["run", &m, "--out", run.to_str().unwrap(), "--threads", "2"],
+        )
+        .env(rwg_gym::TIMEOUT_VAR, "3")
+        .output()
+        .unwrap();
+        let err = run_err(out);
+        assert!(err.contains(says), "{mode}: {err}");
+        // network 40 (in block 1), episode 0, step 3
+        assert!(
+            err.contains("rwg_test_envs:Faulty-v0: sample 40, episode 0, step 3"),
+            "{mode}: {err}"
+        );
+        assert!(err.contains("saved in"), "{mode}: {err}");
+        if mode == "raise" {
+            assert!(err.contains("Traceback (most recent call last)"), "{err}");
+        }
+        if mode == "segfault" || mode == "hang" {
+            // faulthandler's traceback of where the worker crashed or hung
+            assert!(err.contains("rwg_test_envs/__init__.py"), "{mode}: {err}");
+        }
+        // block 0 (networks 0-31) finished before and is kept
+        assert!(
+            run.join(cell).join("blocks/b0000000.csv").exists(),
+            "{mode}: block 0 not kept"
+        );
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "{mode} took too long"
+        );
+        // a rerun resumes (block 0 is not redone) and fails the same way
+        let err2 = run_err(
+            rwg_cmd(
+                &py,
+                &["run", &m, "--out", run.to_str().unwrap(), "--threads", "1"],
+            )
+            .env(rwg_gym::TIMEOUT_VAR, "3")
+            .output()
+            .unwrap(),
+        );
+        assert!(
+            err2.contains("sample 40, episode 0, step 3"),
+            "{mode}: {err2}"
+        );
+    }
+}
+
+#[test]
+fn setup_errors_are_reported_before_anything_runs() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-setup");
+    let cases: [(&str, &str, &[&str]); 6] = [
+        (
+            "[[envs]]\nid = \"gymnasium:NoSuchEnv-v0\"\n",
+            "m.toml:10:6",
+            &["Gymnasium has no such environment", "NoSuchEnv"],
+        ),
+        (
+            "[[envs]]\nid = \"gymnasium:no_such_module_xyz:Env-v0\"\n",
+            "m.toml:10:6",
+            &[
+                "cannot import module 'no_such_module_xyz'",
+                "ModuleNotFoundError",
+            ],
+        ),
+        (
+            "[[envs]]\nid = \"gymnasium:CartPole-v1\"\nkwargs = { no_such_arg = 1 }\n",
+            "m.toml:11:10",
+            &["raised TypeError", "no_such_arg", "Traceback"],
+        ),
+        (
+            "[[envs]]\nid = \"gymnasium:CartPole-v1\"\npython = \"/nonexistent/python3\"\n",
+            "m.toml:11:10",
+            &[
+                "cannot run Python '/nonexistent/python3'",
+                "pip install gymnasium",
+            ],
+        ),
+        (
+            "[[envs]]\nid = \"gymnasium:rwg_test_envs:Unseeded-v0\"\n",
+            "m.toml:10:6",
+            &["reset(seed=20200509) gave different observations"],
+        ),
+        (
+            "[[envs]]\nid = \"gymnasium:CarRacing-v3\"\n",
+            "m.toml:10:6",
+            &["27648 values, more than the limit of 4096"],
+        ),
+    ];
+    for (i, (env, at, says)) in cases.iter().enumerate() {
+        let body = format!(
+            "samples = 4\nepisodes = 1\n\n\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\n{env}"
+        );
+        let m = write(&dir, "m.toml", &body);
+        let run = dir.join(format!("r{i}"));
+        let err = run_err(
+            rwg_cmd(&py, &["run", &m, "--out", run.to_str().unwrap()])
+                .output()
+                .unwrap(),
+        );
+        assert!(err.contains(at), "{env}: {err}");
+        for s in *says {
+            assert!(err.contains(s), "{env}: {err}");
+        }
+        assert!(!run.join("cells").exists(), "{env}: something ran");
+    }
+    // Python without gymnasium: the command that installs it
+    let venv = dir.join("bare");
+    let ok = Command::new(&py)
+        .args(["-m", "venv", "--without-pip", venv.to_str().unwrap()])
+        .status()
+        .unwrap()
+        .success();
+    assert!(ok, "cannot make a bare venv");
+    let bare = venv.join("bin/python");
+    let m = write(
+        &dir,
+        "m.toml",
+        "samples = 4\nepisodes = 1\n[[architectures]]\nname = \"0HL\"\nhidden = []\n[[envs]]\nid = \"gymnasium:CartPole-v1\"\n",
+    );
+    let err = run_err(
+        rwg_cmd(
+            bare.to_str().unwrap(),
+            &["run", &m, "--out", dir.join("bare-run").to_str().unwrap()],
+        )
+        .output()
+        .unwrap(),
+    );
+    assert!(err.contains("Gymnasium is not installed for"), "{err}");
+    assert!(
+        err.contains("-m pip install \"gymnasium[box2d,mujoco]\""),
+        "{err}"
+    );
+}
+
+const LONG: &str = r#"
+seed = 2
+samples = 320
+episodes = 4
+[[architectures]]
+name = "1HL"
+hidden = [4]
+[[envs]]
+id = "gymnasium:CartPole-v1"
+"#;
+
+fn cell_files(run: &Path) -> Vec<Vec<u8>> {
+    let c = run.join("cells/gymnasium_CartPole-v1__1HL__nobias");
+    assert!(!c.join("blocks").exists(), "blocks left behind");
+    vec![read(c.join("scores.csv")), read(c.join("samples.csv"))]
+}
+
+#[test]
+fn sigkill_resume_and_shards_merge_give_identical_bytes() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-long");
+    let m = write(&dir, "m.toml", LONG);
+    let whole = dir.join("whole");
+    run_ok(
+        &py,
+        &["run", &m, "--out", whole.to_str().unwrap(), "--no-report"],
+    );
+
+    // SIGKILL once some blocks are committed, then resume
+    let run = dir.join("killed");
+    let blocks = run.join("cells/gymnasium_CartPole-v1__1HL__nobias/blocks");
+    let mut child = rwg_cmd(
+        &py,
+        &["run", &m, "--out", run.to_str().unwrap(), "--no-report"],
+    )
+    .stdout(Stdio::null())
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap();
+    let t0 = Instant::now();
+    let mut mid_run = false;
+    while t0.elapsed() < Duration::from_secs(120) {
+        let n = std::fs::read_dir(&blocks).map_or(0, |d| d.count());
+        if n >= 2 {
+            mid_run = child.try_wait().unwrap().is_none();
+            break;
+        }
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let _ = child.kill();
+    child.wait().unwrap();
+    assert!(mid_run, "the kill did not land mid-run");
+    run_ok(
+        &py,
+        &[
+            "run",
+            &m,
+            "--out",
+            run.to_str().unwrap(),
+            "--threads",
+            "1",
+            "--no-report",
+        ],
+    );
+    assert!(
+        cell_files(&whole) == cell_files(&run),
+        "resumed run differs"
+    );
+
+    // shards + merge
+    let mut shards = vec![];
+    for k in 0..2 {
+        let d = dir.join(format!("s{k}"));
+        run_ok(
+            &py,
+            &[
+                "run",
+                &m,
+                "--shard",
+                &format!("{k}/2"),
+                "--out",
+                d.to_str().unwrap(),
+            ],
+        );
+        shards.push(d.to_str().unwrap().to_string());
+    }
+    let merged = dir.join("merged");
+    let mut args = vec!["merge"];
+    args.extend(shards.iter().map(String::as_str));
+    args.extend(["--out", merged.to_str().unwrap()]);
+    run_ok(&py, &args);
+    assert!(
+        cell_files(&whole) == cell_files(&merged),
+        "merged run differs"
+    );
+}
+
+#[test]
+fn check_runs_the_plugin_checks_and_determinism_on_gymnasium_envs() {
+    let Some(py) = python() else { return };
+    let out = run_ok(&py, &["check", "gymnasium:CartPole-v1"]);
+    for check in [
+        "reset determinism: the same seed gives the same observation",
+        "trajectory determinism: the same seed and actions give the same trajectory",
+        "step before reset: refused with reset-needed",
+        "12 passed, 0 warned, 0 failed",
+    ] {
+        assert!(out.contains(check), "{out}");
+    }
+    let out = rwg_cmd(&py, &["check", "gymnasium:rwg_test_envs:Unseeded-v0"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("[FAIL] gymnasium:rwg_test_envs:Unseeded-v0: reset determinism: reset(seed=42) twice on one instance"),
+        "{text}"
+    );
+}
+
+#[test]
+fn help_examples_with_gymnasium_ids_work_as_printed() {
+    let Some(py) = python() else { return };
+    let bin_dir = rwg_bin().parent().unwrap().to_path_buf();
+    let path = format!(
+        "{}:{}",
+        bin_dir.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mut ran = 0;
+    for cmd in ["envs", "check", "rollout"] {
+        let help = run_ok(&py, &[cmd, "--help"]);
+        for line in help.lines().map(str::trim) {
+            if !(line.starts_with("rwg ") && line.contains("gymnasium:")) {
+                continue;
+            }
+            let out = Command::new("sh")
+                .args(["-c", line])
+                .env("PATH", &path)
+                .env("RWG_PYTHON", &py)
+                .output()
+                .unwrap();
+            assert!(
+                out.status.success(),
+                "`{line}` failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            ran += 1;
+        }
+    }
+    assert!(ran >= 5, "only {ran} examples found");
+}
