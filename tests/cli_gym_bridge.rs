@@ -134,7 +134,7 @@ fn gymnasium_cartpole_and_pendulum_give_the_builtins_bytes() {
         for arch in ["0HL", "1HL"] {
             for bias in ["bias", "nobias"] {
                 let builtin = run.join(format!("cells/{env}__{arch}__{bias}"));
-                let gym = format!("cells/gymnasium_{env}__{arch}__{bias}");
+                let gym = format!("cells/gymnasium={env}__{arch}__{bias}");
                 for f in ["scores.csv", "samples.csv"] {
                     let want = read(builtin.join(f));
                     assert!(want == read(run.join(&gym).join(f)), "{gym}/{f}");
@@ -315,7 +315,7 @@ id = "gymnasium:rwg_test_envs:Drift-v0"
             "--no-report",
         ],
     );
-    let cell = "cells/gymnasium_rwg_test_envs_Drift-v0__1HL__nobias";
+    let cell = "cells/gymnasium=rwg_test_envs=Drift-v0__1HL__nobias";
     let scores = read(a.join(cell).join("scores.csv"));
     assert!(scores == read(b.join(cell).join("scores.csv")));
     assert_eq!(String::from_utf8(scores).unwrap().lines().count(), 81);
@@ -383,7 +383,7 @@ id = "gymnasium:rwg_test_envs:Memory-v0"
             "--no-report",
         ],
     );
-    let cell = "cells/gymnasium_rwg_test_envs_Memory-v0__0HL__nobias/scores.csv";
+    let cell = "cells/gymnasium=rwg_test_envs=Memory-v0__0HL__nobias/scores.csv";
     assert!(read(a.join(cell)) == read(b.join(cell)));
     for sample in ["0", "17", "39"] {
         run_ok(
@@ -428,7 +428,7 @@ kwargs = {{ mode = "{mode}", at_seed = "{}", at_step = 3 }}
 fn failing_envs_are_named_and_committed_blocks_kept() {
     let Some(py) = python() else { return };
     let dir = temp_dir("gym-faulty");
-    let cell = "cells/gymnasium_rwg_test_envs_Faulty-v0__0HL__nobias";
+    let cell = "cells/gymnasium=rwg_test_envs=Faulty-v0__0HL__nobias";
     for (mode, says) in [
         (
             "raise",
@@ -599,7 +599,7 @@ id = "gymnasium:CartPole-v1"
 "#;
 
 fn cell_files(run: &Path) -> Vec<Vec<u8>> {
-    let c = run.join("cells/gymnasium_CartPole-v1__1HL__nobias");
+    let c = run.join("cells/gymnasium=CartPole-v1__1HL__nobias");
     assert!(!c.join("blocks").exists(), "blocks left behind");
     vec![read(c.join("scores.csv")), read(c.join("samples.csv"))]
 }
@@ -617,7 +617,7 @@ fn sigkill_resume_and_shards_merge_give_identical_bytes() {
 
     // SIGKILL once some blocks are committed, then resume
     let run = dir.join("killed");
-    let blocks = run.join("cells/gymnasium_CartPole-v1__1HL__nobias/blocks");
+    let blocks = run.join("cells/gymnasium=CartPole-v1__1HL__nobias/blocks");
     let mut child = rwg_cmd(
         &py,
         &["run", &m, "--out", run.to_str().unwrap(), "--no-report"],

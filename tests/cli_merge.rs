@@ -159,7 +159,8 @@ fn an_interrupted_merge_is_finished_by_running_it_again() {
     let s = study("merge-resume");
     // The state a merge killed mid-cell leaves: manifest, a run.json without
     // end time, one cell finalised with its blocks not yet removed, one cell
-    // with some blocks and a partial temporary file.
+    // with some blocks and a partial temporary file. (Checksum indexes are
+    // copied with the files: what is not listed there is not committed.)
     let full = s.dir.join("full");
     let mut a = merge_args(&s, full.to_str().unwrap());
     a.push("--no-report");
@@ -172,7 +173,7 @@ fn an_interrupted_merge_is_finished_by_running_it_again() {
         std::fs::create_dir_all(to.parent().unwrap()).unwrap();
         std::fs::copy(from, to).unwrap();
     };
-    for f in ["scores.csv", "samples.csv", "cell.json"] {
+    for f in ["scores.csv", "samples.csv", "cell.json", "SHA256SUMS"] {
         copy(
             &full.join("cells").join(first).join(f),
             &out.join("cells").join(first).join(f),
@@ -185,12 +186,23 @@ fn an_interrupted_merge_is_finished_by_running_it_again() {
             .join("blocks/b0000000.csv"),
         &out.join("cells").join(first).join("blocks/b0000000.csv"),
     );
+    copy(
+        &Path::new(&s.shards[0])
+            .join("cells")
+            .join(first)
+            .join("blocks/SHA256SUMS"),
+        &out.join("cells").join(first).join("blocks/SHA256SUMS"),
+    );
     let second = out.join("cells/CartPole-v1__0HL__bias/blocks");
     std::fs::create_dir_all(&second).unwrap();
     // global block 4 (cell 1, block 0) belongs to shard 1
     copy(
         &Path::new(&s.shards[1]).join("cells/CartPole-v1__0HL__bias/blocks/b0000000.csv"),
         &second.join("b0000000.csv"),
+    );
+    copy(
+        &Path::new(&s.shards[1]).join("cells/CartPole-v1__0HL__bias/blocks/SHA256SUMS"),
+        &second.join("SHA256SUMS"),
     );
     std::fs::write(second.join("b0000001.csv.tmp"), "1,0,12.0").unwrap();
     let status = rwg_ok(&["status", out.to_str().unwrap()]);
@@ -267,13 +279,19 @@ fn status_of_runs_and_shards_names_the_command_that_finishes_them() {
     let run = dir.join("run");
     rwg_ok(&["run", m, "--out", run.to_str().unwrap(), "--no-report"]);
     let c0 = run.join("cells/CartPole-v1__0HL__nobias");
-    for f in ["scores.csv", "samples.csv", "cell.json"] {
+    for f in ["scores.csv", "samples.csv", "cell.json", "SHA256SUMS"] {
         std::fs::remove_file(c0.join(f)).unwrap();
     }
     std::fs::create_dir_all(c0.join("blocks")).unwrap();
+    // (committed: each listed in the block index with its SHA-256)
+    let mut index = String::new();
     for b in 0..2 {
         std::fs::write(c0.join(format!("blocks/b000000{b}.csv")), "").unwrap();
+        index.push_str(&format!(
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855  b000000{b}.csv\n"
+        ));
     }
+    std::fs::write(c0.join("blocks/SHA256SUMS"), index).unwrap();
     let status = rwg_ok(&["status", run.to_str().unwrap()]);
     assert!(
         status.contains("a run of the whole study (4 cells"),
@@ -320,10 +338,9 @@ fn status_of_runs_and_shards_names_the_command_that_finishes_them() {
     let blocks = shard_dir(0).join("cells/Acrobot-v1__0HL__bias/blocks");
     let last = std::fs::read_dir(&blocks)
         .unwrap()
-        .next()
-        .unwrap()
-        .unwrap()
-        .path();
+        .map(|e| e.unwrap().path())
+        .find(|p| p.extension().is_some_and(|x| x == "csv"))
+        .unwrap();
     std::fs::remove_file(last).unwrap();
     // as a run stopped early leaves it: no end time
     let meta = shard_dir(0).join("run.json");

@@ -73,7 +73,7 @@ fn exit_in_reset_is_a_failed_run_that_resumes_to_identical_results() {
     if let Ok(meta) = std::fs::read_to_string(out.join("run.json")) {
         assert!(meta.contains("\"end_time\": null"), "{meta}");
     }
-    let blocks = out.join("cells/broken_ExitInReset-v0__0HL__nobias/blocks");
+    let blocks = out.join("cells/broken+ExitInReset-v0__0HL__nobias/blocks");
     for b in ["b0000000.csv", "b0000001.csv"] {
         assert!(
             blocks.join(b).is_file(),
@@ -95,7 +95,7 @@ fn exit_in_reset_is_a_failed_run_that_resumes_to_identical_results() {
     let out2 = dir.join("clean");
     assert!(run(&clean, &out2, &["--threads", "2"]).status.success());
     for f in ["scores.csv", "samples.csv"] {
-        let p = format!("cells/broken_ExitInReset-v0__0HL__nobias/{f}");
+        let p = format!("cells/broken+ExitInReset-v0__0HL__nobias/{f}");
         assert_eq!(
             std::fs::read(out.join(&p)).unwrap(),
             std::fs::read(out2.join(&p)).unwrap(),
@@ -237,7 +237,7 @@ fn plugin_stdout_never_reaches_rwg_stdout() {
     let res = run(&m, &dir.join("p"), &[]);
     assert!(res.status.success(), "{}", text(&res.stderr));
     assert!(!text(&res.stdout).contains("says hello"));
-    assert!(text(&res.stdout).contains("broken_PrintInReset-v0__0HL__nobias"));
+    assert!(text(&res.stdout).contains("broken+PrintInReset-v0__0HL__nobias"));
 }
 
 #[test]
@@ -298,7 +298,7 @@ fn an_env_without_a_time_limit_is_refused_saying_what_to_set() {
         "--no-report",
     ]);
     let scores =
-        std::fs::read_to_string(out.join("cells/handshake_Ok-v0__0HL__nobias/scores.csv")).unwrap();
+        std::fs::read_to_string(out.join("cells/handshake+Ok-v0__0HL__nobias/scores.csv")).unwrap();
     assert!(scores.ends_with("1,0,3.0,3\n"), "{scores}");
     // rwg check says the same.
     let res = rwg(&["check", lib.to_str().unwrap(), "--json"]);

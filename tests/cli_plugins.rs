@@ -109,7 +109,7 @@ fn reference_plugin_reproduces_the_builtin_envs_byte_for_byte() {
     for (id, f32_actions) in TWINS {
         for bias in [false, true] {
             let b = if bias { "bias" } else { "nobias" };
-            let plugin_cell = format!("classic_control_{id}__1HL__{b}");
+            let plugin_cell = format!("classic_control+{id}__1HL__{b}");
             let builtin_cell_dir = format!("{id}__1HL__{b}");
             let ref_plugin = dir.join("ref-plugin-seeds").join(&plugin_cell);
             let ref_builtin = dir.join("ref-builtin-seeds").join(&builtin_cell_dir);
@@ -142,7 +142,7 @@ fn reference_plugin_reproduces_the_builtin_envs_byte_for_byte() {
     }
     // Different ids, different seeds: the two runs are different samples.
     assert_ne!(
-        read(rp.join("cells/classic_control_CartPole-v0__1HL__nobias/scores.csv")),
+        read(rp.join("cells/classic_control+CartPole-v0__1HL__nobias/scores.csv")),
         read(rb.join("cells/CartPole-v0__1HL__nobias/scores.csv"))
     );
 }
@@ -186,7 +186,7 @@ fn a_failing_plugin_stops_its_cell_names_everything_and_keeps_earlier_cells() {
         let res = rwg_env(&["run", &m, "--out", out.to_str().unwrap()], &[]);
         let stderr = String::from_utf8_lossy(&res.stderr);
         assert_eq!(res.status.code(), Some(1), "{id}: {stderr}");
-        let cell = format!("broken_{}__0HL__nobias", id.split('/').nth(1).unwrap());
+        let cell = format!("broken+{}__0HL__nobias", id.split('/').nth(1).unwrap());
         for needle in [
             format!("cell {cell} (plugin {}) failed", broken.display()),
             format!("{id}: sample 0, episode 0, step {step}: plugin 'broken' env '{id}': {what}"),
@@ -205,7 +205,7 @@ fn a_failing_plugin_stops_its_cell_names_everything_and_keeps_earlier_cells() {
         // The cells before are complete.
         for done in [
             "CartPole-v0__0HL__nobias",
-            "classic_control_CartPole-v0__0HL__nobias",
+            "classic_control+CartPole-v0__0HL__nobias",
         ] {
             let c = out.join("cells").join(done);
             assert_eq!(read(c.join("scores.csv")).lines().count(), 1 + 40 * 3);
@@ -405,7 +405,7 @@ fn rwg_plugin_path_provides_envs_to_run_and_to_list() {
         "{}",
         String::from_utf8_lossy(&res.stderr)
     );
-    let cell = "cells/example_PointMass-v0__0HL__nobias/scores.csv";
+    let cell = "cells/example+PointMass-v0__0HL__nobias/scores.csv";
     assert_eq!(read(out.join(cell)), read(again.join(cell)));
     // Replay regenerates a plugin env's episodes from the run's manifest.
     let res = rwg_env(

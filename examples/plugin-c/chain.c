@@ -173,10 +173,15 @@ static const char *chain_last_error(const rwg_env_t *env) {
 static const double OBS_LOW[2] = {0.0, 0.0};
 static const double OBS_HIGH[2] = {1.0, 1.0};
 
+/* The env id; tests compile this file under other ids with -DCHAIN_ID=... */
+#ifndef CHAIN_ID
+#define CHAIN_ID "c_example/Chain-v0"
+#endif
+
 static const rwg_env_desc_t CHAIN_DESC = {
     .struct_size = sizeof(rwg_env_desc_t),
     .flags = 0,
-    .id = "c_example/Chain-v0",
+    .id = CHAIN_ID,
     .summary = "walk right along a slippery chain (C plugin example)",
     .observation_space = {.kind = RWG_SPACE_BOX, .n = 2, .low = OBS_LOW, .high = OBS_HIGH},
     .action_space = {.kind = RWG_SPACE_DISCRETE, .n = 2, .low = NULL, .high = NULL},

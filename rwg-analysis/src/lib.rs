@@ -37,6 +37,9 @@ pub enum AnalysisError {
     /// The run directory could not be read.
     #[error(transparent)]
     Load(#[from] RunReadError),
+    /// Another process is writing the run directory.
+    #[error(transparent)]
+    Lock(#[from] rwg_study::rundir::lock::LockError),
     /// A figure could not be drawn.
     #[error(transparent)]
     Plot(#[from] PlotError),
@@ -51,9 +54,11 @@ pub enum AnalysisError {
 }
 
 fn write_file(path: PathBuf, bytes: &[u8]) -> Result<PathBuf, AnalysisError> {
-    std::fs::write(&path, bytes).map_err(|source| AnalysisError::Write {
-        path: path.clone(),
-        source,
+    rwg_study::rundir::export::write_atomic(&path, bytes).map_err(|source| {
+        AnalysisError::Write {
+            path: path.clone(),
+            source,
+        }
     })?;
     Ok(path)
 }
@@ -87,6 +92,7 @@ pub fn run_stats(run: &Run, cells: &[(CellData, CellSummary)]) -> RunStats {
 /// `rwg run` calls at the end.
 pub fn write_analysis(run_dir: &Path, png: bool) -> Result<Vec<PathBuf>, AnalysisError> {
     let run = Run::open(run_dir)?;
+    let _lock = rwg_study::rundir::lock::RunLock::acquire(run_dir)?;
     let cells = load_cells(&run)?;
     let stats = run_stats(&run, &cells);
     write_stats(run_dir, &stats).map_err(|source| AnalysisError::Write {

@@ -46,6 +46,8 @@ enum Command {
     Replay(cmd::replay::Args),
     /// List the best networks of each cell of a run, with the command that replays each.
     Top(cmd::top::Args),
+    /// Check a run directory's files against their checksums; exit 1 on any mismatch.
+    Verify(cmd::verify::Args),
     /// Statistics of a run: the paper's Table 3, p(solved), expected guesses.
     Stats(cmd::stats::Args),
     /// Figures of a run: per cell histogram, scores by rank, variance; overview grids.
@@ -112,6 +114,7 @@ fn main() {
         Command::Status(a) => cmd::status::run(a),
         Command::Replay(a) => cmd::replay::run(a),
         Command::Top(a) => cmd::top::run(a),
+        Command::Verify(a) => cmd::verify::run(a),
         Command::Stats(a) => cmd::stats::run(a),
         Command::Plot(a) => cmd::plot::run(a),
         Command::Report(a) => cmd::report::run(a),

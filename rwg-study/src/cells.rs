@@ -5,6 +5,7 @@ use crate::manifest::{EnvEntry, Manifest, ManifestError};
 use crate::rundir::blocks::{finalize_cell, CellTotals, BLOCK_SAMPLES};
 use crate::rundir::cell_dir;
 use crate::rundir::meta::{CellId, CellMeta, RunMeta, ShardMeta, WeightsMeta, RUN_FORMAT};
+use crate::rundir::names::check_distinct;
 use crate::stats;
 use crate::StudyError;
 use rwg_core::policy::{Architecture, NetShape};
@@ -150,6 +151,8 @@ fn resolve_env(
 /// code runs) and one instance of each plugin env is created.
 pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
     let mut cells = vec![];
+    // (env index, architecture index) of each cell, to name colliding entries
+    let mut owners = vec![];
     let mut plugins = Plugins::default();
     for i in 0..m.envs.len() {
         let (source, spec) = resolve_env(m, i, &mut plugins)?;
@@ -184,6 +187,7 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
         let seed_id = rwg_gym::gym_id(&e.id).unwrap_or(&e.id).to_string();
         for (j, a) in m.architectures.iter().enumerate() {
             for &bias in &m.bias {
+                owners.push((i, j));
                 let shape = NetShape::new(
                     spec.obs_dim(),
                     &Architecture {
@@ -208,19 +212,8 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
                         .into());
                 }
                 let id = CellId::new(&e.id, &a.name, &a.hidden, bias);
-                let dir = &id.dir;
-                if let Some(other) = cells.iter().find(|c: &&Cell| &c.id.dir == dir) {
-                    return Err(m
-                        .error_at(
-                            e.id_span.clone(),
-                            format!(
-                                "envs[{i}]: '{}' and '{}' would share the cell directory {dir}; \
-                                 rename an architecture or drop one env",
-                                e.id, other.spec.id
-                            ),
-                        )
-                        .into());
-                }
+                // (Cells whose directories would be one, also on case-insensitive
+                // file systems, are refused below, naming both manifest lines.)
                 cells.push(Cell {
                     id,
                     plan: CellPlan {
@@ -241,7 +234,52 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
             }
         }
     }
+    let names: Vec<&str> = cells.iter().map(|c| c.id.dir.as_str()).collect();
+    if let Some((x, y)) = check_distinct(&names) {
+        return Err(StudyError::Manifest(collision(
+            m, owners[x], owners[y], names[x], names[y],
+        )));
+    }
     Ok(cells)
+}
+
+/// The error for two cells whose directories would be one on some file
+/// system: located at the second entry, naming both.
+fn collision(
+    m: &Manifest,
+    (e1, a1): (usize, usize),
+    (e2, a2): (usize, usize),
+    n1: &str,
+    n2: &str,
+) -> ManifestError {
+    let line = |span: std::ops::Range<usize>| m.error_at(span, "").line;
+    let (what, first, second, span) = if e1 == e2 {
+        let (x, y) = (&m.architectures[a1], &m.architectures[a2]);
+        (
+            format!(
+                "architectures[{a1}].name '{}' and architectures[{a2}].name '{}'",
+                x.name, y.name
+            ),
+            line(x.name_span.clone()),
+            line(y.name_span.clone()),
+            y.name_span.clone(),
+        )
+    } else {
+        let (x, y) = (&m.envs[e1], &m.envs[e2]);
+        (
+            format!("envs[{e1}].id '{}' and envs[{e2}].id '{}'", x.id, y.id),
+            line(x.id_span.clone()),
+            line(y.id_span.clone()),
+            y.id_span.clone(),
+        )
+    };
+    m.error_at(
+        span,
+        format!(
+            "{what} (lines {first} and {second}) give cell directories {n1} and {n2}, which are \
+             one directory on case-insensitive file systems (macOS, Windows); rename one"
+        ),
+    )
 }
 
 impl Cell {

@@ -78,6 +78,9 @@ pub enum StudyError {
         /// The cause.
         source: Box<CellError>,
     },
+    /// Another process is writing the run directory.
+    #[error(transparent)]
+    Lock(#[from] crate::rundir::lock::LockError),
     /// Stopped on request (the stop flag was set): every finished block is
     /// saved.
     #[error("interrupted")]

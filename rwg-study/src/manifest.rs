@@ -157,12 +157,22 @@ struct RawEnv {
 }
 
 /// A named architecture of the manifest.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, Serialize)]
 pub struct ArchEntry {
     /// Name used in output (cell directories, tables).
     pub name: String,
     /// Hidden layer sizes.
     pub hidden: Vec<usize>,
+    /// Where the name stands in the manifest (byte range), for error messages.
+    #[serde(skip)]
+    pub name_span: Range<usize>,
+}
+
+impl PartialEq for ArchEntry {
+    /// Equal names and layers (where they stand in the text does not count).
+    fn eq(&self, other: &Self) -> bool {
+        self.name == other.name && self.hidden == other.hidden
+    }
 }
 
 /// An environment of the manifest.
@@ -432,7 +442,11 @@ impl Manifest {
                 }
                 hidden.push(*h.get_ref() as usize);
             }
-            architectures.push(ArchEntry { name, hidden });
+            architectures.push(ArchEntry {
+                name,
+                hidden,
+                name_span: a.name.span(),
+            });
         }
 
         if raw.envs.get_ref().is_empty() {

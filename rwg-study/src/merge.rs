@@ -6,9 +6,11 @@
 
 use crate::cells::{new_meta, plan_cells, SummaryLine};
 use crate::manifest::Manifest;
-use crate::rundir::blocks::{block_done, block_path, cell_complete, n_blocks, tidy_complete_cell};
+use crate::rundir::blocks::{cell_complete, copy_block, n_blocks, tidy_complete_cell, BlockIndex};
+use crate::rundir::checksum::verify_cell;
 use crate::rundir::export::{rfc3339, write_atomic};
-use crate::rundir::meta::{read_cell_meta, read_run_meta, write_run_meta, RunMeta};
+use crate::rundir::lock::RunLock;
+use crate::rundir::meta::{read_cell_meta, read_run_meta, write_run_meta, RunMeta, RUN_FORMAT};
 use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
 use crate::StudyError;
 use std::path::{Path, PathBuf};
@@ -25,6 +27,8 @@ pub struct MergeReport {
     pub cells_kept: usize,
     /// `out` already held this study, merged and complete: nothing was written.
     pub already_complete: bool,
+    /// The lock of `out`, still held (drop it when done writing).
+    pub lock: RunLock,
 }
 
 /// Checks that the directories in `shards` come from the same study and
@@ -48,6 +52,14 @@ pub fn merge_shards(
         let meta = read_run_meta(d)?;
         if meta.shard.is_none() {
             return refuse(format!("{} holds a whole run, not a shard", d.display()));
+        }
+        if meta.format < RUN_FORMAT {
+            return refuse(format!(
+                "{} was written by an older rwg (run format {}, without checksums): its blocks \
+                 cannot be verified; run the shard again with this rwg",
+                d.display(),
+                meta.format
+            ));
         }
         dirs.push((d.clone(), m, meta));
     }
@@ -104,12 +116,23 @@ pub fn merge_shards(
     // The shards' manifests name their plugin files already: nothing to fill in.
     let cells = plan_cells(&mut m.clone())?;
     let nb = n_blocks(m.samples);
-    // Every block must be in the shard that owns it.
+    // Every block must be in the shard that owns it, committed.
+    let mut indexes: Vec<Vec<BlockIndex>> = vec![];
+    for cell in &cells {
+        let mut per_shard = vec![];
+        for d in &owner {
+            let dir = cell_dir(d.expect("checked"), &cell.id.dir);
+            per_shard.push(BlockIndex::load(&dir).map_err(|source| StudyError::RunDir {
+                context: format!("cannot read the block index of {}", dir.display()),
+                source,
+            })?);
+        }
+        indexes.push(per_shard);
+    }
     for (ci, cell) in cells.iter().enumerate() {
         for b in 0..nb {
             let k = ((ci as u64 * nb + b) % count) as usize;
-            let dir = cell_dir(owner[k].expect("checked"), &cell.id.dir);
-            if !block_done(&dir, b) {
+            if !indexes[ci][k].done(b) {
                 return refuse(format!(
                     "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; finish it with \
                      rwg run {} --shard {k}/{count} --out {}",
@@ -122,13 +145,27 @@ pub fn merge_shards(
         }
     }
 
+    std::fs::create_dir_all(out)
+        .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
+    let lock = RunLock::acquire(out)?;
     if let Some(previous) = check_out(out, m)? {
         if previous.end_time.is_some() {
+            // Complete only if everything in it still verifies.
+            let check = crate::rundir::verify::verify_run(out);
+            if !check.problems.is_empty() {
+                return refuse(format!(
+                    "{} holds this study, merged, but its files do not verify:\n  {}\n\
+                     delete the damaged cell directories and merge again",
+                    out.display(),
+                    check.problems.join("\n  ")
+                ));
+            }
             return Ok(MergeReport {
                 shards: count,
                 meta: previous,
                 cells_kept: cells.len(),
                 already_complete: true,
+                lock,
             });
         }
     }
@@ -157,20 +194,29 @@ pub fn merge_shards(
                 context: format!("cannot tidy cell {}", cell.id.dir),
                 source,
             })?;
+            verify_cell(&dest).map_err(|source| StudyError::RunDir {
+                context: format!("cell {} of the earlier merge does not verify", cell.id.dir),
+                source,
+            })?;
             let cm = read_cell_meta(&dest)?;
             meta.env_steps += cm.env_steps;
             meta.cells.push(cm);
             cells_kept += 1;
             continue;
         }
+        let dest_index = BlockIndex::load(&dest).map_err(|source| StudyError::RunDir {
+            context: format!("cannot read the block index of {}", dest.display()),
+            source,
+        })?;
         for b in 0..nb {
-            let dst = block_path(&dest, b);
-            if block_done(&dest, b) {
-                continue; // copied (atomically) by an interrupted merge
+            if dest_index.done(b) {
+                continue; // copied (and checked) by an interrupted merge
             }
             let k = ((ci as u64 * nb + b) % count) as usize;
-            let src = block_path(&cell_dir(owner[k].expect("checked"), &cell.id.dir), b);
-            copy_atomic(&src, &dst)?;
+            copy_block(&indexes[ci][k], &dest, b).map_err(|source| StudyError::RunDir {
+                context: format!("cannot merge block {b} of cell {}", cell.id.dir),
+                source,
+            })?;
         }
         let (cm, totals) = cell.finalize(m, out, 0.0)?;
         on_cell(Some(&cell.summary_line(&totals.means, None)));
@@ -190,6 +236,7 @@ pub fn merge_shards(
         meta,
         cells_kept,
         already_complete: false,
+        lock,
     })
 }
 
@@ -229,25 +276,4 @@ fn check_out(out: &Path, m: &Manifest) -> Result<Option<RunMeta>, StudyError> {
         ));
     }
     Ok(Some(meta))
-}
-
-/// Copies a committed block under a temporary name, then renames it, so that
-/// an interrupted merge never leaves a partial block under the final name.
-fn copy_atomic(src: &Path, dst: &Path) -> Result<(), StudyError> {
-    let dir = dst.parent().expect("a block has a parent");
-    std::fs::create_dir_all(dir)
-        .map_err(StudyError::io(format!("cannot create {}", dir.display())))?;
-    let mut tmp = dst.as_os_str().to_owned();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    std::fs::copy(src, &tmp).map_err(StudyError::io(format!(
-        "cannot copy {} to {}",
-        src.display(),
-        tmp.display()
-    )))?;
-    std::fs::rename(&tmp, dst).map_err(StudyError::io(format!(
-        "cannot rename {} to {}",
-        tmp.display(),
-        dst.display()
-    )))
 }

@@ -13,10 +13,14 @@ use crate::error::CellError;
 use crate::fault_context::{self, Watched};
 use crate::manifest::Manifest;
 use crate::rundir::blocks::{
-    block_done, block_samples, cell_complete, n_blocks, tidy_complete_cell, write_block,
+    block_samples, cell_complete, n_blocks, tidy_complete_cell, write_block, BlockIndex,
 };
+use crate::rundir::checksum::verify_cell;
 use crate::rundir::export::{rfc3339, write_atomic};
-use crate::rundir::meta::{read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta};
+use crate::rundir::lock::RunLock;
+use crate::rundir::meta::{
+    read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta, RUN_FORMAT,
+};
 use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
 use crate::StudyError;
 use rwg_core::sampler::{run_blocks, BlockResult};
@@ -59,7 +63,8 @@ pub trait Progress: Send {
 #[derive(Debug)]
 pub enum RunOutcome {
     /// The directory already held this study, complete; nothing was run.
-    AlreadyComplete,
+    /// The run directory's lock is still held (drop it when done writing).
+    AlreadyComplete(RunLock),
     /// The cells (or the shard's blocks) are computed.
     Finished(Box<RunReport>),
 }
@@ -78,6 +83,8 @@ pub struct RunReport {
     pub env_steps: u64,
     /// Worker threads used.
     pub threads: usize,
+    /// The run directory's lock, still held (drop it when done writing).
+    pub lock: RunLock,
 }
 
 /// Runs the study `m` (overrides applied) into `opts.out`: plans the cells
@@ -98,9 +105,22 @@ pub fn run_study(
             .map_or(1, |n| n.get())
             .min(crate::limits::MAX_THREADS)
     });
+    std::fs::create_dir_all(out)
+        .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
+    let lock = RunLock::acquire(out)?;
     let previous = prepare_dir(out, m, opts.shard, opts.force_new)?;
     if previous.as_ref().is_some_and(|p| p.end_time.is_some()) {
-        return Ok(RunOutcome::AlreadyComplete);
+        // Complete only if everything in it still verifies.
+        let check = crate::rundir::verify::verify_run(out);
+        if !check.problems.is_empty() {
+            return Err(StudyError::Refused(format!(
+                "{} holds this study, finished, but its files do not verify:\n  {}\n\
+                 delete the damaged cell directories and run again to recompute them",
+                out.display(),
+                check.problems.join("\n  ")
+            )));
+        }
+        return Ok(RunOutcome::AlreadyComplete(lock));
     }
     let manifest_path = out.join(MANIFEST);
     write_atomic(&manifest_path, m.to_toml().as_bytes()).map_err(StudyError::io(format!(
@@ -114,6 +134,14 @@ pub fn run_study(
         .map_err(|e| StudyError::Refused(format!("cannot start {threads} worker threads: {e}")))?;
     let nb = n_blocks(m.samples);
     let owned = |ci: usize, b: u64| opts.shard.is_none_or(|s| s.owns(ci, nb, b));
+    let mut indexes = Vec::with_capacity(cells.len());
+    for c in &cells {
+        let dir = cell_dir(out, &c.id.dir);
+        indexes.push(BlockIndex::load(&dir).map_err(|source| StudyError::RunDir {
+            context: format!("cannot read the block index of cell {}", c.id.dir),
+            source,
+        })?);
+    }
     let todo: u64 = cells
         .iter()
         .enumerate()
@@ -123,7 +151,7 @@ pub fn run_study(
                 return 0;
             }
             (0..nb)
-                .filter(|&b| owned(ci, b) && !block_done(&dir, b))
+                .filter(|&b| owned(ci, b) && !indexes[ci].done(b))
                 .map(|b| block_samples(b, m.samples).count() as u64)
                 .sum()
         })
@@ -142,6 +170,10 @@ pub fn run_study(
         if opts.shard.is_none() && cell_complete(&dir) {
             tidy_complete_cell(&dir).map_err(|source| StudyError::RunDir {
                 context: format!("cannot tidy cell {}", cell.id.dir),
+                source,
+            })?;
+            verify_cell(&dir).map_err(|source| StudyError::RunDir {
+                context: format!("cell {} is complete but does not verify", cell.id.dir),
                 source,
             })?;
             let cm = read_cell_meta(&dir)?;
@@ -169,7 +201,7 @@ pub fn run_study(
             EnvSource::Gym(_) => format!("env '{}', cell {}", cell.spec.id, cell.id.dir),
         });
         let blocks: Vec<_> = (0..nb)
-            .filter(|&b| owned(ci, b) && !block_done(&dir, b))
+            .filter(|&b| owned(ci, b) && !indexes[ci].done(b))
             .map(|b| block_samples(b, m.samples))
             .collect();
         let t_cell = Instant::now();
@@ -238,6 +270,7 @@ pub fn run_study(
         cells: cells.len(),
         env_steps: steps_now,
         threads,
+        lock,
     })))
 }
 
@@ -378,6 +411,14 @@ fn prepare_dir(
         }
         if out.join(RUN_JSON).exists() {
             let meta = read_run_meta(out)?;
+            if meta.format < RUN_FORMAT {
+                return Err(StudyError::Refused(format!(
+                    "{} was written by an older rwg (run format {}, without checksums), so what it \
+                     holds cannot be verified; rerun with --force-new to start over, or use another --out",
+                    out.display(),
+                    meta.format
+                )));
+            }
             if meta.shard != shard {
                 let show = |s: Option<ShardMeta>| {
                     s.map_or("the whole study".into(), |s| {

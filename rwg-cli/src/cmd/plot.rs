@@ -20,18 +20,20 @@ pub struct Args {
 
 /// Runs `rwg plot`.
 pub fn run(args: Args) -> Result<()> {
+    let out = args.out.unwrap_or_else(|| args.run_dir.join("figures"));
+    let _lock = crate::cmd::lock_if_inside(&args.run_dir, &out)?;
     let run = Run::open(&args.run_dir)?;
+    crate::cmd::warn_unverified(&run);
     let cells = rwg_analysis::load_cells(&run)?;
     let format = if args.png {
         ImageFormat::Png
     } else {
         ImageFormat::Svg
     };
-    let out = args.out.unwrap_or_else(|| args.run_dir.join("figures"));
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     for fig in run_figures(&cells, format)? {
         let path = out.join(fig.file_name());
-        std::fs::write(&path, &fig.bytes)
+        rwg_study::rundir::export::write_atomic(&path, &fig.bytes)
             .with_context(|| format!("cannot write {}", path.display()))?;
         crate::outln!("{}", path.display());
     }

@@ -9,10 +9,11 @@ use rwg_env::{Environment, Space};
 use rwg_study::cells::{plan_cells, Cell};
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir;
+use rwg_study::rundir::data::Run;
 use rwg_study::rundir::export::csv_writer;
 use serde::Serialize;
 use std::io::{BufWriter, Write};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `rwg replay`.
 #[derive(clap::Args)]
@@ -93,6 +94,22 @@ pub fn find_cell<'a>(
         }
         _ => bail!("the run has both bias settings: add --bias true or --bias false"),
     }
+}
+
+/// The stored scores of `sample` (one per episode): the cell's scores.csv,
+/// read and checked against its checksum by the run directory's loader.
+fn stored_scores(run_dir: &Path, cell_dir: &str, sample: u64) -> Result<Vec<f64>> {
+    let run = Run::open(run_dir)?;
+    crate::cmd::warn_unverified(&run);
+    let Some(meta) = run.meta.cells.iter().find(|c| c.id.dir == cell_dir) else {
+        bail!(
+            "{}: cell {cell_dir} is not finished yet (run.json does not list it): nothing stored \
+             to compare with; finish the run first",
+            run_dir.display()
+        );
+    };
+    let data = run.load_cell(meta)?;
+    Ok(data.sample_scores(sample as usize).to_vec())
 }
 
 #[derive(Serialize)]
@@ -191,8 +208,9 @@ pub fn run(args: Args) -> Result<()> {
     let mut obs = vec![0.0; cell.spec.obs_dim()];
 
     if let Some(path) = &args.export_weights {
+        let _lock = crate::cmd::lock_if_inside(&args.run_dir, path)?;
         let e = export(cell, &policy, args.sample, m.episodes);
-        std::fs::write(path, serde_json::to_string_pretty(&e)?)
+        rwg_study::rundir::export::write_atomic(path, serde_json::to_string_pretty(&e)?.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
         eprintln!("wrote {}", path.display());
     }
@@ -238,11 +256,7 @@ pub fn run(args: Args) -> Result<()> {
         return Ok(());
     }
 
-    let stored = rundir::data::read_sample_scores(
-        &rundir::cell_dir(&args.run_dir, &cell.id.dir).join(rundir::SCORES_CSV),
-        args.sample,
-        m.episodes,
-    )?;
+    let stored = stored_scores(&args.run_dir, &cell.id.dir, args.sample)?;
     let mut csv = csv_writer(&mut out);
     csv.write_record([
         "episode",

@@ -18,13 +18,16 @@ pub struct Args {
 
 /// Runs `rwg report`.
 pub fn run(args: Args) -> Result<()> {
+    let out = args.out.unwrap_or_else(|| args.run_dir.join(REPORT_HTML));
+    let _lock = crate::cmd::lock_if_inside(&args.run_dir, &out)?;
     let run = Run::open(&args.run_dir)?;
+    crate::cmd::warn_unverified(&run);
     let cells = rwg_analysis::load_cells(&run)?;
     let stats = rwg_analysis::run_stats(&run, &cells);
     let figures = run_figures(&cells, ImageFormat::Svg)?;
     let html = report_html(&run, &stats, &figures);
-    let out = args.out.unwrap_or_else(|| args.run_dir.join(REPORT_HTML));
-    std::fs::write(&out, html).with_context(|| format!("cannot write {}", out.display()))?;
+    rwg_study::rundir::export::write_atomic(&out, html.as_bytes())
+        .with_context(|| format!("cannot write {}", out.display()))?;
     crate::outln!("{}", out.display());
     Ok(())
 }

@@ -171,7 +171,7 @@ pub fn run(args: Args) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let report = match outcome {
-        Ok(RunOutcome::AlreadyComplete) => {
+        Ok(RunOutcome::AlreadyComplete(_lock)) => {
             crate::outln!(
                 "{} already holds this study, complete; nothing to do.",
                 out.display()

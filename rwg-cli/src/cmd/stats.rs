@@ -4,6 +4,7 @@
 use anyhow::{Context, Result};
 use rwg_analysis::{render_tables, tables::run_tables, TableFormat};
 use rwg_study::rundir::data::{stats_csv, write_stats, Run, RunStats};
+use rwg_study::rundir::lock::RunLock;
 use std::path::PathBuf;
 
 /// Output formats of `rwg stats` and `rwg compare`.
@@ -56,7 +57,16 @@ pub fn load_stats(run_dir: &std::path::Path) -> Result<(Run, RunStats)> {
 
 /// Runs `rwg stats`.
 pub fn run(args: Args) -> Result<()> {
-    let (_, stats) = load_stats(&args.run_dir)?;
+    // Writing stats.json and stats.csv makes this a writer of the run.
+    // (Opened first, so a directory that is no run says so.)
+    let _lock = match args.no_write {
+        true => None,
+        false => Run::open(&args.run_dir)
+            .map(|_| RunLock::acquire(&args.run_dir))??
+            .into(),
+    };
+    let (run, stats) = load_stats(&args.run_dir)?;
+    crate::cmd::warn_unverified(&run);
     if !args.no_write {
         write_stats(&args.run_dir, &stats)
             .with_context(|| format!("cannot write stats into {}", args.run_dir.display()))?;

@@ -3,9 +3,7 @@
 use anyhow::Result;
 use rwg_analysis::table::{Align, TextColumns};
 use rwg_env::float::fmt_f64;
-use rwg_study::rundir;
-use rwg_study::rundir::data::read_samples_csv;
-use rwg_study::rundir::meta::read_run_meta;
+use rwg_study::rundir::data::Run;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -22,13 +20,14 @@ pub struct Args {
 /// Runs `rwg top`.
 pub fn run(args: Args) -> Result<()> {
     rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
-    let meta = read_run_meta(&args.run_dir)?;
+    let run_dir = Run::open(&args.run_dir)?;
+    crate::cmd::warn_unverified(&run_dir);
     let run = args.run_dir.display().to_string();
     let stdout = crate::stdio::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
-    for cell in &meta.cells {
-        let path = rundir::cell_dir(&args.run_dir, &cell.id.dir).join(rundir::SAMPLES_CSV);
-        let mut rows: Vec<(u64, f64, f64, f64, f64)> = read_samples_csv(&path)?
+    for cell in &run_dir.meta.cells {
+        let mut rows: Vec<(u64, f64, f64, f64, f64)> = run_dir
+            .load_samples(cell)?
             .iter()
             .map(|r| {
                 (

@@ -10,13 +10,17 @@
 //! so they are byte-identical whether the cell ran in one go, was resumed, or
 //! was computed in shards and merged.
 
+use crate::rundir::checksum::{
+    self, append_sum, read_sums, sums_text, Digest, HashingReader, SUMS,
+};
 use crate::rundir::export::{
-    csv_io_error, csv_reader, csv_writer, write_atomic, write_sample_rows, write_score_rows,
-    AtomicFile,
+    csv_io_error, csv_reader, csv_writer, sync_dir, write_atomic_hashed, write_sample_rows,
+    write_score_rows, AtomicFile,
 };
 use crate::rundir::{BLOCKS, CELL_JSON, SAMPLES_CSV, SCORES_CSV, SCORES_HEADER};
 use crate::stats::{ranks, sample_stats};
 use rwg_core::sampler::BlockResult;
+use std::collections::BTreeMap;
 use std::io;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -44,6 +48,28 @@ pub enum RunDirError {
         /// 1-based line.
         line: usize,
         /// What is wrong.
+        message: String,
+    },
+    /// A file does not have the checksum its index records.
+    #[error(
+        "{path}: checksum mismatch: the run's index records sha256 {recorded}, the file has \
+         {found}; it was changed, truncated or damaged after rwg wrote it. Delete the cell's \
+         directory (or the block) and run the study again to recompute it"
+    )]
+    Checksum {
+        /// The file.
+        path: PathBuf,
+        /// The digest recorded when the file was committed.
+        recorded: String,
+        /// The digest of the file now.
+        found: String,
+    },
+    /// A file has no checksum recorded, so it cannot count as committed.
+    #[error("{path}: unverified: {message}")]
+    Unverified {
+        /// The file.
+        path: PathBuf,
+        /// Why.
         message: String,
     },
     /// A block is missing when the cell is finalised.
@@ -103,14 +129,54 @@ pub fn block_index(file_name: &str) -> Option<u64> {
     (format!("b{b:07}.csv") == file_name).then_some(b)
 }
 
-/// Whether block `b` is committed.
-pub fn block_done(cell_dir: &Path, b: u64) -> bool {
-    block_path(cell_dir, b).is_file()
+/// File name of block `b`.
+fn block_name(b: u64) -> String {
+    format!("b{b:07}.csv")
 }
 
-/// Whether the cell is finalised (`samples.csv`, written last, exists).
+/// The committed blocks of a cell: those listed in `blocks/SHA256SUMS`
+/// (with the digest recorded at commit) whose file exists. A block file
+/// without an index line (a run killed between the rename and the append)
+/// is not committed and is computed again.
+#[derive(Debug, Clone, Default)]
+pub struct BlockIndex {
+    sums: BTreeMap<String, Digest>,
+    dir: PathBuf,
+}
+
+impl BlockIndex {
+    /// Reads the index of the cell in `cell_dir` (empty if none).
+    pub fn load(cell_dir: &Path) -> Result<BlockIndex, RunDirError> {
+        let sums = read_sums(&cell_dir.join(BLOCKS).join(SUMS), false)?.unwrap_or_default();
+        Ok(BlockIndex {
+            sums,
+            dir: cell_dir.to_path_buf(),
+        })
+    }
+
+    /// The recorded digest of block `b`, if it is committed.
+    pub fn digest(&self, b: u64) -> Option<&Digest> {
+        self.sums
+            .get(&block_name(b))
+            .filter(|_| block_path(&self.dir, b).is_file())
+    }
+
+    /// Whether block `b` is committed.
+    pub fn done(&self, b: u64) -> bool {
+        self.digest(b).is_some()
+    }
+}
+
+/// Whether block `b` is committed (reads the cell's index; use
+/// [`BlockIndex`] to ask about many blocks).
+pub fn block_done(cell_dir: &Path, b: u64) -> bool {
+    BlockIndex::load(cell_dir).is_ok_and(|i| i.done(b))
+}
+
+/// Whether the cell is finalised: its `SHA256SUMS`, written last, exists.
+/// (Whether its files still match it is [`checksum::verify_cell`]'s job.)
 pub fn cell_complete(cell_dir: &Path) -> bool {
-    cell_dir.join(SAMPLES_CSV).is_file()
+    cell_dir.join(SUMS).is_file()
 }
 
 /// Removes what a finalised cell no longer needs: the blocks, which remain
@@ -131,7 +197,33 @@ pub fn write_block(cell_dir: &Path, block: &BlockResult, episodes: u32) -> Resul
     std::fs::create_dir_all(dir).map_err(io_err(dir))?;
     let mut f = AtomicFile::create(&path).map_err(io_err(&path))?;
     write_score_rows(&mut f, block, episodes).map_err(io_err(&path))?;
-    f.commit().map_err(io_err(&path))
+    let digest = f.commit_hashed().map_err(io_err(&path))?;
+    append_sum(&dir.join(SUMS), &block_name(b), &digest)
+}
+
+/// Copies committed block `b` of the cell in `src` into the cell in `dst`
+/// (for `merge`): checks it against `src`'s index while reading, then
+/// commits it in `dst` like [`write_block`].
+pub fn copy_block(src: &BlockIndex, dst: &Path, b: u64) -> Result<(), RunDirError> {
+    let from = block_path(&src.dir, b);
+    let want = *src.digest(b).ok_or_else(|| RunDirError::Unverified {
+        path: from.clone(),
+        message: format!(
+            "not listed in {}: the block is not committed",
+            src.dir.join(BLOCKS).join(SUMS).display()
+        ),
+    })?;
+    let bytes = std::fs::read(&from).map_err(io_err(&from))?;
+    let got: Digest = {
+        use sha2::Digest as _;
+        sha2::Sha256::digest(&bytes).into()
+    };
+    checksum::check(&from, &want, &got)?;
+    let to = block_path(dst, b);
+    let dir = to.parent().expect("block path has a parent");
+    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    let digest = write_atomic_hashed(&to, &bytes).map_err(io_err(&to))?;
+    append_sum(&dir.join(SUMS), &block_name(b), &digest)
 }
 
 /// What finalising a cell found.
@@ -173,8 +265,9 @@ pub fn finalize_cell(
     episodes: u32,
     cell_json: impl FnOnce(&CellTotals) -> Option<String>,
 ) -> Result<CellTotals, RunDirError> {
+    let index = BlockIndex::load(cell_dir)?;
     for b in 0..n_blocks(samples) {
-        if !block_done(cell_dir, b) {
+        if !index.done(b) {
             return Err(RunDirError::MissingBlock {
                 path: block_path(cell_dir, b),
                 block: b,
@@ -194,7 +287,7 @@ pub fn finalize_cell(
     for b in 0..n_blocks(samples) {
         let path = block_path(cell_dir, b);
         let file = std::fs::File::open(&path).map_err(io_err(&path))?;
-        let mut rows = csv_reader(file, false).into_records();
+        let mut rows = csv_reader(HashingReader::new(file), false).into_records();
         let mut line_no = 0;
         for sample in block_samples(b, samples) {
             buf.clear();
@@ -225,24 +318,43 @@ pub fn finalize_cell(
                 message,
             });
         }
+        let got = rows
+            .into_reader()
+            .into_inner()
+            .finish()
+            .map_err(io_err(&path))?;
+        checksum::check(&path, index.digest(b).expect("checked above"), &got)?;
     }
     let scores = scores
         .into_inner()
         .map_err(|e| io_err(&scores_path)(e.into_error()))?;
-    scores.commit().map_err(io_err(&scores_path))?;
+    let mut sums = vec![(
+        SCORES_CSV,
+        scores.commit_hashed().map_err(io_err(&scores_path))?,
+    )];
     let means: Vec<f64> = summaries.iter().map(|s| s.mean).collect();
     let totals = CellTotals { env_steps, means };
     if let Some(json) = cell_json(&totals) {
         let p = cell_dir.join(CELL_JSON);
-        write_atomic(&p, json.as_bytes()).map_err(io_err(&p))?;
+        sums.push((
+            CELL_JSON,
+            write_atomic_hashed(&p, json.as_bytes()).map_err(io_err(&p))?,
+        ));
     }
     let ranks = ranks(&totals.means);
     let samples_path = cell_dir.join(SAMPLES_CSV);
     let mut f = AtomicFile::create(&samples_path).map_err(io_err(&samples_path))?;
     write_sample_rows(&mut f, &summaries, &ranks).map_err(io_err(&samples_path))?;
-    f.commit().map_err(io_err(&samples_path))?;
+    sums.push((
+        SAMPLES_CSV,
+        f.commit_hashed().map_err(io_err(&samples_path))?,
+    ));
+    // Written last: the cell is complete once this exists.
+    let sums_path = cell_dir.join(SUMS);
+    write_atomic_hashed(&sums_path, sums_text(&sums).as_bytes()).map_err(io_err(&sums_path))?;
     let blocks = cell_dir.join(BLOCKS);
     std::fs::remove_dir_all(&blocks).map_err(io_err(&blocks))?;
+    sync_dir(&blocks).map_err(io_err(cell_dir))?;
     Ok(totals)
 }
 
@@ -310,6 +422,32 @@ mod tests {
         let err = finalize_cell(&dir, 3, 2, |_| None).unwrap_err().to_string();
         assert!(
             err.contains("b0000000.csv:4: expected sample 1, episode 1"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn changed_or_unindexed_blocks_do_not_count() {
+        let dir = std::env::temp_dir().join(format!("rwg-rundir-sum-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        write_block(&dir, &block(0, 3, 2), 2).unwrap();
+        assert!(block_done(&dir, 0));
+        // A digit changed: the rows still parse, the checksum does not match.
+        let p = block_path(&dir, 0);
+        let text = std::fs::read_to_string(&p)
+            .unwrap()
+            .replacen(",10", ",11", 1);
+        std::fs::write(&p, text).unwrap();
+        let err = finalize_cell(&dir, 3, 2, |_| None).unwrap_err().to_string();
+        assert!(err.contains("b0000000.csv: checksum mismatch"), "{err}");
+        assert!(!cell_complete(&dir));
+        // A block file the index does not list is not committed.
+        std::fs::remove_file(dir.join("blocks").join(SUMS)).unwrap();
+        assert!(!block_done(&dir, 0));
+        let err = finalize_cell(&dir, 3, 2, |_| None).unwrap_err();
+        assert!(
+            matches!(err, RunDirError::MissingBlock { block: 0, .. }),
             "{err}"
         );
         std::fs::remove_dir_all(&dir).unwrap();

@@ -10,8 +10,10 @@
 //! Malformed files give a [`RunReadError`] naming the file and, for CSV, the
 //! 1-based line.
 
+use crate::rundir::blocks::RunDirError;
+use crate::rundir::checksum;
 use crate::rundir::export::{csv_reader, csv_writer};
-use crate::rundir::meta::{CellMeta, RunMeta, RUN_FORMAT};
+use crate::rundir::meta::{load_json, CellMeta, JsonFileError, RunMeta, RUN_FORMAT};
 use crate::rundir::{
     cell_dir, MANIFEST, RUN_JSON, SAMPLES_CSV, SAMPLES_HEADER, SCORES_CSV, SCORES_HEADER,
     STATS_CSV, STATS_JSON,
@@ -74,6 +76,18 @@ pub enum RunReadError {
         why: String,
         /// A hint: nearby run directories, if any (empty or `; ...`).
         hint: String,
+    },
+    /// A file does not match the checksum recorded in the run's index (or
+    /// has none).
+    #[error(transparent)]
+    Integrity(#[from] RunDirError),
+    /// A file does not match its checksum, and reading it shows where.
+    #[error("{check}\n  first bad row: {row}")]
+    Damaged {
+        /// The checksum failure.
+        check: RunDirError,
+        /// What reading the file found.
+        row: Box<RunReadError>,
     },
     /// A file disagrees with `run.json` or with another file.
     #[error("{path}: {message}")]
@@ -177,6 +191,9 @@ pub struct Run {
     pub meta: RunMeta,
     /// Contents of `manifest.toml`, if present.
     pub manifest: Option<String>,
+    /// Whether the run has checksums (format 2 on): a run written before
+    /// them (format 1) is read unverified.
+    pub verified: bool,
 }
 
 /// One cell's scores with the per-sample statistics derived from them.
@@ -267,16 +284,15 @@ impl Run {
     pub fn open(dir: impl AsRef<Path>) -> Result<Run, RunReadError> {
         let dir = dir.as_ref().to_path_buf();
         let path = dir.join(RUN_JSON);
-        let text = match std::fs::read_to_string(&path) {
-            Ok(t) => t,
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Err(not_a_run_dir(&dir)),
-            Err(e) => return Err(io_err(&path)(e)),
-        };
-        let meta: RunMeta = serde_json::from_str(&text).map_err(|source| RunReadError::Json {
-            path: path.clone(),
-            source,
+        let meta: RunMeta = load_json(&path).map_err(|e| match e {
+            JsonFileError::Io(e) if e.kind() == std::io::ErrorKind::NotFound => not_a_run_dir(&dir),
+            JsonFileError::Io(e) => io_err(&path)(e),
+            JsonFileError::Json(source) => RunReadError::Json {
+                path: path.clone(),
+                source,
+            },
         })?;
-        if meta.format != RUN_FORMAT {
+        if !(1..=RUN_FORMAT).contains(&meta.format) {
             return Err(RunReadError::Format {
                 path,
                 found: meta.format,
@@ -301,6 +317,7 @@ impl Run {
         };
         Ok(Run {
             dir,
+            verified: meta.format >= 2,
             meta,
             manifest,
         })
@@ -323,7 +340,49 @@ impl Run {
                 message: format!("cell {} has no episodes to analyse", cell.id.dir),
             });
         }
-        let (scores, steps) = read_scores_csv(&spath, episodes)?;
+        let check = |name: &str| -> Result<(), RunDirError> {
+            if !self.verified {
+                return Ok(());
+            }
+            checksum::verify_file(&dir, name, &checksum::recorded(&dir, name)?)
+        };
+        let scores_check = check(SCORES_CSV);
+        let (scores, steps) = match (scores_check, read_scores_csv(&spath, episodes)) {
+            (Ok(()), parsed) => parsed?,
+            (Err(check), Err(row)) => {
+                return Err(RunReadError::Damaged {
+                    check,
+                    row: Box::new(row),
+                })
+            }
+            (Err(check), Ok((scores, steps))) => {
+                // Parses, but was changed: find the sample whose statistics
+                // no longer match samples.csv, if that file is intact.
+                let samples = dir.join(SAMPLES_CSV);
+                if scores.len() % episodes == 0 && check_intact(&dir, SAMPLES_CSV, self.verified) {
+                    let data = CellData::new(cell.clone(), episodes, scores, steps);
+                    if let Err(RunReadError::Csv { line, .. }) = check_samples_csv(&samples, &data)
+                    {
+                        let i = line.saturating_sub(2);
+                        let row = RunReadError::Csv {
+                            path: spath.clone(),
+                            line: 2 + i * episodes,
+                            message: format!(
+                                "sample {i} (rows {}-{}) no longer gives the statistics samples.csv \
+                                 recorded for it",
+                                2 + i * episodes,
+                                1 + (i + 1) * episodes
+                            ),
+                        };
+                        return Err(RunReadError::Damaged {
+                            check,
+                            row: Box::new(row),
+                        });
+                    }
+                }
+                return Err(check.into());
+            }
+        };
         let expected = cell.samples as usize * episodes;
         if scores.len() != expected {
             return Err(RunReadError::Mismatch {
@@ -338,10 +397,39 @@ impl Run {
         }
         let data = CellData::new(cell.clone(), episodes, scores, steps);
         let path = dir.join(SAMPLES_CSV);
-        if path.exists() {
-            check_samples_csv(&path, &data)?;
+        if self.verified || path.exists() {
+            match (check(SAMPLES_CSV), check_samples_csv(&path, &data)) {
+                (Ok(()), r) => r?,
+                (Err(check), Err(row)) => {
+                    return Err(RunReadError::Damaged {
+                        check,
+                        row: Box::new(row),
+                    })
+                }
+                (Err(check), Ok(())) => return Err(check.into()),
+            }
         }
         Ok(data)
+    }
+
+    /// Reads one cell's `samples.csv` alone (checked against its checksum).
+    pub fn load_samples(&self, cell: &CellMeta) -> Result<Vec<SampleRow>, RunReadError> {
+        let dir = self.cell_dir(cell);
+        let path = dir.join(SAMPLES_CSV);
+        if self.verified {
+            let check = checksum::recorded(&dir, SAMPLES_CSV)
+                .and_then(|d| checksum::verify_file(&dir, SAMPLES_CSV, &d));
+            if let Err(check) = check {
+                return Err(match read_samples_csv(&path) {
+                    Err(row) => RunReadError::Damaged {
+                        check,
+                        row: Box::new(row),
+                    },
+                    Ok(_) => check.into(),
+                });
+            }
+        }
+        read_samples_csv(&path)
     }
 
     /// Loads every cell in turn and summarises it.
@@ -357,6 +445,14 @@ impl Run {
             cells,
         })
     }
+}
+
+/// Whether `dir/name` matches its recorded checksum (true for unverified runs).
+fn check_intact(dir: &Path, name: &str, verified: bool) -> bool {
+    !verified
+        || checksum::recorded(dir, name)
+            .and_then(|d| checksum::verify_file(dir, name, &d))
+            .is_ok()
 }
 
 /// The fields of one CSV record, checking the count.
@@ -608,7 +704,7 @@ pub fn samples_csv(stats: &[SampleStats], ranks: &[usize]) -> String {
 pub fn write_samples_csv(path: &Path, scores: &[f64], episodes: usize) -> std::io::Result<()> {
     let st = stats::per_sample(scores, episodes);
     let ranks = stats::ranks(&st.iter().map(|s| s.mean).collect::<Vec<_>>());
-    std::fs::write(path, samples_csv(&st, &ranks))
+    crate::rundir::export::write_atomic(path, samples_csv(&st, &ranks).as_bytes())
 }
 
 /// The text of a `scores.csv` for row-major `N × episodes` scores and steps.
@@ -630,8 +726,7 @@ pub fn scores_csv(scores: &[f64], steps: &[u32], episodes: usize) -> String {
 
 /// Writes `run.json` into `dir`.
 pub fn write_run_json(dir: &Path, meta: &RunMeta) -> std::io::Result<()> {
-    let json = serde_json::to_string_pretty(meta).map_err(std::io::Error::other)?;
-    std::fs::write(dir.join(RUN_JSON), json + "\n")
+    crate::rundir::meta::write_run_meta(dir, meta).map_err(std::io::Error::other)
 }
 
 /// Writes one cell's `scores.csv` and `samples.csv` under
@@ -643,11 +738,30 @@ pub fn write_cell_files(
     scores: &[f64],
     steps: &[u32],
 ) -> std::io::Result<()> {
+    use crate::rundir::export::write_atomic_hashed;
     let dir = cell_dir(run_dir, &cell.id.dir);
     std::fs::create_dir_all(&dir)?;
     let e = cell.episodes as usize;
-    std::fs::write(dir.join(SCORES_CSV), scores_csv(scores, steps, e))?;
-    write_samples_csv(&dir.join(SAMPLES_CSV), scores, e)
+    let st = stats::per_sample(scores, e);
+    let ranks = stats::ranks(&st.iter().map(|s| s.mean).collect::<Vec<_>>());
+    let sums = [
+        (
+            SCORES_CSV,
+            write_atomic_hashed(
+                &dir.join(SCORES_CSV),
+                scores_csv(scores, steps, e).as_bytes(),
+            )?,
+        ),
+        (
+            SAMPLES_CSV,
+            write_atomic_hashed(&dir.join(SAMPLES_CSV), samples_csv(&st, &ranks).as_bytes())?,
+        ),
+    ];
+    write_atomic_hashed(
+        &dir.join(checksum::SUMS),
+        checksum::sums_text(&sums).as_bytes(),
+    )
+    .map(|_| ())
 }
 
 fn opt(x: Option<f64>) -> String {
@@ -781,7 +895,7 @@ pub fn stats_csv(stats: &RunStats) -> String {
 pub fn write_stats(dir: &Path, stats: &RunStats) -> std::io::Result<()> {
     let write = |name: &str, text: String| {
         let p = dir.join(name);
-        std::fs::write(&p, text)
+        crate::rundir::export::write_atomic(&p, text.as_bytes())
             .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", p.display())))
     };
     let json = serde_json::to_string_pretty(stats).map_err(std::io::Error::other)?;

@@ -7,44 +7,91 @@
 //! when complete, so a reader never sees a half-written file under the final
 //! name.
 
+use crate::rundir::checksum::{Digest, HashingWriter};
 use crate::rundir::SAMPLES_HEADER;
 use crate::stats::SampleStats;
 use rwg_core::sampler::BlockResult;
 use rwg_env::float::fmt_f64;
-use std::fs::File;
+use std::fs::{File, OpenOptions};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
-/// A file written under `<name>.tmp` and renamed to its final name by
-/// [`AtomicFile::commit`]; dropped uncommitted, the temporary file stays behind
-/// for inspection but the final name is untouched.
+/// A file written under `<name>.tmp` beside its target and renamed to its
+/// final name by [`AtomicFile::commit`]; dropped uncommitted, the temporary
+/// file stays behind for inspection but the final name is untouched.
+///
+/// The temporary file is created exclusively (`O_CREAT | O_EXCL`, which never
+/// follows a symbolic link): a leftover `.tmp` of a killed run is removed
+/// first (removing a link removes the link, not its target), and if anything
+/// appears at that path in between, creation fails instead of writing
+/// through it. Commit syncs the file, renames it, and syncs the directory,
+/// so a committed file survives a crash of the machine too.
 pub struct AtomicFile {
     tmp: PathBuf,
     path: PathBuf,
-    out: BufWriter<File>,
+    out: HashingWriter<BufWriter<File>>,
+}
+
+/// The `.tmp` path beside `path`.
+pub fn tmp_path(path: &Path) -> PathBuf {
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".tmp");
+    PathBuf::from(tmp)
 }
 
 impl AtomicFile {
     /// Starts writing `path`.
     pub fn create(path: &Path) -> io::Result<Self> {
-        let mut tmp = path.as_os_str().to_owned();
-        tmp.push(".tmp");
-        let tmp = PathBuf::from(tmp);
-        let out = BufWriter::with_capacity(1 << 16, File::create(&tmp)?);
+        let tmp = tmp_path(path);
+        match std::fs::remove_file(&tmp) {
+            Err(e) if e.kind() != io::ErrorKind::NotFound => return Err(e),
+            _ => {}
+        }
+        let file = OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(|e| {
+                io::Error::new(e.kind(), format!("cannot create {}: {e}", tmp.display()))
+            })?;
         Ok(AtomicFile {
             tmp,
             path: path.to_path_buf(),
-            out,
+            out: HashingWriter::new(BufWriter::with_capacity(1 << 16, file)),
         })
     }
 
-    /// Flushes, syncs and renames the file into place.
-    pub fn commit(mut self) -> io::Result<()> {
-        self.out.flush()?;
-        self.out.get_ref().sync_all()?;
-        std::fs::rename(&self.tmp, &self.path)
+    /// Flushes, syncs and renames the file into place, and syncs its
+    /// directory.
+    pub fn commit(self) -> io::Result<()> {
+        self.commit_hashed().map(|_| ())
     }
+
+    /// [`AtomicFile::commit`], returning the SHA-256 of the file's contents.
+    pub fn commit_hashed(self) -> io::Result<Digest> {
+        let (mut out, digest) = self.out.finish();
+        out.flush()?;
+        out.get_ref().sync_all()?;
+        std::fs::rename(&self.tmp, &self.path)?;
+        sync_dir(&self.path)?;
+        Ok(digest)
+    }
+}
+
+/// Syncs the directory holding `path`, so a rename into it is durable.
+pub fn sync_dir(path: &Path) -> io::Result<()> {
+    #[cfg(unix)]
+    {
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+        File::open(dir)?.sync_all()?;
+    }
+    #[cfg(not(unix))]
+    let _ = path;
+    Ok(())
 }
 
 impl Write for AtomicFile {
@@ -58,9 +105,14 @@ impl Write for AtomicFile {
 
 /// Writes a whole file atomically.
 pub fn write_atomic(path: &Path, contents: &[u8]) -> io::Result<()> {
+    write_atomic_hashed(path, contents).map(|_| ())
+}
+
+/// Writes a whole file atomically and returns its SHA-256.
+pub fn write_atomic_hashed(path: &Path, contents: &[u8]) -> io::Result<Digest> {
     let mut f = AtomicFile::create(path)?;
     f.write_all(contents)?;
-    f.commit()
+    f.commit_hashed()
 }
 
 /// A CSV writer as rwg writes every CSV file: comma-separated, `\n` line
@@ -226,6 +278,31 @@ mod tests {
         assert!(!p.exists());
         f.commit().unwrap();
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "a\n");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_symlink_planted_at_the_tmp_path_is_not_followed() {
+        let dir = std::env::temp_dir().join(format!("rwg-atomic-link-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let victim = dir.join("victim.txt");
+        std::fs::write(&victim, "precious\n").unwrap();
+        let p = dir.join("scores.csv");
+        std::os::unix::fs::symlink(&victim, tmp_path(&p)).unwrap();
+        write_atomic(&p, b"new\n").unwrap();
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "precious\n");
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "new\n");
+        assert!(!std::fs::symlink_metadata(&p)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        // A dangling link is not followed either (O_EXCL refuses it).
+        let target = dir.join("created-through-link");
+        std::os::unix::fs::symlink(&target, tmp_path(&p)).unwrap();
+        write_atomic(&p, b"again\n").unwrap();
+        assert!(!target.exists());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -15,8 +15,10 @@ use crate::StudyError;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Version of the run directory layout.
-pub const RUN_FORMAT: u32 = 1;
+/// Version of the run directory layout: 2 added the `SHA256SUMS` checksum
+/// index ([`crate::rundir::checksum`]). Format 1 runs are read as unverified
+/// by the analysis and cannot be resumed or merged.
+pub const RUN_FORMAT: u32 = 2;
 
 /// Contents of `run.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -176,28 +178,7 @@ pub struct CellMeta {
     pub steps_per_s: f64,
 }
 
-/// The directory name of a cell: `<env>__<arch>__<bias|nobias>`, with
-/// characters other than ASCII letters, digits, `-`, `_` and `.` replaced by `_`
-/// (plugin ids may contain `/`).
-pub fn cell_dir_name(env: &str, arch: &str, bias: bool) -> String {
-    let clean = |s: &str| -> String {
-        s.chars()
-            .map(|c| {
-                if c.is_ascii_alphanumeric() || "-_.".contains(c) {
-                    c
-                } else {
-                    '_'
-                }
-            })
-            .collect()
-    };
-    format!(
-        "{}__{}__{}",
-        clean(env),
-        clean(arch),
-        if bias { "bias" } else { "nobias" }
-    )
-}
+pub use crate::rundir::names::cell_dir_name;
 
 /// Writes `run.json` into run directory `out`, atomically.
 pub fn write_run_meta(out: &Path, meta: &RunMeta) -> Result<(), StudyError> {
@@ -208,6 +189,22 @@ pub fn write_run_meta(out: &Path, meta: &RunMeta) -> Result<(), StudyError> {
     })?;
     crate::rundir::export::write_atomic(&p, json.as_bytes())
         .map_err(StudyError::io(format!("cannot write {}", p.display())))
+}
+
+/// Why a JSON file of the run directory could not be read.
+#[derive(Debug)]
+pub enum JsonFileError {
+    /// The file could not be read.
+    Io(std::io::Error),
+    /// It is not the JSON expected.
+    Json(serde_json::Error),
+}
+
+/// Reads and parses `run.json` (`RunMeta`) or `cell.json` (`CellMeta`): the
+/// one reader of the run directory's JSON files.
+pub fn load_json<T: serde::de::DeserializeOwned>(p: &Path) -> Result<T, JsonFileError> {
+    let text = std::fs::read_to_string(p).map_err(JsonFileError::Io)?;
+    serde_json::from_str(&text).map_err(JsonFileError::Json)
 }
 
 /// Reads `run.json` of run directory `dir`.
@@ -221,11 +218,15 @@ pub fn read_cell_meta(dir: &Path) -> Result<CellMeta, StudyError> {
 }
 
 fn read_json<T: serde::de::DeserializeOwned>(p: &Path, what: &str) -> Result<T, StudyError> {
-    let text = std::fs::read_to_string(p)
-        .map_err(StudyError::io(format!("cannot read {}", p.display())))?;
-    serde_json::from_str(&text).map_err(|source| StudyError::Json {
-        context: format!("{} is not an rwg {what}", p.display()),
-        source,
+    load_json(p).map_err(|e| match e {
+        JsonFileError::Io(source) => StudyError::Io {
+            context: format!("cannot read {}", p.display()),
+            source,
+        },
+        JsonFileError::Json(source) => StudyError::Json {
+            context: format!("{} is not an rwg {what}", p.display()),
+            source,
+        },
     })
 }
 
@@ -243,17 +244,5 @@ mod tests {
         }
         assert!("3/3".parse::<ShardMeta>().is_err());
         assert!("1".parse::<ShardMeta>().is_err());
-    }
-
-    #[test]
-    fn cell_dir_names() {
-        assert_eq!(
-            cell_dir_name("CartPole-v0", "0HL", false),
-            "CartPole-v0__0HL__nobias"
-        );
-        assert_eq!(
-            cell_dir_name("acme/Maze-v2", "2HL 4,4", true),
-            "acme_Maze-v2__2HL_4_4__bias"
-        );
     }
 }

@@ -9,9 +9,16 @@
 //! RUN/cells/CELL/scores.csv    sample,episode,score,steps   (export, data)
 //! RUN/cells/CELL/samples.csv   sample,mean,variance,std,min,max,rank
 //! RUN/cells/CELL/cell.json     the cell's metadata (meta::CellMeta)
+//! RUN/cells/CELL/SHA256SUMS    checksums of the three files above, written last (checksum)
+//! RUN/cells/CELL/blocks/SHA256SUMS  checksums of the committed blocks (checksum)
 //! RUN/stats.json, stats.csv    the run's statistics (data)
+//! RUN/rwg.lock                 the writers' lock (lock)
 //! ```
 //!
+//! - [`names`]: the cell directory names (injective, portable).
+//! - [`lock`]: the exclusive lock every writer takes.
+//! - [`checksum`]: the `SHA256SUMS` index of committed files.
+//! - [`verify`]: checking a whole run against it (`rwg verify`).
 //! - [`meta`]: `run.json` / `cell.json` contents and cell directory names.
 //! - [`blocks`]: block files, resume, and a cell's finalisation.
 //! - [`export`]: the CSV writers and atomic file replacement.
@@ -19,10 +26,14 @@
 //! - [`status`]: how far a run or a shard has got (read-only, safe while it runs).
 
 pub mod blocks;
+pub mod checksum;
 pub mod data;
 pub mod export;
+pub mod lock;
 pub mod meta;
+pub mod names;
 pub mod status;
+pub mod verify;
 
 use std::path::{Path, PathBuf};
 

@@ -1,13 +1,14 @@
 //! How far a run directory has got: which cells are finalised and which
 //! blocks are committed, for a whole run or for one shard of a study.
 //!
-//! Everything here only reads, and only looks at names that appear by atomic
-//! rename (`blocks/b<index>.csv`, `samples.csv`), so it is safe to call while
-//! `rwg run` or `rwg merge` writes the same directory: the answer is what was
-//! committed at that instant, never a half-written file.
+//! Everything here only reads, and only counts what is committed (block
+//! files listed in `blocks/SHA256SUMS`, a cell's `SHA256SUMS`, each appearing
+//! by atomic rename), so it is safe to call while `rwg run` or `rwg merge`
+//! writes the same directory: the answer is what was committed at that
+//! instant, never a half-written file.
 
 use crate::manifest::Manifest;
-use crate::rundir::blocks::{block_index, cell_complete, n_blocks};
+use crate::rundir::blocks::{block_index, cell_complete, n_blocks, BlockIndex};
 use crate::rundir::meta::{cell_dir_name, ShardMeta};
 use crate::rundir::{cell_dir, BLOCKS};
 use std::path::Path;
@@ -54,15 +55,18 @@ pub fn cell_dirs(m: &Manifest) -> Vec<String> {
     dirs
 }
 
-/// The indices of the committed blocks of the cell in `cell_dir` (sorted).
-/// A missing directory has none; temporary files do not count.
+/// The indices of the committed blocks of the cell in `cell_dir` (sorted):
+/// block files the cell's block index lists ([`BlockIndex`]). A missing
+/// directory has none; temporary files and unlisted blocks do not count.
 pub fn committed_blocks(cell_dir: &Path) -> Vec<u64> {
+    let index = BlockIndex::load(cell_dir).unwrap_or_default();
     let Ok(entries) = std::fs::read_dir(cell_dir.join(BLOCKS)) else {
         return vec![];
     };
     let mut found: Vec<u64> = entries
         .filter_map(|e| e.ok())
         .filter_map(|e| block_index(e.file_name().to_str()?))
+        .filter(|&b| index.done(b))
         .collect();
     found.sort_unstable();
     found
@@ -149,6 +153,15 @@ id = "CartPole-v1"
         std::fs::write(p, "").unwrap();
     }
 
+    /// An (empty) block, committed: its file and its index line.
+    fn commit(cell: &Path, b: u64) {
+        let p = block_path(cell, b);
+        touch(&p);
+        let d = crate::rundir::checksum::hash_file(&p).unwrap();
+        let name = p.file_name().unwrap().to_str().unwrap();
+        crate::rundir::checksum::append_sum(&cell.join("blocks/SHA256SUMS"), name, &d).unwrap();
+    }
+
     #[test]
     fn counts_committed_blocks_finalised_cells_and_shard_shares() {
         let m = Manifest::parse(STUDY, "s.toml", Path::new(".")).unwrap();
@@ -161,13 +174,15 @@ id = "CartPole-v1"
         assert_eq!(n_blocks(70), 3);
         let c0 = dir.join("cells/CartPole-v1__0HL__nobias");
         let c1 = dir.join("cells/CartPole-v1__0HL__bias");
-        touch(&block_path(&c0, 0));
-        touch(&block_path(&c0, 2));
-        // a temporary file and stray names do not count
+        commit(&c0, 0);
+        commit(&c0, 2);
+        // a temporary file, stray names and a block the index does not list
+        // do not count
         touch(&c0.join("blocks/b0000001.csv.tmp"));
         touch(&c0.join("blocks/notes.csv"));
         touch(&c0.join("blocks/b1.csv"));
-        touch(&c1.join("samples.csv"));
+        touch(&c0.join("blocks/b0000001.csv"));
+        touch(&c1.join("SHA256SUMS"));
         let p = progress(&dir, &m, None);
         assert_eq!((p[0].blocks_done, p[0].blocks_total), (2, 3));
         assert!(!p[0].done(false));
@@ -186,7 +201,7 @@ id = "CartPole-v1"
         assert!(p[0].done(true));
         assert_eq!((p[1].blocks_done, p[1].blocks_total), (0, 1));
         assert!(!p[1].finalised);
-        touch(&block_path(&c1, 1));
+        commit(&c1, 1);
         assert!(Totals::of(&progress(&dir, &m, Some(s)), true).complete());
         assert_eq!(BLOCK_SAMPLES, 32);
         std::fs::remove_dir_all(&dir).unwrap();

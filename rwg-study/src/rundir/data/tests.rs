@@ -28,6 +28,15 @@ fn small_run(name: &str) -> (PathBuf, RunMeta) {
     (dir, meta)
 }
 
+/// Rewrites the run as written before checksums (format 1): read unverified,
+/// so the row-level checks below see the edited files.
+fn make_legacy(dir: &Path, meta: &RunMeta) {
+    let mut m = meta.clone();
+    m.format = 1;
+    write_run_json(dir, &m).unwrap();
+    assert!(!Run::open(dir).unwrap().verified);
+}
+
 fn scores_path(dir: &Path, meta: &RunMeta) -> PathBuf {
     dir.join("cells")
         .join(&meta.cells[0].id.dir)
@@ -104,6 +113,7 @@ fn load_err(dir: &Path, meta: &RunMeta) -> String {
 #[test]
 fn malformed_scores_name_file_and_line() {
     let (dir, meta) = small_run("malformed");
+    make_legacy(&dir, &meta);
     let path = scores_path(&dir, &meta);
     let good = std::fs::read_to_string(&path).unwrap();
     let mut lines: Vec<String> = good.lines().map(String::from).collect();
@@ -165,6 +175,7 @@ fn malformed_scores_name_file_and_line() {
 #[test]
 fn inconsistent_samples_csv_is_refused() {
     let (dir, meta) = small_run("samples");
+    make_legacy(&dir, &meta);
     let path = dir
         .join("cells")
         .join(&meta.cells[0].id.dir)
@@ -218,4 +229,70 @@ fn bad_run_json() {
     write_run_json(&dir, &meta).unwrap();
     let e = Run::open(&dir).unwrap_err().to_string();
     assert!(e.contains("shard 1/3") && e.contains("rwg merge"), "{e}");
+}
+
+#[test]
+fn damaged_files_are_caught_by_their_checksums() {
+    let (dir, meta) = small_run("damaged");
+    assert!(Run::open(&dir).unwrap().verified);
+    let path = scores_path(&dir, &meta);
+    let good = std::fs::read(&path).unwrap();
+    let text = String::from_utf8(good.clone()).unwrap();
+
+    // An edited score that still parses: the checksum catches it and the
+    // intact samples.csv names the sample's rows.
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let f: Vec<&str> = lines[9].split(',').collect();
+    lines[9] = format!(
+        "{},{},{},{}",
+        f[0],
+        f[1],
+        f[2].parse::<f64>().unwrap() + 7.0,
+        f[3]
+    );
+    std::fs::write(&path, lines.join("\n") + "\n").unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(e.contains("scores.csv: checksum mismatch"), "{e}");
+    assert!(
+        e.contains("first bad row: ") && e.contains("scores.csv:10: sample 2 (rows 10-13)"),
+        "{e}"
+    );
+
+    // Truncated at a sample boundary: it parses, but does not count.
+    std::fs::write(&path, &good[..good.len() / 2]).unwrap();
+    let cut = String::from_utf8(good[..good.len() / 2].to_vec()).unwrap();
+    let keep = cut.rfind('\n').unwrap() + 1;
+    std::fs::write(&path, &good[..keep]).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(e.contains("scores.csv: checksum mismatch"), "{e}");
+
+    // Zero-filled (as after a crash of the machine): named with its row.
+    std::fs::write(&path, vec![0u8; good.len()]).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(e.contains("scores.csv: checksum mismatch"), "{e}");
+    assert!(
+        e.contains("first bad row: ") && e.contains("scores.csv:1: header is"),
+        "{e}"
+    );
+    std::fs::write(&path, &good).unwrap();
+    assert!(Run::open(&dir).unwrap().load_cell(&meta.cells[0]).is_ok());
+
+    // samples.csv: edited, then deleted.
+    let spath = path.with_file_name("samples.csv");
+    let samples = std::fs::read_to_string(&spath).unwrap();
+    std::fs::write(&spath, samples.replacen("0,19.25,", "0,19.5,", 1)).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(e.contains("samples.csv: checksum mismatch"), "{e}");
+    std::fs::remove_file(&spath).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(e.contains("samples.csv"), "{e}");
+    std::fs::write(&spath, samples).unwrap();
+
+    // A cell without its SHA256SUMS is not finished.
+    std::fs::remove_file(path.with_file_name("SHA256SUMS")).unwrap();
+    let e = load_err(&dir, &meta);
+    assert!(
+        e.contains("unverified") && e.contains("not finished"),
+        "{e}"
+    );
 }

@@ -1,0 +1,46 @@
+//! `rwg verify`: check a run directory against its checksums.
+
+use anyhow::{bail, Result};
+use rwg_study::rundir::verify::verify_run;
+use std::path::PathBuf;
+
+/// Arguments of `rwg verify`.
+#[derive(clap::Args)]
+#[command(after_help = "\
+Checks every finished cell's scores.csv, samples.csv and cell.json against the
+cell's SHA256SUMS (and their rows against run.json), and every committed block
+of an unfinished cell or a shard against blocks/SHA256SUMS. Prints one line per
+cell and one per problem, naming the file; exits 1 on any problem. Takes no lock:
+it can run while the directory is being written.
+
+Example:
+  rwg verify runs/quick")]
+pub struct Args {
+    /// Run (or shard) directory.
+    run_dir: PathBuf,
+}
+
+/// Runs `rwg verify`.
+pub fn run(args: Args) -> Result<()> {
+    let r = verify_run(&args.run_dir);
+    for l in &r.ok {
+        crate::outln!("{l}");
+    }
+    for p in &r.problems {
+        crate::outln!("FAILED  {p}");
+    }
+    if !r.problems.is_empty() {
+        bail!(
+            "{}: {} problem(s); {} file(s) checked",
+            args.run_dir.display(),
+            r.problems.len(),
+            r.files
+        );
+    }
+    crate::outln!(
+        "{}: {} file(s) checked, all match their checksums",
+        args.run_dir.display(),
+        r.files
+    );
+    Ok(())
+}

@@ -1,0 +1,182 @@
+//! The run directory's writer lock.
+//!
+//! Every command that writes into a run directory (`run`, `merge`, `stats`,
+//! `report`, `plot` into the run, `replay --export-weights` into the run)
+//! first takes an exclusive `flock(2)` on `RUN/rwg.lock`. The kernel releases
+//! it when the holder exits or is killed, so a SIGKILL leaves no stale lock.
+//! A second writer fails at once with [`LockError::Held`], which names the
+//! holder (its pid and command line, which the holder writes into the lock
+//! file), and changes nothing. Readers (`status`, `verify`, `top`) take no
+//! lock.
+//!
+//! Within one process the lock is shared: taking it again on a directory the
+//! process already holds returns another handle to the same lock (so `rwg
+//! run` can hold it across the study and the analysis written after it).
+//!
+//! On systems without `flock` (Windows) no lock is taken.
+
+use std::collections::HashMap;
+use std::fs::File;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex, Weak};
+
+/// Name of the lock file in a run directory.
+pub const LOCK_FILE: &str = "rwg.lock";
+
+/// Why the lock could not be taken.
+#[derive(Debug, thiserror::Error)]
+pub enum LockError {
+    /// Another process holds the lock.
+    #[error(
+        "{} is being written by another rwg process ({holder}); nothing was changed. \
+         Wait for it to finish (or stop it), then run this again",
+        dir.display()
+    )]
+    Held {
+        /// The run directory.
+        dir: PathBuf,
+        /// Who holds it: "pid N: command line", as the holder recorded it.
+        holder: String,
+    },
+    /// The lock file could not be opened or locked.
+    #[error("cannot lock {}", path.display())]
+    Io {
+        /// The lock file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
+
+struct Inner {
+    _file: File,
+}
+
+/// A held lock on a run directory; released when the last handle is dropped.
+#[derive(Clone)]
+pub struct RunLock {
+    _inner: Arc<Inner>,
+}
+
+impl std::fmt::Debug for RunLock {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("RunLock")
+    }
+}
+
+fn held() -> &'static Mutex<HashMap<PathBuf, Weak<Inner>>> {
+    static HELD: std::sync::OnceLock<Mutex<HashMap<PathBuf, Weak<Inner>>>> =
+        std::sync::OnceLock::new();
+    HELD.get_or_init(Default::default)
+}
+
+impl RunLock {
+    /// Takes the lock of run directory `dir` (which must exist), recording
+    /// this process's pid and command line in it.
+    pub fn acquire(dir: &Path) -> Result<RunLock, LockError> {
+        let path = dir.join(LOCK_FILE);
+        let io = |source| LockError::Io {
+            path: path.clone(),
+            source,
+        };
+        let key = std::fs::canonicalize(dir).map_err(io)?;
+        let mut map = held().lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(inner) = map.get(&key).and_then(Weak::upgrade) {
+            return Ok(RunLock { _inner: inner });
+        }
+        let file = lock_file(&path, dir)?;
+        let inner = Arc::new(Inner { _file: file });
+        map.insert(key, Arc::downgrade(&inner));
+        Ok(RunLock { _inner: inner })
+    }
+}
+
+/// The command line of this process, for the lock file.
+fn command_line() -> String {
+    let args: Vec<String> = std::env::args().collect();
+    args.join(" ")
+}
+
+#[cfg(unix)]
+fn lock_file(path: &Path, dir: &Path) -> Result<File, LockError> {
+    use std::io::{Read, Seek, Write};
+    use std::os::unix::fs::OpenOptionsExt;
+    use std::os::unix::io::AsRawFd;
+    let io = |source| LockError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut file = std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .custom_flags(libc::O_NOFOLLOW | libc::O_CLOEXEC)
+        .open(path)
+        .map_err(io)?;
+    // SAFETY: flock on a file descriptor we own.
+    if unsafe { libc::flock(file.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } != 0 {
+        let err = std::io::Error::last_os_error();
+        if err.kind() != std::io::ErrorKind::WouldBlock {
+            return Err(io(err));
+        }
+        let mut text = String::new();
+        let _ = file.read_to_string(&mut text);
+        let holder = text.trim();
+        return Err(LockError::Held {
+            dir: dir.to_path_buf(),
+            holder: if holder.is_empty() {
+                "it has not recorded its pid yet".into()
+            } else {
+                holder.to_string()
+            },
+        });
+    }
+    let record = format!("pid {}: {}\n", std::process::id(), command_line());
+    file.set_len(0).map_err(io)?;
+    file.rewind().map_err(io)?;
+    file.write_all(record.as_bytes()).map_err(io)?;
+    Ok(file)
+}
+
+#[cfg(not(unix))]
+fn lock_file(path: &Path, _dir: &Path) -> Result<File, LockError> {
+    std::fs::OpenOptions::new()
+        .read(true)
+        .write(true)
+        .create(true)
+        .truncate(false)
+        .open(path)
+        .map_err(|source| LockError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_process_shares_its_own_lock_and_releases_it() {
+        let dir = std::env::temp_dir().join(format!("rwg-lock-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let a = RunLock::acquire(&dir).unwrap();
+        let b = RunLock::acquire(&dir).unwrap();
+        let text = std::fs::read_to_string(dir.join(LOCK_FILE)).unwrap();
+        assert!(
+            text.starts_with(&format!("pid {}: ", std::process::id())),
+            "{text}"
+        );
+        // Another open file description conflicts while the lock is held.
+        let f = File::open(dir.join(LOCK_FILE)).unwrap();
+        use std::os::unix::io::AsRawFd;
+        let try_lock = || unsafe { libc::flock(f.as_raw_fd(), libc::LOCK_EX | libc::LOCK_NB) } == 0;
+        assert!(!try_lock());
+        drop(a);
+        assert!(!try_lock(), "still held by the second handle");
+        drop(b);
+        assert!(try_lock(), "released with the last handle");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
