@@ -340,49 +340,7 @@ impl Run {
                 message: format!("cell {} has no episodes to analyse", cell.id.dir),
             });
         }
-        let check = |name: &str| -> Result<(), RunDirError> {
-            if !self.verified {
-                return Ok(());
-            }
-            checksum::verify_file(&dir, name, &checksum::recorded(&dir, name)?)
-        };
-        let scores_check = check(SCORES_CSV);
-        let (scores, steps) = match (scores_check, read_scores_csv(&spath, episodes)) {
-            (Ok(()), parsed) => parsed?,
-            (Err(check), Err(row)) => {
-                return Err(RunReadError::Damaged {
-                    check,
-                    row: Box::new(row),
-                })
-            }
-            (Err(check), Ok((scores, steps))) => {
-                // Parses, but was changed: find the sample whose statistics
-                // no longer match samples.csv, if that file is intact.
-                let samples = dir.join(SAMPLES_CSV);
-                if scores.len() % episodes == 0 && check_intact(&dir, SAMPLES_CSV, self.verified) {
-                    let data = CellData::new(cell.clone(), episodes, scores, steps);
-                    if let Err(RunReadError::Csv { line, .. }) = check_samples_csv(&samples, &data)
-                    {
-                        let i = line.saturating_sub(2);
-                        let row = RunReadError::Csv {
-                            path: spath.clone(),
-                            line: 2 + i * episodes,
-                            message: format!(
-                                "sample {i} (rows {}-{}) no longer gives the statistics samples.csv \
-                                 recorded for it",
-                                2 + i * episodes,
-                                1 + (i + 1) * episodes
-                            ),
-                        };
-                        return Err(RunReadError::Damaged {
-                            check,
-                            row: Box::new(row),
-                        });
-                    }
-                }
-                return Err(check.into());
-            }
-        };
+        let (scores, steps) = self.read_scores_verified(cell, &dir)?;
         let expected = cell.samples as usize * episodes;
         if scores.len() != expected {
             return Err(RunReadError::Mismatch {
@@ -398,38 +356,9 @@ impl Run {
         let data = CellData::new(cell.clone(), episodes, scores, steps);
         let path = dir.join(SAMPLES_CSV);
         if self.verified || path.exists() {
-            match (check(SAMPLES_CSV), check_samples_csv(&path, &data)) {
-                (Ok(()), r) => r?,
-                (Err(check), Err(row)) => {
-                    return Err(RunReadError::Damaged {
-                        check,
-                        row: Box::new(row),
-                    })
-                }
-                (Err(check), Ok(())) => return Err(check.into()),
-            }
+            self.check_samples_verified(&dir, &data)?;
         }
         Ok(data)
-    }
-
-    /// Reads one cell's `samples.csv` alone (checked against its checksum).
-    pub fn load_samples(&self, cell: &CellMeta) -> Result<Vec<SampleRow>, RunReadError> {
-        let dir = self.cell_dir(cell);
-        let path = dir.join(SAMPLES_CSV);
-        if self.verified {
-            let check = checksum::recorded(&dir, SAMPLES_CSV)
-                .and_then(|d| checksum::verify_file(&dir, SAMPLES_CSV, &d));
-            if let Err(check) = check {
-                return Err(match read_samples_csv(&path) {
-                    Err(row) => RunReadError::Damaged {
-                        check,
-                        row: Box::new(row),
-                    },
-                    Ok(_) => check.into(),
-                });
-            }
-        }
-        read_samples_csv(&path)
     }
 
     /// Loads every cell in turn and summarises it.
@@ -445,14 +374,6 @@ impl Run {
             cells,
         })
     }
-}
-
-/// Whether `dir/name` matches its recorded checksum (true for unverified runs).
-fn check_intact(dir: &Path, name: &str, verified: bool) -> bool {
-    !verified
-        || checksum::recorded(dir, name)
-            .and_then(|d| checksum::verify_file(dir, name, &d))
-            .is_ok()
 }
 
 /// The fields of one CSV record, checking the count.
@@ -904,6 +825,7 @@ pub fn write_stats(dir: &Path, stats: &RunStats) -> std::io::Result<()> {
 }
 
 pub mod synthetic;
+mod verified;
 
 #[cfg(test)]
 mod tests;
