@@ -26,7 +26,7 @@ Examples:
   rwg rollout Pendulum-v1 --seed 4 --actions 0.5,-2.5 --action-dtype float32
   rwg rollout Pendulum-v0 --state 3.0,0.5 --actions-file actions.txt --format csv
   rwg rollout example/PointMass-v0 --plugin target/release/librwg_example_plugin.so --actions \"0.5 -0.5\"
-  rwg rollout gymnasium:LunarLander-v3 --kwargs '{\"continuous\": true}' --seed 1 --actions \"0.5 -0.5,1 0\"")]
+  rwg rollout gymnasium:LunarLanderContinuous-v3 --seed 1 --actions \"0.5 -0.5,1 0\"")]
 pub struct Args {
     /// Environment id (see `rwg envs`).
     env: String,
