@@ -36,7 +36,7 @@ as a failed check with the signal. Exits non-zero if any check failed.
 Examples:
   rwg check target/release/librwg_example_plugin.so
   rwg check examples/plugin-c/libchain.so --env c_example/Chain-v0 --config length=20
-  rwg check libmine.so --json > checks.json")]
+  rwg check target/release/librwg_example_plugin.so --json > checks.json")]
 pub struct Args {
     /// The plugin library (`.so`, `.dylib`, `.dll`).
     plugin: PathBuf,
