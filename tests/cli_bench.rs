@@ -172,7 +172,10 @@ fn bench_peers_measures_both_sides_and_their_ratio() {
             std::env::var("RWG_NO_SKIP").as_deref() != Ok("1"),
             "RWG_NO_SKIP=1: set RWG_PEER_PYTHON and RWG_PEERS_DIR to run this test"
         );
-        eprintln!(
+        // to the stderr handle, past the harness's capture: a skip is visible
+        use std::io::Write;
+        let _ = writeln!(
+            std::io::stderr(),
             "SKIPPED bench_peers_measures_both_sides_and_their_ratio: set RWG_PEER_PYTHON to a \
              Python with jax and gymnax (rwg bench peers --help) and have the peer scripts in \
              {} or RWG_PEERS_DIR",

@@ -72,3 +72,10 @@ fn commands_that_need_a_run_directory_say_so() {
         "{err}"
     );
 }
+
+#[test]
+fn a_negative_count_is_refused_without_a_tip_that_fails() {
+    let err = rwg_err(&["run", "examples/quick.toml", "--samples", "-5"]);
+    assert!(err.contains("invalid value '-5' for '--samples"), "{err}");
+    assert!(!err.contains("-- -5"), "{err}");
+}

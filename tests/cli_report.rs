@@ -35,6 +35,15 @@ fn report_is_self_contained() {
         assert!(!html.contains(bad), "report contains {bad:?}");
     }
     assert!(!html.contains("<?xml"));
+    // overview grids are wider than the page: shown to fit, full size on a click
+    assert!(html.contains("<figure class=\"rwg-figure zoomable\" id=\"fig-overview_nobias\""));
+    assert!(html.contains("click the figure to see it at full size"));
+    // wide tables scroll in their own box; no negative zero anywhere
+    assert_eq!(
+        html.matches("<div class=\"table-scroll\">").count(),
+        html.matches("<table>").count()
+    );
+    assert!(!html.contains("-0.00"));
     for want in [
         "Best sample mean (99.9th percentile of sample means), no bias",
         "Fraction of samples with mean ≥ solved score",

@@ -36,7 +36,7 @@ as a failed check with the signal. Exits non-zero if any check failed.
 Examples:
   rwg check target/release/librwg_example_plugin.so
   rwg check examples/plugin-c/libchain.so --env c_example/Chain-v0 --config length=20
-  rwg check libmine.so --json > checks.json
+  rwg check target/release/librwg_example_plugin.so --json > checks.json
   rwg check gymnasium:CartPole-v1
   rwg check gymnasium:LunarLander-v3 --kwargs '{\"continuous\": true}'
 

@@ -20,7 +20,7 @@ but rejected (not loadable, an id already taken) are listed on stderr with the r
 Examples:
   rwg envs
   rwg envs --plugin target/release/librwg_plugin_classic_control.so --json
-  RWG_PLUGIN_PATH=~/rwg-plugins rwg envs
+  RWG_PLUGIN_PATH=target/release rwg envs
   rwg envs gymnasium:LunarLander-v3 gymnasium:InvertedPendulum-v5
   rwg envs gymnasium:LunarLander-v3 --kwargs '{\"continuous\": true}' --json
 

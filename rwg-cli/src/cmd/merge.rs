@@ -16,7 +16,7 @@ An interrupted merge is finished by running the same command again.
 
 Example:
   for k in 0 1 2; do rwg run examples/paper.toml --shard $k/3 --out runs/paper-s$k; done
-  rwg merge runs/paper-s0 runs/paper-s1 runs/paper-s2 --out runs/paper")]
+  rwg merge runs/paper-s0 runs/paper-s1 runs/paper-s2 --out runs/paper-merged")]
 pub struct Args {
     /// Shard directories written by `rwg run --shard K/N`.
     #[arg(required = true)]

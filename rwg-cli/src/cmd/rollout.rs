@@ -24,8 +24,8 @@ actions run out.
 Examples:
   rwg rollout CartPole-v0 --seed 3 --actions 0,1,1,0
   rwg rollout Pendulum-v1 --seed 4 --actions 0.5,-2.5 --action-dtype float32
-  rwg rollout Pendulum-v0 --state 3.0,0.5 --actions-file actions.txt --format csv
-  rwg rollout example/PointMass-v0 --plugin target/release/librwg_example_plugin.so --actions \"0.5 -0.5\"
+  rwg rollout Pendulum-v0 --state 3.0,0.5 --actions-file examples/actions.txt --format csv
+  RWG_PLUGIN_PATH=target/release rwg rollout example/PointMass-v0 --actions \"0.5 -0.5,1 0\"
   rwg rollout gymnasium:LunarLanderContinuous-v3 --seed 1 --actions \"0.5 -0.5,1 0\"")]
 pub struct Args {
     /// Environment id (see `rwg envs`).

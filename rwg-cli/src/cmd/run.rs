@@ -17,7 +17,9 @@ use std::time::Instant;
 
 /// Arguments of `rwg run`.
 #[derive(clap::Args)]
-#[command(after_help = "\
+#[command(
+    allow_negative_numbers = true,
+    after_help = "\
 Writes a run directory:
   manifest.toml   the study (resolved manifest: overrides applied, defaults written out)
   run.json        run metadata: version, times, threads, env steps, steps/s, per cell
@@ -32,7 +34,8 @@ an uninterrupted run. Ctrl-C stops after the blocks in flight.
 Examples:
   rwg run examples/quick.toml
   rwg run examples/paper.toml --samples 1000 --out runs/paper-1k
-  rwg run examples/paper.toml --shard 0/3 --out runs/paper-s0   # then rwg merge")]
+  rwg run examples/paper.toml --shard 0/3 --out runs/paper-s0   # then rwg merge"
+)]
 pub struct Args {
     /// The study's TOML manifest.
     manifest: PathBuf,

@@ -34,9 +34,9 @@ ones; given none, the earlier ones are kept.
 
 Examples:
   rwg slurm examples/quick.toml --shards 3 --out runs/quick-slurm --dry-run
-  rwg slurm examples/paper.toml --shards 10 --out runs/paper --cpus-per-task 32 --time 24:00:00
-  rwg slurm examples/paper.toml --shards 10 --out runs/paper --sbatch=--qos=long
-  rwg status runs/paper")]
+  rwg slurm examples/paper.toml --shards 10 --out runs/paper-cluster --time 24:00:00
+  rwg slurm examples/paper.toml --shards 10 --out runs/paper-cluster --sbatch=--qos=long
+  rwg status runs/paper-cluster")]
 pub struct Args {
     /// The study's TOML manifest.
     manifest: PathBuf,

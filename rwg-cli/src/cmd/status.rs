@@ -26,7 +26,7 @@ while the study is being computed; it shows what was committed at that instant.
 
 Examples:
   rwg run examples/quick.toml --out runs/quick-64 --samples 64; rwg status runs/quick-64
-  rwg status runs/paper        # after rwg slurm examples/paper.toml --shards 10 --out runs/paper")]
+  rwg status runs/paper-cluster   # after rwg slurm ... --out runs/paper-cluster")]
 pub struct Args {
     /// Run directory, shard directory, or a sharded study's directory (the
     /// --out of `rwg slurm`, or any DIR holding shards in DIR/shards/<K>).

@@ -1,0 +1,457 @@
+//! Works as printed: every command in the README's ```sh blocks and in every
+//! `rwg <command> --help` Examples section runs, in the order shown, in a
+//! scratch folder laid out as a reader's clone of the repository (the
+//! `examples/` folder and the plugin header), with `rwg` on PATH and the
+//! release artefacts the README builds under `target/release/`. Each must
+//! exit 0 with output of the expected shape.
+//!
+//! What the test does instead of running a command as printed (each is
+//! printed to the test output when it applies, never silently):
+//! - `cargo install --path rwg-cli` and `cargo build --release ...`: the test
+//!   provides what they make (`rwg` on PATH; `target/release/rwg` and the
+//!   plugin libraries are the test build's, linked there).
+//! - `cargo test --workspace`: not run, it is this test suite.
+//! - Studies are reduced: every `rwg run` gets `--samples 32 --episodes 4`
+//!   (replacing a `--samples` it has), `plugin-overhead.sh` runs with
+//!   `SAMPLES=32 EPISODES=2`, `rwg bench envs` with `--steps 20000`,
+//!   `rwg bench sampler` with `--samples 16 --episodes 2`: the tests run a
+//!   debug build, ten times slower than the release build the README uses,
+//!   and the full paper study alone would take an hour.
+//! - `rwg slurm` without `--dry-run` gets `--dry-run`: there is no Slurm
+//!   cluster here (tests/cli_slurm.rs submits to a real one).
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// One command shown to the reader.
+#[derive(Debug, Clone)]
+struct Example {
+    /// Where it is shown: `README.md:LINE` or `rwg X --help`.
+    source: String,
+    /// The command as printed (comment removed, continuation lines joined).
+    command: String,
+}
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// `line` without a trailing `# comment` (a `#` after whitespace, outside
+/// quotes).
+fn strip_comment(line: &str) -> &str {
+    let (mut single, mut double) = (false, false);
+    let b = line.as_bytes();
+    for (i, &c) in b.iter().enumerate() {
+        match c {
+            b'\'' if !double => single = !single,
+            b'"' if !single => double = !double,
+            b'#' if !single && !double && (i == 0 || b[i - 1].is_ascii_whitespace()) => {
+                return line[..i].trim_end();
+            }
+            _ => {}
+        }
+    }
+    line.trim_end()
+}
+
+/// The commands of the README's ```sh blocks, in order.
+fn readme_examples() -> Vec<Example> {
+    let text = std::fs::read_to_string(repo().join("README.md")).unwrap();
+    let mut out = Vec::new();
+    let mut in_sh = false;
+    let mut pending: Option<(usize, String)> = None;
+    for (i, line) in text.lines().enumerate() {
+        if line.starts_with("```") {
+            in_sh = !in_sh && line.trim() == "```sh";
+            continue;
+        }
+        if !in_sh {
+            continue;
+        }
+        let (start, mut cmd) = pending.take().unwrap_or((i + 1, String::new()));
+        let l = strip_comment(line);
+        if let Some(cont) = l.strip_suffix('\\') {
+            cmd.push_str(cont);
+            pending = Some((start, cmd));
+            continue;
+        }
+        cmd.push_str(l);
+        let cmd = cmd.trim().to_string();
+        if !cmd.is_empty() {
+            out.push(Example {
+                source: format!("README.md:{start}"),
+                command: cmd,
+            });
+        }
+    }
+    out
+}
+
+/// Clap wraps help text at this width: an example longer than this would
+/// be printed broken over two lines.
+const HELP_WIDTH: usize = 100;
+
+/// The commands of every `--help` Examples section, subcommands included.
+fn help_examples() -> Vec<Example> {
+    let commands = |help: &str| -> Vec<String> {
+        help.lines()
+            .skip_while(|l| !l.starts_with("Commands:"))
+            .skip(1)
+            .take_while(|l| l.starts_with("  "))
+            .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+            .filter(|c| c != "help")
+            .collect()
+    };
+    let mut paths: Vec<Vec<String>> = vec![];
+    for c in commands(&rwg_ok(&["--help"])) {
+        let sub = commands(&rwg_ok(&[&c, "--help"]));
+        paths.push(vec![c.clone()]);
+        paths.extend(sub.into_iter().map(|s| vec![c.clone(), s]));
+    }
+    let mut out = Vec::new();
+    for p in paths {
+        let mut args: Vec<&str> = p.iter().map(String::as_str).collect();
+        args.push("--help");
+        let help = rwg_ok(&args);
+        let mut lines = help.lines();
+        while let Some(l) = lines.by_ref().find(|l| l.starts_with("Example")) {
+            assert!(l == "Example:" || l == "Examples:", "{l}");
+            for e in lines.by_ref().take_while(|l| l.starts_with("  ")) {
+                // a command starts with rwg, an environment assignment or a
+                // loop; anything else is the tail of a line clap wrapped
+                let first = e.split_whitespace().next().unwrap_or("");
+                assert!(
+                    first == "rwg" || first == "for" || first.contains('='),
+                    "`rwg {} --help`: an example line that is no command (the tail of a \
+                     wrapped line?): {e}",
+                    p.join(" ")
+                );
+                assert!(
+                    e.chars().count() < HELP_WIDTH,
+                    "`rwg {} --help`: an example of {} characters is wrapped by clap: {e}",
+                    p.join(" "),
+                    e.chars().count()
+                );
+                out.push(Example {
+                    source: format!("rwg {} --help", p.join(" ")),
+                    command: strip_comment(e.trim()).to_string(),
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The scratch folder: a reader's clone as far as the examples need it.
+fn prepare(dir: &Path) -> PathBuf {
+    let copy = |rel: &str| {
+        let status = Command::new("cp")
+            .arg("-r")
+            .arg(repo().join(rel))
+            .arg(dir.join(rel).parent().unwrap())
+            .status()
+            .unwrap();
+        assert!(status.success(), "cannot copy {rel}");
+    };
+    std::fs::create_dir_all(dir.join("rwg-env")).unwrap();
+    copy("examples");
+    copy("rwg-env/include");
+    // built by make in the repository, maybe: the reader's clone has none
+    for f in ["libchain.so", "libchain.dylib"] {
+        let _ = std::fs::remove_file(dir.join("examples/plugin-c").join(f));
+    }
+    // what `cargo install --path rwg-cli` and `cargo build --release` make
+    let release = dir.join("target/release");
+    std::fs::create_dir_all(&release).unwrap();
+    let link = |from: &Path, to: &Path| std::os::unix::fs::symlink(from, to).unwrap();
+    link(&rwg_bin(), &release.join("rwg"));
+    for lib in ["rwg_example_plugin", "rwg_plugin_classic_control"] {
+        link(
+            &rust_plugin(lib),
+            &release.join(rwg_plugin_host::library_file_name(lib)),
+        );
+    }
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    link(&rwg_bin(), &bin.join("rwg"));
+    std::fs::create_dir_all(dir.join("home")).unwrap();
+    bin
+}
+
+/// What the test runs for an example, or why it runs nothing.
+enum Plan {
+    Run(String),
+    Provided(&'static str),
+}
+
+/// Replaces `--flag VALUE` in `cmd` by `--flag value`, or appends it.
+fn set_flag(cmd: &str, flag: &str, value: &str) -> String {
+    let words: Vec<&str> = cmd.split(' ').collect();
+    match words.iter().position(|w| *w == flag) {
+        Some(i) if i + 1 < words.len() => {
+            let mut w: Vec<String> = words.iter().map(|s| s.to_string()).collect();
+            w[i + 1] = value.to_string();
+            w.join(" ")
+        }
+        _ => format!("{cmd} {flag} {value}"),
+    }
+}
+
+/// Applies the module doc's substitutions to one `rwg` command of a line.
+fn reduce_rwg(cmd: &str) -> String {
+    let mut c = cmd.to_string();
+    if c.contains("rwg run ") {
+        c = set_flag(&c, "--samples", "32");
+        c = set_flag(&c, "--episodes", "4");
+    }
+    if c.contains("rwg bench envs") {
+        c = set_flag(&c, "--steps", "20000");
+    }
+    if c.contains("rwg bench sampler") {
+        c = set_flag(&c, "--samples", "16");
+        c = set_flag(&c, "--episodes", "2");
+    }
+    if c.contains("rwg slurm ") && !c.contains("--dry-run") {
+        c.push_str(" --dry-run");
+    }
+    c
+}
+
+fn plan(e: &Example) -> Plan {
+    let c = e.command.as_str();
+    if c.starts_with("cargo install --path rwg-cli") {
+        return Plan::Provided("rwg is on PATH");
+    }
+    if c.starts_with("cargo build --release") {
+        return Plan::Provided("target/release holds the test build's rwg and plugins");
+    }
+    if c.starts_with("cargo test") {
+        return Plan::Provided("this is the test suite");
+    }
+    if c.contains("plugin-overhead.sh") {
+        return Plan::Run(format!("SAMPLES=32 EPISODES=2 {c}"));
+    }
+    // a line may hold several commands (`a; b`, a `for` loop): reduce each
+    let parts: Vec<String> = c.split("; ").map(reduce_rwg).collect();
+    Plan::Run(parts.join("; "))
+}
+
+/// The output shape an example must have, by what it runs.
+fn check_shape(e: &Example, ran: &str, dir: &Path, stdout: &str) {
+    let c = ran;
+    let has = |s: &str| c.contains(s);
+    let want = |ok: bool, what: &str| {
+        assert!(
+            ok,
+            "{}: `{}`: {what}\nstdout:\n{stdout}",
+            e.source, e.command
+        )
+    };
+    if let Some((_, file)) = c.split_once(" > ") {
+        let text = std::fs::read_to_string(dir.join(file.trim())).unwrap_or_default();
+        want(
+            !text.trim().is_empty(),
+            "writes nothing into its output file",
+        );
+        if has("--json") {
+            want(
+                serde_json::from_str::<serde_json::Value>(&text).is_ok(),
+                "writes no valid JSON",
+            );
+        }
+        return;
+    }
+    if has("make -C") {
+        want(
+            dir.join("examples/plugin-c")
+                .join(rwg_plugin_host::library_file_name("chain"))
+                .is_file(),
+            "builds no libchain",
+        );
+        return;
+    }
+    want(!stdout.trim().is_empty(), "prints nothing");
+    if has("--json") {
+        want(
+            serde_json::from_str::<serde_json::Value>(stdout).is_ok(),
+            "prints no valid JSON",
+        );
+    }
+    let first = stdout.lines().next().unwrap_or("");
+    if has("rwg envs") && !has("--json") {
+        want(first.starts_with("id "), "prints no table of envs");
+    }
+    if has("rwg rollout") {
+        let ok = if has("--format csv") {
+            first.starts_with("step,")
+        } else {
+            first.starts_with("{\"step\":0,")
+        };
+        want(ok, "prints no step-0 line");
+        want(stdout.lines().count() >= 2, "prints no step");
+    }
+    if has("rwg run ") && !has("--shard") && !has("; rwg status") {
+        want(
+            stdout.contains("Results: ") || stdout.contains("already holds this study"),
+            "ends without naming the run directory",
+        );
+    }
+    if has("rwg merge ") {
+        let out = c
+            .rsplit("--out ")
+            .next()
+            .unwrap()
+            .split_whitespace()
+            .next()
+            .unwrap();
+        want(dir.join(out).join("run.json").is_file(), "merges nothing");
+    }
+    if has("rwg stats") {
+        want(
+            stdout.contains("Best sample mean") || stdout.contains("\\toprule"),
+            "prints no Table 3",
+        );
+    }
+    if has("rwg report ") {
+        want(stdout.trim().ends_with("report.html"), "names no report");
+        want(dir.join(stdout.trim()).is_file(), "writes no report");
+    }
+    if has("rwg compare") {
+        want(stdout.contains("Difficulty ranking"), "prints no ranking");
+        if let Some(f) = c.split("--html ").nth(1) {
+            let f = f.split_whitespace().next().unwrap();
+            let page = std::fs::read_to_string(dir.join(f)).unwrap_or_default();
+            want(
+                page.contains("<h2>Difficulty ranking</h2>"),
+                "writes no page",
+            );
+        }
+    }
+    if has("rwg check") && !has("--json") {
+        want(stdout.contains("[ok]"), "reports no passed check");
+    }
+    if has("rwg slurm") {
+        want(stdout.contains("sbatch"), "prints no sbatch command");
+    }
+    if has("rwg status") {
+        want(stdout.lines().count() >= 2, "says little");
+    }
+    if has("rwg top") {
+        want(stdout.contains("rwg replay "), "lists no replay command");
+    }
+    if has("rwg replay") && has("--episode ") {
+        want(first.starts_with("{\"step\":0,"), "prints no step-0 line");
+        want(stdout.lines().count() >= 2, "prints no step");
+    }
+}
+
+/// Runs `cmd` with `sh -c` in `dir`, `bin` first on PATH; fails after
+/// `limit`. Returns (success, stdout, stderr).
+fn sh(cmd: &str, dir: &Path, bin: &Path, limit: Duration) -> (bool, String, String) {
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let mut child = Command::new("sh")
+        .arg("-c")
+        .arg(cmd)
+        .current_dir(dir)
+        .env("PATH", path)
+        .env("HOME", dir.join("home"))
+        .env_remove("RWG_PLUGIN_PATH")
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("cannot run sh");
+    let (mut so, mut se) = (child.stdout.take().unwrap(), child.stderr.take().unwrap());
+    let out = std::thread::spawn(move || std::io::read_to_string(&mut so).unwrap_or_default());
+    let err = std::thread::spawn(move || std::io::read_to_string(&mut se).unwrap_or_default());
+    let start = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            panic!("`{cmd}` did not finish within {limit:?}");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    (status.success(), out.join().unwrap(), err.join().unwrap())
+}
+
+#[test]
+fn every_readme_and_help_example_runs_as_printed() {
+    let dir = temp_dir("examples");
+    let bin = prepare(&dir);
+    let readme = readme_examples();
+    let help = help_examples();
+    assert!(readme.len() >= 20, "README examples found: {readme:#?}");
+    assert!(help.len() >= 15, "help examples found: {help:#?}");
+    let mut notes = Vec::new();
+    let started = Instant::now();
+    for e in readme.iter().chain(&help) {
+        let ran = match plan(e) {
+            Plan::Provided(why) => {
+                notes.push(format!("{}: `{}` not run: {why}", e.source, e.command));
+                continue;
+            }
+            Plan::Run(c) => c,
+        };
+        if ran != e.command {
+            notes.push(format!("{}: `{}` ran as `{ran}`", e.source, e.command));
+        }
+        let t = Instant::now();
+        let (ok, stdout, stderr) = sh(&ran, &dir, &bin, Duration::from_secs(300));
+        assert!(
+            ok,
+            "{}: `{}` failed (ran as `{ran}` in {}):\nstdout:\n{stdout}\nstderr:\n{stderr}",
+            e.source,
+            e.command,
+            dir.display()
+        );
+        assert!(
+            !stderr.contains("error:"),
+            "{}: `{ran}` printed an error:\n{stderr}",
+            e.source
+        );
+        check_shape(e, &ran, &dir, &stdout);
+        notes.push(format!(
+            "{}: `{ran}` ok in {:.1} s",
+            e.source,
+            t.elapsed().as_secs_f64()
+        ));
+    }
+    use std::io::Write;
+    let mut err = std::io::stderr();
+    for n in &notes {
+        let _ = writeln!(err, "example {n}");
+    }
+    let _ = writeln!(
+        err,
+        "examples: {} from README.md, {} from --help, in {:.0} s",
+        readme.len(),
+        help.len(),
+        started.elapsed().as_secs_f64()
+    );
+}
+
+#[test]
+fn comments_and_continuations_are_read_as_a_reader_would() {
+    assert_eq!(strip_comment("rwg envs   # list"), "rwg envs");
+    assert_eq!(strip_comment("rwg x --a \"b # c\""), "rwg x --a \"b # c\"");
+    assert_eq!(strip_comment("echo $#"), "echo $#");
+    assert_eq!(
+        set_flag("rwg run m.toml --samples 1000 --out x", "--samples", "32"),
+        "rwg run m.toml --samples 32 --out x"
+    );
+    assert_eq!(
+        set_flag("rwg run m.toml", "--episodes", "4"),
+        "rwg run m.toml --episodes 4"
+    );
+}
