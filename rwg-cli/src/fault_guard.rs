@@ -230,7 +230,6 @@ fn this_call() -> CallSnapshot {
         sample: 0,
         episode: 0,
         step: 0,
-        calls: 0,
     })
 }
 
@@ -331,8 +330,9 @@ fn install_handlers() {}
 /// interrupted run that does not stop.
 fn watchdog() {
     const TICK: Duration = Duration::from_millis(100);
-    // Per registered context: (calls seen, since when unchanged).
-    let mut seen: Vec<(u64, Instant)> = Vec::new();
+    // Per registered context: (the call seen, since when unchanged).
+    type Key = (Phase, u64, u64, u64);
+    let mut seen: Vec<(Key, Instant)> = Vec::new();
     loop {
         std::thread::sleep(TICK);
         if !ARMED.load(SeqCst) {
@@ -341,12 +341,12 @@ fn watchdog() {
         }
         let now = Instant::now();
         let ctxs = all_threads();
-        seen.resize(ctxs.len(), (u64::MAX, now));
+        seen.resize(ctxs.len(), ((Phase::Idle, 0, 0, 0), now));
         let mut stuck: Option<(CallSnapshot, Duration)> = None;
-        for (c, (calls, since)) in ctxs.iter().zip(seen.iter_mut()) {
+        for (c, (key, since)) in ctxs.iter().zip(seen.iter_mut()) {
             let c = c.snapshot();
-            if c.phase == Phase::Idle || c.calls != *calls {
-                (*calls, *since) = (c.calls, now);
+            if c.phase == Phase::Idle || c.key() != *key {
+                (*key, *since) = (c.key(), now);
                 continue;
             }
             let d = now - *since;

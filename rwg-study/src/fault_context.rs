@@ -36,7 +36,6 @@ pub struct CallCtx {
     sample: AtomicU64,
     episode: AtomicU64,
     step: AtomicU64,
-    calls: AtomicU64,
     phase: AtomicU8,
 }
 
@@ -49,25 +48,30 @@ pub struct CallSnapshot {
     pub sample: u64,
     /// The episode of the network (reset and step).
     pub episode: u64,
-    /// The step of the episode, 1-based (step only).
+    /// The step of the episode, 1-based (step only; for create, the
+    /// number of the create call).
     pub step: u64,
-    /// Calls the thread has started so far: unchanged while one lasts.
-    pub calls: u64,
+}
+
+impl CallSnapshot {
+    /// What identifies the call within a cell: (sample, episode, step) is
+    /// different for every call the sampler makes (resets have step 0), so
+    /// a watchdog that sees the same key twice sees the same call.
+    pub fn key(&self) -> (Phase, u64, u64, u64) {
+        (self.phase, self.sample, self.episode, self.step)
+    }
 }
 
 impl CallCtx {
-    #[inline]
+    #[inline(always)]
     fn enter(&self, phase: Phase, sample: u64, episode: u64, step: u64) {
         self.sample.store(sample, Relaxed);
         self.episode.store(episode, Relaxed);
         self.step.store(step, Relaxed);
-        // One writer: no read-modify-write needed.
-        self.calls
-            .store(self.calls.load(Relaxed).wrapping_add(1), Relaxed);
         self.phase.store(phase as u8, Release);
     }
 
-    #[inline]
+    #[inline(always)]
     fn leave(&self) {
         self.phase.store(Phase::Idle as u8, Release);
     }
@@ -85,7 +89,6 @@ impl CallCtx {
             sample: self.sample.load(Relaxed),
             episode: self.episode.load(Relaxed),
             step: self.step.load(Relaxed),
-            calls: self.calls.load(Relaxed),
         }
     }
 }
@@ -98,17 +101,22 @@ thread_local! {
 static REGISTRY: Mutex<Vec<&'static CallCtx>> = Mutex::new(Vec::new());
 
 /// This thread's context, registered on first use.
-#[inline]
+#[inline(always)]
 fn ctx() -> &'static CallCtx {
-    CTX.with(|c| match c.get() {
+    match CTX.with(|c| c.get()) {
         Some(x) => x,
-        None => {
-            let x: &'static CallCtx = Box::leak(Box::default());
-            REGISTRY.lock().unwrap_or_else(|e| e.into_inner()).push(x);
-            c.set(Some(x));
-            x
-        }
-    })
+        None => register(),
+    }
+}
+
+/// Registers this thread's context (once per thread).
+#[cold]
+#[inline(never)]
+fn register() -> &'static CallCtx {
+    let x: &'static CallCtx = Box::leak(Box::default());
+    REGISTRY.lock().unwrap_or_else(|e| e.into_inner()).push(x);
+    CTX.with(|c| c.set(Some(x)));
+    x
 }
 
 /// The calling thread's plugin call, if it ever made one (for a signal or
@@ -156,8 +164,11 @@ pub struct Watched<E> {
 impl<E> Watched<E> {
     /// Creates the env with `make`, recorded as a `create` call.
     pub fn create(make: impl FnOnce() -> E) -> Self {
+        // Numbered, so that consecutive creates are different calls.
+        static CREATES: AtomicU64 = AtomicU64::new(0);
+        let n = CREATES.fetch_add(1, Relaxed);
         let c = ctx();
-        c.enter(Phase::Create, u64::MAX, u64::MAX, 0);
+        c.enter(Phase::Create, u64::MAX, u64::MAX, n);
         let inner = make();
         c.leave();
         Watched {
@@ -184,7 +195,7 @@ impl<E: Environment> Environment for Watched<E> {
         r
     }
 
-    #[inline]
+    #[inline(always)]
     fn step(&mut self, action: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
         self.steps += 1;
         let c = ctx();
@@ -243,8 +254,8 @@ mod tests {
             phases,
             [(Phase::Reset, 0), (Phase::Step, 1), (Phase::Step, 2)]
         );
-        let calls: Vec<u64> = env.inner.seen.iter().map(|s| s.calls).collect();
-        assert!(calls.windows(2).all(|w| w[1] == w[0] + 1), "{calls:?}");
+        let keys: Vec<_> = env.inner.seen.iter().map(|s| s.key()).collect();
+        assert!(keys.windows(2).all(|w| w[1] != w[0]), "{keys:?}");
         assert_eq!(this_thread().unwrap().phase, Phase::Idle);
         set_cell_label("env 't/Probe-v0', cell x".into());
         assert_eq!(cell_label(), b"env 't/Probe-v0', cell x");
