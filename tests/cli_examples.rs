@@ -101,6 +101,8 @@ fn help_examples() -> Vec<Example> {
             .skip_while(|l| !l.starts_with("Commands:"))
             .skip(1)
             .take_while(|l| l.starts_with("  "))
+            // a name stands at two spaces; deeper lines continue a wrapped description
+            .filter(|l| !l.starts_with("   "))
             .filter_map(|l| l.split_whitespace().next().map(str::to_string))
             .filter(|c| c != "help")
             .collect()

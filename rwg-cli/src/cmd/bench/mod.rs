@@ -97,7 +97,7 @@ virtualenv --venv, which --create-venv makes with
 jaxlib==0.10.2 gymnax==1.0.1 flax==0.12.8 six==1.17.0
 Build rwg with --release for meaningful figures.")]
     Peers(peers::PeersArgs),
-    /// Gymnasium envs through the bridge, beside a pure-Python loop (the ceiling) and a peer script.
+    /// Gymnasium envs through the bridge, beside a pure-Python ceiling loop and a peer script.
     #[command(after_help = "\
 For each gymnasium: env, interleaved REPEATS times: (1) the RWG workload (SAMPLES 0HL \
 networks x EPISODES episodes, no bias) through the bridge on one sampler thread = one \
