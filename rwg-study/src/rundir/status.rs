@@ -9,7 +9,7 @@
 
 use crate::manifest::Manifest;
 use crate::rundir::blocks::{block_index, cell_complete, n_blocks, BlockIndex};
-use crate::rundir::meta::{cell_dir_name, ShardMeta};
+use crate::rundir::meta::{CellId, ShardMeta};
 use crate::rundir::{cell_dir, BLOCKS};
 use std::path::Path;
 
@@ -41,14 +41,14 @@ impl CellProgress {
 }
 
 /// The cell directory names of a study, in the order the cells run (env,
-/// then architecture, then bias). Depends on the manifest only: no plugin is
-/// loaded.
+/// then architecture, then bias), named as [`CellId`] names them. Depends on
+/// the manifest only: no plugin is loaded.
 pub fn cell_dirs(m: &Manifest) -> Vec<String> {
     let mut dirs = vec![];
     for e in &m.envs {
         for a in &m.architectures {
             for &bias in &m.bias {
-                dirs.push(cell_dir_name(&e.id, &a.name, bias));
+                dirs.push(CellId::new(&e.id, &a.name, &a.hidden, bias).dir);
             }
         }
     }
