@@ -43,7 +43,7 @@ fn assert_names_the_context(err: &str, env: &str) {
     for part in [
         "plugin 'broken' (",
         &format!("env '{env}'"),
-        "cell broken_",
+        "cell broken+",
         "Every committed block is kept in ",
         "resume with: rwg run ",
     ] {
