@@ -162,20 +162,46 @@ struct Msg {
 
 const MSG_BYTES: usize = 4096;
 static mut MSG_BUF: [u8; MSG_BYTES] = [0; MSG_BYTES];
-static MSG_BUSY: AtomicBool = AtomicBool::new(false);
+/// The thread reporting a fault (see [`thread_token`]); 0: none.
+static MSG_OWNER: AtomicU64 = AtomicU64::new(0);
+
+thread_local! {
+    static TOKEN: u8 = const { 0 };
+}
+
+/// A number unique to the calling thread: the address of a thread-local
+/// (async-signal-safe: no allocation, no lock).
+fn thread_token() -> u64 {
+    TOKEN
+        .try_with(|t| t as *const u8 as u64)
+        .unwrap_or(u64::MAX)
+}
 
 impl Msg {
-    /// The buffer, unless another thread is reporting a fault right now:
-    /// then `None` after a while (that report is the one to read; the
-    /// wait lets it be written before this thread's fault ends the process).
+    /// The buffer. If another thread is reporting a fault already, this
+    /// thread waits for good: that report ends the process, and it is the
+    /// one to read (two lanes often crash at once). `None` if this thread
+    /// holds it already (a fault inside a report).
     fn new() -> Option<Msg> {
-        if MSG_BUSY.swap(true, SeqCst) {
-            for _ in 0..200_000_000u64 {
-                std::hint::spin_loop();
-            }
-            return None;
+        let me = thread_token();
+        match MSG_OWNER.compare_exchange(0, me, SeqCst, SeqCst) {
+            Ok(_) => {}
+            Err(owner) if owner == me => return None,
+            Err(_) => loop {
+                #[cfg(unix)]
+                // SAFETY: nanosleep is async-signal-safe; a valid timespec.
+                unsafe {
+                    let t = libc::timespec {
+                        tv_sec: 1,
+                        tv_nsec: 0,
+                    };
+                    libc::nanosleep(&t, std::ptr::null_mut());
+                }
+                #[cfg(not(unix))]
+                std::thread::sleep(Duration::from_secs(1));
+            },
         }
-        // SAFETY: MSG_BUSY gives one thread the buffer, for good.
+        // SAFETY: MSG_OWNER gives one thread the buffer, for good.
         Some(Msg {
             buf: unsafe { &mut *std::ptr::addr_of_mut!(MSG_BUF) },
             len: 0,
