@@ -58,7 +58,7 @@ fn stats_no_write_and_errors() {
 
     let err = rwg_err(&["stats", "/nonexistent/run"]);
     assert!(
-        err.contains("cannot read /nonexistent/run/run.json"),
+        err.contains("/nonexistent/run is not a run directory (it does not exist)"),
         "{err}"
     );
 }
