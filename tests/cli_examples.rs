@@ -14,7 +14,8 @@
 //! - Studies are reduced: every `rwg run` gets `--samples 32 --episodes 4`
 //!   (replacing a `--samples` it has), `plugin-overhead.sh` runs with
 //!   `SAMPLES=32 EPISODES=2`, `rwg bench envs` with `--steps 20000`,
-//!   `rwg bench sampler` with `--samples 16 --episodes 2`: the tests run a
+//!   `rwg bench sampler` and `rwg bench gym` with `--samples 16 --episodes 2`
+//!   (and `--repeats 1`): the tests run a
 //!   debug build, ten times slower than the release build the README uses,
 //!   and the full paper study alone would take an hour.
 //! - `rwg slurm` without `--dry-run` gets `--dry-run`: there is no Slurm
@@ -154,8 +155,13 @@ fn help_examples() -> Vec<Example> {
     out
 }
 
-/// The scratch folder: a reader's clone as far as the examples need it.
+/// The scratch folder: a reader's clone as far as the examples need it,
+/// with the shared folder beside it (`../shared`) when the repository has one.
 fn prepare(dir: &Path) -> PathBuf {
+    let shared = repo().join("../shared");
+    if shared.is_dir() {
+        std::os::unix::fs::symlink(shared.canonicalize().unwrap(), dir.join("../shared")).unwrap();
+    }
     let copy = |rel: &str| {
         let status = Command::new("cp")
             .arg("-r")
@@ -219,9 +225,12 @@ fn reduce_rwg(cmd: &str) -> String {
     if c.contains("rwg bench envs") {
         c = set_flag(&c, "--steps", "20000");
     }
-    if c.contains("rwg bench sampler") {
+    if c.contains("rwg bench sampler") || c.contains("rwg bench gym") {
         c = set_flag(&c, "--samples", "16");
         c = set_flag(&c, "--episodes", "2");
+    }
+    if c.contains("rwg bench gym") {
+        c = set_flag(&c, "--repeats", "1");
     }
     if c.contains("rwg slurm ") && !c.contains("--dry-run") {
         c.push_str(" --dry-run");
@@ -416,7 +425,8 @@ fn sh(
 
 #[test]
 fn every_readme_and_help_example_runs_as_printed() {
-    let dir = temp_dir("examples");
+    let dir = temp_dir("examples").join("rwg");
+    std::fs::create_dir_all(&dir).unwrap();
     let bin = prepare(&dir);
     let readme = readme_examples();
     let help = help_examples();
@@ -435,6 +445,16 @@ fn every_readme_and_help_example_runs_as_printed() {
         };
         if ran != e.command {
             notes.push(format!("{}: `{}` ran as `{ran}`", e.source, e.command));
+        }
+        if ran.contains("../shared/") && !dir.join("../shared").is_dir() {
+            skip(
+                "every_readme_and_help_example_runs_as_printed",
+                &format!(
+                    "{}: `{}` needs ../shared beside the repository",
+                    e.source, e.command
+                ),
+            );
+            continue;
         }
         if ran.contains("gymnasium") && python.is_none() {
             skip(
