@@ -14,11 +14,19 @@
 //! - Studies are reduced: every `rwg run` gets `--samples 32 --episodes 4`
 //!   (replacing a `--samples` it has), `plugin-overhead.sh` runs with
 //!   `SAMPLES=32 EPISODES=2`, `rwg bench envs` with `--steps 20000`,
-//!   `rwg bench sampler` with `--samples 16 --episodes 2`: the tests run a
+//!   `rwg bench sampler` and `rwg bench gym` with `--samples 16 --episodes 2`
+//!   (and `--repeats 1`): the tests run a
 //!   debug build, ten times slower than the release build the README uses,
 //!   and the full paper study alone would take an hour.
 //! - `rwg slurm` without `--dry-run` gets `--dry-run`: there is no Slurm
 //!   cluster here (tests/cli_slurm.rs submits to a real one).
+//! - `python3 -m pip install "gymnasium[...]"`: not run; the Python of
+//!   `RWG_TEST_PYTHON` (the CI virtualenv, which holds those packages) is
+//!   handed to rwg as `RWG_PYTHON`. Without it the Gymnasium examples are
+//!   skipped, visibly, and under `CI=true` the test fails.
+//! - The JAX peer's virtualenv and `rwg bench peers` (about 25 minutes):
+//!   not run; tests/cli_bench.rs runs `rwg bench peers` on tiny counts when
+//!   `RWG_PEER_PYTHON` names a Python with the peer.
 
 mod common;
 use common::*;
@@ -147,8 +155,13 @@ fn help_examples() -> Vec<Example> {
     out
 }
 
-/// The scratch folder: a reader's clone as far as the examples need it.
+/// The scratch folder: a reader's clone as far as the examples need it,
+/// with the shared folder beside it (`../shared`) when the repository has one.
 fn prepare(dir: &Path) -> PathBuf {
+    let shared = repo().join("../shared");
+    if shared.is_dir() {
+        std::os::unix::fs::symlink(shared.canonicalize().unwrap(), dir.join("../shared")).unwrap();
+    }
     let copy = |rel: &str| {
         let status = Command::new("cp")
             .arg("-r")
@@ -186,7 +199,7 @@ fn prepare(dir: &Path) -> PathBuf {
 /// What the test runs for an example, or why it runs nothing.
 enum Plan {
     Run(String),
-    Provided(&'static str),
+    NotRun(&'static str),
 }
 
 /// Replaces `--flag VALUE` in `cmd` by `--flag value`, or appends it.
@@ -212,9 +225,12 @@ fn reduce_rwg(cmd: &str) -> String {
     if c.contains("rwg bench envs") {
         c = set_flag(&c, "--steps", "20000");
     }
-    if c.contains("rwg bench sampler") {
+    if c.contains("rwg bench sampler") || c.contains("rwg bench gym") {
         c = set_flag(&c, "--samples", "16");
         c = set_flag(&c, "--episodes", "2");
+    }
+    if c.contains("rwg bench gym") {
+        c = set_flag(&c, "--repeats", "1");
     }
     if c.contains("rwg slurm ") && !c.contains("--dry-run") {
         c.push_str(" --dry-run");
@@ -225,13 +241,24 @@ fn reduce_rwg(cmd: &str) -> String {
 fn plan(e: &Example) -> Plan {
     let c = e.command.as_str();
     if c.starts_with("cargo install --path rwg-cli") {
-        return Plan::Provided("rwg is on PATH");
+        return Plan::NotRun("provided: rwg is on PATH");
     }
     if c.starts_with("cargo build --release") {
-        return Plan::Provided("target/release holds the test build's rwg and plugins");
+        return Plan::NotRun("provided: target/release holds the test build's rwg and plugins");
     }
     if c.starts_with("cargo test") {
-        return Plan::Provided("this is the test suite");
+        return Plan::NotRun("this is the test suite");
+    }
+    if c.starts_with("python3 -m pip install") && c.contains("gymnasium") {
+        return Plan::NotRun("provided: RWG_PYTHON is RWG_TEST_PYTHON, which holds it");
+    }
+    if c.contains("peers-venv") {
+        return Plan::NotRun("the JAX peer is not installed by this test (network, ~1 GB)");
+    }
+    if c.contains("rwg bench peers") {
+        return Plan::NotRun(
+            "needs the JAX peer, ~25 min; tests/cli_bench.rs runs it small with RWG_PEER_PYTHON",
+        );
     }
     if c.contains("plugin-overhead.sh") {
         return Plan::Run(format!("SAMPLES=32 EPISODES=2 {c}"));
@@ -350,9 +377,16 @@ fn check_shape(e: &Example, ran: &str, dir: &Path, stdout: &str) {
     }
 }
 
-/// Runs `cmd` with `sh -c` in `dir`, `bin` first on PATH; fails after
-/// `limit`. Returns (success, stdout, stderr).
-fn sh(cmd: &str, dir: &Path, bin: &Path, limit: Duration) -> (bool, String, String) {
+/// Runs `cmd` with `sh -c` in `dir`, `bin` first on PATH, `python` (if
+/// any) as `RWG_PYTHON`; fails after `limit`. Returns (success, stdout,
+/// stderr).
+fn sh(
+    cmd: &str,
+    dir: &Path,
+    bin: &Path,
+    python: Option<&std::ffi::OsStr>,
+    limit: Duration,
+) -> (bool, String, String) {
     let path = format!(
         "{}:{}",
         bin.display(),
@@ -365,6 +399,8 @@ fn sh(cmd: &str, dir: &Path, bin: &Path, limit: Duration) -> (bool, String, Stri
         .env("PATH", path)
         .env("HOME", dir.join("home"))
         .env_remove("RWG_PLUGIN_PATH")
+        .env_remove("RWG_PYTHON")
+        .envs(python.map(|p| ("RWG_PYTHON", p)))
         .stdin(std::process::Stdio::null())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
@@ -389,7 +425,8 @@ fn sh(cmd: &str, dir: &Path, bin: &Path, limit: Duration) -> (bool, String, Stri
 
 #[test]
 fn every_readme_and_help_example_runs_as_printed() {
-    let dir = temp_dir("examples");
+    let dir = temp_dir("examples").join("rwg");
+    std::fs::create_dir_all(&dir).unwrap();
     let bin = prepare(&dir);
     let readme = readme_examples();
     let help = help_examples();
@@ -397,9 +434,10 @@ fn every_readme_and_help_example_runs_as_printed() {
     assert!(help.len() >= 15, "help examples found: {help:#?}");
     let mut notes = Vec::new();
     let started = Instant::now();
+    let python = std::env::var_os("RWG_TEST_PYTHON");
     for e in readme.iter().chain(&help) {
         let ran = match plan(e) {
-            Plan::Provided(why) => {
+            Plan::NotRun(why) => {
                 notes.push(format!("{}: `{}` not run: {why}", e.source, e.command));
                 continue;
             }
@@ -408,8 +446,34 @@ fn every_readme_and_help_example_runs_as_printed() {
         if ran != e.command {
             notes.push(format!("{}: `{}` ran as `{ran}`", e.source, e.command));
         }
+        if ran.contains("../shared/") && !dir.join("../shared").is_dir() {
+            skip(
+                "every_readme_and_help_example_runs_as_printed",
+                &format!(
+                    "{}: `{}` needs ../shared beside the repository",
+                    e.source, e.command
+                ),
+            );
+            continue;
+        }
+        if ran.contains("gymnasium") && python.is_none() {
+            skip(
+                "every_readme_and_help_example_runs_as_printed",
+                &format!(
+                    "{}: `{}` needs RWG_TEST_PYTHON, a Python with gymnasium[box2d,mujoco]",
+                    e.source, e.command
+                ),
+            );
+            continue;
+        }
         let t = Instant::now();
-        let (ok, stdout, stderr) = sh(&ran, &dir, &bin, Duration::from_secs(300));
+        let (ok, stdout, stderr) = sh(
+            &ran,
+            &dir,
+            &bin,
+            python.as_deref(),
+            Duration::from_secs(300),
+        );
         assert!(
             ok,
             "{}: `{}` failed (ran as `{ran}` in {}):\nstdout:\n{stdout}\nstderr:\n{stderr}",

@@ -196,8 +196,18 @@ pub fn run(args: GymBenchArgs) -> Result<()> {
             if let Some(peer) = &args.peer {
                 let out =
                     std::env::temp_dir().join(format!("rwg-bench-peer-{}.csv", std::process::id()));
-                let mut cmd = Command::new(&cfg.python);
-                cmd.arg(peer).args([
+                // the peer runs in its own folder (it imports its
+                // neighbours): name it, and a relative interpreter path, from
+                // here first
+                let peer = std::fs::canonicalize(peer)
+                    .with_context(|| format!("cannot find the peer script {}", peer.display()))?;
+                let python = if cfg.python.contains('/') {
+                    std::path::absolute(&cfg.python).unwrap_or_else(|_| PathBuf::from(&cfg.python))
+                } else {
+                    PathBuf::from(&cfg.python)
+                };
+                let mut cmd = Command::new(&python);
+                cmd.arg(&peer).args([
                     "--env",
                     &gid,
                     "--samples",
