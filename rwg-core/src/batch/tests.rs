@@ -1,0 +1,242 @@
+
+use super::*;
+use crate::policy::Architecture;
+use crate::sampler::{LaneWorker, WeightDist};
+use rwg_env::{BoxSpace, Space};
+use rwg_env::{Environment, Step};
+
+/// A toy env: episodes of 1 + (seed % 7) steps; fails at step 2 of
+/// episodes whose seed is a multiple of `fail_every`, and at reset when
+/// it is also odd.
+#[derive(Clone)]
+struct Toy {
+    spec: EnvSpec,
+    seed: u64,
+    t: u64,
+    fail_every: u64,
+}
+
+impl Toy {
+    fn new(fail_every: u64, continuous: bool) -> Self {
+        Toy {
+            spec: EnvSpec {
+                id: "Toy-v0".into(),
+                observation_space: Space::Box(BoxSpace::symmetric(&[1e9, 1e9])),
+                action_space: if continuous {
+                    Space::Box(BoxSpace::symmetric(&[2.0]))
+                } else {
+                    Space::Discrete { n: 3 }
+                },
+                max_episode_steps: None,
+                reward_threshold: None,
+            },
+            seed: 0,
+            t: 0,
+            fail_every,
+        }
+    }
+}
+
+impl Environment for Toy {
+    fn spec(&self) -> &EnvSpec {
+        &self.spec
+    }
+    fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+        if seed % self.fail_every == 0 && seed % 2 == 1 {
+            return Err(EnvError::Other(format!("reset {seed}")));
+        }
+        self.seed = seed;
+        self.t = 0;
+        obs[0] = (seed % 1000) as f64 / 1000.0;
+        obs[1] = -obs[0];
+        Ok(())
+    }
+    fn step(&mut self, a: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+        let a = match a {
+            Action::Discrete(a) => a as f64,
+            Action::Continuous(v) => v[0],
+        };
+        self.t += 1;
+        if self.seed % self.fail_every == 0 && self.t == 2 {
+            return Err(EnvError::Other(format!("step {}", self.seed)));
+        }
+        obs[0] = obs[0] * 0.5 + a;
+        obs[1] = obs[1] * 0.25 - a;
+        Ok(Step {
+            reward: obs[0] - obs[1],
+            terminated: self.t > self.seed % 7,
+            truncated: false,
+        })
+    }
+}
+
+/// An exchange in flight: group, ops, discrete and continuous actions.
+type Sent = (usize, Vec<LaneOp>, Vec<i64>, Vec<f64>);
+
+/// `groups` × `LANES` plain envs behind the batch interface, as a bridge
+/// would host them; exchanges are answered in the order sent.
+struct Hosted {
+    envs: Vec<Toy>,
+    groups: usize,
+    queue: std::collections::VecDeque<Sent>,
+}
+
+impl Hosted {
+    fn new(toy: Toy, groups: usize) -> Self {
+        Hosted {
+            envs: vec![toy; groups * LANES],
+            groups,
+            queue: Default::default(),
+        }
+    }
+}
+
+impl BatchEnv for Hosted {
+    fn spec(&self) -> &EnvSpec {
+        self.envs[0].spec()
+    }
+    fn lanes(&self) -> usize {
+        LANES
+    }
+    fn groups(&self) -> usize {
+        self.groups
+    }
+    fn send(
+        &mut self,
+        group: usize,
+        ops: &[LaneOp],
+        actions: LaneActions<'_>,
+    ) -> Result<(), BatchFailure> {
+        self.queue.push_back((
+            group,
+            ops.to_vec(),
+            actions.discrete.to_vec(),
+            actions.continuous.to_vec(),
+        ));
+        Ok(())
+    }
+    fn recv(
+        &mut self,
+        group: usize,
+        obs: &mut [f64],
+        out: &mut [LaneOutcome],
+    ) -> Result<(), BatchFailure> {
+        let (g, ops, discrete, continuous) = self.queue.pop_front().expect("in flight");
+        assert_eq!(g, group, "answers come back in the order sent");
+        for i in 0..LANES {
+            let env = &mut self.envs[g * LANES + i];
+            let o = &mut obs[i * 2..(i + 1) * 2];
+            out[i] = match ops[i] {
+                LaneOp::Idle => LaneOutcome::Idle,
+                LaneOp::Reset(s) => match env.reset(s, o) {
+                    Ok(()) => LaneOutcome::Reset,
+                    Err(e) => LaneOutcome::Failed(e),
+                },
+                LaneOp::Step => {
+                    let a = if continuous.is_empty() {
+                        Action::Discrete(discrete[i])
+                    } else {
+                        Action::Continuous(&continuous[i..i + 1])
+                    };
+                    match env.step(a, o) {
+                        Ok(s) => LaneOutcome::Step(s),
+                        Err(e) => LaneOutcome::Failed(e),
+                    }
+                }
+            };
+        }
+        Ok(())
+    }
+}
+
+#[test]
+fn batched_lanes_give_the_lane_workers_results_and_first_error() {
+    let (mut oks, mut errs) = (0, 0);
+    for continuous in [false, true] {
+        for episodes in [1, 3] {
+            let plan = CellPlan {
+                seed: 5,
+                env_id: "Toy-v0".into(),
+                arch: Architecture {
+                    hidden: vec![3],
+                    bias: true,
+                },
+                episodes,
+                dist: WeightDist::Normal { std: 1.0 },
+            };
+            for fail_every in [1 << 40, 3, 13, 41] {
+                for samples in [0..1, 0..9, 20..40] {
+                    let n = (samples.end - samples.start) as usize * episodes as usize;
+                    let blank = EpisodeResult {
+                        score: f64::NAN,
+                        steps: 0,
+                    };
+                    let mut want = vec![blank; n];
+                    let mut lw =
+                        LaneWorker::<_, LANES>::new(|| Toy::new(fail_every, continuous), &plan);
+                    let r_want = lw.run_block(&plan, samples.clone(), &mut want);
+                    for groups in [1, 2, 3] {
+                        let hosted = Hosted::new(Toy::new(fail_every, continuous), groups);
+                        let mut bw = BatchLaneWorker::new(hosted, &plan);
+                        let mut got = vec![blank; n];
+                        let r_got = bw.run_block(&plan, samples.clone(), &mut got);
+                        assert_eq!(
+                            r_got, r_want,
+                            "{continuous} {fail_every} {samples:?} {groups}"
+                        );
+                        if r_want.is_ok() {
+                            assert_eq!(got, want);
+                            oks += 1;
+                        } else {
+                            errs += 1;
+                        }
+                        // the worker runs the next block on the same env
+                        if groups == 2 && r_want.is_ok() {
+                            let mut again = vec![blank; n];
+                            assert_eq!(bw.run_block(&plan, samples.clone(), &mut again), Ok(()));
+                            assert_eq!(again, want);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert!(oks > 0 && errs > 0, "{oks} {errs}");
+}
+
+#[test]
+fn pool_reuses_and_drops_failed_envs() {
+    let plan = CellPlan {
+        seed: 1,
+        env_id: "Toy-v0".into(),
+        arch: Architecture {
+            hidden: vec![],
+            bias: false,
+        },
+        episodes: 2,
+        dist: WeightDist::Normal { std: 1.0 },
+    };
+    let pool = BatchPool::default();
+    let made = std::sync::atomic::AtomicUsize::new(0);
+    let make = || {
+        made.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        Ok(Hosted::new(Toy::new(1 << 40, false), 2))
+    };
+    let blocks = [0..4, 4..8, 8..12];
+    let mut n = 0;
+    let pool_ref = &pool;
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap()
+        .install(|| {
+            run_blocks_batched(&plan, &blocks, 2, pool_ref, make, |b| {
+                n += b.episodes.len();
+                Ok::<(), SampleError>(())
+            })
+        })
+        .unwrap();
+    assert_eq!(n, 24);
+    assert_eq!(pool.idle(), 1);
+    assert_eq!(made.load(std::sync::atomic::Ordering::SeqCst), 1);
+}

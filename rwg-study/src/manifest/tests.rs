@@ -1,0 +1,282 @@
+
+use super::*;
+
+const GOOD: &str = r#"
+seed = 3
+samples = 10
+episodes = 2
+bias = [false, true]
+
+[weights]
+distribution = "uniform"
+scale = 2
+
+[[architectures]]
+name = "0HL"
+hidden = []
+
+[[architectures]]
+name = "2HL"
+hidden = [4, 4]
+
+[[envs]]
+id = "CartPole-v0"
+solved = 195
+
+[[envs]]
+id = "Pendulum-v0"
+solved = -140.5
+action_dtype = "float32"
+plugin = "libs/x.so"
+config = "a=1"
+"#;
+
+fn parse(text: &str) -> Result<Manifest, ManifestError> {
+    Manifest::parse(text, "m.toml", Path::new("/base"))
+}
+
+#[test]
+fn parses_a_full_manifest() {
+    let m = parse(GOOD).unwrap();
+    assert_eq!((m.seed, m.samples, m.episodes), (3, 10, 2));
+    assert_eq!(m.bias, [false, true]);
+    assert_eq!(m.weights, WeightDist::Uniform { a: 2.0 });
+    assert_eq!(m.architectures[1].hidden, [4, 4]);
+    assert_eq!(m.envs[0].solved, Some(195.0));
+    assert_eq!(m.envs[1].action_dtype, ActionDtype::F32);
+    assert_eq!(
+        m.envs[1].plugin.as_deref(),
+        Some(Path::new("/base/libs/x.so"))
+    );
+    assert_eq!(&GOOD[m.envs[1].id_span.clone()], "\"Pendulum-v0\"");
+    assert_eq!(
+        &GOOD[m.envs[1].plugin_span.clone().unwrap()],
+        "\"libs/x.so\""
+    );
+    assert_eq!(m.envs[1].config.as_deref(), Some("a=1"));
+    assert_eq!(m.envs[0].plugin_span, None);
+}
+
+#[test]
+fn resolved_toml_round_trips() {
+    let m = parse(GOOD).unwrap();
+    let again = parse(&m.to_toml()).unwrap();
+    assert_eq!(
+        again.envs.iter().map(|e| &e.id).collect::<Vec<_>>(),
+        ["CartPole-v0", "Pendulum-v0"]
+    );
+    assert_eq!(again.weights, m.weights);
+    assert_eq!(again.architectures, m.architectures);
+    assert_eq!(again.bias, m.bias);
+    assert_eq!(again.envs[1].solved, Some(-140.5));
+    assert_eq!(again.envs[1].config.as_deref(), Some("a=1"));
+    assert_eq!(again.envs[1].plugin, m.envs[1].plugin);
+    assert!(m.study_differences(&again).is_empty());
+    let other = parse(&GOOD.replace("episodes = 2", "episodes = 3")).unwrap();
+    assert_eq!(m.study_differences(&other), ["episodes: 2 vs 3"]);
+}
+
+fn error_of(text: &str) -> String {
+    parse(text).unwrap_err().to_string()
+}
+
+#[test]
+fn errors_name_file_line_column_and_key() {
+    let e = error_of(&GOOD.replace("samples = 10", "samples = 0"));
+    assert_eq!(e, "m.toml:3:11: samples: must be at least 1, got 0");
+    let e = error_of(&GOOD.replace("hidden = [4, 4]", "hidden = [4, 0]"));
+    assert!(
+        e.starts_with("m.toml:17:14: architectures[1].hidden[1]: a layer needs"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("\"uniform\"", "\"cauchy\""));
+    assert!(
+        e.starts_with("m.toml:8:16: weights.distribution: unknown distribution 'cauchy'"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("action_dtype = \"float32\"", "action_dtype = \"int8\""));
+    assert!(
+        e.starts_with("m.toml:26:16: envs[1].action_dtype: unknown action dtype"),
+        "{e}"
+    );
+}
+
+#[test]
+fn unknown_keys_are_errors_with_a_suggestion() {
+    let e = error_of(&GOOD.replace("episodes = 2", "episodes = 2\nsampels = 4"));
+    assert!(
+        e.starts_with("m.toml:5:1: sampels: unknown key `sampels`"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("solved = 195", "solve = 195"));
+    assert!(
+        e.contains("envs[0].solve: unknown key `solve`") && e.contains("did you mean `solved`"),
+        "{e}"
+    );
+}
+
+#[test]
+fn type_errors_and_missing_keys() {
+    let e = error_of(&GOOD.replace("samples = 10", "samples = \"many\""));
+    assert!(e.starts_with("m.toml:3:11:"), "{e}");
+    let e = error_of(&GOOD.replace("episodes = 2\n", ""));
+    assert!(e.contains("missing key `episodes`"), "{e}");
+}
+
+/// Issue 12: type errors named no key (`invalid type: string "0",
+/// expected i64`; `data did not match any variant of untagged enum Num`).
+#[test]
+fn type_errors_name_the_key_path_and_the_accepted_forms() {
+    let text = GOOD.replace(
+        "solved = -140.5",
+        "solved = -140.5\nmax_episode_steps = \"0\"",
+    );
+    assert_eq!(
+        error_of(&text),
+        "m.toml:26:21: envs[1].max_episode_steps: expected an integer, found the string \"0\""
+    );
+    let e = error_of(&GOOD.replace("solved = 195", "solved = \"high\""));
+    assert_eq!(
+        e,
+        "m.toml:21:10: envs[0].solved: expected a number (an integer such as 195 or a \
+             float such as -140.5), found the string \"high\""
+    );
+    assert!(!e.contains("untagged"), "{e}");
+    let e = error_of(&GOOD.replace("scale = 2", "scale = true"));
+    assert!(
+        e.starts_with("m.toml:9:9: weights.scale: expected a number"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("hidden = [4, 4]", "hidden = [4, \"4\"]"));
+    assert_eq!(
+        e,
+        "m.toml:17:14: architectures[1].hidden[1]: expected an integer, found the string \"4\""
+    );
+    let e = error_of(&GOOD.replace("bias = [false, true]", "bias = [0]"));
+    assert_eq!(
+        e,
+        "m.toml:5:9: bias[0]: expected true or false, found the integer 0"
+    );
+    let e = error_of(&GOOD.replace("id = \"CartPole-v0\"\n", ""));
+    assert!(e.contains("envs[0]: missing key `id`"), "{e}");
+}
+
+/// Issue 12: binary and UTF-16 manifests got no position.
+#[test]
+fn non_utf8_files_get_a_position() {
+    let dir = std::env::temp_dir().join(format!("rwg-manifest-bytes-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("m.toml");
+    let mut utf16 = vec![0xFF, 0xFE];
+    for u in GOOD.encode_utf16() {
+        utf16.extend(u.to_le_bytes());
+    }
+    std::fs::write(&p, &utf16).unwrap();
+    let e = Manifest::load(&p).unwrap_err().to_string();
+    assert!(
+        e.contains("m.toml:1:1: the file starts with a UTF-16 byte-order mark"),
+        "{e}"
+    );
+    std::fs::write(&p, &utf16[2..]).unwrap();
+    let e = Manifest::load(&p).unwrap_err().to_string();
+    assert!(e.contains("m.toml:2:1: a NUL byte"), "{e}");
+    assert!(e.ends_with("the manifest must be UTF-8 TOML"), "{e}");
+    let mut bad = GOOD.as_bytes().to_vec();
+    bad[GOOD.find("samples").unwrap() + 2] = 0xC3;
+    std::fs::write(&p, &bad).unwrap();
+    let e = Manifest::load(&p).unwrap_err().to_string();
+    assert!(
+        e.contains("m.toml:3:3: byte 0xC3 is not UTF-8; the manifest must be UTF-8 TOML"),
+        "{e}"
+    );
+    std::fs::write(&p, [0x7F, b'E', b'L', b'F', 2, 1, 1, 0]).unwrap();
+    let e = Manifest::load(&p).unwrap_err().to_string();
+    assert!(e.contains("m.toml:1:8: a NUL byte"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// Issue 12: `episodes = 4294967295` aborted on allocation, a
+/// 5000-character architecture name failed only at run time.
+#[test]
+fn counts_sizes_and_names_are_limited() {
+    let e = error_of(&GOOD.replace("episodes = 2", "episodes = 4294967295"));
+    assert_eq!(
+        e,
+        "m.toml:4:12: episodes: at most 10000 (rwg's limit), got 4294967295"
+    );
+    let e = error_of(&GOOD.replace("samples = 10", "samples = 9223372036854775807"));
+    assert_eq!(
+        e,
+        "m.toml:3:11: samples: at most 10000000 (rwg's limit), got 9223372036854775807"
+    );
+    let e = error_of(&GOOD.replace("bias = [false, true]", "threads = 100000"));
+    assert_eq!(
+        e,
+        "m.toml:5:11: threads: at most 1024 (rwg's limit), got 100000"
+    );
+    let e = error_of(&GOOD.replace(
+        "name = \"2HL\"",
+        &format!("name = \"{}\"", "a".repeat(5000)),
+    ));
+    assert_eq!(
+        e,
+        "m.toml:16:8: architectures[1].name: at most 64 bytes (rwg's limit), got 5000"
+    );
+    let e = error_of(&GOOD.replace("hidden = [4, 4]", "hidden = [4, 5000]"));
+    assert!(
+        e.contains(
+            "architectures[1].hidden[1]: a layer needs 1 to 4096 units (rwg's limit), got 5000"
+        ),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace(
+        "hidden = [4, 4]",
+        &format!("hidden = [{}]", ["1"; 65].join(",")),
+    ));
+    assert!(
+        e.contains("architectures[1].hidden: at most 64 layers (rwg's limit), got 65"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("solved = 195", "max_episode_steps = 4294967296"));
+    assert!(
+        e.contains("envs[0].max_episode_steps: at most 10000000 (rwg's limit), got 4294967296"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("\"a=1\"", &format!("\"{}\"", "x".repeat(70000))));
+    assert!(
+        e.contains("envs[1].config: at most 65536 bytes (rwg's limit), got 70000"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("Pendulum-v0", &"P".repeat(200)));
+    assert!(
+        e.contains("envs[1].id: at most 128 bytes (rwg's limit), got 200"),
+        "{e}"
+    );
+    let many: String = (0..257)
+        .map(|i| format!("[[architectures]]\nname = \"a{i}\"\nhidden = []\n"))
+        .collect();
+    let e = error_of(&GOOD.replace("[[architectures]]\nname = \"0HL\"\nhidden = []\n", &many));
+    assert!(
+        e.contains("architectures: at most 256 (rwg's limit), got 258"),
+        "{e}"
+    );
+    let many: String = (0..257)
+        .map(|i| format!("[[envs]]\nid = \"e{i}\"\n"))
+        .collect();
+    let e = error_of(&format!("{GOOD}{many}"));
+    assert!(
+        e.contains("envs: at most 256 (rwg's limit), got 259"),
+        "{e}"
+    );
+}
+
+#[test]
+fn duplicate_env_and_empty_lists() {
+    let e = error_of(&GOOD.replace("Pendulum-v0", "CartPole-v0"));
+    assert!(
+        e.contains("envs[1].id: 'CartPole-v0' is listed twice"),
+        "{e}"
+    );
+    let e = error_of(&GOOD.replace("bias = [false, true]", "bias = []"));
+    assert!(e.contains("bias: needs at least one"), "{e}");
+}
