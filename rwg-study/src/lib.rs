@@ -11,6 +11,7 @@
 //! run by Python worker processes (`rwg-gym`, see [`gym_source`]).
 
 pub mod cells;
+pub mod committer;
 pub mod env_source;
 pub mod error;
 pub mod fault_context;
@@ -22,5 +23,6 @@ pub mod merge;
 pub mod rundir;
 pub mod runner;
 pub mod stats;
+pub mod timing;
 
 pub use error::StudyError;

@@ -8,26 +8,30 @@
 //! [`Progress`]; the caller prints.
 
 use crate::cells::{new_meta, plan_cells, Cell, SummaryLine};
+use crate::committer::Committer;
 use crate::env_source::EnvSource;
 use crate::error::CellError;
 use crate::fault_context::{self, Watched};
 use crate::manifest::Manifest;
 use crate::rundir::blocks::{
-    block_samples, cell_complete, n_blocks, tidy_complete_cell, write_block, BlockIndex,
+    block_samples, cell_complete, n_blocks, tidy_complete_cell, BlockIndex, CellTotals,
 };
 use crate::rundir::checksum::verify_cell;
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::lock::RunLock;
 use crate::rundir::meta::{
-    read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta, RUN_FORMAT,
+    read_cell_meta, read_run_meta, write_run_meta, CellMeta, RunMeta, ShardMeta, RUN_FORMAT,
 };
 use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
+use crate::timing::{CellTiming, RunTiming};
 use crate::StudyError;
 use rwg_core::sampler::{run_blocks, BlockResult};
 use rwg_env::Environment;
 use rwg_envs::{visit, EnvVisitor};
+use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::ScopedJoinHandle;
 use std::time::{Instant, SystemTime};
 
 /// How to run a study.
@@ -83,6 +87,8 @@ pub struct RunReport {
     pub env_steps: u64,
     /// Worker threads used.
     pub threads: usize,
+    /// Where the wall time went, phase by phase.
+    pub timing: RunTiming,
     /// The run directory's lock, still held (drop it when done writing).
     pub lock: RunLock,
 }
@@ -96,6 +102,8 @@ pub fn run_study(
     opts: &RunOptions<'_>,
     progress: &mut dyn Progress,
 ) -> Result<RunOutcome, StudyError> {
+    let t_setup = Instant::now();
+    let mut timing = RunTiming::default();
     let out = &opts.out;
     let cells = plan_cells(m)?;
     progress.planned(&cells);
@@ -157,6 +165,7 @@ pub fn run_study(
         })
         .sum();
     progress.start(todo);
+    timing.setup = t_setup.elapsed();
     let t0 = Instant::now();
     let mut meta = new_meta(m, threads, rfc3339(SystemTime::now()), opts.shard);
     if let Some(p) = &previous {
@@ -165,163 +174,259 @@ pub fn run_study(
     let mut lines = vec![];
     let mut steps_now = 0u64;
 
-    for (ci, cell) in cells.iter().enumerate() {
-        let dir = cell_dir(out, &cell.id.dir);
-        if opts.shard.is_none() && cell_complete(&dir) {
-            tidy_complete_cell(&dir).map_err(|source| StudyError::RunDir {
-                context: format!("cannot tidy cell {}", cell.id.dir),
-                source,
-            })?;
-            verify_cell(&dir).map_err(|source| StudyError::RunDir {
-                context: format!("cell {} is complete but does not verify", cell.id.dir),
-                source,
-            })?;
-            let cm = read_cell_meta(&dir)?;
-            meta.env_steps += cm.env_steps;
-            meta.cells.push(cm);
-            continue;
-        }
-        let label = format!(
-            "cell {}/{} ({} done): {}",
-            ci + 1,
-            cells.len(),
-            ci,
-            cell.id.dir
-        );
-        progress.cell(&label);
-        fault_context::set_cell_label(match &cell.source {
-            EnvSource::Plugin(p) => format!(
-                "plugin '{}' ({}), env '{}', cell {}",
-                p.ty.plugin().id,
-                p.path().display(),
-                cell.plan.env_id,
+    // A cell whose blocks are all committed is finalised (scores.csv,
+    // statistics, samples.csv, cell.json) on a thread of its own while the
+    // next cells sample (at most MAX_FINALIZING at a time); the results are
+    // recorded in cell order, each as soon as it and the cells before it
+    // are finalised.
+    std::thread::scope(|fin| -> Result<(), StudyError> {
+        let mut pending: VecDeque<Pending<'_, '_>> = VecDeque::new();
+        let mut rec = Recorder {
+            out,
+            t0,
+            meta: &mut meta,
+            lines: &mut lines,
+            timing: &mut timing,
+        };
+        for (ci, cell) in cells.iter().enumerate() {
+            let dir = cell_dir(out, &cell.id.dir);
+            if opts.shard.is_none() && cell_complete(&dir) {
+                rec.finalized(&mut pending, 0)?;
+                tidy_complete_cell(&dir).map_err(|source| StudyError::RunDir {
+                    context: format!("cannot tidy cell {}", cell.id.dir),
+                    source,
+                })?;
+                verify_cell(&dir).map_err(|source| StudyError::RunDir {
+                    context: format!("cell {} is complete but does not verify", cell.id.dir),
+                    source,
+                })?;
+                let cm = read_cell_meta(&dir)?;
+                rec.meta.env_steps += cm.env_steps;
+                rec.meta.cells.push(cm);
+                continue;
+            }
+            let label = format!(
+                "cell {}/{} ({} done): {}",
+                ci + 1,
+                cells.len(),
+                ci,
                 cell.id.dir
-            ),
-            EnvSource::Builtin(_) => format!("env '{}', cell {}", cell.plan.env_id, cell.id.dir),
-            EnvSource::Gym(_) => format!("env '{}', cell {}", cell.spec.id, cell.id.dir),
-        });
-        let blocks: Vec<_> = (0..nb)
-            .filter(|&b| owned(ci, b) && !indexes[ci].done(b))
-            .map(|b| block_samples(b, m.samples))
-            .collect();
-        let t_cell = Instant::now();
-        let mut cell_steps = 0u64;
-        let result = pool.install(|| {
-            run_cell_blocks(
-                cell,
-                &blocks,
-                &dir,
-                m.episodes,
-                opts.stop,
-                |b: &BlockResult| {
-                    let s: u64 = b.episodes.iter().map(|r| r.steps as u64).sum();
-                    cell_steps += s;
-                    steps_now += s;
-                    progress.block(&label, b.samples.end - b.samples.start, s);
-                },
-            )
-        });
-        if let Err(e) = result {
-            progress.finish(false);
-            meta.wall_s = t0.elapsed().as_secs_f64();
-            // The cell's error is the one to report (on a full disk run.json
-            // fails too, and would hide which file failed first); run.json
-            // is rewritten when the run resumes.
-            let _ = write_run_meta(out, &meta);
-            return Err(match e {
-                CellError::Interrupted => StudyError::Interrupted,
-                source => StudyError::Cell {
-                    cell: cell.id.dir.clone(),
-                    plugin: match &cell.source {
-                        EnvSource::Plugin(p) => Some(p.path().to_path_buf()),
-                        EnvSource::Builtin(_) | EnvSource::Gym(_) => None,
-                    },
-                    gym: match &cell.source {
-                        EnvSource::Gym(g) => {
-                            Some(format!("{}, Python {}", cell.spec.id, g.config().python))
-                        }
-                        _ => None,
-                    },
-                    out: out.clone(),
-                    source: Box::new(source),
-                },
+            );
+            progress.cell(&label);
+            fault_context::set_cell_label(match &cell.source {
+                EnvSource::Plugin(p) => format!(
+                    "plugin '{}' ({}), env '{}', cell {}",
+                    p.ty.plugin().id,
+                    p.path().display(),
+                    cell.plan.env_id,
+                    cell.id.dir
+                ),
+                EnvSource::Builtin(_) => {
+                    format!("env '{}', cell {}", cell.plan.env_id, cell.id.dir)
+                }
+                EnvSource::Gym(_) => format!("env '{}', cell {}", cell.spec.id, cell.id.dir),
             });
+            let blocks: Vec<_> = (0..nb)
+                .filter(|&b| owned(ci, b) && !indexes[ci].done(b))
+                .map(|b| block_samples(b, m.samples))
+                .collect();
+            let t_cell = Instant::now();
+            let mut cell_steps = 0u64;
+            let mut ct = CellTiming {
+                dir: cell.id.dir.clone(),
+                ..CellTiming::default()
+            };
+            // Blocks are committed by I/O threads while the workers compute
+            // the next ones; the cell's sampling ends when the last one is
+            // committed.
+            let result = std::thread::scope(|scope| {
+                let (committer, io_threads) = Committer::start(scope, &dir, m.episodes);
+                let sampled = pool.install(|| {
+                    run_cell_blocks(cell, &blocks, opts.stop, &committer, |b: &BlockResult| {
+                        let s: u64 = b.episodes.iter().map(|r| r.steps as u64).sum();
+                        cell_steps += s;
+                        steps_now += s;
+                        progress.block(&label, b.samples.end - b.samples.start, s);
+                    })
+                });
+                drop(committer);
+                let t_wait = Instant::now();
+                let committed = io_threads.finish();
+                ct.commit_wait = t_wait.elapsed();
+                ct.sampling = t_cell.elapsed() - ct.commit_wait;
+                match committed {
+                    Ok(busy) => {
+                        ct.commit_io = busy;
+                        sampled
+                    }
+                    Err(e) => sampled.and(Err(e.into())),
+                }
+            });
+            if let Err(e) = result {
+                progress.finish(false);
+                // The cell's error is the one to report (on a full disk
+                // run.json fails too, and would hide which file failed
+                // first); run.json is rewritten when the run resumes.
+                let _ = rec.finalized(&mut pending, 0);
+                rec.meta.wall_s = t0.elapsed().as_secs_f64();
+                let _ = write_run_meta(out, rec.meta);
+                return Err(match e {
+                    CellError::Interrupted => StudyError::Interrupted,
+                    source => StudyError::Cell {
+                        cell: cell.id.dir.clone(),
+                        plugin: match &cell.source {
+                            EnvSource::Plugin(p) => Some(p.path().to_path_buf()),
+                            EnvSource::Builtin(_) | EnvSource::Gym(_) => None,
+                        },
+                        gym: match &cell.source {
+                            EnvSource::Gym(g) => {
+                                Some(format!("{}, Python {}", cell.spec.id, g.config().python))
+                            }
+                            _ => None,
+                        },
+                        out: out.clone(),
+                        source: Box::new(source),
+                    },
+                });
+            }
+            let wall = t_cell.elapsed().as_secs_f64();
+            if opts.shard.is_none() {
+                rec.finalized(&mut pending, MAX_FINALIZING - 1)?;
+                let pool = &pool;
+                pending.push_back(Pending {
+                    cell,
+                    ct,
+                    finalize: fin.spawn(move || pool.install(|| cell.finalize(m, out, wall))),
+                });
+            } else {
+                rec.meta.env_steps += cell_steps;
+                rec.run_json(ct)?;
+            }
         }
-        let wall = t_cell.elapsed().as_secs_f64();
-        if opts.shard.is_none() {
-            let (cm, totals) = cell.finalize(m, out, wall)?;
-            lines.push(cell.summary_line(&totals.means, Some(cm.steps_per_s)));
-            meta.env_steps += cm.env_steps;
-            meta.cells.push(cm);
-        } else {
-            meta.env_steps += cell_steps;
-        }
-        meta.wall_s = t0.elapsed().as_secs_f64();
-        write_run_meta(out, &meta)?;
-    }
+        rec.finalized(&mut pending, 0)
+    })?;
+    let t_wrap = Instant::now();
     progress.finish(true);
     meta.wall_s = t0.elapsed().as_secs_f64();
     meta.steps_per_s = steps_now as f64 / meta.wall_s;
     meta.end_time = Some(rfc3339(SystemTime::now()));
     write_run_meta(out, &meta)?;
+    timing.wrap_up = t_wrap.elapsed();
     Ok(RunOutcome::Finished(Box::new(RunReport {
         meta,
         lines,
         cells: cells.len(),
         env_steps: steps_now,
         threads,
+        timing,
         lock,
     })))
 }
 
-/// Runs the given blocks of a cell, committing each. Built-in envs are
-/// statically dispatched (the sampler is monomorphised for each); plugin envs
-/// run through the same generic sampler as `Watched<TimeLimit<PluginEnv>>`.
-/// Gymnasium envs through the batched sampler (`rwg_core::batch`).
+/// Cells finalised at the same time, at most (each on a thread of its own).
+const MAX_FINALIZING: usize = 4;
+
+/// A cell being finalised on its own thread.
+struct Pending<'scope, 'c> {
+    cell: &'c Cell,
+    ct: CellTiming,
+    finalize: ScopedJoinHandle<'scope, Result<(CellMeta, CellTotals), StudyError>>,
+}
+
+/// Records finished cells into the run's metadata, summary and timing, and
+/// keeps `run.json` current.
+struct Recorder<'a> {
+    out: &'a Path,
+    t0: Instant,
+    meta: &'a mut RunMeta,
+    lines: &'a mut Vec<SummaryLine>,
+    timing: &'a mut RunTiming,
+}
+
+impl Recorder<'_> {
+    /// Records the cells being finalised, in order: those already done,
+    /// then, waiting for them, as many more as needed to leave at most
+    /// `keep` being finalised.
+    fn finalized(
+        &mut self,
+        pending: &mut VecDeque<Pending<'_, '_>>,
+        keep: usize,
+    ) -> Result<(), StudyError> {
+        while let Some(p) = pending.pop_front() {
+            if pending.len() < keep && !p.finalize.is_finished() {
+                pending.push_front(p);
+                return Ok(());
+            }
+            let Pending {
+                cell,
+                mut ct,
+                finalize,
+            } = p;
+            let t = Instant::now();
+            let done = finalize
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            ct.finalize = t.elapsed();
+            let (cm, totals) = done?;
+            self.lines
+                .push(cell.summary_line(&totals.means, Some(cm.steps_per_s)));
+            self.meta.env_steps += cm.env_steps;
+            self.meta.cells.push(cm);
+            self.run_json(ct)?;
+        }
+        Ok(())
+    }
+
+    /// Writes `run.json` after a cell, timing it into the cell's phases.
+    fn run_json(&mut self, mut ct: CellTiming) -> Result<(), StudyError> {
+        let t = Instant::now();
+        self.meta.wall_s = self.t0.elapsed().as_secs_f64();
+        write_run_meta(self.out, self.meta)?;
+        ct.run_json = t.elapsed();
+        self.timing.cells.push(ct);
+        Ok(())
+    }
+}
+
+/// Runs the given blocks of a cell. Built-in envs are statically dispatched
+/// (the sampler is monomorphised for each); plugin envs run through the same
+/// generic sampler as `Watched<TimeLimit<PluginEnv>>`. Gymnasium envs through
+/// the batched sampler (`rwg_core::batch`). Each finished block goes to
+/// `on_done`, then to `committer`.
 fn run_cell_blocks(
     cell: &Cell,
     blocks: &[std::ops::Range<u64>],
-    dir: &Path,
-    episodes: u32,
     stop: &AtomicBool,
+    committer: &Committer,
     on_done: impl FnMut(&BlockResult),
 ) -> Result<(), CellError> {
     struct Runner<'a, F> {
         cell: &'a Cell,
         blocks: &'a [std::ops::Range<u64>],
-        dir: &'a Path,
-        episodes: u32,
         stop: &'a AtomicBool,
+        committer: &'a Committer,
         on_done: F,
     }
     impl<F: FnMut(&BlockResult)> Runner<'_, F> {
+        /// What happens to each finished block, in block order.
+        fn on_block(&mut self, b: BlockResult) -> Result<(), CellError> {
+            (self.on_done)(&b);
+            self.committer.submit(b)?;
+            if self.stop.load(Ordering::SeqCst) {
+                return Err(CellError::Interrupted);
+            }
+            Ok(())
+        }
+
         fn run<E: Environment + Send>(
-            self,
+            mut self,
             make_env: impl Fn() -> E + Sync,
         ) -> Result<(), CellError> {
-            let Runner {
-                cell,
-                blocks,
-                dir,
-                episodes,
-                stop,
-                mut on_done,
-            } = self;
             let wave = rayon::current_num_threads() * 2;
-            run_blocks(
-                &cell.plan,
-                blocks,
-                wave,
-                make_env,
-                |b: BlockResult| -> Result<(), CellError> {
-                    write_block(dir, &b, episodes)?;
-                    on_done(&b);
-                    if stop.load(Ordering::SeqCst) {
-                        return Err(CellError::Interrupted);
-                    }
-                    Ok(())
-                },
-            )
+            let (plan, blocks) = (&self.cell.plan, self.blocks);
+            run_blocks(plan, blocks, wave, make_env, |b: BlockResult| {
+                self.on_block(b)
+            })
         }
     }
     impl<F: FnMut(&BlockResult)> EnvVisitor for Runner<'_, F> {
@@ -330,12 +435,11 @@ fn run_cell_blocks(
             self.run(|| env.clone())
         }
     }
-    let runner = Runner {
+    let mut runner = Runner {
         cell,
         blocks,
-        dir,
-        episodes,
         stop,
+        committer,
         on_done,
     };
     match &cell.source {
@@ -350,28 +454,10 @@ fn run_cell_blocks(
         }),
         // Batched: one Python worker per thread steps its 16 lanes together.
         EnvSource::Gym(g) => {
-            let Runner {
-                cell,
-                blocks,
-                dir,
-                episodes,
-                stop,
-                mut on_done,
-            } = runner;
             let wave = rayon::current_num_threads() * 2;
-            g.run_blocks(
-                &cell.plan,
-                blocks,
-                wave,
-                |b: BlockResult| -> Result<(), CellError> {
-                    write_block(dir, &b, episodes)?;
-                    on_done(&b);
-                    if stop.load(Ordering::SeqCst) {
-                        return Err(CellError::Interrupted);
-                    }
-                    Ok(())
-                },
-            )
+            g.run_blocks(&cell.plan, blocks, wave, |b: BlockResult| {
+                runner.on_block(b)
+            })
         }
     }
 }

@@ -78,6 +78,11 @@ pub struct Args {
     /// changes the interval).
     #[arg(long, short)]
     quiet: bool,
+    /// Print where the wall time went to stderr at the end: set-up, per cell
+    /// sampling (parallel), block commits, finalising, run.json (serial), and
+    /// the report; with each cell's serial share.
+    #[arg(long)]
+    timing: bool,
 }
 
 /// Writes stats, figures and report.html into a finished run directory.
@@ -200,6 +205,7 @@ pub fn run(args: Args) -> Result<()> {
     };
 
     let lines = &report.lines;
+    let mut report_time = None;
     if args.shard.is_none() {
         crate::outln!("{}", crate::summary::header());
         for l in lines {
@@ -229,7 +235,9 @@ pub fn run(args: Args) -> Result<()> {
                 out.display()
             );
             if !args.no_report {
+                let t = Instant::now();
                 write_report(&out)?;
+                report_time = Some(t.elapsed());
             }
         }
         Some(s) => crate::outln!(
@@ -238,6 +246,9 @@ pub fn run(args: Args) -> Result<()> {
             s.count,
             out.display()
         ),
+    }
+    if args.timing {
+        eprint!("{}", report.timing.table(report_time));
     }
     Ok(())
 }

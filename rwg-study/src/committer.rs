@@ -1,0 +1,211 @@
+//! Block commits off the sampling path.
+//!
+//! Committing a block (formatting its rows, writing, syncing and renaming its
+//! file: [`write_block`]) is mostly waiting for the disk. Done on the thread
+//! that collects the blocks, it stalls every worker after each wave (on a
+//! busy disk, longer than a CartPole cell's sampling). A [`Committer`] hands
+//! the blocks to a few I/O threads instead, which commit them while the
+//! workers compute the next ones; several syncs in flight also let the
+//! filesystem group them. What is on disk, and when a block counts as
+//! committed (its file renamed into place after the sync, then listed in the
+//! cell's block index), is unchanged; a run stopped or killed loses at most
+//! the blocks not yet committed, which a resumed run computes again. The I/O
+//! threads append to the block index concurrently: each entry is one
+//! `O_APPEND` write of a whole line, and the index is keyed by block name,
+//! so its line order does not matter.
+
+use crate::rundir::blocks::{write_block, RunDirError};
+use rwg_core::sampler::BlockResult;
+use std::path::Path;
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::{Arc, Mutex};
+use std::thread::{Scope, ScopedJoinHandle};
+use std::time::{Duration, Instant};
+
+/// I/O threads per cell.
+pub const COMMIT_THREADS: usize = 4;
+/// Blocks waiting for an I/O thread before [`Committer::submit`] blocks
+/// (bounds the memory held by finished, uncommitted blocks).
+const QUEUE: usize = 64;
+
+/// The first commit error, shared by the I/O threads.
+type FirstError = Arc<Mutex<Option<RunDirError>>>;
+
+/// Hands finished blocks of one cell to I/O threads that commit them.
+pub struct Committer {
+    tx: SyncSender<BlockResult>,
+    failed: FirstError,
+}
+
+/// The I/O threads of a [`Committer`], joined by [`CommitThreads::finish`].
+pub struct CommitThreads<'scope> {
+    handles: Vec<ScopedJoinHandle<'scope, Duration>>,
+    failed: FirstError,
+}
+
+impl Committer {
+    /// Starts [`COMMIT_THREADS`] I/O threads in `scope` committing blocks of
+    /// the cell in `cell_dir` (`episodes` per network).
+    pub fn start<'scope, 'env>(
+        scope: &'scope Scope<'scope, 'env>,
+        cell_dir: &'env Path,
+        episodes: u32,
+    ) -> (Committer, CommitThreads<'scope>) {
+        let (tx, rx) = sync_channel::<BlockResult>(QUEUE);
+        let rx = Arc::new(Mutex::new(rx));
+        let failed: FirstError = Arc::default();
+        let handles = (0..COMMIT_THREADS)
+            .map(|_| {
+                let rx = Arc::clone(&rx);
+                let failed = Arc::clone(&failed);
+                scope.spawn(move || commit_loop(&rx, &failed, cell_dir, episodes))
+            })
+            .collect();
+        (
+            Committer {
+                tx,
+                failed: Arc::clone(&failed),
+            },
+            CommitThreads { handles, failed },
+        )
+    }
+
+    /// Queues a finished block for its commit (waits while the queue is
+    /// full). Fails with the first commit error, once one happened.
+    pub fn submit(&self, block: BlockResult) -> Result<(), RunDirError> {
+        if let Some(e) = lock(&self.failed).take() {
+            return Err(e);
+        }
+        // The receivers live until the sender is dropped (they only stop on
+        // disconnection), so the send cannot fail.
+        self.tx
+            .send(block)
+            .expect("the commit threads outlive the committer");
+        Ok(())
+    }
+}
+
+impl CommitThreads<'_> {
+    /// Waits until every queued block is committed (the [`Committer`] must
+    /// have been dropped). Returns the I/O threads' total busy time, or the
+    /// first commit error not yet returned by [`Committer::submit`].
+    pub fn finish(self) -> Result<Duration, RunDirError> {
+        let mut busy = Duration::ZERO;
+        for h in self.handles {
+            match h.join() {
+                Ok(t) => busy += t,
+                Err(panic) => std::panic::resume_unwind(panic),
+            }
+        }
+        match lock(&self.failed).take() {
+            Some(e) => Err(e),
+            None => Ok(busy),
+        }
+    }
+}
+
+/// One I/O thread: commits blocks until the channel closes; after an error,
+/// only drains the queue. Returns its busy time.
+fn commit_loop(
+    rx: &Mutex<Receiver<BlockResult>>,
+    failed: &Mutex<Option<RunDirError>>,
+    cell_dir: &Path,
+    episodes: u32,
+) -> Duration {
+    let mut busy = Duration::ZERO;
+    loop {
+        // The guard is dropped at the end of this statement: the other
+        // threads wait only for the hand-over, not for the commit.
+        let next = lock(rx).recv();
+        let Ok(block) = next else { return busy };
+        let t = Instant::now();
+        let stopped = lock(failed).is_some();
+        if !stopped {
+            if let Err(e) = write_block(cell_dir, &block, episodes) {
+                lock(failed).get_or_insert(e);
+            }
+        }
+        busy += t.elapsed();
+    }
+}
+
+/// Locks `m`, ignoring poisoning (a panicking I/O thread is re-raised by
+/// [`CommitThreads::finish`]).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rundir::blocks::{block_done, block_path, block_samples, n_blocks};
+    use rwg_core::sampler::EpisodeResult;
+
+    fn block(b: u64, samples: u64) -> BlockResult {
+        let r = block_samples(b, samples);
+        let episodes = (0..r.end - r.start)
+            .map(|i| EpisodeResult {
+                score: (r.start + i) as f64 * 0.25,
+                steps: 7,
+            })
+            .collect();
+        BlockResult {
+            samples: r,
+            episodes,
+        }
+    }
+
+    #[test]
+    fn commits_every_block_as_write_block_would() {
+        let base = std::env::temp_dir().join(format!("rwg-committer-{}", std::process::id()));
+        let (a, b) = (base.join("a"), base.join("b"));
+        let _ = std::fs::remove_dir_all(&base);
+        let samples = 40 * 32 + 3;
+        for i in 0..n_blocks(samples) {
+            write_block(&a, &block(i, samples), 1).unwrap();
+        }
+        let busy = std::thread::scope(|s| {
+            let (c, threads) = Committer::start(s, &b, 1);
+            for i in (0..n_blocks(samples)).rev() {
+                c.submit(block(i, samples)).unwrap();
+            }
+            drop(c);
+            threads.finish().unwrap()
+        });
+        assert!(busy > Duration::ZERO);
+        for i in 0..n_blocks(samples) {
+            assert!(block_done(&b, i));
+            assert_eq!(
+                std::fs::read(block_path(&a, i)).unwrap(),
+                std::fs::read(block_path(&b, i)).unwrap()
+            );
+        }
+        std::fs::remove_dir_all(&base).unwrap();
+    }
+
+    #[test]
+    fn a_failed_commit_is_reported() {
+        let base = std::env::temp_dir().join(format!("rwg-committer-f-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&base);
+        std::fs::create_dir_all(&base).unwrap();
+        // A file where the cell directory should be: every commit fails.
+        let cell = base.join("cell");
+        std::fs::write(&cell, "not a directory").unwrap();
+        let err = std::thread::scope(|s| {
+            let (c, threads) = Committer::start(s, &cell, 1);
+            let mut first = None;
+            for i in 0..8 {
+                if let Err(e) = c.submit(block(i, 8 * 32)) {
+                    first = Some(e);
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            drop(c);
+            let rest = threads.finish();
+            first.unwrap_or_else(|| rest.unwrap_err())
+        });
+        assert!(err.to_string().contains("cell"), "{err}");
+        std::fs::remove_dir_all(&base).unwrap();
+    }
+}
