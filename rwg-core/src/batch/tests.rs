@@ -1,4 +1,3 @@
-
 use super::*;
 use crate::policy::Architecture;
 use crate::sampler::{LaneWorker, WeightDist};

@@ -172,6 +172,11 @@ pub fn read_sums(
 /// syncs it. A line left unfinished by a killed run is closed first, so the
 /// new line stands on its own.
 pub fn append_sum(path: &Path, name: &str, digest: &Digest) -> Result<(), RunDirError> {
+    // The run's block committers append from several threads: one at a time,
+    // so that the repair of a crash's partial last line below (read the last
+    // byte, then write) cannot interleave with another append.
+    static APPEND: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_at_a_time = APPEND.lock().unwrap_or_else(|e| e.into_inner());
     let mut opts = OpenOptions::new();
     opts.read(true).append(true).create(true);
     #[cfg(unix)]
