@@ -39,6 +39,9 @@ static ARMED: AtomicBool = AtomicBool::new(false);
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 /// Seconds a plugin call may take (0: no limit).
 static STEP_TIMEOUT_S: AtomicU64 = AtomicU64::new(0);
+/// How long a run ended by a plugin (`exit()`, a hung call) waits for the
+/// blocks already computed to reach the disk before it exits.
+const COMMIT_WAIT: Duration = Duration::from_secs(30);
 
 /// How long the first Ctrl-C waits for the blocks in flight.
 pub const INTERRUPT_GRACE: Duration = Duration::from_secs(10);
@@ -265,6 +268,8 @@ extern "C" fn on_exit() {
         return;
     }
     let call = this_call();
+    // Blocks computed before the exit are kept: the I/O threads still run.
+    rwg_study::committer::wait_for_commits(COMMIT_WAIT);
     if let Some(mut m) = Msg::new() {
         m.push(b"\nerror: exit() was called ");
         where_text(call, &mut m);
@@ -383,6 +388,7 @@ fn watchdog() {
         let timeout = STEP_TIMEOUT_S.load(SeqCst);
         let interrupt_at = *INTERRUPT_AT.lock().unwrap_or_else(|e| e.into_inner());
         let report = |c: CallSnapshot, why: &str, code: i32| -> ! {
+            rwg_study::committer::wait_for_commits(COMMIT_WAIT);
             if let Some(mut m) = Msg::new() {
                 m.push(b"\nerror: ");
                 m.push(why.as_bytes());

@@ -8,8 +8,10 @@
 //! workers compute the next ones; several syncs in flight also let the
 //! filesystem group them. What is on disk, and when a block counts as
 //! committed (its file renamed into place after the sync, then listed in the
-//! cell's block index), is unchanged; a run stopped or killed loses at most
-//! the blocks not yet committed, which a resumed run computes again. The I/O
+//! cell's block index), is unchanged; a run killed by a signal loses at most
+//! the blocks not yet committed, which a resumed run computes again. A process
+//! that ends early on purpose (a plugin called `exit()`, a plugin call hangs)
+//! first waits for the blocks already handed over ([`wait_for_commits`]). The I/O
 //! threads append to the block index concurrently: each entry is one
 //! `O_APPEND` write of a whole line, and the index is keyed by block name,
 //! so its line order does not matter.
@@ -17,6 +19,7 @@
 use crate::rundir::blocks::{write_block, RunDirError};
 use rwg_core::sampler::BlockResult;
 use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering::SeqCst};
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 use std::sync::{Arc, Mutex};
 use std::thread::{Scope, ScopedJoinHandle};
@@ -27,6 +30,25 @@ pub const COMMIT_THREADS: usize = 4;
 /// Blocks waiting for an I/O thread before [`Committer::submit`] blocks
 /// (bounds the memory held by finished, uncommitted blocks).
 const QUEUE: usize = 64;
+
+/// Blocks handed to an I/O thread (of any committer of this process) and not
+/// yet through [`write_block`].
+static IN_FLIGHT: AtomicUsize = AtomicUsize::new(0);
+
+/// Waits, at most `limit`, until every block handed to a committer has been
+/// committed (or has failed); true if none is left. For a process about to
+/// end early (a plugin called `exit()`, a plugin call hangs), so that blocks
+/// computed before are not lost on their way to the disk.
+pub fn wait_for_commits(limit: Duration) -> bool {
+    let t0 = Instant::now();
+    while IN_FLIGHT.load(SeqCst) > 0 {
+        if t0.elapsed() >= limit {
+            return false;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    true
+}
 
 /// The first commit error, shared by the I/O threads.
 type FirstError = Arc<Mutex<Option<RunDirError>>>;
@@ -78,6 +100,7 @@ impl Committer {
         }
         // The receivers live until the sender is dropped (they only stop on
         // disconnection), so the send cannot fail.
+        IN_FLIGHT.fetch_add(1, SeqCst);
         self.tx
             .send(block)
             .expect("the commit threads outlive the committer");
@@ -125,6 +148,7 @@ fn commit_loop(
                 lock(failed).get_or_insert(e);
             }
         }
+        IN_FLIGHT.fetch_sub(1, SeqCst);
         busy += t.elapsed();
     }
 }
