@@ -550,18 +550,8 @@ where
                         error: err.clone(),
                     })?;
                     let worker = lease.worker.as_mut().expect("a leased worker");
-                    let n = (range.end - range.start) as usize;
-                    let mut episodes = vec![
-                        EpisodeResult {
-                            score: 0.0,
-                            steps: 0
-                        };
-                        n * e
-                    ];
-                    worker.run_block(plan, range.clone(), &mut episodes)?;
-                    Ok(BlockResult {
-                        samples: range.clone(),
-                        episodes,
+                    BlockResult::compute(range.clone(), e, |out| {
+                        worker.run_block(plan, range.clone(), out)
                     })
                 },
             )

@@ -499,6 +499,30 @@ pub struct BlockResult {
     pub episodes: Vec<EpisodeResult>,
 }
 
+impl BlockResult {
+    /// The block of `samples` with `episodes` results per sample, filled in
+    /// by `run` (a lane worker's `run_block`).
+    pub fn compute(
+        samples: Range<u64>,
+        episodes: usize,
+        run: impl FnOnce(&mut [EpisodeResult]) -> Result<(), SampleError>,
+    ) -> Result<BlockResult, SampleError> {
+        let n = (samples.end - samples.start) as usize;
+        let mut results = vec![
+            EpisodeResult {
+                score: 0.0,
+                steps: 0
+            };
+            n * episodes
+        ];
+        run(&mut results)?;
+        Ok(BlockResult {
+            samples,
+            episodes: results,
+        })
+    }
+}
+
 /// Runs `samples` of a cell in parallel, in blocks of `block_size` samples;
 /// see [`run_blocks`].
 pub fn run_cell<E, F, G, X>(
@@ -553,18 +577,8 @@ where
             .map_init(
                 || LaneWorker::<E, LANES>::new(&make_env, plan),
                 |worker, range| {
-                    let n = (range.end - range.start) as usize;
-                    let mut episodes = vec![
-                        EpisodeResult {
-                            score: 0.0,
-                            steps: 0
-                        };
-                        n * e
-                    ];
-                    worker.run_block(plan, range.clone(), &mut episodes)?;
-                    Ok(BlockResult {
-                        samples: range.clone(),
-                        episodes,
+                    BlockResult::compute(range.clone(), e, |out| {
+                        worker.run_block(plan, range.clone(), out)
                     })
                 },
             )

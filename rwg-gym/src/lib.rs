@@ -21,6 +21,7 @@
 //! plugin environments need.
 
 mod process;
+pub use process::describe_status;
 pub mod protocol;
 
 use process::Worker;

@@ -227,8 +227,9 @@ impl Drop for Worker {
     }
 }
 
-/// "killed by signal 11 (SIGSEGV)", "exited with status 3".
-fn describe_status(s: std::process::ExitStatus) -> String {
+/// How a child process ended, to follow its name: "was killed by signal 11
+/// (SIGSEGV)", "exited with status 3".
+pub fn describe_status(s: std::process::ExitStatus) -> String {
     #[cfg(unix)]
     {
         use std::os::unix::process::ExitStatusExt;

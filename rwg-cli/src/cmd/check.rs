@@ -268,27 +268,7 @@ fn describe_exit(status: Option<ExitStatus>, timeout: Duration) -> String {
             timeout.as_secs()
         );
     };
-    #[cfg(unix)]
-    {
-        use std::os::unix::process::ExitStatusExt;
-        if let Some(sig) = status.signal() {
-            let name = match sig {
-                4 => " (SIGILL)",
-                6 => " (SIGABRT)",
-                7 => " (SIGBUS)",
-                8 => " (SIGFPE)",
-                9 => " (SIGKILL)",
-                11 => " (SIGSEGV)",
-                15 => " (SIGTERM)",
-                _ => "",
-            };
-            return format!("was killed by signal {sig}{name}");
-        }
-    }
-    match status.code() {
-        Some(c) => format!("exited with status {c}"),
-        None => format!("ended: {status}"),
-    }
+    rwg_gym::describe_status(status)
 }
 
 /// The last few lines of a child's stderr, for a crash report.
