@@ -263,6 +263,7 @@ fn sharded_studies_on_a_real_slurm_cluster() {
     // requeued: 0 not yet, 1 requeued (Slurm delays it by two minutes), 2 released
     let (mut requeued, mut cancelled, mut looked) = (0, false, false);
     let t0 = Instant::now();
+    let mut requeued_at = t0;
     let task0 = format!("{array}_0");
     while !(requeued == 2 && cancelled) {
         // rwg status reads the study while shards are being written.
@@ -273,6 +274,7 @@ fn sharded_studies_on_a_real_slurm_cluster() {
         }
         if requeued == 0 && committed(0) > 0 {
             requeued = 1;
+            requeued_at = Instant::now();
             assert!(
                 committed(0) < 24,
                 "shard 0 finished before it could be requeued"
@@ -284,7 +286,12 @@ fn sharded_studies_on_a_real_slurm_cluster() {
                 String::from_utf8_lossy(&o.stderr)
             );
         }
+        // slurmd refuses a job whose credential was created in the same
+        // second as its revocation (the requeue): "Job credential revoked",
+        // and the task FAILS. Slurm's own two-minute requeue delay avoids
+        // that; the test waits two seconds before starting it again.
         if requeued == 1
+            && requeued_at.elapsed() > Duration::from_secs(2)
             && cluster
                 .jobs(&task0)
                 .first()
@@ -327,7 +334,10 @@ fn sharded_studies_on_a_real_slurm_cluster() {
         tasks
             .iter()
             .any(|t| t.0 == format!("{array}_0") && t.1 == "COMPLETED"),
-        "{tasks:?}"
+        "{tasks:?}\n{}\n== slurmctld.log\n{}\n== slurmd.log\n{}",
+        logs(&study),
+        cluster.log("slurmctld"),
+        cluster.log("slurmd")
     );
     // The requeued task ran twice, appending to its log.
     let log0 = std::fs::read_to_string(study.join("slurm/logs/shard-0.out")).unwrap();
