@@ -17,21 +17,23 @@
 //! the Python traceback; rwg itself keeps running.
 //!
 //! This is its own crate (not part of the runner's core) because it owns
-//! processes, pipes and a Python program, none of which the built-in or
-//! plugin environments need.
+//! a Python program and what Gymnasium's spaces and errors mean. The worker
+//! processes, the protocol and the batched host are `rwg-worker`'s, shared
+//! with the isolated plugin workers.
 
-mod process;
-pub use process::describe_status;
-pub mod protocol;
+pub use rwg_worker::describe_status;
+pub use rwg_worker::protocol;
 
-use process::Worker;
 use protocol::*;
 use rwg_core::batch::{
     run_blocks_batched, BatchEnv, BatchFailure, BatchPool, LaneActions, LaneOp, LaneOutcome,
     SingleLane,
 };
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError, LANES};
-use rwg_env::{ActionDtype, BoxSpace, EnvError, EnvSpec, Space, Step};
+use rwg_env::{ActionDtype, BoxSpace, EnvError, EnvSpec, Space};
+use rwg_worker::host::{handshake, Describe, PipeBatch};
+use rwg_worker::lane_file::LaneFile;
+use rwg_worker::{ProcError, Worker};
 use serde::Deserialize;
 use std::ops::Range;
 use std::time::Duration;
@@ -175,13 +177,34 @@ pub enum GymError {
     Protocol(String),
 }
 
-fn tail(stderr: &str) -> String {
-    if stderr.trim().is_empty() {
-        String::new()
-    } else {
-        format!("; the end of its stderr:\n{stderr}")
+use rwg_worker::stderr_tail_text as tail;
+
+impl From<ProcError> for GymError {
+    fn from(e: ProcError) -> Self {
+        match e {
+            ProcError::Spawn { program, source } => GymError::NoPython {
+                python: program,
+                source,
+            },
+            ProcError::Died { how, stderr } => GymError::Died { how, stderr },
+            ProcError::Timeout { secs, stderr } => GymError::Timeout { secs, stderr },
+            ProcError::Protocol(m) => GymError::Protocol(m),
+        }
     }
 }
+
+/// How the bridge's failures read.
+const DESCRIBE: Describe = Describe {
+    proc: |e| GymError::from(e).into(),
+    fatal: |python, error| {
+        GymError::Worker {
+            python: python.to_string(),
+            error,
+        }
+        .into()
+    },
+    traceback: "Python traceback",
+};
 
 fn worker_error_text(python: &str, e: &WorkerError) -> String {
     let mut s = match e.kind.as_str() {
@@ -270,7 +293,7 @@ fn parse_ready(cfg: &GymConfig, r: Ready) -> Result<GymInfo, GymError> {
         }
         Some("Box") => {
             let list = |k: &str| -> Result<Vec<f64>, GymError> {
-                floats(r.action[k].as_array().map_or(&[][..], |v| v))
+                Ok(floats(r.action[k].as_array().map_or(&[][..], |v| v))?)
             };
             Space::Box(BoxSpace::new(list("low")?, list("high")?))
         }
@@ -294,19 +317,8 @@ fn parse_ready(cfg: &GymConfig, r: Ready) -> Result<GymInfo, GymError> {
 
 /// A worker process hosting `lanes` instances of one Gymnasium env.
 pub struct GymBatch {
-    worker: Worker,
-    groups: usize,
-    /// The ops last sent to each group (to read its answer).
-    sent: Vec<Vec<LaneOp>>,
-    /// The file holding the lane being stepped (see the worker).
-    lane_file: LaneFile,
+    pipe: PipeBatch,
     info: GymInfo,
-    lanes: usize,
-    obs_dim: usize,
-    action_dim: usize,
-    timeout: Duration,
-    send: Vec<u8>,
-    recv: Vec<u8>,
 }
 
 impl GymBatch {
@@ -318,7 +330,13 @@ impl GymBatch {
         groups: usize,
         check_reset: bool,
     ) -> Result<GymBatch, GymError> {
-        let mut worker = Worker::spawn(&cfg.python, WORKER_PY)?;
+        let mut command = std::process::Command::new(&cfg.python);
+        command.arg("-c").arg(WORKER_PY);
+        #[cfg(unix)]
+        let dump = Some(libc::SIGUSR1);
+        #[cfg(not(unix))]
+        let dump = None;
+        let mut worker = Worker::spawn(command, &cfg.python, dump)?;
         let lane_file = LaneFile::create();
         let hello = serde_json::json!({
             "lane_file": lane_file.path(),
@@ -334,14 +352,9 @@ impl GymBatch {
             "probe_history": cfg.fresh_per_episode.is_none(),
             "fresh_per_episode": cfg.fresh_per_episode.unwrap_or(false),
         });
-        let mut buf = vec![];
-        begin(&mut buf, TAG_HELLO);
-        buf.extend_from_slice(hello.to_string().as_bytes());
-        finish(&mut buf);
-        worker.send(&buf)?;
         // Starting takes imports and `lanes` gym.make calls: allow more time.
         let start_timeout = cfg.timeout.max(Duration::from_secs(300));
-        let (tag, payload) = read_message(&mut worker, start_timeout)?;
+        let (tag, payload) = handshake(&mut worker, &hello, start_timeout)?;
         let ready: Ready = match tag {
             TAG_READY => serde_json::from_slice(&payload)
                 .map_err(|e| GymError::Protocol(format!("ready message: {e}")))?,
@@ -349,31 +362,23 @@ impl GymBatch {
                 let error: WorkerError = serde_json::from_slice(&payload)
                     .map_err(|e| GymError::Protocol(format!("error message: {e}")))?;
                 return Err(GymError::Worker {
-                    python: worker.python().to_string(),
+                    python: worker.program().to_string(),
                     error,
                 });
             }
             t => return Err(GymError::Protocol(format!("unexpected tag {t}"))),
         };
         let info = parse_ready(cfg, ready)?;
-        let obs_dim = info.spec.obs_dim();
-        let action_dim = match &info.spec.action_space {
-            Space::Discrete { .. } => 0,
-            Space::Box(b) => b.dim(),
-        };
-        Ok(GymBatch {
+        let pipe = PipeBatch::new(
             worker,
-            groups,
-            sent: vec![vec![LaneOp::Idle; lanes]; groups],
             lane_file,
-            info,
+            info.spec.clone(),
             lanes,
-            obs_dim,
-            action_dim,
-            timeout: cfg.timeout,
-            send: Vec::new(),
-            recv: Vec::new(),
-        })
+            groups,
+            cfg.timeout,
+            DESCRIBE,
+        );
+        Ok(GymBatch { pipe, info })
     }
 
     /// The environment as the worker described it.
@@ -382,24 +387,17 @@ impl GymBatch {
     }
 }
 
-/// Reads one message: (tag, payload).
-fn read_message(w: &mut Worker, timeout: Duration) -> Result<(u8, Vec<u8>), GymError> {
-    let mut buf = Vec::new();
-    let tag = w.recv_message(&mut buf, timeout)?;
-    Ok((tag, buf.split_off(5)))
-}
-
 impl BatchEnv for GymBatch {
     fn spec(&self) -> &EnvSpec {
         &self.info.spec
     }
 
     fn lanes(&self) -> usize {
-        self.lanes
+        self.pipe.lanes()
     }
 
     fn groups(&self) -> usize {
-        self.groups
+        self.pipe.groups()
     }
 
     fn send(
@@ -408,9 +406,7 @@ impl BatchEnv for GymBatch {
         ops: &[LaneOp],
         actions: LaneActions<'_>,
     ) -> Result<(), BatchFailure> {
-        encode_step(&mut self.send, group, ops, actions, self.action_dim);
-        self.sent[group].copy_from_slice(ops);
-        self.worker.send(&self.send).map_err(|e| self.failure(e))
+        self.pipe.send(group, ops, actions)
     }
 
     fn recv(
@@ -419,170 +415,7 @@ impl BatchEnv for GymBatch {
         obs: &mut [f64],
         out: &mut [LaneOutcome],
     ) -> Result<(), BatchFailure> {
-        let base = outcome_len(self.lanes, self.obs_dim);
-        // Room for the usual answer, so that one read takes it.
-        if self.recv.len() < 5 + base {
-            self.recv.resize(5 + base, 0);
-        }
-        let tag = match self.worker.recv_message(&mut self.recv, self.timeout) {
-            Ok(tag) => tag,
-            Err(e) => return Err(self.failure(e)),
-        };
-        let msg = std::mem::take(&mut self.recv);
-        let result = self.decode(tag, group, &msg[5..], obs, out);
-        self.recv = msg;
-        result
-    }
-}
-
-impl GymBatch {
-    /// A whole-batch failure, naming the lane the worker was on (if any).
-    fn failure(&self, e: GymError) -> BatchFailure {
-        BatchFailure {
-            lane: self
-                .lane_file
-                .lane()
-                .filter(|&l| l < self.lanes * self.groups),
-            error: e.into(),
-        }
-    }
-
-    /// Decodes group `group`'s outcome message (payload) into its lanes' outcomes.
-    fn decode(
-        &self,
-        tag: u8,
-        group: usize,
-        payload: &[u8],
-        obs: &mut [f64],
-        out: &mut [LaneOutcome],
-    ) -> Result<(), BatchFailure> {
-        let n = self.lanes;
-        let ops = &self.sent[group];
-        if tag == TAG_ERROR {
-            let error: WorkerError = serde_json::from_slice(payload)
-                .map_err(|e| GymError::Protocol(format!("error message: {e}")))?;
-            return Err(GymError::Worker {
-                python: self.worker.python().to_string(),
-                error,
-            }
-            .into());
-        }
-        let d = self.obs_dim;
-        let base = outcome_len(n, d);
-        if tag != TAG_OUTCOME || payload.len() < base || payload[0] as usize != group {
-            return Err(GymError::Protocol(format!(
-                "expected group {group}'s outcome of {base} bytes, got tag {} with {} bytes",
-                tag,
-                payload.len()
-            ))
-            .into());
-        }
-        let mut lane_errors: Vec<LaneError> = vec![];
-        if payload.len() > base {
-            lane_errors = serde_json::from_slice(&payload[base..])
-                .map_err(|e| GymError::Protocol(format!("lane errors: {e}")))?;
-        }
-        let word = |b: &[u8], i: usize| f64::from_le_bytes(b[i..i + 8].try_into().expect("8"));
-        let rew_at = 8 + pad8(n);
-        let obs_at = rew_at + 8 * n;
-        for i in 0..n {
-            let flags = payload[8 + i];
-            out[i] = if flags & F_ERROR != 0 {
-                let e = lane_errors.iter().find(|e| e.lane == i);
-                let text = match e {
-                    Some(e) if !e.traceback.trim().is_empty() => format!(
-                        "{}\nPython traceback:\n{}",
-                        e.message,
-                        e.traceback.trim_end()
-                    ),
-                    Some(e) => e.message.clone(),
-                    None => "failed (no message)".into(),
-                };
-                if text.starts_with("step raised ResetNeeded") {
-                    // Gymnasium's OrderEnforcing: a step before reset
-                    LaneOutcome::Failed(EnvError::ResetNeeded)
-                } else {
-                    LaneOutcome::Failed(EnvError::Other(text))
-                }
-            } else if flags & F_OK == 0 {
-                LaneOutcome::Idle
-            } else {
-                let o = &mut obs[i * d..(i + 1) * d];
-                for (j, v) in o.iter_mut().enumerate() {
-                    *v = word(payload, obs_at + 8 * (i * d + j));
-                }
-                let what = if matches!(ops[i], LaneOp::Reset(_)) {
-                    "reset"
-                } else {
-                    "step"
-                };
-                let reward = word(payload, rew_at + 8 * i);
-                if let Some(j) = o.iter().position(|v| !v.is_finite()) {
-                    LaneOutcome::Failed(EnvError::Other(format!(
-                        "{what} returned a non-finite observation: value {j} of {d} is {}",
-                        o[j]
-                    )))
-                } else if !reward.is_finite() {
-                    LaneOutcome::Failed(EnvError::Other(format!(
-                        "step returned a non-finite reward ({reward})"
-                    )))
-                } else if let LaneOp::Reset(_) = ops[i] {
-                    LaneOutcome::Reset
-                } else {
-                    LaneOutcome::Step(Step {
-                        reward,
-                        terminated: flags & F_TERMINATED != 0,
-                        truncated: flags & F_TRUNCATED != 0,
-                    })
-                }
-            };
-        }
-        Ok(())
-    }
-}
-
-/// An 8-byte file the worker maps and writes the lane it is stepping into,
-/// so that rwg can name the episode when the worker dies or hangs.
-struct LaneFile(Option<std::path::PathBuf>);
-
-impl LaneFile {
-    fn create() -> LaneFile {
-        use std::sync::atomic::{AtomicU64, Ordering};
-        static NEXT: AtomicU64 = AtomicU64::new(0);
-        let p = std::env::temp_dir().join(format!(
-            "rwg-gym-lane-{}-{}",
-            std::process::id(),
-            NEXT.fetch_add(1, Ordering::Relaxed)
-        ));
-        // Without the file the worker still runs; failures just name no lane.
-        LaneFile(std::fs::write(&p, [255u8; 8]).ok().map(|()| p))
-    }
-
-    fn path(&self) -> Option<String> {
-        self.0.as_ref().map(|p| p.to_string_lossy().into_owned())
-    }
-
-    /// The lane the worker was resetting or stepping, if any.
-    fn lane(&self) -> Option<usize> {
-        let bytes = std::fs::read(self.0.as_ref()?).ok()?;
-        bytes.first().filter(|&&b| b != 255).map(|&b| b as usize)
-    }
-}
-
-impl Drop for LaneFile {
-    fn drop(&mut self) {
-        if let Some(p) = &self.0 {
-            let _ = std::fs::remove_file(p);
-        }
-    }
-}
-
-impl Drop for GymBatch {
-    fn drop(&mut self) {
-        let mut buf = vec![];
-        begin(&mut buf, TAG_QUIT);
-        finish(&mut buf);
-        let _ = self.worker.send(&buf);
+        self.pipe.recv(group, obs, out)
     }
 }
 
@@ -652,7 +485,7 @@ impl GymSource {
     /// between runs), where the OS reports it.
     pub fn workers_cpu_seconds(&self) -> Option<f64> {
         self.pool
-            .with_idle(|ws| ws.iter().map(|w| w.worker.cpu_seconds()).sum())
+            .with_idle(|ws| ws.iter().map(|w| w.pipe.worker().cpu_seconds()).sum())
     }
 
     /// Number of worker processes started and idle.

@@ -1,9 +1,9 @@
 //! The exchange format (docs/bridge-protocol.md): length-prefixed messages,
 //! JSON for the handshake, fixed binary layouts for every batch step.
 
-use crate::GymError;
+use crate::ProcError;
 use rwg_core::batch::{LaneActions, LaneOp};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 /// Version of the protocol; the worker refuses another.
 pub const PROTOCOL: u32 = 1;
@@ -104,7 +104,7 @@ pub fn outcome_len(lanes: usize, obs_dim: usize) -> usize {
 }
 
 /// A fatal error the worker reports before exiting.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Serialize)]
 pub struct WorkerError {
     /// `python`, `import`, `not_registered`, `make`, `space`, `reset`,
     /// `nondeterministic` or `protocol`.
@@ -117,7 +117,7 @@ pub struct WorkerError {
 }
 
 /// One lane's error in an outcome's trailer.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Deserialize, Serialize)]
 pub struct LaneError {
     /// The lane.
     pub lane: usize,
@@ -128,17 +128,103 @@ pub struct LaneError {
     pub traceback: String,
 }
 
+/// A step message as the worker reads it (see [`encode_step`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StepRequest {
+    /// The group.
+    pub group: usize,
+    /// One op per lane.
+    pub ops: Vec<LaneOp>,
+    /// Per lane `max(1, action_dim)` words: the reset seed, the discrete
+    /// action or the continuous action (as raw little-endian words).
+    pub words: Vec<[u8; 8]>,
+}
+
+/// Decodes a step message's payload (after the tag) for `lanes` lanes with
+/// `action_dim` (0: discrete) action values each.
+pub fn decode_step(
+    payload: &[u8],
+    lanes: usize,
+    action_dim: usize,
+) -> Result<StepRequest, ProcError> {
+    let w = action_dim.max(1);
+    let want = 8 + pad8(lanes) + 8 * lanes * w;
+    if payload.len() != want {
+        return Err(ProcError::Protocol(format!(
+            "a step message of {} bytes, expected {want}",
+            payload.len()
+        )));
+    }
+    let ops = payload[8..8 + lanes]
+        .iter()
+        .enumerate()
+        .map(|(i, op)| {
+            let at = 8 + pad8(lanes) + 8 * i * w;
+            match *op {
+                OP_IDLE => Ok(LaneOp::Idle),
+                OP_RESET => Ok(LaneOp::Reset(u64::from_le_bytes(
+                    payload[at..at + 8].try_into().expect("8 bytes"),
+                ))),
+                OP_STEP => Ok(LaneOp::Step),
+                other => Err(ProcError::Protocol(format!("lane op {other}"))),
+            }
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let words = payload[8 + pad8(lanes)..]
+        .chunks_exact(8)
+        .map(|c| c.try_into().expect("8 bytes"))
+        .collect();
+    Ok(StepRequest {
+        group: payload[0] as usize,
+        ops,
+        words,
+    })
+}
+
+/// Reads one whole message from `r`: `Ok(None)` at end of file before it
+/// starts, else (tag, payload).
+pub fn read_message(r: &mut impl std::io::Read) -> std::io::Result<Option<(u8, Vec<u8>)>> {
+    let mut head = [0u8; 5];
+    let mut got = 0;
+    while got < 5 {
+        match r.read(&mut head[got..])? {
+            0 if got == 0 => return Ok(None),
+            0 => return Err(std::io::ErrorKind::UnexpectedEof.into()),
+            n => got += n,
+        }
+    }
+    let len = u32::from_le_bytes(head[..4].try_into().expect("4 bytes")) as usize;
+    if len == 0 {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "a message without a tag",
+        ));
+    }
+    let mut payload = vec![0u8; len - 1];
+    r.read_exact(&mut payload)?;
+    Ok(Some((head[4], payload)))
+}
+
+/// A whole message of `tag` with `payload`.
+pub fn message(tag: u8, payload: &[u8]) -> Vec<u8> {
+    let mut buf = Vec::with_capacity(5 + payload.len());
+    begin(&mut buf, tag);
+    buf.extend_from_slice(payload);
+    finish(&mut buf);
+    buf
+}
+
 /// A JSON float list where infinities are the strings "inf"/"-inf".
-pub fn floats(v: &[serde_json::Value]) -> Result<Vec<f64>, GymError> {
+pub fn floats(v: &[serde_json::Value]) -> Result<Vec<f64>, ProcError> {
     v.iter()
         .map(|x| match x {
             serde_json::Value::Number(n) => n
                 .as_f64()
-                .ok_or_else(|| GymError::Protocol(format!("bad number {n}"))),
+                .ok_or_else(|| ProcError::Protocol(format!("bad number {n}"))),
             serde_json::Value::String(s) if s == "inf" => Ok(f64::INFINITY),
             serde_json::Value::String(s) if s == "-inf" => Ok(f64::NEG_INFINITY),
             serde_json::Value::String(s) if s == "nan" => Ok(f64::NAN),
-            other => Err(GymError::Protocol(format!("bad bound {other}"))),
+            other => Err(ProcError::Protocol(format!("bad bound {other}"))),
         })
         .collect()
 }
@@ -173,6 +259,28 @@ mod tests {
         assert_eq!(&buf[29..37], &[0; 8]);
         assert_eq!(&buf[37..45], &1.5f64.to_le_bytes());
         assert_eq!(&buf[45..53], &(-0.5f64).to_le_bytes());
+    }
+
+    #[test]
+    fn a_step_message_decodes_to_what_was_encoded() {
+        let mut buf = vec![];
+        let ops = [LaneOp::Reset(7), LaneOp::Step, LaneOp::Idle];
+        let acts = LaneActions {
+            discrete: &[],
+            continuous: &[0.0, 0.0, 1.5, -0.5, 0.0, 0.0],
+        };
+        encode_step(&mut buf, 1, &ops, acts, 2);
+        let (tag, payload) = read_message(&mut &buf[..]).unwrap().unwrap();
+        assert_eq!(tag, TAG_STEP);
+        let req = decode_step(&payload, 3, 2).unwrap();
+        assert_eq!(req.group, 1);
+        assert_eq!(req.ops, ops);
+        assert_eq!(req.words.len(), 6);
+        assert_eq!(f64::from_le_bytes(req.words[2]), 1.5);
+        assert_eq!(f64::from_le_bytes(req.words[3]), -0.5);
+        assert!(decode_step(&payload, 4, 2).is_err(), "wrong lane count");
+        assert!(read_message(&mut &buf[..3]).is_err(), "truncated");
+        assert!(read_message(&mut &b""[..]).unwrap().is_none(), "end of file");
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! The worker process: spawning it, reading its answers with a deadline,
 //! and saying why it is gone when it dies.
 
-use crate::GymError;
+use crate::ProcError;
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
@@ -12,27 +12,33 @@ use std::time::{Duration, Instant};
 const STDERR_KEEP: usize = 16 * 1024;
 
 /// A running worker: its pipes and the tail of its stderr.
-pub(crate) struct Worker {
+pub struct Worker {
     child: Child,
     stdin: ChildStdin,
     stdout: ChildStdout,
     stderr: Arc<Mutex<VecDeque<u8>>>,
     drain: Option<std::thread::JoinHandle<()>>,
-    python: String,
+    program: String,
+    dump_signal: Option<i32>,
 }
 
 impl Worker {
-    /// Starts `python -c program`.
-    pub(crate) fn spawn(python: &str, program: &str) -> Result<Worker, GymError> {
-        let mut child = Command::new(python)
-            .arg("-c")
-            .arg(program)
+    /// Starts `command` (its stdin, stdout and stderr are replaced by
+    /// pipes); `program` names it in errors. `dump_signal`: a signal the
+    /// worker answers by printing where it is to stderr (Python's
+    /// faulthandler: SIGUSR1), sent before a hung worker is killed.
+    pub fn spawn(
+        mut command: Command,
+        program: &str,
+        dump_signal: Option<i32>,
+    ) -> Result<Worker, ProcError> {
+        let mut child = command
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
-            .map_err(|source| GymError::NoPython {
-                python: python.to_string(),
+            .map_err(|source| ProcError::Spawn {
+                program: program.to_string(),
                 source,
             })?;
         let stdin = child.stdin.take().expect("piped");
@@ -58,13 +64,14 @@ impl Worker {
             stdout,
             stderr,
             drain: Some(drain),
-            python: python.to_string(),
+            program: program.to_string(),
+            dump_signal,
         })
     }
 
     /// CPU time (user + system) the process has used so far, in seconds
     /// (Linux: from /proc; `None` elsewhere).
-    pub(crate) fn cpu_seconds(&self) -> Option<f64> {
+    pub fn cpu_seconds(&self) -> Option<f64> {
         let stat = std::fs::read_to_string(format!("/proc/{}/stat", self.child.id())).ok()?;
         // Fields after the command name (which is in parentheses): state is
         // field 3, utime 14, stime 15.
@@ -79,13 +86,18 @@ impl Worker {
         Some(ticks / hz)
     }
 
-    /// The interpreter this worker runs.
-    pub(crate) fn python(&self) -> &str {
-        &self.python
+    /// The program this worker runs, as given to [`Worker::spawn`].
+    pub fn program(&self) -> &str {
+        &self.program
+    }
+
+    /// The worker's process id.
+    pub fn id(&self) -> u32 {
+        self.child.id()
     }
 
     /// Writes a whole message.
-    pub(crate) fn send(&mut self, bytes: &[u8]) -> Result<(), GymError> {
+    pub fn send(&mut self, bytes: &[u8]) -> Result<(), ProcError> {
         match self.stdin.write_all(bytes).and_then(|_| self.stdin.flush()) {
             Ok(()) => Ok(()),
             Err(_) => Err(self.died()),
@@ -96,11 +108,11 @@ impl Worker {
     /// reads as the pipe allows (usually one: the worker writes a message at
     /// once and sends nothing unasked). Returns the tag; the payload is
     /// `buf[5..]`.
-    pub(crate) fn recv_message(
+    pub fn recv_message(
         &mut self,
         buf: &mut Vec<u8>,
         timeout: Duration,
-    ) -> Result<u8, GymError> {
+    ) -> Result<u8, ProcError> {
         let deadline = Instant::now() + timeout;
         if buf.len() < 5 {
             buf.resize(5, 0);
@@ -114,7 +126,7 @@ impl Worker {
                 if let Some(d) = self.drain.take() {
                     let _ = d.join();
                 }
-                return Err(GymError::Timeout {
+                return Err(ProcError::Timeout {
                     secs: timeout.as_secs_f64(),
                     stderr: self.stderr_tail(),
                 });
@@ -166,28 +178,29 @@ impl Worker {
         true
     }
 
-    /// Asks a hung worker for its Python traceback (SIGUSR1, which the
-    /// worker's faulthandler answers on stderr) and gives it a moment.
+    /// Asks a hung worker where it is (its `dump_signal`, e.g. SIGUSR1,
+    /// which a Python worker's faulthandler answers on stderr) and gives it
+    /// a moment.
     fn dump_traceback(&mut self) {
         #[cfg(unix)]
-        {
+        if let Some(sig) = self.dump_signal {
             // SAFETY: sending a signal to our own child process.
             unsafe {
-                libc::kill(self.child.id() as libc::pid_t, libc::SIGUSR1);
+                libc::kill(self.child.id() as libc::pid_t, sig);
             }
             std::thread::sleep(Duration::from_millis(300));
         }
     }
 
     /// Kills the process (if still running) and reaps it.
-    pub(crate) fn kill(&mut self) {
+    pub fn kill(&mut self) {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
 
     /// The error for a worker that stopped answering: how it ended and the
     /// end of what it wrote to stderr.
-    pub(crate) fn died(&mut self) -> GymError {
+    pub fn died(&mut self) -> ProcError {
         // Give it a moment to finish dying, so the status is known.
         let t0 = Instant::now();
         let status = loop {
@@ -205,14 +218,14 @@ impl Worker {
         if let Some(d) = self.drain.take() {
             let _ = d.join();
         }
-        GymError::Died {
+        ProcError::Died {
             how: status.map_or("stopped answering".into(), describe_status),
             stderr: self.stderr_tail(),
         }
     }
 
     /// The last lines the worker wrote to stderr.
-    pub(crate) fn stderr_tail(&self) -> String {
+    pub fn stderr_tail(&self) -> String {
         let k = self.stderr.lock().unwrap_or_else(|p| p.into_inner());
         let bytes: Vec<u8> = k.iter().copied().collect();
         let text = String::from_utf8_lossy(&bytes);

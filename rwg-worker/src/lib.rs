@@ -1,0 +1,72 @@
+//! # rwg-worker: environments in worker processes, stepped in lockstep
+//!
+//! An environment that should not (or cannot) run in rwg's own process runs
+//! in **worker processes**: each hosts `groups × lanes` instances and resets
+//! or steps a whole group in one exchange over its stdin/stdout, in the
+//! binary format of `docs/bridge-protocol.md` ([`protocol`]). Two workers
+//! speak it:
+//!
+//! - the Gymnasium bridge's Python program (`rwg-gym`, `gymnasium:` envs),
+//! - rwg itself as `rwg __plugin-worker`, hosting native plugin envs when
+//!   they are isolated (`isolate = true`, `rwg run --isolate`; the plugin
+//!   side is `rwg_study::isolate`).
+//!
+//! This crate is both sides of the protocol: [`process`] starts a worker and
+//! reads its answers with a deadline (and says how it ended when it dies),
+//! [`host`] is the [`rwg_core::batch::BatchEnv`] over a started worker (what
+//! the batched sampler drives), and [`serve`] is the worker's loop over
+//! instances of any [`rwg_env::Environment`].
+
+pub mod host;
+pub mod lane_file;
+pub mod process;
+pub mod protocol;
+pub mod serve;
+
+pub use host::PipeBatch;
+pub use process::{describe_status, Worker};
+
+use thiserror::Error;
+
+/// What can go wrong with a worker process, whatever it hosts. The callers
+/// (`rwg-gym`, `rwg_study::isolate`) turn these into messages that say what
+/// to do for their kind of worker.
+#[derive(Debug, Error)]
+pub enum ProcError {
+    /// The program could not be started.
+    #[error("cannot start {program}: {source}")]
+    Spawn {
+        /// The program.
+        program: String,
+        /// Why it did not start.
+        source: std::io::Error,
+    },
+    /// The worker process ended (or stopped answering).
+    #[error("the worker {how}{}", stderr_tail_text(.stderr))]
+    Died {
+        /// How it ended ("was killed by signal 11 (SIGSEGV)").
+        how: String,
+        /// The end of its stderr.
+        stderr: String,
+    },
+    /// The worker did not answer in time and was killed.
+    #[error("the worker did not answer within {secs} s and was killed{}", stderr_tail_text(.stderr))]
+    Timeout {
+        /// The limit.
+        secs: f64,
+        /// The end of its stderr.
+        stderr: String,
+    },
+    /// The worker said something unexpected.
+    #[error("worker protocol error: {0}")]
+    Protocol(String),
+}
+
+/// `"; the end of its stderr:\n..."`, or nothing for an empty stderr.
+pub fn stderr_tail_text(stderr: &str) -> String {
+    if stderr.trim().is_empty() {
+        String::new()
+    } else {
+        format!("; the end of its stderr:\n{stderr}")
+    }
+}
