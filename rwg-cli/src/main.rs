@@ -61,6 +61,9 @@ enum Command {
     /// Internal: one environment's checks for `rwg check`, as JSON lines.
     #[command(name = "__check-child", hide = true)]
     CheckChild(cmd::check::ChildArgs),
+    /// Internal: an isolated plugin env's worker process for `rwg run --isolate`.
+    #[command(name = "__plugin-worker", hide = true)]
+    PluginWorker,
     /// Measure env steps/s: raw environments, or the RWG sampler vs the peer implementations.
     Bench(cmd::bench::Args),
 }
@@ -121,6 +124,7 @@ fn main() {
         Command::Compare(a) => cmd::compare::run(a),
         Command::Check(a) => cmd::check::run(a),
         Command::CheckChild(a) => cmd::check::run_child(a),
+        Command::PluginWorker => cmd::plugin_worker::run(),
         Command::Bench(a) => cmd::bench::run(a),
     };
     if let Err(e) = result {

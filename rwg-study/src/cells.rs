@@ -121,21 +121,29 @@ fn resolve_env(
             describe(&ty)
         )));
     }
-    let source = PluginSource {
+    let mut source = PluginSource {
         ty,
         config: e.config.clone().unwrap_or_default(),
         max_episode_steps: e.max_episode_steps,
+        isolated: None,
     };
-    // Create one instance now, so that running the cells cannot fail to.
-    let env = source.make().map_err(|err| {
+    let cannot = |err: rwg_env::EnvError, config: &str| {
         m.error_at(
             e.config_span.clone().unwrap_or(e.id_span.clone()),
-            format!(
-                "{key}: cannot create '{}' with config {:?}: {err}",
-                e.id, source.config
-            ),
+            format!("{key}: cannot create '{}' with config {config:?}: {err}", e.id),
         )
-    })?;
+    };
+    if e.isolate {
+        // Its instances are created in a first worker process (kept for
+        // the run), never in this one.
+        let iso = crate::isolate::IsolatedPlugin::open(&source)
+            .map_err(|err| cannot(err, &source.config))?;
+        let spec = iso.spec().clone();
+        source.isolated = Some(std::sync::Arc::new(iso));
+        return Ok((EnvSource::Plugin(Box::new(source)), spec));
+    }
+    // Create one instance now, so that running the cells cannot fail to.
+    let env = source.make().map_err(|err| cannot(err, &source.config))?;
     let spec = env.spec().clone();
     Ok((EnvSource::Plugin(Box::new(source)), spec))
 }

@@ -34,6 +34,9 @@ pub struct PluginSource {
     pub config: String,
     /// The manifest's time limit override.
     pub max_episode_steps: Option<u32>,
+    /// Set when the env runs isolated (`isolate`): its worker processes,
+    /// which `rwg run` steps instead of in-process instances.
+    pub isolated: Option<std::sync::Arc<crate::isolate::IsolatedPlugin>>,
 }
 
 impl PluginSource {

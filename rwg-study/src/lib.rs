@@ -8,7 +8,8 @@
 //! [`stats`] summarises a finished run (`stats.json`, `stats.csv`, and the
 //! runner's console summary). Environments come from an [`env_source`]:
 //! built in (`rwg-envs`), a plugin (`rwg-plugin-host`), or a Gymnasium env
-//! run by Python worker processes (`rwg-gym`, see [`gym_source`]).
+//! run by Python worker processes (`rwg-gym`, see [`gym_source`]); a plugin
+//! env may run isolated in worker processes of its own ([`isolate`]).
 
 pub mod cells;
 pub mod committer;
@@ -16,6 +17,7 @@ pub mod env_source;
 pub mod error;
 pub mod fault_context;
 pub mod gym_source;
+pub mod isolate;
 pub mod limits;
 pub mod manifest;
 pub mod manifest_text;

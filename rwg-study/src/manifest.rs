@@ -27,6 +27,8 @@
 //! plugin = "plugins/libacme.so"  # optional: the plugin library providing the env
 //!                                # (relative to the manifest's folder)
 //! config = "size=9"              # optional, plugin envs only: given to the plugin verbatim
+//! isolate = true                 # optional: run it in worker processes (crash-safe, see
+//!                                # rwg_study::isolate); no effect on built-in and gymnasium: envs
 //!
 //! [[envs]]
 //! id = "gymnasium:LunarLander-v3"   # a Gymnasium env, run through Python (rwg-gym)
@@ -154,6 +156,7 @@ struct RawEnv {
     config: Option<Spanned<String>>,
     kwargs: Option<Spanned<toml::Table>>,
     python: Option<Spanned<String>>,
+    isolate: Option<Spanned<bool>>,
 }
 
 /// A named architecture of the manifest.
@@ -202,6 +205,11 @@ pub struct EnvEntry {
     /// resolved against the manifest's folder; a bare name is looked up on PATH).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub python: Option<String>,
+    /// Run a plugin env in worker processes (`rwg_study::isolate`); no
+    /// effect on other envs. How, not what: not part of the study (see
+    /// [`Manifest::study_differences`]).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub isolate: bool,
     /// Where the `kwargs` value stands, if given.
     #[serde(skip)]
     pub kwargs_span: Option<Range<usize>>,
@@ -532,6 +540,7 @@ impl Manifest {
                         v.clone()
                     }
                 }),
+                isolate: e.isolate.as_ref().is_some_and(|i| *i.get_ref()),
                 kwargs_span: e.kwargs.as_ref().map(|k| k.span()),
                 python_span: e.python.as_ref().map(|p| p.span()),
                 id_span: e.id.span(),
@@ -592,10 +601,19 @@ impl Manifest {
     }
 
     /// How the study of `other` differs from this one (empty: the same study).
-    /// Compares what [`Manifest::to_toml`] writes, key by key.
+    /// Compares what [`Manifest::to_toml`] writes, key by key, except the
+    /// envs' `isolate` (it changes where an env runs, not its results).
     pub fn study_differences(&self, other: &Manifest) -> Vec<String> {
-        let a: toml::Table = toml::from_str(&self.to_toml()).expect("valid TOML");
-        let b: toml::Table = toml::from_str(&other.to_toml()).expect("valid TOML");
+        let study = |m: &Manifest| {
+            let mut t: toml::Table = toml::from_str(&m.to_toml()).expect("valid TOML");
+            if let Some(toml::Value::Array(envs)) = t.get_mut("envs") {
+                for e in envs.iter_mut().filter_map(|e| e.as_table_mut()) {
+                    e.remove("isolate");
+                }
+            }
+            t
+        };
+        let (a, b) = (study(self), study(other));
         let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
         keys.sort();
         keys.dedup();

@@ -390,8 +390,8 @@ impl Recorder<'_> {
 
 /// Runs the given blocks of a cell. Built-in envs are statically dispatched
 /// (the sampler is monomorphised for each); plugin envs run through the same
-/// generic sampler as `Watched<TimeLimit<PluginEnv>>`. Gymnasium envs through
-/// the batched sampler (`rwg_core::batch`). Each finished block goes to
+/// generic sampler as `Watched<TimeLimit<PluginEnv>>`, isolated plugin envs
+/// and Gymnasium envs through the batched sampler (`rwg_core::batch`). Each finished block goes to
 /// `on_done`, then to `committer`.
 fn run_cell_blocks(
     cell: &Cell,
@@ -445,6 +445,14 @@ fn run_cell_blocks(
     match &cell.source {
         EnvSource::Builtin(opts) => visit(&cell.plan.env_id, opts, runner)
             .expect("env ids are checked when cells are planned"),
+        // Isolated: batched, one worker process per thread (see isolate).
+        EnvSource::Plugin(p) if p.isolated.is_some() => {
+            let wave = rayon::current_num_threads() * 2;
+            let iso = p.isolated.as_ref().expect("isolated");
+            iso.run_blocks(&cell.plan, blocks, wave, |b: BlockResult| {
+                runner.on_block(b)
+            })
+        }
         // Plugin calls are recorded for fault reports (see fault_context).
         EnvSource::Plugin(p) => runner.run(|| {
             Watched::create(|| {

@@ -216,12 +216,26 @@ struct ChildRun {
 /// Runs `rwg __check-child` with `args`, killing it after `timeout`.
 fn spawn_child(args: &[&std::ffi::OsStr], timeout: Duration) -> Result<ChildRun> {
     let exe = std::env::current_exe().context("cannot find the rwg executable")?;
-    let mut child = Command::new(&exe)
-        .arg("__check-child")
+    let mut cmd = Command::new(&exe);
+    cmd.arg("__check-child")
         .args(args)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
+        .stderr(Stdio::piped());
+    // A check that hangs dies with rwg (`rwg run` that ends early, e.g. on
+    // an isolated plugin's crash, does not wait for its background checks).
+    #[cfg(target_os = "linux")]
+    {
+        use std::os::unix::process::CommandExt;
+        // SAFETY: prctl is async-signal-safe; nothing else runs in the child.
+        unsafe {
+            cmd.pre_exec(|| {
+                libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
+                Ok(())
+            });
+        }
+    }
+    let mut child = cmd
         .spawn()
         .with_context(|| format!("cannot run {}", exe.display()))?;
     let drain = |mut r: Box<dyn Read + Send>| {

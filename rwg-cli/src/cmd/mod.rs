@@ -6,6 +6,7 @@ pub mod compare;
 pub mod envs;
 pub mod merge;
 pub mod plot;
+pub mod plugin_worker;
 pub mod replay;
 pub mod report;
 pub mod rollout;

@@ -31,6 +31,11 @@ Work is committed in blocks of 32 networks. Running the same manifest on a
 directory that holds an unfinished run resumes it; the result is byte-identical to
 an uninterrupted run. Ctrl-C stops after the blocks in flight.
 
+Plugin envs run in rwg's process by default (fastest; a plugin that crashes
+kills rwg, though every committed block is kept and a rerun resumes). With
+--isolate (or `isolate = true` in an [[envs]] entry) they run in worker
+processes: a crash or hang is reported by rwg and the results are the same.
+
 Examples:
   rwg run examples/quick.toml
   rwg run examples/paper.toml --samples 1000 --out runs/paper-1k
@@ -63,10 +68,21 @@ pub struct Args {
     #[arg(long)]
     force_new: bool,
     /// Seconds one call into a plugin env (create, reset or step) may take
-    /// before rwg reports it as hung and exits (0: no limit). Plugin envs
-    /// run in rwg's process, where a stuck call cannot be stopped.
+    /// before rwg reports it as hung and exits (0: no limit). In-process, a
+    /// stuck call cannot be stopped, so rwg exits; with isolation it is one
+    /// batch step of a worker (a reset or step of each of 16 instances),
+    /// and the worker is killed.
     #[arg(long, value_name = "SECONDS", default_value_t = fault_guard::DEFAULT_STEP_TIMEOUT_S)]
     step_timeout: u64,
+    /// Run every plugin env isolated, as `isolate = true` in its [[envs]]
+    /// entry does: in worker processes (rwg itself), stepped in batches.
+    /// A plugin that crashes, aborts, exits or hangs then ends its worker,
+    /// not rwg: the run stops with an error naming the env, network,
+    /// episode and step, every committed block kept, and a rerun resumes.
+    /// Results are bit-identical to in-process (the default: faster, but
+    /// a crash there kills rwg). No effect on built-in and gymnasium: envs.
+    #[arg(long)]
+    isolate: bool,
     /// Skip the analysis at the end (stats.json, stats.csv, figures/, report.html;
     /// `rwg report` writes them later). The analysis holds the run's scores in
     /// memory, 12 bytes per episode.
@@ -124,6 +140,11 @@ fn apply_overrides(m: &mut Manifest, args: &Args) -> Result<()> {
         rwg_study::limits::MAX_STEP_TIMEOUT_S,
     )
     .map_err(flag)?;
+    if args.isolate {
+        for e in &mut m.envs {
+            e.isolate = true;
+        }
+    }
     Ok(())
 }
 
@@ -152,6 +173,11 @@ pub fn run(args: Args) -> Result<()> {
         ),
         args.step_timeout,
     );
+    rwg_study::isolate::set_settings(rwg_study::isolate::IsolateSettings {
+        timeout: (args.step_timeout > 0)
+            .then(|| std::time::Duration::from_secs(args.step_timeout)),
+        ..Default::default()
+    });
     let opts = RunOptions {
         out: out.clone(),
         shard: args.shard,
@@ -171,11 +197,14 @@ pub fn run(args: Args) -> Result<()> {
         checks: vec![],
     };
     let outcome = run_study(&mut m, &opts, &mut progress);
-    for w in progress
-        .checks
-        .drain(..)
-        .flat_map(|c| c.join().unwrap_or_default())
-    {
+    // A failed run does not wait for the checks (a hanging plugin's would
+    // take their whole timeout); they die with rwg.
+    let checks = if outcome.is_ok() {
+        std::mem::take(&mut progress.checks)
+    } else {
+        vec![]
+    };
+    for w in checks.into_iter().flat_map(|c| c.join().unwrap_or_default()) {
         eprintln!("warning: {w}");
     }
     let report = match outcome {
@@ -200,6 +229,18 @@ pub fn run(args: Args) -> Result<()> {
             );
             fault_guard::disarm();
             std::process::exit(130)
+        }
+        Err(e @ StudyError::Cell { .. }) => {
+            // (an isolated plugin's crash or hang, a Gymnasium worker's, an env error)
+            eprintln!("error: {}", crate::error_text(&e.into()));
+            eprintln!(
+                "Every committed block is kept; once the cause is fixed, resume with: rwg run {} --out {}{}",
+                args.manifest.display(),
+                out.display(),
+                shard_flag(args.shard)
+            );
+            fault_guard::disarm();
+            std::process::exit(1)
         }
         Err(e) => return Err(e.into()),
     };
