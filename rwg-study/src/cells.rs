@@ -130,7 +130,10 @@ fn resolve_env(
     let cannot = |err: rwg_env::EnvError, config: &str| {
         m.error_at(
             e.config_span.clone().unwrap_or(e.id_span.clone()),
-            format!("{key}: cannot create '{}' with config {config:?}: {err}", e.id),
+            format!(
+                "{key}: cannot create '{}' with config {config:?}: {err}",
+                e.id
+            ),
         )
     };
     if e.isolate {

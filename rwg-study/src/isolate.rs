@@ -22,7 +22,9 @@ use rwg_core::sampler::{BlockResult, CellPlan, SampleError, LANES};
 use rwg_env::{EnvError, EnvSpec, Space};
 use rwg_worker::host::{handshake, Describe, PipeBatch};
 use rwg_worker::lane_file::{LaneFile, LaneMark};
-use rwg_worker::protocol::{message, read_message, WorkerError, PROTOCOL, TAG_ERROR, TAG_HELLO, TAG_READY};
+use rwg_worker::protocol::{
+    message, read_message, WorkerError, PROTOCOL, TAG_ERROR, TAG_HELLO, TAG_READY,
+};
 use rwg_worker::{ProcError, Worker};
 use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
@@ -208,8 +210,8 @@ impl IsolatedPlugin {
         let mut hello = serde_json::to_value(&self.hello).expect("serialisable");
         hello["lane_file"] = lane_file.path().into();
         let timeout = self.timeout();
-        let (tag, payload) = handshake(&mut worker, &hello, timeout.max(Duration::from_secs(60)))
-            .map_err(fail)?;
+        let (tag, payload) =
+            handshake(&mut worker, &hello, timeout.max(Duration::from_secs(60))).map_err(fail)?;
         let protocol = |m: String| fail(ProcError::Protocol(m));
         match tag {
             TAG_READY => {
@@ -384,7 +386,11 @@ pub fn worker_main(input: &mut impl Read, output: &mut impl Write) -> Result<(),
     let Some(ty) = plugin.env(&hello.env) else {
         return Err(fatal(
             "not_registered",
-            format!("plugin {} has no env '{}'", hello.plugin.display(), hello.env),
+            format!(
+                "plugin {} has no env '{}'",
+                hello.plugin.display(),
+                hello.env
+            ),
         ));
     };
     let mut envs = Vec::with_capacity(hello.lanes * hello.groups);

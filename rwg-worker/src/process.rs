@@ -108,11 +108,7 @@ impl Worker {
     /// reads as the pipe allows (usually one: the worker writes a message at
     /// once and sends nothing unasked). Returns the tag; the payload is
     /// `buf[5..]`.
-    pub fn recv_message(
-        &mut self,
-        buf: &mut Vec<u8>,
-        timeout: Duration,
-    ) -> Result<u8, ProcError> {
+    pub fn recv_message(&mut self, buf: &mut Vec<u8>, timeout: Duration) -> Result<u8, ProcError> {
         let deadline = Instant::now() + timeout;
         if buf.len() < 5 {
             buf.resize(5, 0);

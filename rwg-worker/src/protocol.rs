@@ -280,7 +280,10 @@ mod tests {
         assert_eq!(f64::from_le_bytes(req.words[3]), -0.5);
         assert!(decode_step(&payload, 4, 2).is_err(), "wrong lane count");
         assert!(read_message(&mut &buf[..3]).is_err(), "truncated");
-        assert!(read_message(&mut &b""[..]).unwrap().is_none(), "end of file");
+        assert!(
+            read_message(&mut &b""[..]).unwrap().is_none(),
+            "end of file"
+        );
     }
 
     #[test]

@@ -174,8 +174,7 @@ pub fn run(args: Args) -> Result<()> {
         args.step_timeout,
     );
     rwg_study::isolate::set_settings(rwg_study::isolate::IsolateSettings {
-        timeout: (args.step_timeout > 0)
-            .then(|| std::time::Duration::from_secs(args.step_timeout)),
+        timeout: (args.step_timeout > 0).then(|| std::time::Duration::from_secs(args.step_timeout)),
         ..Default::default()
     });
     let opts = RunOptions {
@@ -204,7 +203,10 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         vec![]
     };
-    for w in checks.into_iter().flat_map(|c| c.join().unwrap_or_default()) {
+    for w in checks
+        .into_iter()
+        .flat_map(|c| c.join().unwrap_or_default())
+    {
         eprintln!("warning: {w}");
     }
     let report = match outcome {

@@ -65,6 +65,10 @@ pub struct Args {
     /// Any other sbatch option for both scripts, e.g. --sbatch=--qos=long (repeatable).
     #[arg(long = "sbatch", value_name = "ARG", allow_hyphen_values = true)]
     sbatch: Vec<String>,
+    /// Run every plugin env isolated in the shard tasks (as `rwg run
+    /// --isolate`; written into slurm/manifest.toml as `isolate = true`).
+    #[arg(long)]
+    isolate: bool,
     /// Write the scripts and print the sbatch commands, submit nothing.
     #[arg(long)]
     dry_run: bool,
@@ -74,6 +78,12 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     let mut m = Manifest::load(&args.manifest)?;
     plan_cells(&mut m)?; // checks every env, resolves plugin files
+    if args.isolate {
+        // (how the shards run, not what: a resubmission may change it)
+        for e in &mut m.envs {
+            e.isolate = true;
+        }
+    }
     let out = match (&args.out, &m.out) {
         (Some(o), _) | (None, Some(o)) => o.clone(),
         (None, None) => {
