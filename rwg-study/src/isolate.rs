@@ -345,17 +345,17 @@ pub fn worker_main(input: &mut impl Read, output: &mut impl Write) -> Result<(),
     else {
         return Ok(());
     };
-    let mut fatal = |kind: &str, message: String| -> ProcError {
+    let mut fatal = |kind: &str, text: String| -> ProcError {
         let e = WorkerError {
             kind: kind.into(),
-            message: message.clone(),
+            message: text.clone(),
             traceback: String::new(),
         };
         let json = serde_json::to_vec(&e).expect("serialisable");
         let _ = output
-            .write_all(&message_bytes(TAG_ERROR, &json))
+            .write_all(&message(TAG_ERROR, &json))
             .and_then(|()| output.flush());
-        ProcError::Protocol(message)
+        ProcError::Protocol(text)
     };
     if tag != TAG_HELLO {
         return Err(fatal("protocol", format!("expected hello, got tag {tag}")));
@@ -409,13 +409,93 @@ pub fn worker_main(input: &mut impl Read, output: &mut impl Write) -> Result<(),
     };
     let json = serde_json::to_vec(&ready).expect("serialisable");
     output
-        .write_all(&message_bytes(TAG_READY, &json))
+        .write_all(&message(TAG_READY, &json))
         .and_then(|()| output.flush())
         .map_err(|e| ProcError::Protocol(format!("cannot answer the host: {e}")))?;
     let mark = hello.lane_file.as_deref().and_then(LaneMark::open);
     rwg_worker::serve::serve(input, output, &mut envs, hello.lanes, mark)
 }
 
-fn message_bytes(tag: u8, payload: &[u8]) -> Vec<u8> {
-    message(tag, payload)
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Runs the worker on `input`; returns its result and its messages.
+    fn worker(input: &[u8]) -> (Result<(), ProcError>, Vec<(u8, Vec<u8>)>) {
+        let mut out = vec![];
+        let r = worker_main(&mut &input[..], &mut out);
+        let mut msgs = vec![];
+        let mut rd = &out[..];
+        while let Some(m) = read_message(&mut rd).unwrap() {
+            msgs.push(m);
+        }
+        (r, msgs)
+    }
+
+    fn hello(h: &Hello) -> Vec<u8> {
+        message(TAG_HELLO, &serde_json::to_vec(h).unwrap())
+    }
+
+    fn sample_hello() -> Hello {
+        Hello {
+            protocol: PROTOCOL,
+            plugin: "/nonexistent/librwg_nothing.so".into(),
+            env: "x/Y-v0".into(),
+            config: String::new(),
+            max_episode_steps: None,
+            lanes: LANES,
+            groups: GROUPS,
+            lane_file: None,
+        }
+    }
+
+    fn error_of(msgs: &[(u8, Vec<u8>)]) -> WorkerError {
+        assert_eq!(msgs.len(), 1, "{msgs:?}");
+        assert_eq!(msgs[0].0, TAG_ERROR);
+        serde_json::from_slice(&msgs[0].1).unwrap()
+    }
+
+    #[test]
+    fn a_worker_whose_host_is_gone_exits_quietly() {
+        let (r, msgs) = worker(b"");
+        assert!(r.is_ok());
+        assert!(msgs.is_empty());
+    }
+
+    #[test]
+    fn what_stops_a_worker_is_reported_to_the_host() {
+        let (r, msgs) = worker(&hello(&sample_hello()));
+        assert!(r.is_err());
+        let e = error_of(&msgs);
+        assert_eq!(e.kind, "load");
+        assert!(
+            e.message.contains("/nonexistent/librwg_nothing.so"),
+            "{}",
+            e.message
+        );
+
+        let (r, msgs) = worker(&hello(&Hello {
+            protocol: PROTOCOL + 1,
+            ..sample_hello()
+        }));
+        assert!(r.is_err());
+        assert_eq!(error_of(&msgs).kind, "protocol");
+
+        let (_, msgs) = worker(&hello(&Hello {
+            lanes: 200,
+            ..sample_hello()
+        }));
+        assert!(error_of(&msgs).message.contains("2 groups of 200 lanes"));
+
+        let (_, msgs) = worker(&message(TAG_READY, b"{}"));
+        assert!(error_of(&msgs).message.contains("expected hello"));
+    }
+
+    #[test]
+    fn workers_are_this_program_by_default() {
+        let s = IsolateSettings::default();
+        assert_eq!(s.program, std::env::current_exe().unwrap());
+        assert_eq!(s.args, [WORKER_SUBCOMMAND]);
+        assert_eq!(s.timeout, Some(Duration::from_secs(60)));
+    }
 }

@@ -279,3 +279,24 @@ fn duplicate_env_and_empty_lists() {
     let e = error_of(&GOOD.replace("bias = [false, true]", "bias = []"));
     assert!(e.contains("bias: needs at least one"), "{e}");
 }
+
+#[test]
+fn isolate_is_how_an_env_runs_not_part_of_the_study() {
+    let m = parse(GOOD).unwrap();
+    assert!(m.envs.iter().all(|e| !e.isolate));
+    let with = GOOD.replace("config = \"a=1\"", "config = \"a=1\"\nisolate = true");
+    assert_ne!(with, GOOD);
+    let iso = parse(&with).unwrap();
+    assert!(iso.envs[1].isolate);
+    // written out (rwg slurm's shards read it back), yet the same study
+    assert!(iso.to_toml().contains("isolate = true"));
+    assert!(!m.to_toml().contains("isolate"));
+    let again = parse(&iso.to_toml()).unwrap();
+    assert!(again.envs[1].isolate);
+    assert!(m.study_differences(&iso).is_empty());
+    let e = error_of(&GOOD.replace("config = \"a=1\"", "config = \"a=1\"\nisolate = 1"));
+    assert!(
+        e.contains(": envs[1].isolate: expected true or false"),
+        "{e}"
+    );
+}
