@@ -22,7 +22,8 @@
 //! What in-process cannot do: report a plugin's own threads (no network or
 //! episode is known there), survive `_exit()`/`quick_exit()` or a SIGKILL
 //! (nothing runs), or catch a crash that corrupts rwg's memory before it
-//! shows. `isolate` would; see the README.
+//! shows. Isolation (`isolate = true`, `rwg run --isolate`: the plugin in worker
+//! processes, `rwg_study::isolate`) does; see the README.
 
 use rwg_study::fault_context::{all_threads, cell_label, this_thread, CallSnapshot, Phase};
 use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU64, Ordering::*};
