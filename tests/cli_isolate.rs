@@ -454,3 +454,54 @@ fn the_isolate_key_is_validated_and_a_no_op_for_builtins() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Ctrl-C on a terminal signals the whole process group, workers included:
+/// rwg stops after the blocks in flight, as in-process, and the workers do
+/// not turn it into a crash report.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_stops_an_isolated_run_like_an_in_process_one() {
+    use std::os::unix::process::CommandExt;
+    use std::process::{Command, Stdio};
+    let dir = temp_dir("isolate-ctrlc");
+    let m = write(
+        &dir,
+        "m.toml",
+        &format!(
+            "samples = 100000\nepisodes = 20\n[[architectures]]\nname = \"1HL\"\nhidden = [4]\n\
+             [[envs]]\nid = \"classic_control/CartPole-v1\"\nplugin = {:?}\n",
+            classic_control_plugin().to_str().unwrap()
+        ),
+    );
+    let out = dir.join("run");
+    let child = Command::new(rwg_bin())
+        .args(["run", &m, "--out", out.to_str().unwrap(), "--isolate", "-q"])
+        .args(["--threads", "2", "--no-report"])
+        .process_group(0)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Until the workers run (their first blocks committed).
+    let blocks = out.join("cells/classic_control+CartPole-v1__1HL__nobias/blocks");
+    let t0 = Instant::now();
+    while !blocks.join("b0000000.csv").exists() && t0.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let group = format!("-{}", child.id());
+    let kill = Command::new("kill")
+        .args(["-INT", "--", &group])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let res = child.wait_with_output().unwrap();
+    let err = text(&res.stderr);
+    assert_eq!(res.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("stopped; every finished block is saved in"),
+        "{err}"
+    );
+    assert!(!err.contains("worker process"), "{err}");
+    assert!(blocks.join("b0000000.csv").is_file());
+    let _ = std::fs::remove_dir_all(&dir);
+}

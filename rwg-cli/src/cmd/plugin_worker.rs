@@ -13,6 +13,14 @@ pub fn run() -> Result<()> {
     // the same way, and fd 0 reads /dev/null, so a plugin that reads stdin
     // cannot eat the host's messages either.
     let input = private_stdin().context("cannot set up the worker's input")?;
+    // Ctrl-C on a terminal reaches the whole process group: rwg decides
+    // (stop after the blocks in flight), the worker goes on until told to
+    // quit or its input ends.
+    #[cfg(unix)]
+    // SAFETY: setting a signal's disposition to "ignore".
+    unsafe {
+        libc::signal(libc::SIGINT, libc::SIG_IGN);
+    }
     let mut output = crate::stdio::stdout();
     rwg_study::isolate::worker_main(&mut BufReader::new(input), &mut output)
         .context("isolated plugin worker")?;
