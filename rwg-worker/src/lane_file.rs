@@ -97,6 +97,8 @@ impl LaneMark {
         unsafe {
             std::ptr::write_volatile(self.map, b)
         }
+        #[cfg(not(unix))]
+        let _ = b;
     }
 }
 

@@ -244,6 +244,7 @@ pub fn describe_status(s: std::process::ExitStatus) -> String {
         use std::os::unix::process::ExitStatusExt;
         if let Some(sig) = s.signal() {
             let name = match sig {
+                2 => " (SIGINT)",
                 4 => " (SIGILL)",
                 6 => " (SIGABRT)",
                 7 => " (SIGBUS)",
