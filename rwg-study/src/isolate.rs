@@ -420,8 +420,11 @@ pub fn worker_main(input: &mut impl Read, output: &mut impl Write) -> Result<(),
 mod tests {
     use super::*;
 
+    /// A message: (tag, payload).
+    type Msg = (u8, Vec<u8>);
+
     /// Runs the worker on `input`; returns its result and its messages.
-    fn worker(input: &[u8]) -> (Result<(), ProcError>, Vec<(u8, Vec<u8>)>) {
+    fn worker(input: &[u8]) -> (Result<(), ProcError>, Vec<Msg>) {
         let mut out = vec![];
         let r = worker_main(&mut &input[..], &mut out);
         let mut msgs = vec![];
@@ -449,7 +452,7 @@ mod tests {
         }
     }
 
-    fn error_of(msgs: &[(u8, Vec<u8>)]) -> WorkerError {
+    fn error_of(msgs: &[Msg]) -> WorkerError {
         assert_eq!(msgs.len(), 1, "{msgs:?}");
         assert_eq!(msgs[0].0, TAG_ERROR);
         serde_json::from_slice(&msgs[0].1).unwrap()

@@ -90,8 +90,13 @@ pub fn serve<E: Environment>(
                         Action::Continuous(&action)
                     };
                     env.step(a, &mut obs).map(|s| {
-                        let flags = u8::from(s.terminated) * F_TERMINATED
-                            | u8::from(s.truncated) * F_TRUNCATED;
+                        let mut flags = 0;
+                        if s.terminated {
+                            flags |= F_TERMINATED;
+                        }
+                        if s.truncated {
+                            flags |= F_TRUNCATED;
+                        }
                         (s.reward, flags)
                     })
                 }
