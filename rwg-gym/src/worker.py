@@ -27,10 +27,15 @@ import json  # noqa: E402
 import struct  # noqa: E402
 import traceback  # noqa: E402
 
+import signal  # noqa: E402
+
+# Ctrl-C on a terminal signals the whole process group: rwg itself stops after
+# the blocks in flight and then closes the pipes, so the worker ignores SIGINT
+# (as rwg's own plugin workers do) instead of dying with a KeyboardInterrupt.
+signal.signal(signal.SIGINT, signal.SIG_IGN)
+
 faulthandler.enable(file=sys.stderr)
 if hasattr(faulthandler, "register"):
-    import signal  # noqa: E402
-
     # rwg sends SIGUSR1 to a worker that does not answer in time, to learn where it hangs.
     faulthandler.register(signal.SIGUSR1, file=sys.stderr, all_threads=True)
 
