@@ -17,7 +17,9 @@
 //!   `rwg bench sampler` and `rwg bench gym` with `--samples 16 --episodes 2`
 //!   (and `--repeats 1`): the tests run a
 //!   debug build, ten times slower than the release build the README uses,
-//!   and the full paper study alone would take an hour.
+//!   and the full paper study alone would take an hour. With 32 networks
+//!   per cell, `rwg stats` and `rwg report` get `--at-n 8` for an `--at-n`
+//!   they have (4 disjoint blocks of 8 networks).
 //! - `rwg slurm` without `--dry-run` gets `--dry-run`: there is no Slurm
 //!   cluster here (tests/cli_slurm.rs submits to a real one).
 //! - `python3 -m pip install "gymnasium[...]"`: not run; the Python of
@@ -221,6 +223,9 @@ fn reduce_rwg(cmd: &str) -> String {
     if c.contains("rwg run ") {
         c = set_flag(&c, "--samples", "32");
         c = set_flag(&c, "--episodes", "4");
+    }
+    if (c.contains("rwg stats ") || c.contains("rwg report ")) && c.contains(" --at-n ") {
+        c = set_flag(&c, "--at-n", "8");
     }
     if c.contains("rwg bench envs") {
         c = set_flag(&c, "--steps", "20000");

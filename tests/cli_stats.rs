@@ -62,3 +62,162 @@ fn stats_no_write_and_errors() {
         "{err}"
     );
 }
+
+/// The sample means of a cell, in sample order, from its samples.csv.
+fn cell_means(dir: &std::path::Path, cell: &str) -> Vec<f64> {
+    let text = std::fs::read_to_string(dir.join("cells").join(cell).join("samples.csv")).unwrap();
+    text.lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn stats_at_n_gives_the_spread_over_disjoint_blocks() {
+    let dir = synthetic_run("stats-at-n", 210, 5);
+    let d = dir.to_str().unwrap();
+    // the default outputs first: they must come back byte for byte later
+    rwg_ok(&["stats", d]);
+    let csv0 = std::fs::read_to_string(dir.join("stats.csv")).unwrap();
+    let json0 = std::fs::read_to_string(dir.join("stats.json")).unwrap();
+    assert!(!json0.contains("at_n") && !csv0.contains("at_n"));
+
+    // 210 networks, N = 50: 4 blocks, 10 networks left out
+    let out = rwg_ok(&["stats", d, "--at-n", "50"]);
+    for title in [
+        "Best sample mean at N = 50 networks, median [min, max] over 4 disjoint blocks, no bias",
+        "99.9th percentile of sample means at N = 50 networks, median [min, max] over 4 disjoint blocks, with bias",
+        "probability (K − 1)/(K + 1) = 0.60 for K = 4",
+    ] {
+        assert!(out.contains(title), "{title}\n{out}");
+    }
+    let json: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("stats.json")).unwrap()).unwrap();
+    for cell in json["cells"].as_array().unwrap() {
+        let a = &cell["at_n"];
+        assert_eq!((a["n"].as_u64(), a["blocks"].as_u64()), (Some(50), Some(4)));
+        assert_eq!(a["unused"], 10);
+        // each block's best mean, recomputed from samples.csv
+        let means = cell_means(&dir, cell["dir"].as_str().unwrap());
+        let want: Vec<f64> = means
+            .chunks_exact(50)
+            .take(4)
+            .map(|b| b.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+            .collect();
+        let got: Vec<f64> = a["best_mean"]["blocks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        assert_eq!(got, want, "{}", cell["dir"]);
+        let (lo, hi) = (
+            a["best_mean"]["min"].as_f64(),
+            a["best_mean"]["max"].as_f64(),
+        );
+        assert_eq!(lo, want.iter().copied().reduce(f64::min));
+        assert_eq!(hi, want.iter().copied().reduce(f64::max));
+        assert!(a["p99_9_mean"]["max"].as_f64() <= hi);
+    }
+    // stats.csv: the default columns unchanged, 8 more at the end
+    let csv = std::fs::read_to_string(dir.join("stats.csv")).unwrap();
+    for (with, without) in csv.lines().zip(csv0.lines()) {
+        let extra = with
+            .strip_prefix(without)
+            .expect("the same leading columns");
+        assert_eq!(extra.matches(',').count(), 8, "{extra}");
+    }
+    assert!(csv.lines().next().unwrap().ends_with(
+        ",at_n,at_n_blocks,best_mean_at_n_min,best_mean_at_n_median,best_mean_at_n_max,\
+         p99.9_mean_at_n_min,p99.9_mean_at_n_median,p99.9_mean_at_n_max"
+    ));
+    // deterministic, and printed as written
+    let printed = rwg_ok(&["stats", d, "--at-n", "50", "--no-write", "--format", "json"]);
+    assert_eq!(
+        serde_json::from_str::<Value>(&printed).unwrap(),
+        serde_json::from_str::<Value>(&std::fs::read_to_string(dir.join("stats.json")).unwrap())
+            .unwrap()
+    );
+    assert_eq!(
+        printed,
+        rwg_ok(&["stats", d, "--at-n", "50", "--no-write", "--format", "json"])
+    );
+    assert_eq!(
+        rwg_ok(&["stats", d, "--at-n", "50", "--format", "csv"]),
+        csv
+    );
+
+    // asked for no more: the default files come back byte for byte
+    rwg_ok(&["stats", d]);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("stats.csv")).unwrap(),
+        csv0
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("stats.json")).unwrap(),
+        json0
+    );
+
+    // the report shows it where it shows best mean and p99.9
+    let page = dir.join("at-n.html");
+    rwg_ok(&["report", d, "--at-n", "70", "--out", page.to_str().unwrap()]);
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(
+        html.contains(
+            "Best sample mean at N = 70 networks, median [min, max] over 3 disjoint blocks"
+        ),
+        "no spread table in the report"
+    );
+    assert!(
+        html.contains("at N = 70 networks, median [min, max] over 3 disjoint blocks: best mean ")
+    );
+    rwg_ok(&["report", d, "--out", page.to_str().unwrap()]);
+    assert!(!std::fs::read_to_string(&page)
+        .unwrap()
+        .contains("disjoint blocks"));
+}
+
+#[test]
+fn stats_at_n_refuses_bad_sizes() {
+    let dir = synthetic_run("stats-at-n-bad", 30, 2);
+    let d = dir.to_str().unwrap();
+    let err = rwg_err(&["stats", d, "--at-n", "0"]);
+    assert!(
+        err.contains("--at-n")
+            && err.contains("the study size N must be at least 1 network, got 0"),
+        "{err}"
+    );
+    for bad in ["abc", "2.5", "-3", "", "1e4"] {
+        let err = rwg_err(&["stats", d, &format!("--at-n={bad}")]);
+        assert!(
+            err.contains("--at-n")
+                && err.contains(&format!(
+                    "expected a whole number of networks (such as 10000), found `{bad}`"
+                )),
+            "{bad}: {err}"
+        );
+    }
+    // one block only, and more than the cell: the first cell is named
+    for (n, needed) in [("16", "32"), ("30", "60"), ("1000", "2000")] {
+        let err = rwg_err(&["stats", d, "--at-n", n]);
+        assert!(
+            err.contains(&format!(
+                "error: --at-n {n}: cell CartPole-v0__0HL__nobias: 30 networks hold fewer than \
+                 2 disjoint blocks of {n} (2 × {n} = {needed} are needed); choose N ≤ 15 or run \
+                 more networks (rwg run MANIFEST --samples {needed} --out NEW_DIR)"
+            )),
+            "{err}"
+        );
+        assert_eq!(err.lines().count(), 1, "{err}");
+    }
+    assert!(
+        !dir.join("stats.json").exists(),
+        "a refused size wrote stats"
+    );
+    let err = rwg_err(&["report", d, "--at-n", "16"]);
+    assert!(
+        err.contains("--at-n 16: cell CartPole-v0__0HL__nobias: 30 networks"),
+        "{err}"
+    );
+    assert!(rwg_ok(&["stats", d, "--at-n", "15", "--no-write"]).contains("over 2 disjoint blocks"));
+}

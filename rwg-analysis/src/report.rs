@@ -180,6 +180,16 @@ fn cell_numbers(s: &CellSummary) -> String {
         format!("99.9th percentile of M {}", crate::fmt::score(s.p99_9_mean)),
         format!("median M {}", crate::fmt::score(s.median_mean)),
     ];
+    if let Some(a) = &s.at_n {
+        parts.push(format!(
+            "at N = {} networks, median [min, max] over {} disjoint blocks: best mean {}, \
+             99.9th percentile of M {}",
+            a.n,
+            a.blocks,
+            crate::tables::spread_text(&a.best_mean),
+            crate::tables::spread_text(&a.p99_9_mean)
+        ));
+    }
     if let Some(p) = s.solved_fraction {
         parts.push(format!(
             "p(solved) {} [{}, {}] ({} of {})",

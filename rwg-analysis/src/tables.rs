@@ -5,7 +5,7 @@
 use crate::fmt::{prob, prob_ci, score, sig, sig_latex};
 use crate::table::{Cell, Table};
 use rwg_study::rundir::data::RunStats;
-use rwg_study::stats::{CellSummary, ExpectedGuesses, GUESS_COUNTS};
+use rwg_study::stats::{BlockSpread, CellSummary, ExpectedGuesses, SpreadAtN, GUESS_COUNTS};
 
 /// "with bias" / "no bias".
 pub fn bias_label(bias: bool) -> &'static str {
@@ -90,6 +90,90 @@ pub fn best_mean_table(cells: &[CellSummary], bias: bool) -> Option<Table> {
         ),
         vec![],
         |c| Cell::plain(format!("{} ({})", score(c.best_mean), score(c.p99_9_mean))),
+    )
+}
+
+/// Which statistic a spread table shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpreadStat {
+    /// The best mean `max M`.
+    BestMean,
+    /// The 99.9th percentile of `M`.
+    P999,
+}
+
+impl SpreadStat {
+    fn pick(self, a: &SpreadAtN) -> &BlockSpread {
+        match self {
+            SpreadStat::BestMean => &a.best_mean,
+            SpreadStat::P999 => &a.p99_9_mean,
+        }
+    }
+
+    fn label(self) -> &'static str {
+        match self {
+            SpreadStat::BestMean => "Best sample mean",
+            SpreadStat::P999 => "99.9th percentile of sample means",
+        }
+    }
+}
+
+/// `median [min, max]` of a statistic over the blocks.
+pub fn spread_text(b: &BlockSpread) -> String {
+    format!("{} [{}, {}]", score(b.median), score(b.min), score(b.max))
+}
+
+/// The spread at a study size `N` of the best mean or of the 99.9th
+/// percentile of `M`, for one bias setting: `median [min, max]` over the
+/// disjoint blocks of `N` networks (cells without a spread show `–`). `None`
+/// when no cell of that bias setting has a spread.
+pub fn spread_table(cells: &[CellSummary], bias: bool, stat: SpreadStat) -> Option<Table> {
+    let spreads: Vec<&SpreadAtN> = cells
+        .iter()
+        .filter(|c| c.id.bias == bias)
+        .filter_map(|c| c.at_n.as_ref())
+        .collect();
+    let first = spreads.first()?;
+    let uniform = spreads
+        .iter()
+        .all(|a| (a.n, a.blocks) == (first.n, first.blocks));
+    let over = if uniform {
+        format!("over {} disjoint blocks", first.blocks)
+    } else {
+        "over disjoint blocks".into()
+    };
+    let mut notes = vec![format!(
+        "Block k holds networks k·N to (k+1)·N − 1: each block is an independent study of N networks, \
+         and a further study of N networks lands inside [min, max] with probability (K − 1)/(K + 1){}.",
+        if uniform {
+            format!(" = {:.2} for K = {}", first.coverage, first.blocks)
+        } else {
+            String::new()
+        }
+    )];
+    if !uniform {
+        notes.push("(K blocks of N networks) follows each cell: the cells differ.".into());
+    }
+    grid(
+        cells,
+        bias,
+        format!(
+            "{} at N = {} networks, median [min, max] {over}, {}",
+            stat.label(),
+            first.n,
+            bias_label(bias)
+        ),
+        notes,
+        |c| match &c.at_n {
+            None => Cell::plain("–"),
+            Some(a) if uniform => Cell::plain(spread_text(stat.pick(a))),
+            Some(a) => Cell::plain(format!(
+                "{} ({} blocks of {})",
+                spread_text(stat.pick(a)),
+                a.blocks,
+                a.n
+            )),
+        },
     )
 }
 
@@ -257,14 +341,21 @@ pub fn detail_table(cells: &[CellSummary]) -> Table {
     }
 }
 
-/// Every table of a run, in order: Table 3 per bias setting, p(solved) per
-/// bias setting, expected guesses per bias setting, the detail table.
+/// Every table of a run, in order: Table 3 per bias setting, (when the
+/// cells have a spread at a study size) the best mean's and the 99.9th
+/// percentile's spread per bias setting, p(solved) per bias setting,
+/// expected guesses per bias setting, the detail table.
 pub fn run_tables(stats: &RunStats) -> Vec<Table> {
     let cells = &stats.cells;
     let biases = bias_settings(cells);
     let mut out = Vec::new();
     for &b in &biases {
         out.extend(best_mean_table(cells, b));
+    }
+    for &b in &biases {
+        for stat in [SpreadStat::BestMean, SpreadStat::P999] {
+            out.extend(spread_table(cells, b, stat));
+        }
     }
     let any_solved = cells.iter().any(|c| c.solved.is_some());
     if any_solved {

@@ -25,6 +25,9 @@ use crate::rundir::meta::{CellId, CellMeta};
 use serde::{Deserialize, Serialize};
 use std::cmp::Ordering;
 
+pub mod spread;
+pub use spread::{spread_at_n, BlockSpread, SpreadAtN, SpreadError};
+
 /// Two-sided 95% standard normal quantile, `Φ⁻¹(0.975)`.
 pub const Z_95: f64 = 1.959_963_984_540_054;
 
@@ -437,6 +440,11 @@ pub struct CellSummary {
     pub mean_episode_length: f64,
     /// Longest episode in steps.
     pub max_episode_length: u32,
+    /// The spread of `best_mean` and `p99_9_mean` over disjoint blocks of a
+    /// chosen study size ([`spread_at_n`]); only when asked for
+    /// (`rwg stats --at-n N`), absent from `stats.json` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at_n: Option<SpreadAtN>,
 }
 
 impl CellSummary {
@@ -528,6 +536,7 @@ pub fn summarize_cell(
         best_episode: max(scores),
         mean_episode_length: mean_episode_length(steps),
         max_episode_length: steps.iter().copied().max().unwrap_or(0),
+        at_n: None,
     }
 }
 

@@ -8,12 +8,18 @@ use std::path::PathBuf;
 
 /// Arguments of `rwg report`.
 #[derive(clap::Args)]
+#[command(after_help = crate::cmd::stats::AT_N_HELP)]
 pub struct Args {
     /// Run directory, as written by `rwg run`.
     run_dir: PathBuf,
     /// Output file [default: RUN_DIR/report.html].
     #[arg(long)]
     out: Option<PathBuf>,
+    /// Also show, per cell, the spread of the best mean and of the 99.9th
+    /// percentile of M at a study of N networks (as `rwg stats --at-n`; see
+    /// below).
+    #[arg(long, value_name = "N", value_parser = crate::cmd::stats::parse_at_n)]
+    at_n: Option<u64>,
 }
 
 /// Runs `rwg report`.
@@ -23,7 +29,12 @@ pub fn run(args: Args) -> Result<()> {
     let run = Run::open(&args.run_dir)?;
     crate::cmd::warn_unverified(&run);
     let cells = rwg_analysis::load_cells(&run)?;
-    let stats = rwg_analysis::run_stats(&run, &cells);
+    let mut stats = rwg_analysis::run_stats(&run, &cells);
+    if let Some(n) = args.at_n {
+        for ((data, _), summary) in cells.iter().zip(stats.cells.iter_mut()) {
+            summary.at_n = Some(data.spread_at(n).with_context(|| format!("--at-n {n}"))?);
+        }
+    }
     let figures = run_figures(&cells, ImageFormat::Svg)?;
     let html = report_html(&run, &stats, &figures);
     rwg_study::rundir::export::write_atomic(&out, html.as_bytes())

@@ -3,7 +3,7 @@
 
 use anyhow::{Context, Result};
 use rwg_analysis::{render_tables, tables::run_tables, TableFormat};
-use rwg_study::rundir::data::{stats_csv, write_stats, Run, RunStats};
+use rwg_study::rundir::data::{stats_csv, write_stats, Run, RunStats, SummarizeError};
 use rwg_study::rundir::lock::RunLock;
 use std::path::PathBuf;
 
@@ -34,8 +34,26 @@ impl Format {
     }
 }
 
+/// What `--at-n` computes, for the help text of `rwg stats` and `rwg report`.
+pub const AT_N_HELP: &str = "\
+--at-n N: the spread of the best mean and of the 99.9th percentile of M at a study of N networks.
+A published table gives one best mean and one 99.9th percentile per cell, each from a single
+study of N networks; both are extremes and vary widely between studies. rwg cuts each cell's
+networks, in sample order, into K = floor(samples / N) disjoint blocks of N (block k: networks
+k*N to (k+1)*N - 1; the rest is left out), computes both statistics on every block (numpy's max
+and linear percentile, as p99.9_mean), and prints median [min, max] over the blocks. Each block
+is an independent study of N networks, so a further study of N lands inside [min, max] with
+probability (K - 1)/(K + 1) (82% for K = 10). Disjoint blocks, not a bootstrap: resampling the
+cell's own networks can never give a best mean above the cell's best. Needs samples >= 2*N.
+stats.json gains each cell's `at_n` (every block's value); stats.csv gains 8 columns at its end.";
+
 /// Arguments of `rwg stats`.
 #[derive(clap::Args)]
+#[command(after_help = format!("{AT_N_HELP}
+
+Examples:
+  rwg run examples/quick.toml --out runs/quick-blocks --samples 1000
+  rwg stats runs/quick-blocks --at-n 100   # 10 blocks of 100 networks per cell"))]
 pub struct Args {
     /// Run directory, as written by `rwg run`.
     run_dir: PathBuf,
@@ -46,12 +64,42 @@ pub struct Args {
     /// Do not write stats.json and stats.csv into the run directory.
     #[arg(long)]
     no_write: bool,
+    /// Also give, per cell, the spread of the best mean and of the 99.9th
+    /// percentile of M at a study of N networks: median [min, max] over
+    /// disjoint blocks of N networks (see below; needs 2·N networks per cell).
+    #[arg(long, value_name = "N", value_parser = parse_at_n)]
+    at_n: Option<u64>,
 }
 
-/// Loads and summarises a run.
-pub fn load_stats(run_dir: &std::path::Path) -> Result<(Run, RunStats)> {
+/// Parses `--at-n`: a whole number of networks, at least 1.
+pub fn parse_at_n(s: &str) -> Result<u64, String> {
+    let n: u64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("expected a whole number of networks (such as 10000), found `{s}`"))?;
+    if n == 0 {
+        return Err("the study size N must be at least 1 network, got 0".into());
+    }
+    if n > rwg_study::limits::MAX_SAMPLES {
+        return Err(format!(
+            "at most {} networks (rwg's limit on networks per cell), got {n}",
+            rwg_study::limits::MAX_SAMPLES
+        ));
+    }
+    Ok(n)
+}
+
+/// Loads and summarises a run; with `at_n`, each cell's spread at that
+/// study size too.
+pub fn load_stats(run_dir: &std::path::Path, at_n: Option<u64>) -> Result<(Run, RunStats)> {
     let run = Run::open(run_dir)?;
-    let stats = run.summarize()?;
+    let stats = match at_n {
+        None => run.summarize()?,
+        Some(n) => run.summarize_at(Some(n)).map_err(|e| match e {
+            SummarizeError::Read(e) => anyhow::Error::from(e),
+            SummarizeError::Spread(e) => anyhow::Error::from(e).context(format!("--at-n {n}")),
+        })?,
+    };
     Ok((run, stats))
 }
 
@@ -65,7 +113,7 @@ pub fn run(args: Args) -> Result<()> {
             .map(|_| RunLock::acquire(&args.run_dir))??
             .into(),
     };
-    let (run, stats) = load_stats(&args.run_dir)?;
+    let (run, stats) = load_stats(&args.run_dir, args.at_n)?;
     crate::cmd::warn_unverified(&run);
     if !args.no_write {
         write_stats(&args.run_dir, &stats)

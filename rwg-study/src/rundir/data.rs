@@ -801,13 +801,22 @@ pub fn stats_csv_row(s: &CellSummary) -> Vec<String> {
     r
 }
 
-/// The text of `stats.csv`: one row per cell.
+/// The text of `stats.csv`: one row per cell. The [`SPREAD_CSV_COLUMNS`]
+/// come last, and only when a cell has a spread.
 pub fn stats_csv(stats: &RunStats) -> String {
+    let spread = stats.cells.iter().any(|c| c.at_n.is_some());
     let mut w = csv_writer(Vec::new());
-    w.write_record(stats_csv_header())
-        .expect("writing to memory");
+    let mut header = stats_csv_header();
+    if spread {
+        header.extend(SPREAD_CSV_COLUMNS.map(String::from));
+    }
+    w.write_record(header).expect("writing to memory");
     for c in &stats.cells {
-        w.write_record(stats_csv_row(c)).expect("writing to memory");
+        let mut row = stats_csv_row(c);
+        if spread {
+            row.extend(spread_csv_fields(c));
+        }
+        w.write_record(row).expect("writing to memory");
     }
     String::from_utf8(w.into_inner().expect("writing to memory")).expect("UTF-8 fields")
 }
@@ -824,8 +833,11 @@ pub fn write_stats(dir: &Path, stats: &RunStats) -> std::io::Result<()> {
     write(STATS_CSV, stats_csv(stats))
 }
 
+mod spread;
 pub mod synthetic;
 mod verified;
+
+pub use spread::{spread_csv_fields, CellSpreadError, SummarizeError, SPREAD_CSV_COLUMNS};
 
 #[cfg(test)]
 mod tests;

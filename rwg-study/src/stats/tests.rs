@@ -478,3 +478,129 @@ fn pairwise_sum_variance_percentile_match_numpy() {
     let naive: f64 = x[..1000].iter().sum();
     assert_ne!(naive, PAIRWISE[9].1);
 }
+
+// ------------------------------------------------- spread at a study size
+
+#[test]
+fn spread_over_disjoint_blocks_by_hand() {
+    // 7 networks, N = 3: blocks [1, 2, 3] and [4, 5, 6]; network 6 (7.0) is
+    // left out
+    let means = [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0];
+    let s = spread_at_n(&means, 3).unwrap();
+    assert_eq!((s.n, s.blocks, s.unused), (3, 2, 1));
+    assert_eq!(s.coverage, 1.0 / 3.0);
+    assert_eq!(s.best_mean.blocks, [3.0, 6.0]);
+    assert_eq!(
+        (s.best_mean.min, s.best_mean.median, s.best_mean.max),
+        (3.0, 4.5, 6.0)
+    );
+    // np.percentile([1, 2, 3], 99.9) = 2.998, and 5.998 for [4, 5, 6]
+    let p = &s.p99_9_mean;
+    assert_eq!(
+        p.blocks,
+        [
+            percentile(&[1.0, 2.0, 3.0], 99.9),
+            percentile(&[4.0, 5.0, 6.0], 99.9)
+        ]
+    );
+    assert!((p.blocks[0] - 2.998).abs() < 1e-12 && (p.blocks[1] - 5.998).abs() < 1e-12);
+    assert_eq!((p.min, p.max), (p.blocks[0], p.blocks[1]));
+    assert_eq!(p.median, percentile(&p.blocks, 50.0));
+    assert_eq!(s.best_mean.blocks_at_or_above(6.0), 1);
+    assert_eq!(s.best_mean.blocks_at_or_above(2.0), 2);
+    assert_eq!(s.best_mean.blocks_at_or_above(6.5), 0);
+}
+
+#[test]
+fn spread_blocks_follow_sample_order_and_median_is_numpys() {
+    // N = 2, 5 blocks: the best of each pair, in order; odd K: the middle one
+    let means = [0.0, 9.0, 5.0, 1.0, -3.0, -2.0, 4.0, 4.0, 7.0, 8.0];
+    let s = spread_at_n(&means, 2).unwrap();
+    assert_eq!(s.best_mean.blocks, [9.0, 5.0, -2.0, 4.0, 8.0]);
+    assert_eq!(
+        (s.best_mean.min, s.best_mean.median, s.best_mean.max),
+        (-2.0, 5.0, 9.0)
+    );
+    assert_eq!((s.unused, s.coverage), (0, 4.0 / 6.0));
+    // N = 1: every network is its own block; best = p99.9 = the mean itself
+    let s = spread_at_n(&means, 1).unwrap();
+    assert_eq!(s.best_mean.blocks, means);
+    assert_eq!(s.p99_9_mean.blocks, means);
+    assert_eq!(s.best_mean.median, 4.0);
+}
+
+#[test]
+fn spread_refuses_zero_and_too_few_networks() {
+    let means = [1.0; 7];
+    assert_eq!(spread_at_n(&means, 0), Err(SpreadError::Zero));
+    let e = spread_at_n(&means, 4).unwrap_err();
+    assert_eq!(
+        e,
+        SpreadError::TooFewSamples {
+            n: 4,
+            samples: 7,
+            needed: 8,
+            largest: 3
+        }
+    );
+    assert_eq!(
+        e.to_string(),
+        "7 networks hold fewer than 2 disjoint blocks of 4 (2 × 4 = 8 are needed); \
+         choose N ≤ 3 or run more networks (rwg run MANIFEST --samples 8 --out NEW_DIR)"
+    );
+    // exactly one block, and more than the cell: refused too
+    assert!(spread_at_n(&means, 7).is_err() && spread_at_n(&means, 100).is_err());
+    let e = spread_at_n(&[1.0], 1).unwrap_err();
+    assert!(
+        e.to_string().ends_with(
+            "are needed); run more networks (rwg run MANIFEST --samples 2 --out NEW_DIR)"
+        ),
+        "{e}"
+    );
+    assert!(spread_at_n(&means, 3).is_ok());
+}
+
+#[test]
+fn spread_is_deterministic_and_absent_unless_asked() {
+    // a pseudo-random cell (an LCG, so the test needs no RNG crate)
+    let mut x: u64 = 12345;
+    let means: Vec<f64> = (0..5000)
+        .map(|_| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 11) as f64 / (1u64 << 53) as f64 * 100.0 - 50.0
+        })
+        .collect();
+    let a = spread_at_n(&means, 1000).unwrap();
+    let b = spread_at_n(&means, 1000).unwrap();
+    assert_eq!(
+        serde_json::to_string(&a).unwrap(),
+        serde_json::to_string(&b).unwrap()
+    );
+    // every block's statistics as computed directly on its slice
+    for (k, block) in means.chunks_exact(1000).enumerate() {
+        assert_eq!(a.best_mean.blocks[k], max(block));
+        assert_eq!(a.p99_9_mean.blocks[k], percentile(block, 99.9));
+    }
+    assert!(a.best_mean.min <= a.best_mean.median && a.best_mean.median <= a.best_mean.max);
+    assert!(a.p99_9_mean.max <= a.best_mean.max);
+    // the whole cell's best is the best block's best
+    assert_eq!(a.best_mean.max, max(&means));
+
+    // a summary carries no spread unless one is set, and its JSON has no key
+    let scores: Vec<f64> = means.iter().flat_map(|&m| [m, m]).collect();
+    let steps = vec![1u32; scores.len()];
+    let mut m = meta(None);
+    m.samples = 5000;
+    m.episodes = 2;
+    let mut s = summarize_cell(&m, 2, &scores, &steps, &per_sample(&scores, 2));
+    assert!(s.at_n.is_none());
+    let plain = serde_json::to_string(&s).unwrap();
+    assert!(!plain.contains("at_n"), "{plain}");
+    s.at_n = Some(a);
+    let with = serde_json::to_string(&s).unwrap();
+    assert!(with.starts_with(&plain[..plain.len() - 1]) && with.contains("\"at_n\":{\"n\":1000,"));
+    let back: CellSummary = serde_json::from_str(&plain).unwrap();
+    assert!(back.at_n.is_none());
+}
