@@ -104,3 +104,40 @@ fn report_renders_in_headless_chromium() {
     assert_eq!(body_attr(&dom, "rendered"), Some(FIGURES - 1));
     assert_eq!(dom.matches("data-rendered=\"failed\"").count(), 1);
 }
+
+#[test]
+fn report_with_a_spread_at_n_renders_in_headless_chromium() {
+    let Some(browser) = browser() else {
+        skip(
+            "report_with_a_spread_at_n_renders_in_headless_chromium",
+            "no headless browser found (install Debian's `chromium`, or set RWG_CHROMIUM)",
+        );
+        return;
+    };
+    let dir = synthetic_run("report-at-n", 60, 4);
+    let page = dir.join("spread.html");
+    rwg_ok(&[
+        "report",
+        dir.to_str().unwrap(),
+        "--at-n",
+        "20",
+        "--out",
+        page.to_str().unwrap(),
+    ]);
+    let html = std::fs::read_to_string(&page).unwrap();
+    // the spread tables (2 statistics × 2 bias settings) and one line per cell
+    assert_eq!(html.matches("over 3 disjoint blocks, ").count(), 4);
+    assert_eq!(
+        html.matches("at N = 20 networks, median [min, max] over 3 disjoint blocks: best mean ")
+            .count(),
+        8
+    );
+    assert_eq!(
+        html.matches("<div class=\"table-scroll\">").count(),
+        html.matches("<table>").count()
+    );
+    assert!(!html.contains("-0.00"));
+    // same layout as without: every figure renders, no error, no sideways scrolling
+    let dom = check_page_in_browser(&browser, &page, FIGURES, &temp_dir("report-at-n-profile"));
+    assert!(dom.contains(&format!("{FIGURES} of {FIGURES} figures rendered")));
+}

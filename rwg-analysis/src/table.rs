@@ -47,6 +47,8 @@ pub fn latex_escape(s: &str) -> String {
             '^' => out.push_str("\\textasciicircum{}"),
             '×' => out.push_str("$\\times$"),
             '≥' => out.push_str("$\\geq$"),
+            '−' => out.push_str("$-$"),
+            '·' => out.push_str("$\\cdot$"),
             '–' => out.push_str("--"),
             _ => out.push(c),
         }
@@ -358,5 +360,6 @@ mod tests {
             latex_escape("a_b & 50% #1 ≥ 2×3"),
             "a\\_b \\& 50\\% \\#1 $\\geq$ 2$\\times$3"
         );
+        assert_eq!(latex_escape("k·N − 1"), "k$\\cdot$N $-$ 1");
     }
 }
