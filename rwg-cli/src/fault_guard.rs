@@ -140,9 +140,18 @@ fn where_text(c: CallSnapshot, out: &mut Msg) {
         Phase::Create => b"while creating an instance (no network or episode yet): ",
         Phase::Reset => b"in reset: ",
         Phase::Step => b"in step: ",
+        Phase::ResetMany => b"in reset_many (a batched reset): ",
+        Phase::StepMany => b"in step_many (a batched step): ",
         Phase::Idle => b"outside any call rwg made into a plugin (a plugin's own thread?): ",
     });
     out.push(cell_label());
+    if matches!(phase, Phase::ResetMany | Phase::StepMany) {
+        out.push(b", one of ");
+        out.num(episode);
+        out.push(b" lanes (batched call ");
+        out.num(step);
+        out.push(b" of the thread; rerun with RWG_PLUGIN_BATCH=0 to name the network and step)");
+    }
     if matches!(phase, Phase::Reset | Phase::Step) {
         out.push(b", network ");
         out.num(sample);

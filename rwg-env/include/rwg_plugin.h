@@ -1,5 +1,9 @@
 /*
- * rwg_plugin.h -- the rwg environment plugin ABI, version 1.0.
+ * rwg_plugin.h -- the rwg environment plugin ABI, version 1.1.
+ *
+ * 1.1 (append-only over 1.0): the optional batched calls reset_many and
+ * step_many at the end of rwg_env_vtable_t. A 1.0 plugin (a smaller
+ * vtable struct_size) loads and runs unchanged on the single-step calls.
  *
  * This header is the normative definition of the ABI. The Rust mirror
  * (rwg-core/src/plugin/abi.rs) follows it; where the two disagree, this file
@@ -45,10 +49,11 @@
  *            env_vtable, get_extension and create are thread-safe: the host
  *            may call them from any thread, concurrently (except that init
  *            and deinit are not called concurrently with anything else).
- *            Instance functions (reset, step, last_error, destroy) are called
- *            on one instance by one thread at a time, but an instance may move
- *            between threads between calls; different instances are used
- *            concurrently. A plugin keeps NO hidden global or thread-local
+ *            Instance functions (reset, step, last_error, destroy, and 1.1's
+ *            reset_many and step_many for each instance they are given) are
+ *            called on one instance by one thread at a time, but an instance
+ *            may move between threads between calls; different instances are
+ *            used concurrently. A plugin keeps NO hidden global or thread-local
  *            mutable state that affects results: an episode must depend only
  *            on its instance's config, seed and actions, never on which thread
  *            runs it or on what other instances do (`rwg check` tests this).
@@ -131,6 +136,8 @@
  *   vt->create(i, config, &env, err, sizeof err);
  *   vt->reset(env, 1, seed, obs, obs_len);
  *   vt->step(env, action, action_len, obs, obs_len, &out);  ... repeatedly
+ *   (1.1, if vt->step_many is set: vt->reset_many / vt->step_many on arrays
+ *    of instances, in place of the single calls)
  *   vt->destroy(env);
  *   entry->deinit()                            (if deinit is not NULL; rwg never calls it)
  */
@@ -152,7 +159,7 @@ extern "C" {
  * only adds (fields at the end of growable structs, flags, status codes,
  * extensions); each side uses only what the other side's minor provides. */
 #define RWG_PLUGIN_ABI_MAJOR 1u
-#define RWG_PLUGIN_ABI_MINOR 0u
+#define RWG_PLUGIN_ABI_MINOR 1u
 
 /* rwg_plugin_entry_t.abi_tag must point to exactly this string. It guards
  * against a library that exports a function with the entry's name by chance. */
@@ -325,6 +332,58 @@ typedef struct rwg_env_vtable {
      * this instance (including destroy), so no thread-local storage is
      * needed. One thread at a time per instance. */
     const char *(*last_error)(const rwg_env_t *env);
+
+    /* ---- ABI 1.1: batched calls. Optional: both NULL, or both set (the
+     * host refuses a table with only one). A host reads them only when
+     * struct_size covers them (a 1.0 table ends at last_error).
+     *
+     * They reset or step many instances of THIS table's environment in one
+     * call, over host-owned structure-of-arrays buffers. "Lane" i is
+     * envs[i]; for n lanes:
+     *   envs       n distinct instances created by this table's create (with
+     *              the same config), host-owned array, read during the call.
+     *   mask       n flags (0 or 1), or NULL = every lane. Only lanes with
+     *              mask[i] = 1 are touched; the slots of the others, in every
+     *              buffer, are neither read nor written.
+     *   obs        n * obs_len doubles: lane i's observation at
+     *              obs + i * obs_len; obs_len is ONE lane's length (the
+     *              observation space's n, else RWG_ERR_BUFFER_SIZE).
+     *   failed     host-owned; on a status other than RWG_OK receives the
+     *              lane that failed (n if the call was refused as a whole, e.g.
+     *              a NULL buffer: then no lane was touched and there is no
+     *              message). May be NULL.
+     * Meaning: exactly the single calls on the masked lanes in increasing i,
+     * stopping at the first that fails: lanes before it are done (outputs
+     * written), the failing lane i is left as its single call leaves it (its
+     * message in last_error(envs[i]), poisoned after RWG_ERR_PANIC), lanes
+     * after it are not touched. The results are bit for bit those of the
+     * single calls (`rwg check` tests it), so a host may use either path.
+     * Threads: a call uses all its n instances, so none of them may be in
+     * use by another thread during it; calls on disjoint instance sets may
+     * run concurrently. Memory: every buffer belongs to the host and is only
+     * used during the call. n = 0 is RWG_OK and does nothing. */
+
+    /* reset(envs[i], 1, seeds[i], obs + i * obs_len, obs_len) for every
+     * masked lane: always seeded (rwg always seeds; has_seed = 0 exists only
+     * on the single call). seeds: n values. */
+    rwg_status_t (*reset_many)(rwg_env_t *const *envs, size_t n, const uint8_t *mask,
+                               const uint64_t *seeds, double *obs, size_t obs_len,
+                               size_t *failed);
+
+    /* step(envs[i], actions + i * action_len, action_len,
+     *      obs + i * obs_len, obs_len, &out_i) for every masked lane, out_i's
+     * fields going to rewards[i], terminated[i] and truncated[i].
+     *   actions     n * action_len doubles; action_len is ONE lane's length,
+     *               with the single step's rules (1 for a Discrete space, the
+     *               action an integral double; n of a Box, finite values).
+     *               The same doubles as the single step: a plugin that rounds
+     *               actions to float32 does so in both.
+     *   rewards     n doubles; terminated, truncated: n flags (0 or 1).
+     * The host applies the time limit itself, as for step. */
+    rwg_status_t (*step_many)(rwg_env_t *const *envs, size_t n, const uint8_t *mask,
+                              const double *actions, size_t action_len, double *obs,
+                              size_t obs_len, double *rewards, uint8_t *terminated,
+                              uint8_t *truncated, size_t *failed);
 } rwg_env_vtable_t;
 
 /* ------------------------------------------------------------------------- */
@@ -436,7 +495,9 @@ RWG_STATIC_ASSERT(sizeof(rwg_step_out_t) == 16, "rwg_step_out_t size");
 
 RWG_STATIC_ASSERT(offsetof(rwg_env_vtable_t, create) == 8, "rwg_env_vtable_t layout");
 RWG_STATIC_ASSERT(offsetof(rwg_env_vtable_t, last_error) == 8 + 4 * RWG_P_, "rwg_env_vtable_t layout");
-RWG_STATIC_ASSERT(sizeof(rwg_env_vtable_t) == 8 + 5 * RWG_P_, "rwg_env_vtable_t size");
+RWG_STATIC_ASSERT(offsetof(rwg_env_vtable_t, reset_many) == 8 + 5 * RWG_P_, "rwg_env_vtable_t layout (1.1)");
+RWG_STATIC_ASSERT(offsetof(rwg_env_vtable_t, step_many) == 8 + 6 * RWG_P_, "rwg_env_vtable_t layout (1.1)");
+RWG_STATIC_ASSERT(sizeof(rwg_env_vtable_t) == 8 + 7 * RWG_P_, "rwg_env_vtable_t size (1.1; 1.0's ended at 8 + 5 * P)");
 
 RWG_STATIC_ASSERT(offsetof(rwg_host_t, name) == 16, "rwg_host_t layout");
 RWG_STATIC_ASSERT(sizeof(rwg_host_t) == 16 + 2 * RWG_P_, "rwg_host_t size");

@@ -27,6 +27,11 @@ pub enum Phase {
     Reset = 2,
     /// `step`.
     Step = 3,
+    /// ABI 1.1's `reset_many` (a batched reset; the snapshot's `episode` is
+    /// the number of lanes, `step` the thread's count of batched calls).
+    ResetMany = 4,
+    /// ABI 1.1's `step_many` (a batched step; fields as for `ResetMany`).
+    StepMany = 5,
 }
 
 /// One thread's plugin call in progress. Written only by its thread.
@@ -82,6 +87,8 @@ impl CallCtx {
             1 => Phase::Create,
             2 => Phase::Reset,
             3 => Phase::Step,
+            4 => Phase::ResetMany,
+            5 => Phase::StepMany,
             _ => Phase::Idle,
         };
         CallSnapshot {
@@ -153,6 +160,41 @@ pub fn cell_label() -> &'static [u8] {
     }
 }
 
+/// Runs `make`, recorded as a `create` call.
+pub fn recorded_create<T>(make: impl FnOnce() -> T) -> T {
+    // Numbered, so that consecutive creates are different calls.
+    static CREATES: AtomicU64 = AtomicU64::new(0);
+    let n = CREATES.fetch_add(1, Relaxed);
+    let c = ctx();
+    c.enter(Phase::Create, u64::MAX, u64::MAX, n);
+    let r = make();
+    c.leave();
+    r
+}
+
+thread_local! {
+    /// The number of batched calls this thread has made (their key).
+    static BATCHED_CALLS: Cell<u64> = const { Cell::new(0) };
+}
+
+/// Runs `call`, recorded as a batched call (`phase` is [`Phase::ResetMany`]
+/// or [`Phase::StepMany`]) on `lanes` lanes. The plugin cannot say which of
+/// the lanes it is working on, so a fault report names the batch, not the
+/// network and step.
+#[inline]
+pub fn recorded_batch<R>(phase: Phase, lanes: usize, call: impl FnOnce() -> R) -> R {
+    let n = BATCHED_CALLS.with(|k| {
+        let n = k.get() + 1;
+        k.set(n);
+        n
+    });
+    let c = ctx();
+    c.enter(phase, u64::MAX, lanes as u64, n);
+    let r = call();
+    c.leave();
+    r
+}
+
 /// A plugin environment whose calls are recorded (see the module docs).
 pub struct Watched<E> {
     inner: E,
@@ -164,13 +206,7 @@ pub struct Watched<E> {
 impl<E> Watched<E> {
     /// Creates the env with `make`, recorded as a `create` call.
     pub fn create(make: impl FnOnce() -> E) -> Self {
-        // Numbered, so that consecutive creates are different calls.
-        static CREATES: AtomicU64 = AtomicU64::new(0);
-        let n = CREATES.fetch_add(1, Relaxed);
-        let c = ctx();
-        c.enter(Phase::Create, u64::MAX, u64::MAX, n);
-        let inner = make();
-        c.leave();
+        let inner = recorded_create(make);
         Watched {
             inner,
             sample: u64::MAX,

@@ -22,6 +22,7 @@ pub mod limits;
 pub mod manifest;
 pub mod manifest_text;
 pub mod merge;
+pub mod plugin_batch;
 pub mod rundir;
 pub mod runner;
 pub mod stats;

@@ -390,8 +390,10 @@ impl Recorder<'_> {
 
 /// Runs the given blocks of a cell. Built-in envs are statically dispatched
 /// (the sampler is monomorphised for each); plugin envs run through the same
-/// generic sampler as `Watched<TimeLimit<PluginEnv>>`, isolated plugin envs
-/// and Gymnasium envs through the batched sampler (`rwg_core::batch`). Each finished block goes to
+/// generic sampler as `Watched<TimeLimit<PluginEnv>>`, or, when the plugin has
+/// ABI 1.1's batched calls, through the in-process batched sampler
+/// (`plugin_batch`); isolated plugin envs and Gymnasium envs through the
+/// batched sampler (`rwg_core::batch`). Each finished block goes to
 /// `on_done`, then to `committer`.
 fn run_cell_blocks(
     cell: &Cell,
@@ -452,6 +454,11 @@ fn run_cell_blocks(
             iso.run_blocks(&cell.plan, blocks, wave, |b: BlockResult| {
                 runner.on_block(b)
             })
+        }
+        // ABI 1.1: one reset_many/step_many call for a worker's lanes.
+        EnvSource::Plugin(p) if crate::plugin_batch::use_batched_calls(p) => {
+            let wave = rayon::current_num_threads() * 2;
+            crate::plugin_batch::run_blocks(p, &cell.plan, blocks, wave, |b| runner.on_block(b))
         }
         // Plugin calls are recorded for fault reports (see fault_context).
         EnvSource::Plugin(p) => runner.run(|| {

@@ -1,4 +1,4 @@
-//! `#[repr(C)]` mirrors of `rwg-env/include/rwg_plugin.h`, ABI v1.0.
+//! `#[repr(C)]` mirrors of `rwg-env/include/rwg_plugin.h`, ABI v1.1.
 //!
 //! The header is normative: read it for the ownership, lifetime and threading
 //! contract of every field and function. The const assertions at the end of
@@ -16,7 +16,7 @@ use std::mem::{offset_of, size_of};
 /// `RWG_PLUGIN_ABI_MAJOR`: hosts and plugins work together when majors match.
 pub const ABI_MAJOR: u32 = 1;
 /// `RWG_PLUGIN_ABI_MINOR`: additions within the major.
-pub const ABI_MINOR: u32 = 0;
+pub const ABI_MINOR: u32 = 1;
 /// `RWG_PLUGIN_ABI_TAG`, NUL-terminated.
 pub const ABI_TAG: &std::ffi::CStr = c"rwg-env-plugin";
 /// `RWG_PLUGIN_ENTRY_SYMBOL`, NUL-terminated, as `libloading` wants it.
@@ -152,6 +152,30 @@ pub type StepFn = unsafe extern "C" fn(
 ) -> Status;
 /// `last_error`.
 pub type LastErrorFn = unsafe extern "C" fn(env: *const RwgEnv) -> *const c_char;
+/// `reset_many` (ABI 1.1): seeded resets of many instances.
+pub type ResetManyFn = unsafe extern "C" fn(
+    envs: *const *mut RwgEnv,
+    n: usize,
+    mask: *const u8,
+    seeds: *const u64,
+    obs: *mut f64,
+    obs_len: usize,
+    failed: *mut usize,
+) -> Status;
+/// `step_many` (ABI 1.1): steps of many instances over structure-of-arrays buffers.
+pub type StepManyFn = unsafe extern "C" fn(
+    envs: *const *mut RwgEnv,
+    n: usize,
+    mask: *const u8,
+    actions: *const f64,
+    action_len: usize,
+    obs: *mut f64,
+    obs_len: usize,
+    rewards: *mut f64,
+    terminated: *mut u8,
+    truncated: *mut u8,
+    failed: *mut usize,
+) -> Status;
 
 /// `rwg_env_vtable_t`: the functions of one environment. Growable.
 #[repr(C)]
@@ -171,6 +195,12 @@ pub struct RwgEnvVtable {
     pub step: Option<StepFn>,
     /// Message of the last failed call on the instance.
     pub last_error: Option<LastErrorFn>,
+    /// ABI 1.1, optional: resets many instances (read only when
+    /// `struct_size` covers it).
+    pub reset_many: Option<ResetManyFn>,
+    /// ABI 1.1, optional: steps many instances (read only when
+    /// `struct_size` covers it).
+    pub step_many: Option<StepManyFn>,
 }
 
 /// `rwg_host_t`: what the host tells the plugin in `init`. Growable.
@@ -269,7 +299,9 @@ const _: () = {
 
     assert!(offset_of!(RwgEnvVtable, create) == 8);
     assert!(offset_of!(RwgEnvVtable, last_error) == 8 + 4 * P);
-    assert!(size_of::<RwgEnvVtable>() == 8 + 5 * P);
+    assert!(offset_of!(RwgEnvVtable, reset_many) == 8 + 5 * P);
+    assert!(offset_of!(RwgEnvVtable, step_many) == 8 + 6 * P);
+    assert!(size_of::<RwgEnvVtable>() == 8 + 7 * P);
 
     assert!(offset_of!(RwgHost, name) == 16);
     assert!(size_of::<RwgHost>() == 16 + 2 * P);
@@ -285,8 +317,10 @@ const _: () = {
 pub const ENTRY_SIZE_V1_0: u32 = size_of::<RwgPluginEntry>() as u32;
 /// `sizeof(rwg_env_desc_t)` in ABI 1.0.
 pub const ENV_DESC_SIZE_V1_0: u32 = size_of::<RwgEnvDesc>() as u32;
-/// `sizeof(rwg_env_vtable_t)` in ABI 1.0.
-pub const ENV_VTABLE_SIZE_V1_0: u32 = size_of::<RwgEnvVtable>() as u32;
+/// `sizeof(rwg_env_vtable_t)` in ABI 1.0 (up to `last_error`).
+pub const ENV_VTABLE_SIZE_V1_0: u32 = offset_of!(RwgEnvVtable, reset_many) as u32;
+/// `sizeof(rwg_env_vtable_t)` in ABI 1.1 (with the batched calls).
+pub const ENV_VTABLE_SIZE_V1_1: u32 = size_of::<RwgEnvVtable>() as u32;
 /// `sizeof(rwg_host_t)` in ABI 1.0.
 pub const HOST_SIZE_V1_0: u32 = size_of::<RwgHost>() as u32;
 
@@ -317,7 +351,8 @@ mod tests {
         if P == 8 {
             assert_eq!(size_of::<RwgSpace>(), 32);
             assert_eq!(size_of::<RwgEnvDesc>(), 104);
-            assert_eq!(size_of::<RwgEnvVtable>(), 48);
+            assert_eq!(ENV_VTABLE_SIZE_V1_0, 48);
+            assert_eq!(size_of::<RwgEnvVtable>(), 64);
             assert_eq!(size_of::<RwgPluginEntry>(), 88);
             assert_eq!(size_of::<RwgHost>(), 32);
         }

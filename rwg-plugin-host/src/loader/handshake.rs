@@ -219,14 +219,36 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
                 ),
             ));
         }
-        let v = vt.read();
+        // Read no further than the plugin's struct_size: a 1.0 table ends at
+        // last_error. Fields it does not have stay zero (None).
+        let mut v: RwgEnvVtable = std::mem::zeroed();
+        std::ptr::copy_nonoverlapping(
+            vt.cast::<u8>(),
+            (&mut v as *mut RwgEnvVtable).cast::<u8>(),
+            (vsize as usize).min(std::mem::size_of::<RwgEnvVtable>()),
+        );
         let null = |f: &str| env_err(Some(&id), format!("env_vtable: {f} is NULL"));
+        if v.reset_many.is_some() != v.step_many.is_some() {
+            let (set, unset) = if v.reset_many.is_some() {
+                ("reset_many", "step_many")
+            } else {
+                ("step_many", "reset_many")
+            };
+            return Err(env_err(
+                Some(&id),
+                format!(
+                    "env_vtable: {set} is set but {unset} is NULL (ABI 1.1 needs both or neither)"
+                ),
+            ));
+        }
         let vt = VTable {
             create: v.create.ok_or_else(|| null("create"))?,
             destroy: v.destroy.ok_or_else(|| null("destroy"))?,
             reset: v.reset.ok_or_else(|| null("reset"))?,
             step: v.step.ok_or_else(|| null("step"))?,
             last_error: v.last_error.ok_or_else(|| null("last_error"))?,
+            reset_many: v.reset_many,
+            step_many: v.step_many,
         };
         envs.push(PluginEnvType {
             info: info.clone(),

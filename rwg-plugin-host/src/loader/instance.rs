@@ -33,7 +33,7 @@ impl PluginEnvType {
         &self.info
     }
 
-    fn prefix(&self) -> String {
+    pub(super) fn prefix(&self) -> String {
         format!("plugin '{}' env '{}'", self.info.id, self.spec.id)
     }
 
@@ -104,10 +104,10 @@ impl PluginEnvType {
 /// [`PluginEnvType::make`] for the [`TimeLimit`]-wrapped env.
 pub struct PluginEnv {
     ty: PluginEnvType,
-    prefix: String,
+    pub(super) prefix: String,
     config: String,
-    handle: *mut RwgEnv,
-    poisoned: bool,
+    pub(super) handle: *mut RwgEnv,
+    pub(super) poisoned: bool,
     discrete: bool,
     /// `spec.obs_dim()` and the table's `step`, kept at hand for the step loop.
     obs_dim: usize,
@@ -159,7 +159,7 @@ impl PluginEnv {
         self.ty.create(&self.config)
     }
 
-    fn fail(&mut self, what: &str, status: Status) -> EnvError {
+    pub(super) fn fail(&mut self, what: &str, status: Status) -> EnvError {
         // SAFETY: valid handle; the string is read before any other call.
         let msg = unsafe {
             let p = (self.ty.vt.last_error)(self.handle);
@@ -205,7 +205,7 @@ impl PluginEnv {
         Ok(())
     }
 
-    fn check_obs(&self, what: &str, obs: &[f64]) -> Result<(), EnvError> {
+    pub(super) fn check_obs(&self, what: &str, obs: &[f64]) -> Result<(), EnvError> {
         match obs.iter().position(|x| !x.is_finite()) {
             None => Ok(()),
             Some(i) => Err(EnvError::Other(format!(
@@ -278,7 +278,12 @@ impl PluginEnv {
     /// checked in that order.
     #[cold]
     #[inline(never)]
-    fn step_failure(&mut self, status: Status, out: &RwgStepOut, obs: &[f64]) -> EnvError {
+    pub(super) fn step_failure(
+        &mut self,
+        status: Status,
+        out: &RwgStepOut,
+        obs: &[f64],
+    ) -> EnvError {
         if status != RWG_OK {
             return self.fail("step", status);
         }

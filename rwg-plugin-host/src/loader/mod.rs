@@ -1,7 +1,8 @@
 //! Loading plugins: the search of `RWG_PLUGIN_PATH` ([`search`]), the
 //! handshake and validation of a library ([`handshake`]), [`PluginEnv`], the
 //! host-side `Environment` over a plugin's C function table ([`instance`]),
-//! and why a file is refused ([`error`]).
+//! [`PluginBatch`], many instances reset and stepped by ABI 1.1's batched
+//! calls ([`batch`]), and why a file is refused ([`error`]).
 //!
 //! **Loading a plugin runs its code in this process** (the library's
 //! initialisers, its entry function, `init`, and later every env call). A
@@ -11,6 +12,7 @@
 //! runs thread-local destructors after `dlclose` and crashes, so every loaded
 //! `Library` is leaked for the life of the process.
 
+mod batch;
 mod error;
 mod handshake;
 mod instance;
@@ -22,6 +24,7 @@ use std::sync::Arc;
 use rwg_env::env::EnvSpec;
 use rwg_env::plugin::abi::*;
 
+pub use batch::{LaneFailure, PluginBatch};
 pub use error::{PluginLoadError, PluginLoadErrorKind};
 pub use handshake::{check_env_id, load_from_entry, load_plugin};
 pub use instance::PluginEnv;
@@ -62,6 +65,9 @@ pub(crate) struct VTable {
     pub(crate) reset: ResetFn,
     pub(crate) step: StepFn,
     pub(crate) last_error: LastErrorFn,
+    /// ABI 1.1's batched calls (both or neither).
+    pub(crate) reset_many: Option<ResetManyFn>,
+    pub(crate) step_many: Option<StepManyFn>,
 }
 
 /// One environment a plugin exports: its spec and how to create instances.

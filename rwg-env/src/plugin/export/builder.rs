@@ -6,6 +6,7 @@ use std::ffi::CString;
 use std::fmt::Display;
 use std::sync::OnceLock;
 
+use super::batched::{reset_many, step_many};
 use super::trampolines::{
     create, deinit, destroy, env_count, env_desc, env_vtable, get_extension, init, last_error,
     reset, step,
@@ -224,13 +225,15 @@ impl ExportedPlugin {
                 reward_threshold: spec.reward_threshold.unwrap_or(f64::NAN),
             };
             let vtable = RwgEnvVtable {
-                struct_size: ENV_VTABLE_SIZE_V1_0,
+                struct_size: ENV_VTABLE_SIZE_V1_1,
                 reserved: 0,
                 create: Some(create::<P>),
                 destroy: Some(destroy),
                 reset: Some(reset),
                 step: Some(step),
                 last_error: Some(last_error),
+                reset_many: Some(reset_many),
+                step_many: Some(step_many),
             };
             envs.push(ExportedEnv {
                 desc,

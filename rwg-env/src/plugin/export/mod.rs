@@ -21,10 +21,13 @@
 //! action must be an integral double in `0..n`, a continuous one finite and of
 //! the right length).
 //!
-//! The files: `builder` ([`PluginBuilder`] and the C tables it becomes) and
+//! The files: `builder` ([`PluginBuilder`] and the C tables it becomes),
 //! `trampolines` (the `extern "C"` functions the host calls, which check
-//! their arguments, catch panics and forward to the Rust environments).
+//! their arguments, catch panics and forward to the Rust environments) and
+//! `batched` (ABI 1.1's `reset_many` / `step_many`, every exported env has
+//! them: a loop over the single calls' trampolines).
 
+mod batched;
 mod builder;
 mod trampolines;
 

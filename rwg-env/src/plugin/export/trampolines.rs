@@ -266,6 +266,7 @@ fn env_err(e: EnvError) -> (Status, String) {
     (status_of(&e), e.to_string())
 }
 
+#[inline]
 pub(super) unsafe extern "C" fn reset(
     env: *mut RwgEnv,
     has_seed: u8,
@@ -339,6 +340,7 @@ fn action_of(a: &[f64], kind: ActionKind) -> Result<Action<'_>, String> {
     }
 }
 
+#[inline]
 pub(super) unsafe extern "C" fn step(
     env: *mut RwgEnv,
     action: *const f64,

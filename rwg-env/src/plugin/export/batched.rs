@@ -1,0 +1,124 @@
+//! ABI 1.1's batched calls, `reset_many` and `step_many`, for exported Rust
+//! environments: each masked lane goes through the very trampoline of the
+//! single call ([`reset`], [`step`]), so the two paths cannot differ (same
+//! checks, same panic catching, same results bit for bit); what a batch
+//! saves is the host's side of a call per lane.
+
+use super::trampolines::{reset, step};
+use crate::plugin::abi::*;
+
+/// Whether the whole call must be refused: a NULL where `n > 0` needs a
+/// buffer, or a mask value other than 0 or 1.
+///
+/// # Safety
+/// `mask` is NULL or valid for `n` reads.
+unsafe fn refused(n: usize, pointers_ok: bool, mask: *const u8) -> bool {
+    if n == 0 {
+        return false;
+    }
+    !pointers_ok || (!mask.is_null() && std::slice::from_raw_parts(mask, n).iter().any(|&m| m > 1))
+}
+
+#[inline(always)]
+unsafe fn masked(mask: *const u8, i: usize) -> bool {
+    mask.is_null() || *mask.add(i) == 1
+}
+
+#[inline(always)]
+unsafe fn report(failed: *mut usize, i: usize) {
+    if !failed.is_null() {
+        *failed = i;
+    }
+}
+
+/// `reset_many`: `reset(envs[i], 1, seeds[i], ...)` on every masked lane.
+pub(super) unsafe extern "C" fn reset_many(
+    envs: *const *mut RwgEnv,
+    n: usize,
+    mask: *const u8,
+    seeds: *const u64,
+    obs: *mut f64,
+    obs_len: usize,
+    failed: *mut usize,
+) -> Status {
+    if refused(
+        n,
+        !envs.is_null() && !seeds.is_null() && !obs.is_null(),
+        mask,
+    ) {
+        report(failed, n);
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+    for i in 0..n {
+        if !masked(mask, i) {
+            continue;
+        }
+        let status = reset(
+            *envs.add(i),
+            1,
+            *seeds.add(i),
+            obs.add(i * obs_len),
+            obs_len,
+        );
+        if status != RWG_OK {
+            report(failed, i);
+            return status;
+        }
+    }
+    RWG_OK
+}
+
+/// `step_many`: `step(envs[i], ...)` on every masked lane, its reward and
+/// flags scattered into the three arrays.
+#[allow(clippy::too_many_arguments)]
+pub(super) unsafe extern "C" fn step_many(
+    envs: *const *mut RwgEnv,
+    n: usize,
+    mask: *const u8,
+    actions: *const f64,
+    action_len: usize,
+    obs: *mut f64,
+    obs_len: usize,
+    rewards: *mut f64,
+    terminated: *mut u8,
+    truncated: *mut u8,
+    failed: *mut usize,
+) -> Status {
+    let pointers_ok = !envs.is_null()
+        && !actions.is_null()
+        && !obs.is_null()
+        && !rewards.is_null()
+        && !terminated.is_null()
+        && !truncated.is_null();
+    if refused(n, pointers_ok, mask) {
+        report(failed, n);
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+    let mut out = RwgStepOut {
+        reward: 0.0,
+        terminated: 0,
+        truncated: 0,
+        reserved: [0; 6],
+    };
+    for i in 0..n {
+        if !masked(mask, i) {
+            continue;
+        }
+        let status = step(
+            *envs.add(i),
+            actions.add(i * action_len),
+            action_len,
+            obs.add(i * obs_len),
+            obs_len,
+            &mut out,
+        );
+        if status != RWG_OK {
+            report(failed, i);
+            return status;
+        }
+        *rewards.add(i) = out.reward;
+        *terminated.add(i) = out.terminated;
+        *truncated.add(i) = out.truncated;
+    }
+    RWG_OK
+}
