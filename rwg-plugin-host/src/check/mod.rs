@@ -16,8 +16,10 @@
 //!
 //! The files: [`report`] (results and their reporting), `env_checks` (one
 //! function per environment check), `plugin_checks` (the checks that need
-//! the raw ABI), `trajectory` (actions and recorded trajectories).
+//! the raw ABI), `batch_checks` (ABI 1.1's batched calls against the single
+//! ones), `trajectory` (actions and recorded trajectories).
 
+mod batch_checks;
 mod env_checks;
 mod plugin_checks;
 pub mod report;
@@ -89,8 +91,8 @@ where
 }
 
 /// [`check_env`] on a plugin environment plus the checks that need the raw
-/// ABI: id style, non-integral and wrongly sized discrete actions, and reset
-/// without a seed. Instances are created with `config`.
+/// ABI: id style, non-integral and wrongly sized discrete actions, reset
+/// without a seed, and the batched calls against the single ones. Instances are created with `config`.
 pub fn check_plugin_env(ty: &PluginEnvType, config: &str) -> Vec<CheckResult> {
     check_plugin_env_observed(ty, config, &mut |_| {})
 }
@@ -128,6 +130,7 @@ pub fn check_plugin_env_observed(
     r.run("unseeded reset", || {
         plugin_checks::unseeded_reset(ty, config)
     });
+    r.run("batched calls", || batch_checks::batched_calls(ty, config));
     results.extend(r.results);
     results
 }
