@@ -26,7 +26,10 @@ fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
 
-/// Runs `rwg run MANIFEST --out OUT` plus `extra`.
+/// Runs `rwg run MANIFEST --out OUT` plus `extra`, on the plugin's single
+/// calls (`RWG_PLUGIN_BATCH=0`), whose fault reports name the network, episode
+/// and step; `tests/cli_plugin_batch.rs` checks the report of a fault in a
+/// batched call.
 fn run(manifest: &str, out: &Path, extra: &[&str]) -> Output {
     let mut args = vec![
         "run",
@@ -36,7 +39,7 @@ fn run(manifest: &str, out: &Path, extra: &[&str]) -> Output {
         "--no-report",
     ];
     args.extend_from_slice(extra);
-    rwg(&args)
+    rwg_env(&args, &[("RWG_PLUGIN_BATCH", "0".as_ref())])
 }
 
 fn assert_names_the_context(err: &str, env: &str) {

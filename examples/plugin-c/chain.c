@@ -168,6 +168,68 @@ static const char *chain_last_error(const rwg_env_t *env) {
     return env != NULL ? env->error : "env is NULL";
 }
 
+/* ---- ABI 1.1: the batched calls ------------------------------------------
+ * Optional. Compiled against a 1.0 header (RWG_PLUGIN_ABI_MINOR 0) this file
+ * is a 1.0 plugin without them, and rwg uses the single calls. Each is the
+ * single call on every masked lane in order, stopping at the first failure,
+ * so the results are the single calls' bit for bit. */
+#if RWG_PLUGIN_ABI_MINOR >= 1
+static rwg_status_t chain_reset_many(rwg_env_t *const *envs, size_t n, const uint8_t *mask,
+                                     const uint64_t *seeds, double *obs, size_t obs_len,
+                                     size_t *failed) {
+    if (n > 0 && (envs == NULL || seeds == NULL || obs == NULL)) {
+        if (failed != NULL) {
+            *failed = n; /* refused as a whole */
+        }
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+    for (size_t i = 0; i < n; i++) {
+        if (mask != NULL && mask[i] != 1) {
+            continue;
+        }
+        rwg_status_t s = chain_reset(envs[i], 1, seeds[i], obs + i * obs_len, obs_len);
+        if (s != RWG_OK) {
+            if (failed != NULL) {
+                *failed = i;
+            }
+            return s;
+        }
+    }
+    return RWG_OK;
+}
+
+static rwg_status_t chain_step_many(rwg_env_t *const *envs, size_t n, const uint8_t *mask,
+                                    const double *actions, size_t action_len, double *obs,
+                                    size_t obs_len, double *rewards, uint8_t *terminated,
+                                    uint8_t *truncated, size_t *failed) {
+    if (n > 0 && (envs == NULL || actions == NULL || obs == NULL || rewards == NULL ||
+                  terminated == NULL || truncated == NULL)) {
+        if (failed != NULL) {
+            *failed = n; /* refused as a whole */
+        }
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+    for (size_t i = 0; i < n; i++) {
+        if (mask != NULL && mask[i] != 1) {
+            continue;
+        }
+        rwg_step_out_t out;
+        rwg_status_t s = chain_step(envs[i], actions + i * action_len, action_len,
+                                    obs + i * obs_len, obs_len, &out);
+        if (s != RWG_OK) {
+            if (failed != NULL) {
+                *failed = i;
+            }
+            return s;
+        }
+        rewards[i] = out.reward;
+        terminated[i] = out.terminated;
+        truncated[i] = out.truncated;
+    }
+    return RWG_OK;
+}
+#endif
+
 /* ---- static tables ----------------------------------------------------- */
 
 static const double OBS_LOW[2] = {0.0, 0.0};
@@ -196,6 +258,10 @@ static const rwg_env_vtable_t CHAIN_VTABLE = {
     .reset = chain_reset,
     .step = chain_step,
     .last_error = chain_last_error,
+#if RWG_PLUGIN_ABI_MINOR >= 1
+    .reset_many = chain_reset_many,
+    .step_many = chain_step_many,
+#endif
 };
 
 static uint32_t env_count(void) { return 1; }

@@ -14,6 +14,8 @@
  *   BROKEN_DUP_IDS       two envs with the same id
  *   BROKEN_LOW_GT_HIGH   observation low > high
  *   BROKEN_NULL_STEP     the vtable's step is NULL
+ *   BROKEN_HALF_BATCH    step_many is set but reset_many is NULL (ABI 1.1
+ *                        wants both or neither)
  *
  * ENV_ID (e.g. -DENV_ID='"CartPole-v0"') replaces the id "handshake/Ok-v0".
  * NO_TIME_LIMIT sets max_episode_steps = 0 (none; a valid plugin).
@@ -110,6 +112,20 @@ static const rwg_env_desc_t DESC = {
 #endif
 };
 
+#ifdef BROKEN_HALF_BATCH
+static rwg_status_t half_step_many(rwg_env_t *const *envs, size_t n, const uint8_t *mask,
+                                   const double *actions, size_t action_len, double *obs,
+                                   size_t obs_len, double *rewards, uint8_t *terminated,
+                                   uint8_t *truncated, size_t *failed) {
+    (void)envs, (void)mask, (void)actions, (void)action_len, (void)obs, (void)obs_len;
+    (void)rewards, (void)terminated, (void)truncated;
+    if (failed != NULL) {
+        *failed = n;
+    }
+    return RWG_ERR_INTERNAL;
+}
+#endif
+
 static const rwg_env_vtable_t VTABLE = {
     .struct_size = sizeof(rwg_env_vtable_t),
     .create = create,
@@ -119,6 +135,9 @@ static const rwg_env_vtable_t VTABLE = {
     .step = step,
 #endif
     .last_error = last_error,
+#ifdef BROKEN_HALF_BATCH
+    .step_many = half_step_many,
+#endif
 };
 
 #ifdef BROKEN_NULL_STEP

@@ -163,6 +163,10 @@ fn broken_descriptors_give_clear_errors() {
         text("BROKEN_NULL_STEP"),
         "environment #0 'handshake/Ok-v0': env_vtable: step is NULL"
     );
+    assert_eq!(
+        text("BROKEN_HALF_BATCH"),
+        "environment #0 'handshake/Ok-v0': env_vtable: step_many is set but reset_many is NULL (ABI 1.1 needs both or neither)"
+    );
 }
 
 #[test]

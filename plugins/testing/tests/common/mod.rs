@@ -63,6 +63,18 @@ pub fn c_out_dir(test: &str) -> PathBuf {
 /// shared library `out_dir/lib<name>.so` with the given `-D` defines,
 /// warnings as errors.
 pub fn compile_c(src: &str, out_dir: &Path, name: &str, defines: &[&str]) -> PathBuf {
+    compile_c_against(src, "rwg-env/include", out_dir, name, defines)
+}
+
+/// [`compile_c`] with `rwg_plugin.h` taken from `include` (relative to the
+/// repository root), e.g. the ABI 1.0 header kept in `tests/data/abi-v1.0`.
+pub fn compile_c_against(
+    src: &str,
+    include: &str,
+    out_dir: &Path,
+    name: &str,
+    defines: &[&str],
+) -> PathBuf {
     let root = repo_root();
     let out = out_dir.join(library_file_name(name));
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
@@ -77,7 +89,7 @@ pub fn compile_c(src: &str, out_dir: &Path, name: &str, defines: &[&str]) -> Pat
     ])
     .args(["-shared", "-fPIC", "-fvisibility=hidden"])
     .arg("-I")
-    .arg(root.join("rwg-env/include"))
+    .arg(root.join(include))
     .args(defines.iter().map(|d| format!("-D{d}")))
     .arg(root.join(src))
     .arg("-o")

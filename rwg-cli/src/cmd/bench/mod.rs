@@ -17,8 +17,9 @@
 //! invocation: `rwg bench peers` ([`peers`]).
 //!
 //! One file per benchmark: `envs` (built-in envs), `plugin` (a plugin's
-//! envs against the built-ins they re-export), `sampler` (the RWG
-//! workload), `peers` (the whole `rwg run` against gymnax-raw, side by
+//! envs against the built-ins they re-export), `plugin_sampler` (`rwg bench
+//! plugin`: the RWG workload on a plugin's single and batched calls against
+//! the built-ins), `sampler` (the RWG workload), `peers` (the whole `rwg run` against gymnax-raw, side by
 //! side), `gym` (Gymnasium envs through the bridge against a pure-Python
 //! loop); the timing and the table output are shared, here.
 
@@ -26,6 +27,7 @@ mod envs;
 mod gym;
 mod peers;
 mod plugin;
+mod plugin_sampler;
 mod sampler;
 
 use anyhow::Result;
@@ -110,6 +112,20 @@ Reported: median [min-max] env steps/s, bridge / ceiling and 2 workers / 1 worke
 Example:
   rwg bench gym --env gymnasium:CartPole-v1 --peer ../shared/peers/ref_numpy.py")]
     Gym(gym::GymBenchArgs),
+    /// A plugin's re-exported classic envs in the sampler: built-in vs single vs batched calls.
+    #[command(after_help = "\
+For each built-in env the plugin re-exports as NAMESPACE/ID and each of the paper's \
+architectures (0HL, [4], [4,4]; no bias), ROUNDS interleaved rounds (the order rotating) of \
+the RWG workload (SAMPLES networks x EPISODES episodes, seeded with the built-in id so all \
+three run the same episodes, checked) on one sampler thread in this process: (1) the \
+built-in env; (2) the plugin through its single calls, as `rwg run` with \
+RWG_PLUGIN_BATCH=0; (3) the plugin through ABI 1.1's batched calls, as `rwg run`. \
+Reported: process CPU ns per env step, median [min-max], and the per-round ratios to the \
+built-in. Build with --release for meaningful figures.
+
+Example:
+  rwg bench plugin --plugin target/release/librwg_plugin_classic_control.so")]
+    Plugin(plugin_sampler::PluginArgs),
 }
 
 /// Runs `rwg bench`.
@@ -119,6 +135,7 @@ pub fn run(args: Args) -> Result<()> {
         What::Sampler(a) => sampler::run(a),
         What::Peers(a) => peers::run(a),
         What::Gym(a) => gym::run(a),
+        What::Plugin(a) => plugin_sampler::run(a),
     }
 }
 

@@ -1,0 +1,304 @@
+//! `rwg bench plugin`: the RWG workload through the sampler on a plugin's
+//! re-exported classic envs, side by side with their built-in twins: the
+//! built-in env, the plugin through its single calls, and the plugin through
+//! ABI 1.1's batched calls, interleaved, in this process, on one thread.
+
+use super::{group, print_row, Clock};
+use anyhow::{bail, Context, Result};
+use rwg_core::policy::Architecture;
+use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError, WeightDist};
+use rwg_env::Environment;
+use rwg_envs::{visit, EnvOptions, EnvVisitor};
+use rwg_study::env_source::PluginSource;
+use rwg_study::fault_context::Watched;
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// Arguments of `rwg bench plugin`.
+#[derive(clap::Args)]
+pub(super) struct PluginArgs {
+    /// The plugin library re-exporting built-in envs as `NAMESPACE/ID`
+    /// (e.g. the reference plugin, librwg_plugin_classic_control.so).
+    #[arg(long, value_name = "FILE")]
+    plugin: PathBuf,
+    /// Only this built-in env id (repeatable; default: every one the plugin re-exports).
+    #[arg(long = "env", value_name = "ID")]
+    envs: Vec<String>,
+    /// Networks per run.
+    #[arg(long, value_name = "N", default_value_t = 1000)]
+    samples: u64,
+    /// Episodes per network.
+    #[arg(long, value_name = "E", default_value_t = 5)]
+    episodes: u32,
+    /// Interleaved rounds (each runs the three variants once).
+    #[arg(long, value_name = "R", default_value_t = 5)]
+    rounds: usize,
+    /// Print a JSON array instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+/// The architectures measured: the paper's three.
+const ARCHS: [(&str, &[usize]); 3] = [("0HL", &[]), ("[4]", &[4]), ("[4,4]", &[4, 4])];
+/// Samples per block: as in `rwg run`.
+const BLOCK: u64 = 32;
+
+/// Median and range of a variant's CPU ns per env step over the rounds.
+#[derive(Serialize)]
+struct Spread {
+    median: f64,
+    min: f64,
+    max: f64,
+}
+
+impl Spread {
+    fn of(mut v: Vec<f64>) -> Spread {
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let median = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            (v[n / 2 - 1] + v[n / 2]) / 2.0
+        };
+        Spread {
+            median,
+            min: v[0],
+            max: v[n - 1],
+        }
+    }
+
+    fn show(&self, digits: usize) -> String {
+        format!(
+            "{:.d$} [{:.d$}-{:.d$}]",
+            self.median,
+            self.min,
+            self.max,
+            d = digits
+        )
+    }
+}
+
+/// One env and architecture.
+#[derive(Serialize)]
+struct Row {
+    env: String,
+    hidden: Vec<usize>,
+    env_steps: u64,
+    builtin_ns: Spread,
+    single_ns: Spread,
+    batched_ns: Spread,
+    /// Per-round ratios to the built-in of the same round.
+    single_ratio: Spread,
+    batched_ratio: Spread,
+}
+
+/// (env steps, score sum as bits, CPU seconds) of one run.
+type Measured = (u64, u64, f64);
+
+fn measure(run: impl FnOnce(&mut dyn FnMut(BlockResult))) -> Result<Measured> {
+    let (mut steps, mut score) = (0u64, 0.0f64);
+    let clock = Clock::start();
+    run(&mut |b: BlockResult| {
+        for e in &b.episodes {
+            steps += e.steps as u64;
+            score += e.score;
+        }
+    });
+    let (_, cpu) = clock.stop();
+    let cpu = cpu.context("process CPU time is not measurable here")?;
+    Ok((steps, score.to_bits(), cpu))
+}
+
+struct Builtin<'a> {
+    plan: &'a CellPlan,
+    samples: u64,
+    on_block: &'a mut dyn FnMut(BlockResult),
+}
+
+impl EnvVisitor for Builtin<'_> {
+    type Output = Result<(), SampleError>;
+    fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
+        let on_block = self.on_block;
+        run_cell(
+            self.plan,
+            0..self.samples,
+            BLOCK,
+            2,
+            || env.clone(),
+            |b| {
+                on_block(b);
+                Ok::<(), SampleError>(())
+            },
+        )
+    }
+}
+
+pub(super) fn run(args: PluginArgs) -> Result<()> {
+    if args.rounds == 0 || args.samples == 0 || args.episodes == 0 {
+        bail!("--rounds, --samples and --episodes must be at least 1");
+    }
+    let plugin = rwg_plugin_host::load_plugin(&args.plugin)?;
+    let twins: Vec<(String, rwg_plugin_host::PluginEnvType)> = plugin
+        .envs()
+        .iter()
+        .filter_map(|ty| {
+            let (_, b) = ty.id().split_once('/')?;
+            rwg_study::env_source::is_builtin(b).then(|| (b.to_string(), ty.clone()))
+        })
+        .filter(|(b, _)| args.envs.is_empty() || args.envs.contains(b))
+        .collect();
+    if twins.is_empty() {
+        bail!(
+            "{} re-exports no built-in env{} (ids NAMESPACE/ID of a built-in ID)",
+            args.plugin.display(),
+            if args.envs.is_empty() {
+                ""
+            } else {
+                " of those given with --env"
+            }
+        );
+    }
+    if let Some((_, ty)) = twins.iter().find(|(_, t)| !t.has_batched_calls()) {
+        bail!(
+            "{} has no batched calls (ABI 1.1): nothing to compare",
+            ty.id()
+        );
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .context("cannot start the thread pool")?;
+    let blocks: Vec<std::ops::Range<u64>> = (0..args.samples)
+        .step_by(BLOCK as usize)
+        .map(|s| s..(s + BLOCK).min(args.samples))
+        .collect();
+    let mut rows = Vec::new();
+    for (builtin, ty) in &twins {
+        for (name, hidden) in ARCHS {
+            // The built-in id seeds all three, so they run the same episodes.
+            let plan = CellPlan {
+                seed: 0,
+                env_id: builtin.clone(),
+                arch: Architecture {
+                    hidden: hidden.to_vec(),
+                    bias: false,
+                },
+                episodes: args.episodes,
+                dist: WeightDist::Normal { std: 1.0 },
+            };
+            let source = PluginSource {
+                ty: ty.clone(),
+                config: String::new(),
+                max_episode_steps: None,
+            };
+            let mut times: [Vec<f64>; 3] = Default::default();
+            let mut seen: Option<(u64, u64)> = None;
+            for round in 0..args.rounds {
+                let mut round_ns = [0.0; 3];
+                for k in 0..3 {
+                    let v = (k + round) % 3; // rotate who goes first
+                    let m = pool.install(|| -> Result<Measured> {
+                        match v {
+                            0 => measure(|on_block| {
+                                let b = Builtin {
+                                    plan: &plan,
+                                    samples: args.samples,
+                                    on_block,
+                                };
+                                visit(builtin, &EnvOptions::default(), b)
+                                    .expect("a built-in id")
+                                    .expect("built-in envs do not fail")
+                            }),
+                            1 => measure(|on_block| {
+                                let make = || {
+                                    Watched::create(|| source.make().expect("a plugin instance"))
+                                };
+                                run_cell(&plan, 0..args.samples, BLOCK, 2, make, |b| {
+                                    on_block(b);
+                                    Ok::<(), SampleError>(())
+                                })
+                                .expect("the plugin env does not fail")
+                            }),
+                            _ => measure(|on_block| {
+                                rwg_study::plugin_batch::run_blocks(
+                                    &source,
+                                    &plan,
+                                    &blocks,
+                                    2,
+                                    |b| {
+                                        on_block(b);
+                                        Ok::<(), SampleError>(())
+                                    },
+                                )
+                                .expect("the plugin env does not fail")
+                            }),
+                        }
+                    })?;
+                    let (steps, score, cpu) = m;
+                    match seen {
+                        None => seen = Some((steps, score)),
+                        Some(s) if s != (steps, score) => bail!(
+                            "{builtin} {name}: the three variants ran different episodes \
+                             ({} vs {} env steps): a bug",
+                            s.0,
+                            steps
+                        ),
+                        Some(_) => {}
+                    }
+                    round_ns[v] = cpu * 1e9 / steps as f64;
+                }
+                for v in 0..3 {
+                    times[v].push(round_ns[v]);
+                }
+            }
+            let ratio =
+                |v: usize| Spread::of(times[v].iter().zip(&times[0]).map(|(p, b)| p / b).collect());
+            let row = Row {
+                env: builtin.clone(),
+                hidden: hidden.to_vec(),
+                env_steps: seen.map_or(0, |s| s.0),
+                single_ratio: ratio(1),
+                batched_ratio: ratio(2),
+                builtin_ns: Spread::of(times[0].clone()),
+                single_ns: Spread::of(times[1].clone()),
+                batched_ns: Spread::of(times[2].clone()),
+            };
+            if !args.json {
+                if rows.is_empty() {
+                    print_row(&COLUMNS, &COLUMNS.map(|c| c.0.to_string()));
+                }
+                print_row(&COLUMNS, &cells(&row, name));
+            }
+            rows.push(row);
+        }
+    }
+    if args.json {
+        crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
+    }
+    Ok(())
+}
+
+/// Columns of `rwg bench plugin`: header and width (negative: left-aligned).
+const COLUMNS: [(&str, i32); 8] = [
+    ("env", -24),
+    ("hidden", -6),
+    ("env steps", 11),
+    ("built-in ns/step", 19),
+    ("single ns/step", 19),
+    ("batched ns/step", 19),
+    ("single x", 17),
+    ("batched x", 17),
+];
+
+fn cells(r: &Row, arch: &str) -> [String; 8] {
+    [
+        r.env.clone(),
+        arch.to_string(),
+        group(r.env_steps),
+        r.builtin_ns.show(1),
+        r.single_ns.show(1),
+        r.batched_ns.show(1),
+        r.single_ratio.show(2),
+        r.batched_ratio.show(2),
+    ]
+}
