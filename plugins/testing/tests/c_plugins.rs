@@ -107,7 +107,7 @@ fn wrong_abi_version_is_refused_with_both_versions() {
     let k = handshake("BROKEN_WRONG_MAJOR");
     assert_eq!(
         k.to_string(),
-        "ABI version mismatch: the plugin was built for ABI 2.0, this rwg speaks ABI 1.0 \
+        "ABI version mismatch: the plugin was built for ABI 2.1, this rwg speaks ABI 1.1 \
          (majors must match)"
     );
 }
