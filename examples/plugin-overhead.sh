@@ -1,10 +1,14 @@
 #!/usr/bin/env bash
 # What the plugin ABI costs: `rwg run` on the built-in CartPole-v0 and on the
 # same code through the reference plugin (classic_control/CartPole-v0), one
-# worker thread, for three architectures. Runs alternate (built-in, plugin,
-# built-in, ...) and the medians of RUNS runs are reported: user CPU time per
-# environment step (robust on a busy machine) and wall time of the whole
-# `rwg run` (what you wait for, results written included).
+# worker thread, for three architectures; the plugin both through its single
+# calls (RWG_PLUGIN_BATCH=0, "single") and through ABI 1.1's batched calls (the
+# default, "batched"). Runs alternate (built-in, single, batched, built-in, ...)
+# and the medians of RUNS runs are reported: user CPU time per environment step
+# (robust on a busy machine) and wall time of the whole `rwg run` (what you
+# wait for, results written included; a plugin run also loads the plugin and
+# runs its determinism checks first). For every classic env in one process,
+# without the start-up: `rwg bench plugin --plugin FILE`.
 #
 #   cargo build --release -p rwg-cli -p rwg-plugin-classic-control
 #   examples/plugin-overhead.sh            # RUNS=5 SAMPLES=10000 EPISODES=20
@@ -32,7 +36,7 @@ printf '%-8s  %-9s  %12s  %10s  %8s  %10s\n' arch env "env steps" "ns/step" "CPU
 for arch in "0HL:" "1HL-4:4" "2HL-4-4:4, 4"; do
     name=${arch%%:*}
     hidden=${arch#*:}
-    for env in builtin plugin; do
+    for env in builtin single batched; do
         if [ "$env" = builtin ]; then
             entry='id = "CartPole-v0"'
         else
@@ -42,13 +46,15 @@ for arch in "0HL:" "1HL-4:4" "2HL-4-4:4, 4"; do
             "$SAMPLES" "$EPISODES" "$name" "$hidden" "$entry" >"$tmp/$env.toml"
     done
     for _ in $(seq "$RUNS"); do
-        for env in builtin plugin; do
+        for env in builtin single batched; do
+            batch=1
+            [ "$env" = single ] && batch=0
             TIMEFORMAT="%U %R"
-            { time "$RWG" run "$tmp/$env.toml" --threads 1 --no-report --out "$tmp/$env" --force-new >/dev/null 2>&1; } 2>>"$tmp/$env.times"
+            { time RWG_PLUGIN_BATCH=$batch "$RWG" run "$tmp/$env.toml" --threads 1 --no-report --out "$tmp/$env" --force-new >/dev/null 2>&1; } 2>>"$tmp/$env.times"
         done
     done
     base=
-    for env in builtin plugin; do
+    for env in builtin single batched; do
         steps=$(grep -m1 '"env_steps"' "$tmp/$env/run.json" | tr -dc '0-9')
         user=$(cut -d' ' -f1 "$tmp/$env.times" | median)
         wall=$(cut -d' ' -f2 "$tmp/$env.times" | median)
