@@ -8,6 +8,7 @@
 //! statistics) is `rwg-study`.
 
 pub mod batch;
+pub mod many;
 pub mod policy;
 pub mod sampler;
 pub mod tanh;

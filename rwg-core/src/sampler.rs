@@ -451,7 +451,7 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
 }
 
 /// Keeps the failure of the earliest episode.
-fn record_failure(
+pub(crate) fn record_failure(
     failure: &mut Option<(usize, u32, EnvError)>,
     item: usize,
     step: u32,

@@ -43,6 +43,9 @@ pub struct PluginBatch {
     /// The lanes of the call in progress still to be done (a copy of the
     /// caller's mask; a lane is cleared when it fails).
     todo: Vec<u8>,
+    /// Every lane was reset and none is poisoned (so `start` has nothing
+    /// to refuse); recomputed after resets and failures.
+    all_ready: bool,
 }
 
 // SAFETY: as for `PluginEnv`: instances may move between threads between
@@ -103,6 +106,7 @@ impl PluginEnvType {
             elapsed: vec![0; lanes],
             has_reset: vec![false; lanes],
             todo: vec![0; lanes],
+            all_ready: false,
         })
     }
 }
@@ -140,6 +144,9 @@ impl PluginBatch {
         let n = self.envs.len();
         assert_eq!(mask.len(), n, "a mask of {n} lanes");
         self.todo.copy_from_slice(mask);
+        if need_reset && self.all_ready {
+            return;
+        }
         for i in 0..n {
             if self.todo[i] == 1 && (self.envs[i].poisoned || (need_reset && !self.has_reset[i])) {
                 self.todo[i] = 0;
@@ -192,6 +199,7 @@ impl PluginBatch {
             }
             let i = start + failed;
             self.todo[i] = 0;
+            self.all_ready = false; // the lane may be poisoned now
             let error = self.envs[i].fail(what, status);
             on_fail(LaneFailure { lane: i, error });
             start = i + 1;
@@ -244,6 +252,11 @@ impl PluginBatch {
                 }
             }
         }
+        self.all_ready = self
+            .envs
+            .iter()
+            .zip(&self.has_reset)
+            .all(|(e, &r)| r && !e.poisoned);
     }
 
     /// Steps every lane `i` with `mask[i] == 1` with the action

@@ -1,10 +1,11 @@
 //! ABI 1.1's batched calls, `reset_many` and `step_many`, for exported Rust
-//! environments: each masked lane goes through the very trampoline of the
-//! single call ([`reset`], [`step`]), so the two paths cannot differ (same
+//! environments: each masked lane goes through the very code of the single
+//! call ([`reset`], and `step`'s body [`step_inline`]), so the two paths
+//! cannot differ (same
 //! checks, same panic catching, same results bit for bit); what a batch
 //! saves is the host's side of a call per lane.
 
-use super::trampolines::{reset, step};
+use super::trampolines::{reset, step_inline};
 use crate::plugin::abi::*;
 
 /// Whether the whole call must be refused: a NULL where `n > 0` needs a
@@ -104,7 +105,7 @@ pub(super) unsafe extern "C" fn step_many(
         if !masked(mask, i) {
             continue;
         }
-        let status = step(
+        let status = step_inline(
             *envs.add(i),
             actions.add(i * action_len),
             action_len,

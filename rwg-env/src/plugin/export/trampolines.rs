@@ -340,8 +340,20 @@ fn action_of(a: &[f64], kind: ActionKind) -> Result<Action<'_>, String> {
     }
 }
 
-#[inline]
 pub(super) unsafe extern "C" fn step(
+    env: *mut RwgEnv,
+    action: *const f64,
+    action_len: usize,
+    obs: *mut f64,
+    obs_len: usize,
+    out: *mut RwgStepOut,
+) -> Status {
+    step_inline(env, action, action_len, obs, obs_len, out)
+}
+
+/// The body of [`step`], inlined into `step_many`'s loop as well.
+#[inline(always)]
+pub(super) unsafe fn step_inline(
     env: *mut RwgEnv,
     action: *const f64,
     action_len: usize,

@@ -1,0 +1,347 @@
+//! Environments that reset and step many instances in one in-process call
+//! over structure-of-arrays buffers ([`ManyEnv`]; a plugin's ABI 1.1
+//! `reset_many` / `step_many`), and the sampler loop that drives them
+//! ([`ManyLaneWorker`], [`run_blocks_many`]).
+//!
+//! It is [`crate::sampler::LaneWorker`] with one call per step for all
+//! lanes instead of one per lane: the same weights, reset seeds, network
+//! arithmetic and episode bookkeeping, so the results are identical. Unlike
+//! [`crate::batch::BatchEnv`] (built for a remote host, with exchanges that
+//! can be in flight), the call is synchronous and the buffers are the
+//! worker's own, so nothing is copied or wrapped per lane.
+
+use crate::policy::{NetShape, PolicyLanes};
+use crate::sampler::{
+    draw_weights, record_failure, reset_seed, weight_rng, BlockResult, CellPlan, EpisodeResult,
+    SampleError, LANES,
+};
+use rayon::prelude::*;
+use rwg_env::{Action, EnvError, EnvSpec, Space};
+use std::ops::Range;
+
+/// Many instances of one environment (lanes), reset and stepped together.
+///
+/// Buffers are lane-major: lane `i`'s observation is
+/// `obs[i * obs_dim..(i + 1) * obs_dim]`, its action
+/// `actions[i * action_len..]` with `action_len` 1 for a Discrete space (the
+/// action as an integral double) and the dimension of a Box. Only lanes with
+/// `mask[i] == 1` take part; the others' slots are left alone. A lane that
+/// fails goes to `on_fail` (the others are done all the same); a failed
+/// lane is not used again.
+pub trait ManyEnv {
+    /// The environment's description (with its time limit).
+    fn spec(&self) -> &EnvSpec;
+
+    /// Number of lanes.
+    fn lanes(&self) -> usize;
+
+    /// Resets each masked lane `i` with `seeds[i]` (Gymnasium's
+    /// `reset(seed=...)`), writing its first observation.
+    fn reset_many(
+        &mut self,
+        mask: &[u8],
+        seeds: &[u64],
+        obs: &mut [f64],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    );
+
+    /// Steps each masked lane with its action: observation, reward and flags
+    /// (0 or 1; `truncated` includes the time limit) into lane `i`'s slots.
+    #[allow(clippy::too_many_arguments)]
+    fn step_many(
+        &mut self,
+        mask: &[u8],
+        actions: &[f64],
+        obs: &mut [f64],
+        rewards: &mut [f64],
+        terminated: &mut [u8],
+        truncated: &mut [u8],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    );
+}
+
+/// What one lane of a [`ManyLaneWorker`] is doing.
+#[derive(Debug, Clone, Copy)]
+struct Lane {
+    active: bool,
+    /// The episode: `sample_in_block * episodes + episode`.
+    item: usize,
+    /// Which sample of the block the lane's weights belong to.
+    weights_of: usize,
+    score: f64,
+    steps: u32,
+}
+
+/// [`crate::sampler::LaneWorker`] over a [`ManyEnv`] of [`LANES`] lanes:
+/// one `step_many` per step of all running episodes, one `reset_many` per
+/// step in which episodes start.
+pub struct ManyLaneWorker<M> {
+    env: M,
+    policy: PolicyLanes<LANES>,
+    action_len: usize,
+    obs: Vec<f64>,
+    actions: Vec<f64>,
+    step_mask: [u8; LANES],
+    reset_mask: [u8; LANES],
+    seeds: [u64; LANES],
+    rewards: [f64; LANES],
+    terminated: [u8; LANES],
+    truncated: [u8; LANES],
+    block_weights: Vec<f64>,
+}
+
+/// The block being run.
+struct BlockRun<'a> {
+    plan: &'a CellPlan,
+    samples: Range<u64>,
+    next: usize,
+    total: usize,
+    failure: Option<(usize, u32, EnvError)>,
+}
+
+impl<M: ManyEnv> ManyLaneWorker<M> {
+    /// A worker for `plan` on `env`, which must have [`LANES`] lanes.
+    pub fn new(env: M, plan: &CellPlan) -> Self {
+        assert_eq!(env.lanes(), LANES, "a ManyEnv of {LANES} lanes");
+        let spec = env.spec();
+        let obs_dim = spec.obs_dim();
+        let shape = NetShape::new(
+            obs_dim,
+            &plan.arch,
+            NetShape::outputs_for(&spec.action_space),
+        );
+        let action_len = match &spec.action_space {
+            Space::Discrete { .. } => 1,
+            Space::Box(b) => b.dim(),
+        };
+        ManyLaneWorker {
+            policy: PolicyLanes::new(shape, &spec.action_space),
+            obs: vec![0.0; LANES * obs_dim],
+            actions: vec![0.0; LANES * action_len],
+            action_len,
+            step_mask: [0; LANES],
+            reset_mask: [0; LANES],
+            seeds: [0; LANES],
+            rewards: [0.0; LANES],
+            terminated: [0; LANES],
+            truncated: [0; LANES],
+            block_weights: Vec::new(),
+            env,
+        }
+    }
+
+    /// Runs every episode of `samples` into `out`, exactly as
+    /// [`crate::sampler::LaneWorker::run_block`] does (same results, same
+    /// first failing episode).
+    pub fn run_block(
+        &mut self,
+        plan: &CellPlan,
+        samples: Range<u64>,
+        out: &mut [EpisodeResult],
+    ) -> Result<(), SampleError> {
+        let e = plan.episodes as usize;
+        let n = (samples.end - samples.start) as usize;
+        assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
+        let nw = self.policy.shape().n_weights();
+        self.block_weights.resize(n * nw, 0.0);
+        for k in 0..n {
+            let mut rng = weight_rng(
+                plan.seed,
+                &plan.env_id,
+                &plan.arch,
+                samples.start + k as u64,
+            );
+            draw_weights(
+                &mut rng,
+                plan.dist,
+                &mut self.block_weights[k * nw..(k + 1) * nw],
+            );
+        }
+        let idle = Lane {
+            active: false,
+            item: 0,
+            weights_of: usize::MAX,
+            score: 0.0,
+            steps: 0,
+        };
+        let mut lanes = [idle; LANES];
+        let mut run = BlockRun {
+            plan,
+            samples: samples.clone(),
+            next: 0,
+            total: n * e,
+            failure: None,
+        };
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            self.start_next(&mut run, i, lane);
+        }
+        self.reset_pending(&mut run, &mut lanes);
+        let a = self.action_len;
+        while lanes.iter().any(|l| l.active) {
+            self.policy.forward(&self.obs);
+            for (i, lane) in lanes.iter().enumerate() {
+                self.step_mask[i] = u8::from(lane.active);
+                if lane.active {
+                    match self.policy.action(i) {
+                        Action::Discrete(x) => self.actions[i] = x as f64,
+                        Action::Continuous(v) => {
+                            self.actions[i * a..(i + 1) * a].copy_from_slice(v)
+                        }
+                    }
+                }
+            }
+            let mut failed = [false; LANES];
+            let failure = &mut run.failure;
+            self.env.step_many(
+                &self.step_mask,
+                &self.actions,
+                &mut self.obs,
+                &mut self.rewards,
+                &mut self.terminated,
+                &mut self.truncated,
+                &mut |i, err| {
+                    failed[i] = true;
+                    record_failure(failure, lanes[i].item, lanes[i].steps + 1, err);
+                },
+            );
+            for (i, lane) in lanes.iter_mut().enumerate() {
+                if !lane.active {
+                    continue;
+                }
+                if failed[i] {
+                    lane.active = false;
+                    continue;
+                }
+                lane.score += self.rewards[i];
+                lane.steps += 1;
+                if self.terminated[i] == 1 || self.truncated[i] == 1 {
+                    out[lane.item] = EpisodeResult {
+                        score: lane.score,
+                        steps: lane.steps,
+                    };
+                    lane.active = false;
+                    self.start_next(&mut run, i, lane);
+                }
+            }
+            self.reset_pending(&mut run, &mut lanes);
+            if let Some((first, _, _)) = &run.failure {
+                // Episodes after the failing one do not matter any more.
+                for lane in lanes.iter_mut().filter(|l| l.item > *first) {
+                    lane.active = false;
+                }
+            }
+        }
+        match run.failure {
+            None => Ok(()),
+            Some((item, step, error)) => Err(SampleError {
+                env: plan.env_id.clone(),
+                sample: samples.start + (item / e) as u64,
+                episode: (item % e) as u32,
+                step,
+                error,
+            }),
+        }
+    }
+
+    /// Gives lane `i` the next episode of the block (its network's weights,
+    /// its reset seed, marked for the next `reset_many`), unless all have
+    /// started or one failed.
+    fn start_next(&mut self, run: &mut BlockRun<'_>, i: usize, lane: &mut Lane) {
+        if run.failure.is_some() || run.next >= run.total {
+            return;
+        }
+        let item = run.next;
+        run.next += 1;
+        let e = run.plan.episodes as usize;
+        let (k, episode) = (item / e, item % e);
+        if lane.weights_of != k {
+            let nw = self.policy.shape().n_weights();
+            self.policy
+                .set_weights(i, &self.block_weights[k * nw..(k + 1) * nw]);
+            lane.weights_of = k;
+        }
+        self.seeds[i] = reset_seed(
+            run.plan.seed,
+            &run.plan.env_id,
+            run.samples.start + k as u64,
+            episode as u32,
+        );
+        self.reset_mask[i] = 1;
+        lane.item = item;
+    }
+
+    /// Resets the lanes [`Self::start_next`] marked, in one call.
+    fn reset_pending(&mut self, run: &mut BlockRun<'_>, lanes: &mut [Lane; LANES]) {
+        if !self.reset_mask.contains(&1) {
+            return;
+        }
+        let mut failed = [false; LANES];
+        let failure = &mut run.failure;
+        self.env.reset_many(
+            &self.reset_mask,
+            &self.seeds,
+            &mut self.obs,
+            &mut |i, err| {
+                failed[i] = true;
+                record_failure(failure, lanes[i].item, 0, err);
+            },
+        );
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            if self.reset_mask[i] == 1 {
+                self.reset_mask[i] = 0;
+                if !failed[i] {
+                    lane.active = true;
+                    lane.score = 0.0;
+                    lane.steps = 0;
+                }
+            }
+        }
+    }
+}
+
+/// [`crate::sampler::run_blocks`] for a [`ManyEnv`]: the blocks run in
+/// parallel on the current rayon pool, each worker thread on one env made by
+/// `make` (reused for its blocks while no lane fails). Results, their order
+/// and the first error are those of `run_blocks`.
+pub fn run_blocks_many<M, F, G, X>(
+    plan: &CellPlan,
+    blocks: &[Range<u64>],
+    wave: usize,
+    make: F,
+    mut on_block: G,
+) -> Result<(), X>
+where
+    M: ManyEnv + Send,
+    F: Fn() -> Result<M, EnvError> + Sync,
+    G: FnMut(BlockResult) -> Result<(), X>,
+    X: From<SampleError> + Send,
+{
+    let e = plan.episodes as usize;
+    for wave_blocks in blocks.chunks(wave.max(1)) {
+        let results: Vec<Result<BlockResult, SampleError>> = wave_blocks
+            .par_iter()
+            .map_init(
+                || make().map(|env| ManyLaneWorker::new(env, plan)),
+                |worker, range| {
+                    let worker = worker.as_mut().map_err(|err| SampleError {
+                        env: plan.env_id.clone(),
+                        sample: range.start,
+                        episode: 0,
+                        step: 0,
+                        error: err.clone(),
+                    })?;
+                    BlockResult::compute(range.clone(), e, |out| {
+                        worker.run_block(plan, range.clone(), out)
+                    })
+                },
+            )
+            .collect();
+        for r in results {
+            on_block(r?)?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,224 @@
+use super::*;
+use crate::policy::Architecture;
+use crate::sampler::{run_blocks, WeightDist};
+use rwg_env::{BoxSpace, Environment, Step};
+
+/// A toy env: episodes of 1 + (seed % 7) steps; fails at step 2 of
+/// episodes whose seed is a multiple of `fail_every`, and at reset when it
+/// is also odd.
+#[derive(Clone)]
+struct Toy {
+    spec: EnvSpec,
+    seed: u64,
+    t: u64,
+    fail_every: u64,
+}
+
+impl Toy {
+    fn new(fail_every: u64, continuous: bool) -> Self {
+        Toy {
+            spec: EnvSpec {
+                id: "Toy-v0".into(),
+                observation_space: Space::Box(BoxSpace::symmetric(&[1e9, 1e9])),
+                action_space: if continuous {
+                    Space::Box(BoxSpace::symmetric(&[2.0]))
+                } else {
+                    Space::Discrete { n: 3 }
+                },
+                max_episode_steps: None,
+                reward_threshold: None,
+            },
+            seed: 0,
+            t: 0,
+            fail_every,
+        }
+    }
+}
+
+impl Environment for Toy {
+    fn spec(&self) -> &EnvSpec {
+        &self.spec
+    }
+    fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+        if seed % self.fail_every == 0 && seed % 2 == 1 {
+            return Err(EnvError::Other(format!("reset {seed}")));
+        }
+        self.seed = seed;
+        self.t = 0;
+        obs[0] = (seed % 1000) as f64 / 1000.0;
+        obs[1] = -obs[0];
+        Ok(())
+    }
+    fn step(&mut self, a: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+        let a = match a {
+            Action::Discrete(a) => a as f64,
+            Action::Continuous(v) => v[0],
+        };
+        self.t += 1;
+        if self.seed % self.fail_every == 0 && self.t == 2 {
+            return Err(EnvError::Other(format!("step {}", self.seed)));
+        }
+        obs[0] = obs[0] * 0.5 + a;
+        obs[1] = obs[1] * 0.25 - a;
+        Ok(Step {
+            reward: obs[0] - obs[1],
+            terminated: self.t > self.seed % 7,
+            truncated: false,
+        })
+    }
+}
+
+/// [`LANES`] toys behind the [`ManyEnv`] interface, one call per batch.
+struct Many {
+    envs: Vec<Toy>,
+    /// Masks seen (to check that idle lanes are never called).
+    calls: usize,
+}
+
+impl ManyEnv for Many {
+    fn spec(&self) -> &EnvSpec {
+        self.envs[0].spec()
+    }
+    fn lanes(&self) -> usize {
+        self.envs.len()
+    }
+    fn reset_many(
+        &mut self,
+        mask: &[u8],
+        seeds: &[u64],
+        obs: &mut [f64],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    ) {
+        self.calls += 1;
+        for (i, env) in self.envs.iter_mut().enumerate() {
+            if mask[i] == 1 {
+                if let Err(e) = env.reset(seeds[i], &mut obs[i * 2..(i + 1) * 2]) {
+                    on_fail(i, e);
+                }
+            }
+        }
+    }
+    fn step_many(
+        &mut self,
+        mask: &[u8],
+        actions: &[f64],
+        obs: &mut [f64],
+        rewards: &mut [f64],
+        terminated: &mut [u8],
+        truncated: &mut [u8],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    ) {
+        self.calls += 1;
+        let continuous = matches!(self.envs[0].spec.action_space, Space::Box(_));
+        for (i, env) in self.envs.iter_mut().enumerate() {
+            if mask[i] != 1 {
+                continue;
+            }
+            let a = if continuous {
+                Action::Continuous(&actions[i..i + 1])
+            } else {
+                Action::Discrete(actions[i] as i64)
+            };
+            match env.step(a, &mut obs[i * 2..(i + 1) * 2]) {
+                Ok(s) => {
+                    rewards[i] = s.reward;
+                    terminated[i] = u8::from(s.terminated);
+                    truncated[i] = u8::from(s.truncated);
+                }
+                Err(e) => on_fail(i, e),
+            }
+        }
+    }
+}
+
+fn plan(episodes: u32) -> CellPlan {
+    CellPlan {
+        seed: 3,
+        env_id: "Toy-v0".into(),
+        arch: Architecture {
+            hidden: vec![4],
+            bias: true,
+        },
+        episodes,
+        dist: WeightDist::Normal { std: 1.0 },
+    }
+}
+
+type Outcome = Result<Vec<BlockResult>, SampleError>;
+
+fn collect(
+    run: impl FnOnce(&mut dyn FnMut(BlockResult) -> Result<(), SampleError>) -> Result<(), SampleError>,
+) -> Outcome {
+    let mut blocks = vec![];
+    run(&mut |b| {
+        blocks.push(b);
+        Ok(())
+    })?;
+    Ok(blocks)
+}
+
+#[test]
+fn many_lanes_give_the_lane_workers_results_and_first_error() {
+    let blocks: Vec<Range<u64>> = vec![0..5, 5..37, 37..40];
+    let (mut oks, mut errs) = (0, 0);
+    for continuous in [false, true] {
+        for episodes in [1, 3] {
+            for fail_every in [1 << 40, 97, 13, 5] {
+                let toy = Toy::new(fail_every, continuous);
+                let p = plan(episodes);
+                let lanes = collect(|f| run_blocks(&p, &blocks, 2, || toy.clone(), f));
+                let many = collect(|f| {
+                    run_blocks_many(
+                        &p,
+                        &blocks,
+                        2,
+                        || {
+                            Ok(Many {
+                                envs: vec![toy.clone(); LANES],
+                                calls: 0,
+                            })
+                        },
+                        f,
+                    )
+                });
+                assert_eq!(
+                    lanes, many,
+                    "continuous {continuous}, {episodes} episodes, fail_every {fail_every}"
+                );
+                match lanes {
+                    Ok(_) => oks += 1,
+                    Err(_) => errs += 1,
+                }
+            }
+        }
+    }
+    assert!(oks >= 4 && errs >= 4, "{oks} ok, {errs} failed");
+}
+
+#[test]
+fn a_worker_makes_one_call_per_step_of_all_lanes() {
+    let toy = Toy::new(1 << 40, false);
+    let p = plan(2);
+    let mut w = ManyLaneWorker::new(
+        Many {
+            envs: vec![toy; LANES],
+            calls: 0,
+        },
+        &p,
+    );
+    let mut out = vec![
+        EpisodeResult {
+            score: 0.0,
+            steps: 0
+        };
+        64
+    ];
+    w.run_block(&p, 0..32, &mut out).unwrap();
+    let steps: u32 = out.iter().map(|r| r.steps).sum();
+    // Far fewer calls than the 64 resets + `steps` steps the single calls make.
+    assert!(
+        w.env.calls < (64 + steps as usize) / 4,
+        "{} calls for {steps} steps",
+        w.env.calls
+    );
+}
