@@ -110,7 +110,7 @@ fn resolve_env(
                 let spec = visit(&e.id, &opts, SpecOf).expect("a built-in id");
                 return Ok((EnvSource::Builtin(opts), spec));
             }
-            Found::OnPath(ty) => ty,
+            Found::OnPath(ty) => *ty,
             Found::Unknown(msg) => return Err(id_err(format!("envs: {msg}"))),
         },
     };

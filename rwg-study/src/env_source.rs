@@ -76,7 +76,7 @@ pub enum Found {
     /// A built-in environment.
     Builtin,
     /// An environment of a plugin on `RWG_PLUGIN_PATH`.
-    OnPath(PluginEnvType),
+    OnPath(Box<PluginEnvType>),
     /// Nowhere: the message says what was searched.
     Unknown(String),
 }
@@ -103,7 +103,7 @@ impl Plugins {
         }
         let scan = self.scan();
         if let Some(ty) = scan.plugins.iter().find_map(|p| p.env(id)) {
-            return Found::OnPath(ty.clone());
+            return Found::OnPath(Box::new(ty.clone()));
         }
         let builtin: Vec<&str> = rwg_envs::registry::known_ids().collect();
         let on_path: Vec<&str> = scan
