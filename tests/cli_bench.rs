@@ -112,6 +112,41 @@ fn bench_sampler_json_counts_every_step() {
 }
 
 #[test]
+fn bench_plugin_compares_builtin_single_and_batched_on_the_same_episodes() {
+    let lib = classic_control_plugin();
+    let out = rwg_ok(&[
+        "bench",
+        "plugin",
+        "--plugin",
+        lib.to_str().unwrap(),
+        "--env",
+        "CartPole-v0",
+        "--env",
+        "Pendulum-v1",
+        "--samples",
+        "40",
+        "--episodes",
+        "2",
+        "--rounds",
+        "2",
+        "--json",
+    ]);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let rows = v.as_array().unwrap();
+    // Two envs x the paper's three architectures; the three variants ran the
+    // same episodes (the command fails otherwise).
+    assert_eq!(rows.len(), 6, "{out}");
+    assert_eq!(rows[0]["env"], "CartPole-v0");
+    assert_eq!(rows[5]["env"], "Pendulum-v1");
+    assert_eq!(rows[5]["env_steps"], 40 * 2 * 200);
+    for r in rows {
+        for k in ["builtin_ns", "single_ns", "batched_ns", "batched_ratio"] {
+            assert!(r[k]["median"].as_f64().unwrap() > 0.0, "{k} in {r}");
+        }
+    }
+}
+
+#[test]
 fn bench_rejects_unknown_envs() {
     let err = rwg_err(&["bench", "envs", "--steps", "10", "--env", "CartPol-v0"]);
     assert!(err.contains("did you mean 'CartPole-v0'"), "{err}");
