@@ -15,7 +15,8 @@
 //!   (replacing a `--samples` it has), `plugin-overhead.sh` runs with
 //!   `SAMPLES=32 EPISODES=2`, `rwg bench envs` with `--steps 20000`,
 //!   `rwg bench sampler` and `rwg bench gym` with `--samples 16 --episodes 2`
-//!   (and `--repeats 1`): the tests run a
+//!   (and `--repeats 1`), `rwg bench plugin` with `--samples 16 --episodes 2
+//!   --rounds 1`: the tests run a
 //!   debug build, ten times slower than the release build the README uses,
 //!   and the full paper study alone would take an hour. With 32 networks
 //!   per cell, `rwg stats` and `rwg report` get `--at-n 8` for an `--at-n`
@@ -236,6 +237,11 @@ fn reduce_rwg(cmd: &str) -> String {
     }
     if c.contains("rwg bench gym") {
         c = set_flag(&c, "--repeats", "1");
+    }
+    if c.contains("rwg bench plugin") {
+        c = set_flag(&c, "--samples", "16");
+        c = set_flag(&c, "--episodes", "2");
+        c = set_flag(&c, "--rounds", "1");
     }
     if c.contains("rwg slurm ") && !c.contains("--dry-run") {
         c.push_str(" --dry-run");
