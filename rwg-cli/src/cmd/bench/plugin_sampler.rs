@@ -190,6 +190,7 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                 ty: ty.clone(),
                 config: String::new(),
                 max_episode_steps: None,
+                isolated: None,
             };
             let mut times: [Vec<f64>; 3] = Default::default();
             let mut seen: Option<(u64, u64)> = None;
