@@ -788,3 +788,37 @@ fn ctrl_c_stops_a_bridge_run_like_a_builtin_one() {
     assert!(blocks.join("b0000000.csv").is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn mujoco_warnings_go_to_stderr_not_into_the_users_folder() {
+    let Some(py) = python() else { return };
+    // HalfCheetah-v5's model uses an attribute MuJoCo 3.x warns about while
+    // compiling; MuJoCo's default handler also appends it to MUJOCO_LOG.TXT
+    // in the current directory. rwg's worker routes it to stderr alone.
+    let dir = temp_dir("mujoco-log");
+    let out = rwg_cmd(
+        &py,
+        &[
+            "rollout",
+            "gymnasium:HalfCheetah-v5",
+            "--actions",
+            "0 0 0 0 0 0,1 -1 1 -1 1 -1",
+        ],
+    )
+    .current_dir(&dir)
+    .output()
+    .unwrap();
+    assert!(
+        out.status.success(),
+        "rollout failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(
+        left.is_empty(),
+        "rwg left {left:?} in the current directory"
+    );
+}

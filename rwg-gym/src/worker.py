@@ -123,10 +123,24 @@ def main():
         kwargs["max_episode_steps"] = int(hello["max_episode_steps"])
     lanes = int(hello["lanes"])
     groups = int(hello.get("groups", 1))
+    # MuJoCo writes its warnings (e.g. HalfCheetah's deprecated `settotalmass`)
+    # to MUJOCO_LOG.TXT in the current directory, the user's, besides stderr:
+    # route them to stderr alone, before a MuJoCo model is compiled.
+    try:
+        entry = gym.spec(name).entry_point
+    except BaseException:  # noqa: BLE001 -- gym.make below reports an unknown id
+        entry = None
+    if isinstance(entry, str) and "mujoco" in entry:
+        try:
+            import mujoco  # noqa: F401
+        except BaseException:  # noqa: BLE001 -- gym.make below reports it
+            pass
+    quiet_mujoco()
     envs = []
     for _ in range(lanes * groups):
         try:
             envs.append(gym.make(name, **kwargs))
+            quiet_mujoco()  # an env of another package may import mujoco in make
         except gym.error.UnregisteredEnv as e:
             fail("not_registered", f"{type(e).__name__}: {e}")
         except BaseException as e:  # noqa: BLE001
@@ -383,6 +397,21 @@ def main():
 
 class ObsShape(Exception):
     pass
+
+
+def _mujoco_warning(msg):
+    print(f"MuJoCo warning: {msg}", file=sys.stderr, flush=True)
+
+
+def quiet_mujoco():
+    """MuJoCo's warnings to stderr only (not MUJOCO_LOG.TXT), once mujoco is imported."""
+    m = sys.modules.get("mujoco")
+    setter = getattr(m, "set_mju_user_warning", None)
+    if setter is not None and getattr(m, "get_mju_user_warning", lambda: None)() is None:
+        try:
+            setter(_mujoco_warning)
+        except BaseException:  # noqa: BLE001 -- an old mujoco: its default behaviour stays
+            pass
 
 
 if __name__ == "__main__":
