@@ -485,9 +485,17 @@ impl Manifest {
             }
             let id = e.id.get_ref().clone();
             if envs.iter().any(|x| x.id == id) {
+                let hint = if crate::gym_source::is_gym(&id) {
+                    " (one entry per id, as the id enters the seeds and the cell names: for \
+                     another configuration of the env use a registered id of its own, e.g. \
+                     gymnasium:LunarLanderContinuous-v3 beside gymnasium:LunarLander-v3, or a \
+                     second manifest)"
+                } else {
+                    ""
+                };
                 return Err(err(
                     e.id.span(),
-                    format!("{key}.id: '{id}' is listed twice"),
+                    format!("{key}.id: '{id}' is listed twice{hint}"),
                 ));
             }
             let solved = match &e.solved {

@@ -300,3 +300,16 @@ fn isolate_is_how_an_env_runs_not_part_of_the_study() {
         "{e}"
     );
 }
+
+#[test]
+fn a_gymnasium_id_listed_twice_names_the_way_out() {
+    // the same id with other kwargs would give the same seeds and cell names
+    let two = "[[envs]]\nid = \"gymnasium:LunarLander-v3\"\n\n\
+               [[envs]]\nid = \"gymnasium:LunarLander-v3\"\nkwargs = { continuous = true }\n";
+    let e = error_of(&format!("{GOOD}{two}"));
+    assert!(
+        e.starts_with("m.toml:33:6: envs[3].id: 'gymnasium:LunarLander-v3' is listed twice"),
+        "{e}"
+    );
+    assert!(e.contains("gymnasium:LunarLanderContinuous-v3"), "{e}");
+}
