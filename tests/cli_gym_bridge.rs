@@ -792,7 +792,7 @@ fn ctrl_c_stops_a_bridge_run_like_a_builtin_one() {
 #[test]
 fn mujoco_warnings_go_to_stderr_not_into_the_users_folder() {
     let Some(py) = python() else { return };
-    // HalfCheetah-v5's model uses an attribute MuJoCo 3.x warns about while
+    // HalfCheetah-v5's model uses an attribute MuJoCo warns about while
     // compiling; MuJoCo's default handler also appends it to MUJOCO_LOG.TXT
     // in the current directory. rwg's worker routes it to stderr alone.
     let dir = temp_dir("mujoco-log");
