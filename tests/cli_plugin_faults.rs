@@ -113,7 +113,8 @@ fn segfault_and_abort_are_reported_with_the_step() {
     use std::os::unix::process::ExitStatusExt;
     let dir = temp_dir("fault-signals");
     let m = study(&dir, "s.toml", "broken/SegfaultInStep-v0", "", 40);
-    let res = run(&m, &dir.join("s"), &[]);
+    // One thread: with two, either thread's first step may be the one reported.
+    let res = run(&m, &dir.join("s"), &["--threads", "1"]);
     let err = text(&res.stderr);
     assert_eq!(res.status.signal(), Some(11), "{err}");
     assert!(
@@ -142,7 +143,11 @@ fn a_hung_step_times_out() {
     let dir = temp_dir("fault-hang");
     let m = study(&dir, "h.toml", "broken/HangInStep-v0", "", 40);
     let t0 = Instant::now();
-    let res = run(&m, &dir.join("h"), &["--step-timeout", "2"]);
+    let res = run(
+        &m,
+        &dir.join("h"),
+        &["--step-timeout", "2", "--threads", "1"],
+    );
     let err = text(&res.stderr);
     assert_eq!(res.status.code(), Some(1), "{err}");
     assert!(t0.elapsed() < Duration::from_secs(30));

@@ -86,3 +86,41 @@ fn quiet_silences_progress() {
         "{err}"
     );
 }
+
+/// A block that takes longer than the interval (a slow env, a long episode)
+/// does not silence the log: the line comes on time, with the counts so far.
+#[test]
+fn lines_keep_coming_while_a_long_block_runs() {
+    let dir = temp_dir("progress-slow");
+    let m = dir.join("m.toml");
+    // One block of 32 networks x 400 episodes of up to 999 steps: a second
+    // or more in any build, with lines due every 0.1 s.
+    std::fs::write(
+        &m,
+        "samples = 32\nepisodes = 400\nthreads = 1\n[[architectures]]\nname = \"0HL\"\n\
+         hidden = []\n[[envs]]\nid = \"MountainCarContinuous-v0\"\n",
+    )
+    .unwrap();
+    let out = dir.join("run");
+    let t0 = std::time::Instant::now();
+    let o = rwg_env(
+        &[
+            "run",
+            m.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--no-report",
+        ],
+        &[("RWG_PROGRESS_INTERVAL", std::ffi::OsStr::new("0.1"))],
+    );
+    let secs = t0.elapsed().as_secs_f64();
+    let err = String::from_utf8(o.stderr).unwrap();
+    assert!(o.status.success(), "{err}");
+    let waiting = err
+        .lines()
+        .filter(|l| l.contains(": 0/32 networks (0.0%)"))
+        .count();
+    assert!(waiting >= 2, "{secs:.2} s, yet:\n{err}");
+    assert!(err.contains("] done: 32/32 networks (100.0%)"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

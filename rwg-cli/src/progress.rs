@@ -8,6 +8,7 @@
 
 use rwg_study::runner::Progress;
 use std::io::Write;
+use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 /// Default seconds between two progress lines.
@@ -23,8 +24,20 @@ pub fn hms(secs: f64) -> String {
     format!("{}:{:02}:{:02}", s / 3600, s / 60 % 60, s % 60)
 }
 
-/// Plain progress lines on stderr, at most one per interval.
+/// Plain progress lines on stderr, one per interval: after a block when the
+/// interval has passed, and from a ticker thread when no block ends for a
+/// whole interval (a slow Gymnasium cell), so a log never falls silent.
 pub struct Lines {
+    shared: Arc<Shared>,
+    ticker: Option<std::thread::JoinHandle<()>>,
+}
+
+struct Shared {
+    state: Mutex<State>,
+    wake: Condvar,
+}
+
+struct State {
     interval: Duration,
     t0: Instant,
     last: Instant,
@@ -32,31 +45,13 @@ pub struct Lines {
     done: u64,
     steps: u64,
     label: String,
+    finished: bool,
 }
 
-impl Lines {
-    /// Lines every [`DEFAULT_INTERVAL_S`] seconds, or `RWG_PROGRESS_INTERVAL`.
-    pub fn new() -> Self {
-        let secs = std::env::var("RWG_PROGRESS_INTERVAL")
-            .ok()
-            .and_then(|v| v.parse::<f64>().ok())
-            .filter(|s| s.is_finite() && *s >= 0.0)
-            .unwrap_or(DEFAULT_INTERVAL_S);
-        let now = Instant::now();
-        Lines {
-            interval: Duration::from_secs_f64(secs),
-            t0: now,
-            last: now,
-            total: 0,
-            done: 0,
-            steps: 0,
-            label: String::new(),
-        }
-    }
-
+impl State {
     /// The current line: elapsed time, cell, networks done of total,
     /// networks/s, env steps/s and the estimated time left.
-    pub fn line(&self) -> String {
+    fn line(&self) -> String {
         let secs = self.t0.elapsed().as_secs_f64().max(1e-9);
         let nets = self.done as f64 / secs;
         let eta = if self.done == 0 {
@@ -77,9 +72,76 @@ impl Lines {
         )
     }
 
-    fn emit(&self, s: &str) {
-        // a closed stderr is no reason to stop the study
-        let _ = writeln!(std::io::stderr(), "{s}");
+    /// Emits the current line if a whole interval has passed since the last.
+    fn emit_if_due(&mut self) {
+        if self.last.elapsed() >= self.interval {
+            self.last = Instant::now();
+            emit(&self.line());
+        }
+    }
+}
+
+fn emit(s: &str) {
+    // a closed stderr is no reason to stop the study
+    let _ = writeln!(std::io::stderr(), "{s}");
+}
+
+impl Lines {
+    /// Lines every [`DEFAULT_INTERVAL_S`] seconds, or `RWG_PROGRESS_INTERVAL`.
+    pub fn new() -> Self {
+        let secs = std::env::var("RWG_PROGRESS_INTERVAL")
+            .ok()
+            .and_then(|v| v.parse::<f64>().ok())
+            .filter(|s| s.is_finite() && *s >= 0.0)
+            .unwrap_or(DEFAULT_INTERVAL_S);
+        let now = Instant::now();
+        let state = State {
+            interval: Duration::from_secs_f64(secs),
+            t0: now,
+            last: now,
+            total: 0,
+            done: 0,
+            steps: 0,
+            label: String::new(),
+            finished: false,
+        };
+        Lines {
+            shared: Arc::new(Shared {
+                state: Mutex::new(state),
+                wake: Condvar::new(),
+            }),
+            ticker: None,
+        }
+    }
+
+    fn state(&self) -> std::sync::MutexGuard<'_, State> {
+        // a panic elsewhere while holding it leaves the counts usable
+        self.shared.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Stops the ticker thread, if any.
+    fn stop_ticker(&mut self) {
+        self.state().finished = true;
+        self.shared.wake.notify_all();
+        if let Some(t) = self.ticker.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The ticker: wakes when the next line is due and emits it unless a block
+/// did in the meantime.
+fn tick(shared: Arc<Shared>) {
+    let mut st = shared.state.lock().unwrap_or_else(|e| e.into_inner());
+    while !st.finished {
+        let due = st.interval.saturating_sub(st.last.elapsed());
+        st = match shared.wake.wait_timeout(st, due) {
+            Ok((g, _)) => g,
+            Err(e) => e.into_inner().0,
+        };
+        if !st.finished {
+            st.emit_if_due();
+        }
     }
 }
 
@@ -89,38 +151,57 @@ impl Default for Lines {
     }
 }
 
+impl Drop for Lines {
+    fn drop(&mut self) {
+        self.stop_ticker();
+    }
+}
+
 impl Progress for Lines {
     fn start(&mut self, networks: u64) {
-        self.t0 = Instant::now();
-        self.last = self.t0;
-        self.total = networks;
-        if networks > 0 {
-            self.emit(&format!(
-                "[0:00:00] {networks} networks to compute; a progress line every {} s",
-                self.interval.as_secs_f64()
-            ));
+        let ticks = {
+            let mut st = self.state();
+            st.t0 = Instant::now();
+            st.last = st.t0;
+            st.total = networks;
+            st.finished = false;
+            if networks > 0 {
+                emit(&format!(
+                    "[0:00:00] {networks} networks to compute; a progress line every {} s",
+                    st.interval.as_secs_f64()
+                ));
+            }
+            // With interval 0 (a line per block) there is nothing to tick.
+            networks > 0 && !st.interval.is_zero()
+        };
+        if ticks && self.ticker.is_none() {
+            let shared = Arc::clone(&self.shared);
+            self.ticker = std::thread::Builder::new()
+                .name("rwg-progress".into())
+                .spawn(move || tick(shared))
+                .ok();
         }
     }
 
     fn cell(&mut self, label: &str) {
-        self.label = label.to_string();
+        self.state().label = label.to_string();
     }
 
     fn block(&mut self, label: &str, networks: u64, env_steps: u64) {
-        self.label = label.to_string();
-        self.done += networks;
-        self.steps += env_steps;
-        if self.last.elapsed() >= self.interval {
-            self.last = Instant::now();
-            self.emit(&self.line());
-        }
+        let mut st = self.state();
+        st.label = label.to_string();
+        st.done += networks;
+        st.steps += env_steps;
+        st.emit_if_due();
     }
 
     fn finish(&mut self, ok: bool) {
-        if self.total > 0 {
+        self.stop_ticker();
+        let mut st = self.state();
+        if st.total > 0 {
             let what = if ok { "done" } else { "stopped" };
-            self.label = what.into();
-            self.emit(&self.line());
+            st.label = what.into();
+            emit(&st.line());
         }
     }
 }
@@ -148,15 +229,17 @@ mod tests {
         l.start(100);
         l.cell("cell 1/2 (0 done): A");
         assert!(
-            l.line()
+            l.state()
+                .line()
                 .ends_with("0/100 networks (0.0%), 0 networks/s, 0.000e0 env steps/s, ETA unknown"),
             "{}",
-            l.line()
+            l.state().line()
         );
-        l.done = 25;
+        l.state().done = 25;
         assert!(l
+            .state()
             .line()
             .contains("cell 1/2 (0 done): A: 25/100 networks (25.0%)"));
-        assert!(!l.line().contains("ETA unknown"));
+        assert!(!l.state().line().contains("ETA unknown"));
     }
 }
