@@ -170,13 +170,16 @@ fn a_crash_in_a_batched_step_is_reported_as_one() {
         &[("broken/SegfaultInStep-v0", &broken_plugin(), "")],
         40,
     );
-    let res = rwg(&[
-        "run",
-        &m,
-        "--out",
-        dir.join("s").to_str().unwrap(),
-        "--no-report",
-    ]);
+    let res = rwg_env(
+        &[
+            "run",
+            &m,
+            "--out",
+            dir.join("s").to_str().unwrap(),
+            "--no-report",
+        ],
+        &[("RWG_PLUGIN_BATCH", "1".as_ref())],
+    );
     let err = text(&res.stderr);
     assert_eq!(res.status.signal(), Some(11), "{err}");
     assert!(
@@ -186,7 +189,7 @@ fn a_crash_in_a_batched_step_is_reported_as_one() {
     assert!(err.contains("env 'broken/SegfaultInStep-v0'"), "{err}");
     assert!(
         err.contains(
-            "one of 16 lanes (batched call 2 of the thread; rerun with RWG_PLUGIN_BATCH=0"
+            "one of 16 lanes (batched call 2 of the thread; rerun without RWG_PLUGIN_BATCH=1"
         ),
         "{err}"
     );

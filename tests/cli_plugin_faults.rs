@@ -27,9 +27,9 @@ fn text(b: &[u8]) -> String {
 }
 
 /// Runs `rwg run MANIFEST --out OUT` plus `extra`, on the plugin's single
-/// calls (`RWG_PLUGIN_BATCH=0`), whose fault reports name the network, episode
-/// and step; `tests/cli_plugin_batch.rs` checks the report of a fault in a
-/// batched call.
+/// calls (the default; `RWG_PLUGIN_BATCH=0` says so explicitly), whose fault
+/// reports name the network, episode and step; `tests/cli_plugin_batch.rs`
+/// checks the report of a fault in a batched call.
 fn run(manifest: &str, out: &Path, extra: &[&str]) -> Output {
     let mut args = vec![
         "run",

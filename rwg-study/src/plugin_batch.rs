@@ -5,8 +5,10 @@
 //!
 //! The episodes are those of the single calls bit for bit (the ABI promises
 //! it; `rwg check` tests it), so `scores.csv` and `samples.csv` do not
-//! depend on the path. `RWG_PLUGIN_BATCH=0` in the environment makes `rwg
-//! run` use the single calls anyway ([`use_batched_calls`]).
+//! depend on the path. They are used only when `RWG_PLUGIN_BATCH=1` is in
+//! the environment ([`use_batched_calls`]): measured, they cost what the
+//! single calls cost (docs/performance.md), and a fault inside one cannot be
+//! traced to its network and step, which the single calls' reports name.
 
 use crate::env_source::PluginSource;
 use crate::fault_context::{recorded_batch, recorded_create, Phase};
@@ -16,13 +18,13 @@ use rwg_env::{EnvError, EnvSpec};
 use rwg_plugin_host::PluginBatch;
 use std::ops::Range;
 
-/// The environment variable that turns the batched calls off (`0`).
+/// The environment variable that turns the batched calls on (`1`).
 pub const BATCH_VAR: &str = "RWG_PLUGIN_BATCH";
 
 /// Whether `rwg run` steps `source` through the batched calls: the plugin
-/// has them and `RWG_PLUGIN_BATCH` is not `0`.
+/// has them and `RWG_PLUGIN_BATCH` is `1`.
 pub fn use_batched_calls(source: &PluginSource) -> bool {
-    source.ty.has_batched_calls() && std::env::var(BATCH_VAR).as_deref() != Ok("0")
+    source.ty.has_batched_calls() && std::env::var(BATCH_VAR).as_deref() == Ok("1")
 }
 
 /// [`LANES`] instances of a plugin env, their calls recorded for fault
