@@ -17,14 +17,13 @@ fn python() -> Option<String> {
     match std::env::var("RWG_TEST_PYTHON") {
         Ok(p) if !p.is_empty() => Some(p),
         _ => {
-            let strict = std::env::var("CI").as_deref() == Ok("true")
-                || std::env::var("RWG_NO_SKIP").as_deref() == Ok("1");
-            assert!(
-                !strict,
-                "CI must run this test: set RWG_TEST_PYTHON to a Python with gymnasium[box2d,mujoco]==1.4.0"
-            );
-            eprintln!(
-                "SKIPPED: set RWG_TEST_PYTHON to a Python with gymnasium[box2d,mujoco]==1.4.0 to run this test"
+            // the test harness names the thread after the test; `skip` writes
+            // past its capture (an `eprintln!` here was swallowed, so a test
+            // without Gymnasium showed a plain `ok`) and fails under CI
+            let thread = std::thread::current();
+            skip(
+                thread.name().unwrap_or("cli_gym_bridge"),
+                "set RWG_TEST_PYTHON to a Python with gymnasium[box2d,mujoco]==1.4.0 to run this test",
             );
             None
         }

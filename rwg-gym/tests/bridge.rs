@@ -13,8 +13,13 @@ fn python() -> Option<String> {
             let ci = std::env::var("CI").as_deref() == Ok("true")
                 || std::env::var("RWG_NO_SKIP").as_deref() == Ok("1");
             assert!(!ci, "set RWG_TEST_PYTHON to a Python with gymnasium 1.4");
-            eprintln!(
-                "SKIPPED: set RWG_TEST_PYTHON to a Python with gymnasium==1.4.0 to run this test"
+            // to the process's stderr, past the test harness's capture (which
+            // swallows `eprintln!` of a passing test): the skip shows
+            use std::io::Write;
+            let _ = writeln!(
+                std::io::stderr(),
+                "SKIPPED {}: set RWG_TEST_PYTHON to a Python with gymnasium==1.4.0 to run this test",
+                std::thread::current().name().unwrap_or("bridge")
             );
             None
         }
