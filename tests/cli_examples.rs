@@ -118,7 +118,8 @@ fn help_examples() -> Vec<Example> {
             .filter(|c| c != "help")
             .collect()
     };
-    let mut paths: Vec<Vec<String>> = vec![];
+    // `rwg --help` itself, every command's and every subcommand's
+    let mut paths: Vec<Vec<String>> = vec![vec![]];
     for c in commands(&rwg_ok(&["--help"])) {
         let sub = commands(&rwg_ok(&[&c, "--help"]));
         paths.push(vec![c.clone()]);
@@ -129,31 +130,74 @@ fn help_examples() -> Vec<Example> {
         let mut args: Vec<&str> = p.iter().map(String::as_str).collect();
         args.push("--help");
         let help = rwg_ok(&args);
-        let mut lines = help.lines();
-        while let Some(l) = lines.by_ref().find(|l| l.starts_with("Example")) {
-            assert!(l == "Example:" || l == "Examples:", "{l}");
-            for e in lines.by_ref().take_while(|l| l.starts_with("  ")) {
-                // a command starts with rwg, an environment assignment or a
-                // loop; anything else is the tail of a line clap wrapped
-                let first = e.split_whitespace().next().unwrap_or("");
-                assert!(
-                    first == "rwg" || first == "for" || first.contains('='),
-                    "`rwg {} --help`: an example line that is no command (the tail of a \
-                     wrapped line?): {e}",
-                    p.join(" ")
-                );
-                assert!(
-                    e.chars().count() < HELP_WIDTH,
-                    "`rwg {} --help`: an example of {} characters is wrapped by clap: {e}",
-                    p.join(" "),
-                    e.chars().count()
-                );
-                out.push(Example {
-                    source: format!("rwg {} --help", p.join(" ")),
-                    command: strip_comment(e.trim()).to_string(),
-                });
+        let source = format!("rwg {}", args.join(" "));
+        let mut in_examples = false;
+        let mut pending: Option<String> = None;
+        for l in help.lines() {
+            if l.starts_with("Example") {
+                assert!(l == "Example:" || l == "Examples:", "{l}");
+                in_examples = true;
+                continue;
             }
+            if !l.starts_with("  ") {
+                assert!(
+                    pending.is_none(),
+                    "`{source}`: an example ends in `\\` with no line after it"
+                );
+                in_examples = false;
+                continue;
+            }
+            if !in_examples {
+                // a command shown anywhere else would not be run: refuse it
+                let shown = !l.starts_with("   ")
+                    && ["rwg ", "python3 ", "target/", "make ", "cargo "]
+                        .iter()
+                        .any(|w| l.trim_start().starts_with(w));
+                assert!(
+                    !shown,
+                    "`{source}` shows a command outside its Examples section, where this \
+                     test would not run it: {l}"
+                );
+                continue;
+            }
+            assert!(
+                l.chars().count() < HELP_WIDTH,
+                "`{source}`: an example line of {} characters is wrapped by clap: {l}",
+                l.chars().count()
+            );
+            let line = strip_comment(l.trim());
+            let mut cmd = match pending.take() {
+                // the continuation of a line that ended in `\`
+                Some(head) => head + " " + line,
+                None => {
+                    // a command starts with rwg, a program of the set-up (python3,
+                    // one in target/), an environment assignment or a loop;
+                    // anything else is the tail of a line clap wrapped
+                    let first = line.split_whitespace().next().unwrap_or("");
+                    assert!(
+                        ["rwg", "for", "python3"].contains(&first)
+                            || first.starts_with("target/")
+                            || first.contains('='),
+                        "`{source}`: an example line that is no command (the tail of a \
+                         wrapped line?): {l}"
+                    );
+                    line.to_string()
+                }
+            };
+            if let Some(head) = cmd.strip_suffix('\\') {
+                cmd = head.trim_end().to_string();
+                pending = Some(cmd);
+                continue;
+            }
+            out.push(Example {
+                source: source.clone(),
+                command: cmd,
+            });
         }
+        assert!(
+            pending.is_none(),
+            "`{source}`: an example ends in `\\` with no line after it"
+        );
     }
     out
 }

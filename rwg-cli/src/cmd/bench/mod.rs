@@ -93,11 +93,14 @@ Prints env steps per CPU-second of each side and their ratio per round: median \
 [min-max]. Env steps are the transitions inside episodes on both sides.
 
 The peer needs a Python with jax and gymnax: --python (or RWG_PEER_PYTHON), or the \
-virtualenv --venv, which --create-venv makes with
+virtualenv --venv, which --create-venv makes as the first two examples do. Build rwg \
+with --release for meaningful figures.
+
+Examples:
   python3 -m venv target/peers-venv
-  target/peers-venv/bin/pip install numpy==2.4.6 gymnasium==1.3.0 jax==0.10.2 \
-jaxlib==0.10.2 gymnax==1.0.1 flax==0.12.8 six==1.17.0
-Build rwg with --release for meaningful figures.")]
+  target/peers-venv/bin/pip install numpy==2.4.6 gymnasium==1.3.0 jax==0.10.2 jaxlib==0.10.2 \\
+    gymnax==1.0.1 flax==0.12.8 six==1.17.0
+  rwg bench peers --peers ../shared/peers")]
     Peers(peers::PeersArgs),
     /// Gymnasium envs through the bridge, beside a pure-Python ceiling loop and a peer script.
     #[command(after_help = "\
