@@ -27,6 +27,21 @@ fn a_missing_manifest_is_named_once_with_a_hint() {
     // no hint when nothing is near
     let err = rwg_err(&["run", dir.join("zzzzzzzzzz.toml").to_str().unwrap()]);
     assert!(!err.contains("did you mean"), "{err}");
+    // nor for an output path that does not exist yet: it is no typo, even
+    // beside a folder of a similar name
+    std::fs::create_dir_all(dir.join("runs/quick")).unwrap();
+    let out = dir.join("runs/quik");
+    let err = rwg_err(&[
+        "run",
+        typo.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(err.matches("did you mean").count(), 1, "{err}");
+    assert!(
+        !err.contains(&format!("{} does not exist", out.display())),
+        "{err}"
+    );
 }
 
 #[test]
@@ -37,6 +52,8 @@ fn commands_that_need_a_run_directory_say_so() {
     let name = run.file_name().unwrap().to_str().unwrap();
     for cmd in [
         vec!["stats", dir.to_str().unwrap()],
+        vec!["verify", dir.to_str().unwrap()],
+        vec!["plot", dir.to_str().unwrap()],
         vec!["report", dir.to_str().unwrap()],
         vec!["top", dir.to_str().unwrap()],
         vec!["compare", dir.to_str().unwrap()],

@@ -42,14 +42,19 @@ pub fn nearby(missing: &Path) -> Option<PathBuf> {
 }
 
 /// A hint for a "not found" error: the command-line arguments that name a
-/// missing file, each with the nearest existing one.
+/// missing file the error is about, each with the nearest existing one.
+/// Only arguments the error names: an output path that does not exist yet
+/// (`--out runs/mine`) is no typo, and "did you mean runs/quick?" for it
+/// would mislead.
 pub fn hint(e: &anyhow::Error, args: &[String]) -> Option<String> {
     if !not_found(e) {
         return None;
     }
+    let text = format!("{e:#}");
     let hints: Vec<String> = args
         .iter()
         .filter(|a| !a.starts_with('-') && (a.contains('/') || a.contains('.')))
+        .filter(|a| text.contains(a.as_str()))
         .map(Path::new)
         .filter(|p| !p.exists())
         .filter_map(|p| {
@@ -75,6 +80,27 @@ mod tests {
         assert!(not_found(&anyhow::Error::new(io).context("cannot read x")));
         let io = std::io::Error::new(std::io::ErrorKind::PermissionDenied, "no");
         assert!(!not_found(&anyhow::Error::new(io)));
+    }
+
+    #[test]
+    fn only_for_the_paths_the_error_names() {
+        let dir = std::env::temp_dir().join(format!("rwg-hint-named-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("quick")).unwrap();
+        std::fs::write(dir.join("quick.toml"), "").unwrap();
+        let (typo, out) = (dir.join("qick.toml"), dir.join("quik"));
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "gone");
+        let e = anyhow::Error::new(io).context(format!("cannot read {}", typo.display()));
+        let args = [
+            typo.display().to_string(),
+            "--out".into(),
+            out.display().to_string(),
+        ];
+        let h = hint(&e, &args).unwrap();
+        assert!(
+            h.contains("did you mean") && h.contains("quick.toml"),
+            "{h}"
+        );
+        assert!(!h.contains(&out.display().to_string()), "{h}");
     }
 
     #[test]

@@ -22,6 +22,8 @@ pub struct Args {
 
 /// Runs `rwg verify`.
 pub fn run(args: Args) -> Result<()> {
+    // a folder that is no run at all is said so, with what a run holds
+    rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
     let r = verify_run(&args.run_dir);
     for l in &r.ok {
         crate::outln!("{l}");
