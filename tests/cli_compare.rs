@@ -82,6 +82,7 @@ fn compare_side_by_side() {
         "1HL-4 · with bias",
         "grey: the reference set (rwg-test-",
         "normalised mean",
+        "shade: 95% Wilson interval",
     ] {
         assert!(svg.contains(want), "profiles figure lacks {want:?}");
     }
@@ -103,6 +104,11 @@ fn compare_side_by_side() {
 
     let tex = rwg_ok(&["compare", a, b, "--format", "latex"]);
     assert!(tex.contains("\\toprule"));
+    // the ranking is in every format: a table in the text ones
+    assert!(tex.contains("Difficulty ranking of 16 cells"), "{tex}");
+    let md = rwg_ok(&["compare", a, b, "--format", "markdown"]);
+    assert!(md.contains("**Difficulty ranking of 16 cells"), "{md}");
+    assert!(md.contains("| rank | run | env |"), "{md}");
 }
 
 #[test]

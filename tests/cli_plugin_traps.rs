@@ -181,3 +181,64 @@ fn check_and_run_agree_on_an_env_without_a_time_limit() {
         "--quiet",
     ]);
 }
+
+/// `rwg check ID --config ...` finds a plugin env on RWG_PLUGIN_PATH as
+/// `rwg rollout ID` does, and checks that env only.
+#[test]
+fn check_takes_a_plugin_env_id_found_on_the_path() {
+    let lib = compile_c(
+        "traps-check-path",
+        "examples/plugin-c/chain.c",
+        "chain",
+        &[],
+    );
+    let dir = lib.parent().unwrap().as_os_str().to_owned();
+    let vars: &[(&str, &OsStr)] = &[("RWG_PLUGIN_PATH", &dir)];
+    let out = rwg_env(
+        &[
+            "check",
+            "c_example/Chain-v0",
+            "--config",
+            "length=3",
+            "--json",
+        ],
+        vars,
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let results = v.as_array().unwrap();
+    assert!(results.len() > 10, "{v}");
+    assert!(
+        results
+            .iter()
+            .filter(|r| r["name"] != "load")
+            .all(|r| r["env"] == "c_example/Chain-v0" && r["status"] != "failed"),
+        "{v}"
+    );
+    // the config reaches the instances: a chain that cannot exist fails
+    let out = rwg_env(
+        &[
+            "check",
+            "c_example/Chain-v0",
+            "--config",
+            "length=0",
+            "--json",
+        ],
+        vars,
+    );
+    assert!(!out.status.success());
+    // a built-in id, an unknown one: said what check takes
+    let err = rwg_err(&["check", "CartPole-v0"]);
+    assert!(
+        err.contains("CartPole-v0 is a built-in environment"),
+        "{err}"
+    );
+    let out = rwg_env(&["check", "c_example/Chian-v0"], vars);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("did you mean 'c_example/Chain-v0'")
+            && err.contains("the id of a plugin env on RWG_PLUGIN_PATH"),
+        "{err}"
+    );
+}

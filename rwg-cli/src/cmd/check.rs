@@ -37,6 +37,7 @@ Examples:
   rwg check target/release/librwg_example_plugin.so
   rwg check examples/plugin-c/libchain.so --env c_example/Chain-v0 --config length=20
   rwg check target/release/librwg_example_plugin.so --json > checks.json
+  RWG_PLUGIN_PATH=examples/plugin-c rwg check c_example/Chain-v0 --config length=20
   rwg check gymnasium:CartPole-v1
   rwg check gymnasium:LunarLander-v3 --kwargs '{\"continuous\": true}'
 
@@ -47,7 +48,8 @@ seed and actions give the same trajectory, also interleaved and on two threads).
 A worker that does not answer within RWG_GYM_TIMEOUT seconds (default 60) counts
 as hung.")]
 pub struct Args {
-    /// The plugin library (`.so`, `.dylib`, `.dll`), or a gymnasium: env id.
+    /// The plugin library (`.so`, `.dylib`, `.dll`), the id of a plugin env
+    /// found on RWG_PLUGIN_PATH (only it is checked), or a gymnasium: env id.
     plugin: PathBuf,
     #[command(flatten)]
     gym: crate::gym::GymArgs,
@@ -318,12 +320,50 @@ fn run_gym(args: &Args, id: &str) -> Result<()> {
     finish(args, &results)
 }
 
+/// `rwg check ID` for a plugin env found on `RWG_PLUGIN_PATH`, as `rwg
+/// rollout ID` finds it: the library that provides it, checking that env
+/// only. A path that names no file and looks like a library is left as it
+/// is (the load check reports it).
+fn resolve_env_id(args: &mut Args) -> Result<()> {
+    let library = |p: &Path| {
+        p.extension()
+            .is_some_and(|e| e == "so" || e == "dylib" || e == "dll")
+    };
+    if args.plugin.exists() || library(&args.plugin) {
+        return Ok(());
+    }
+    let Some(id) = args.plugin.to_str().map(str::to_string) else {
+        return Ok(());
+    };
+    use rwg_study::env_source::{Found, Plugins};
+    match Plugins::default().find(&id) {
+        Found::OnPath(ty) => {
+            if let Some(other) = args.env.as_ref().filter(|e| **e != id) {
+                bail!("rwg check {id} checks {id}; --env {other} names another env");
+            }
+            args.plugin = ty.plugin().path.clone();
+            args.env = Some(id);
+            Ok(())
+        }
+        Found::Builtin => bail!(
+            "{id} is a built-in environment: rwg check checks a plugin's environments \
+             (give its library, or the id of a plugin env on RWG_PLUGIN_PATH) or a \
+             gymnasium: env"
+        ),
+        Found::Unknown(msg) => bail!(
+            "{msg}; rwg check takes a plugin library file, the id of a plugin env on \
+             RWG_PLUGIN_PATH, or a gymnasium: env id"
+        ),
+    }
+}
+
 /// Runs `rwg check`.
-pub fn run(args: Args) -> Result<()> {
+pub fn run(mut args: Args) -> Result<()> {
     if let Some(id) = args.plugin.to_str().filter(|s| crate::gym::is_gym(s)) {
         return run_gym(&args, id);
     }
     args.gym.refuse_for(&args.plugin.display().to_string())?;
+    resolve_env_id(&mut args)?;
     let timeout = Duration::from_secs(args.timeout.max(1));
     let plugin_arg = args.plugin.as_os_str();
     let mut results: Vec<CheckResult> = vec![];
