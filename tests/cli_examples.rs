@@ -76,6 +76,14 @@ fn readme_examples() -> Vec<Example> {
     let mut pending: Option<(usize, String)> = None;
     for (i, line) in text.lines().enumerate() {
         if line.starts_with("```") {
+            // shell commands stand in ```sh blocks, which this test runs; one
+            // in a block of another shell name would be skipped unseen
+            let lang = line.trim().trim_start_matches('`');
+            assert!(
+                !["bash", "shell", "console", "zsh", "shell-session"].contains(&lang),
+                "README.md:{}: a ```{lang} block: write ```sh, so that this test runs it",
+                i + 1
+            );
             in_sh = !in_sh && line.trim() == "```sh";
             continue;
         }
