@@ -50,10 +50,17 @@ fn commands_that_need_a_run_directory_say_so() {
     let run = synthetic_run("msg-rundir-run", 20, 2);
     let parent = run.parent().unwrap();
     let name = run.file_name().unwrap().to_str().unwrap();
+    let merged = dir.join("merged");
     for cmd in [
         vec!["stats", dir.to_str().unwrap()],
         vec!["verify", dir.to_str().unwrap()],
         vec!["plot", dir.to_str().unwrap()],
+        vec![
+            "merge",
+            dir.to_str().unwrap(),
+            "--out",
+            merged.to_str().unwrap(),
+        ],
         vec!["report", dir.to_str().unwrap()],
         vec!["top", dir.to_str().unwrap()],
         vec!["compare", dir.to_str().unwrap()],

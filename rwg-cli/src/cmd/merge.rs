@@ -33,6 +33,10 @@ pub struct Args {
 
 /// Runs `rwg merge`.
 pub fn run(args: Args) -> Result<()> {
+    // a folder that is no shard at all is said so, with what one holds
+    for d in &args.shards {
+        rwg_study::rundir::data::require_run_dir(d)?;
+    }
     let out = &args.out;
     let report = merge_shards(&args.shards, out, |cell| match cell {
         None => crate::outln!("{}", crate::summary::header()),
