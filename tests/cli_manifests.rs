@@ -1,0 +1,145 @@
+//! Every manifest shipped in `examples/` runs, and what `docs/paper.md` says of
+//! the three paper manifests holds, at a small scale.
+//!
+//! `docs/paper.md` claims that network `n` of a cell has the same weights and
+//! reset seeds in `paper.toml`, `paper-exact.toml` and `paper-spread.toml`, so
+//! that the cells `paper-exact` shares with `paper` (every env whose time limit
+//! is at most 500 steps already) give byte-identical `scores.csv`, and that the
+//! first block of every `paper-spread` cell is that cell of `paper-exact`. The
+//! manifests with Gymnasium envs need a Python and are run by the tests that
+//! own them (`cli_atlas.rs`, `cli_examples.rs` through the README).
+
+mod common;
+
+use common::*;
+use std::path::{Path, PathBuf};
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// Runs `manifest` with 8 networks × 2 episodes into `out`.
+fn run_small(manifest: &Path, out: &Path) {
+    rwg_ok(&[
+        "run",
+        manifest.to_str().unwrap(),
+        "--samples",
+        "8",
+        "--episodes",
+        "2",
+        "--threads",
+        "2",
+        "--quiet",
+        "--no-report",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+}
+
+/// The cell directory names of a run.
+fn cells(run: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(run.join("cells"))
+        .unwrap_or_else(|e| panic!("{}/cells: {e}", run.display()))
+        .map(|d| d.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+fn scores(run: &Path, cell: &str) -> Vec<u8> {
+    let p = run.join("cells").join(cell).join("scores.csv");
+    std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+#[test]
+fn every_example_manifest_without_python_runs() {
+    let dir = temp_dir("manifests");
+    let mut ran = Vec::new();
+    let mut paths: Vec<PathBuf> = std::fs::read_dir(repo().join("examples"))
+        .unwrap()
+        .map(|d| d.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    paths.sort();
+    for manifest in paths {
+        let text = std::fs::read_to_string(&manifest).unwrap();
+        let name = manifest.file_stem().unwrap().to_string_lossy().into_owned();
+        if text.contains("\"gymnasium:") {
+            eprintln!("{name}.toml: has Gymnasium envs, run by the test that owns it");
+            continue;
+        }
+        let out = dir.join(&name);
+        run_small(&manifest, &out);
+        assert!(!cells(&out).is_empty(), "{name}.toml: no cells");
+        for cell in cells(&out) {
+            let s = scores(&out, &cell);
+            // A header and 8 × 2 rows.
+            let rows = s.iter().filter(|&&b| b == b'\n').count();
+            assert_eq!(
+                rows,
+                1 + 16,
+                "{name}.toml, {cell}: {rows} lines in scores.csv"
+            );
+        }
+        ran.push(name);
+    }
+    for must in ["paper", "paper-exact", "paper-spread", "quick"] {
+        assert!(
+            ran.iter().any(|n| n == must),
+            "examples/{must}.toml not run"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn paper_manifests_share_networks_as_docs_paper_md_says() {
+    let dir = temp_dir("paper-manifests");
+    let ex = repo().join("examples");
+    let (paper, exact, spread) = (dir.join("paper"), dir.join("exact"), dir.join("spread"));
+    run_small(&ex.join("paper.toml"), &paper);
+    run_small(&ex.join("paper-exact.toml"), &exact);
+    run_small(&ex.join("paper-spread.toml"), &spread);
+
+    let doc = std::fs::read_to_string(repo().join("docs/paper.md")).unwrap();
+    assert!(
+        doc.contains("the 24 cells of\n`runs/paper-exact` other than MountainCarContinuous-v0"),
+        "docs/paper.md no longer states the claim this test checks; update both"
+    );
+    let exact_cells = cells(&exact);
+    assert_eq!(
+        cells(&paper),
+        exact_cells,
+        "paper and paper-exact: other cells"
+    );
+    let shared: Vec<&String> = exact_cells
+        .iter()
+        .filter(|c| !c.starts_with("MountainCarContinuous-v0__"))
+        .collect();
+    assert_eq!(shared.len(), 24, "cells outside MountainCarContinuous-v0");
+    for cell in shared {
+        assert!(
+            scores(&paper, cell) == scores(&exact, cell),
+            "{cell}: paper and paper-exact scores.csv differ"
+        );
+    }
+    // The 500-step cap is what paper-exact changes: MountainCarContinuous-v0's
+    // 999-step episodes are cut, so its cells differ (else the comparison above
+    // would prove nothing about the manifests).
+    assert!(
+        exact_cells
+            .iter()
+            .filter(|c| c.starts_with("MountainCarContinuous-v0__"))
+            .any(|c| scores(&paper, c) != scores(&exact, c)),
+        "paper-exact's cap changed no MountainCarContinuous-v0 cell"
+    );
+    let spread_cells = cells(&spread);
+    assert!(!spread_cells.is_empty());
+    for cell in &spread_cells {
+        assert!(
+            scores(&spread, cell) == scores(&exact, cell),
+            "{cell}: paper-spread's first networks are not paper-exact's"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
