@@ -12,6 +12,7 @@ use crate::table::{Cell, Table};
 use crate::tables::guesses_cell;
 use rwg_env::float::fmt_f64;
 use rwg_study::rundir::data::{CellData, Run};
+use rwg_study::rundir::export::csv_writer;
 use rwg_study::rundir::meta::RunMeta;
 use rwg_study::stats::{CellSummary, ExpectedGuesses};
 use serde::Serialize;
@@ -220,23 +221,37 @@ pub fn compare_table(rows: &[CompareRow]) -> Table {
     }
 }
 
-fn csv_field(s: &str) -> String {
-    if s.contains([',', '"', '\n', '\r']) {
-        format!("\"{}\"", s.replace('"', "\"\""))
-    } else {
-        s.to_string()
-    }
-}
+/// The columns of [`compare_csv`].
+const COMPARE_CSV_HEADER: [&str; 18] = [
+    "run",
+    "env",
+    "arch",
+    "bias",
+    "samples",
+    "episodes",
+    "solved",
+    "p_solved",
+    "p_solved_lo",
+    "p_solved_hi",
+    "expected_guesses",
+    "expected_guesses_lo",
+    "best_mean",
+    "p99.9_mean",
+    "median_mean",
+    "normalised_best",
+    "normalised_p99.9",
+    "difficulty_rank",
+];
 
 /// The comparison as CSV, one row per cell, floats in shortest round-trip
-/// form.
+/// form; written as rwg writes every CSV (`rundir::export::csv_writer`: a
+/// field quoted only when it holds a comma, a quote or a line break).
 pub fn compare_csv(rows: &[CompareRow]) -> String {
     let opt = |x: Option<f64>| x.map(fmt_f64).unwrap_or_default();
-    let mut out = String::from(
-        "run,env,arch,bias,samples,episodes,solved,p_solved,p_solved_lo,p_solved_hi,\
-         expected_guesses,expected_guesses_lo,best_mean,p99.9_mean,median_mean,\
-         normalised_best,normalised_p99.9,difficulty_rank\n",
-    );
+    let mut out = Vec::new();
+    let mut w = csv_writer(&mut out);
+    w.write_record(COMPARE_CSV_HEADER)
+        .expect("writing to memory");
     for r in rows {
         let s = &r.summary;
         let p = s.solved_fraction;
@@ -248,9 +263,9 @@ pub fn compare_csv(rows: &[CompareRow]) -> String {
             None => (None, None),
         };
         let fields = [
-            csv_field(&r.run),
-            csv_field(&s.id.env),
-            csv_field(&s.id.arch),
+            r.run.clone(),
+            s.id.env.clone(),
+            s.id.arch.clone(),
             s.id.bias.to_string(),
             s.samples.to_string(),
             s.episodes.to_string(),
@@ -267,10 +282,10 @@ pub fn compare_csv(rows: &[CompareRow]) -> String {
             opt(r.normalised_p99_9),
             r.difficulty_rank.to_string(),
         ];
-        out.push_str(&fields.join(","));
-        out.push('\n');
+        w.write_record(&fields).expect("writing to memory");
     }
-    out
+    drop(w);
+    String::from_utf8(out).expect("UTF-8 fields")
 }
 
 #[cfg(test)]
@@ -330,5 +345,37 @@ mod tests {
         );
         assert!(d[2]
             .starts_with("architectures differ: a has 0HL [] nobias; b has 0HL [] nobias, 1HL-4"));
+    }
+
+    /// The header and quoting of the hand-written writer this replaced: a
+    /// field is quoted only when it holds a comma, a quote or a line break.
+    #[test]
+    fn csv_keeps_its_header_and_quotes_only_what_must_be() {
+        let m = meta(2, "normal", &["0HL"]);
+        let data = CellData::new(m.cells[0].clone(), 2, vec![1.0, 2.0, 3.0, 4.0], vec![1; 4]);
+        let row = |run: &str| CompareRow {
+            run: run.into(),
+            summary: data.summary(),
+            normalised_best: None,
+            normalised_p99_9: Some(0.5),
+            difficulty_rank: 1,
+        };
+        let csv = compare_csv(&[row("plain"), row("a,\"b\""), row("two\nlines")]);
+        assert!(csv.ends_with('\n') && !csv.contains('\r'), "{csv:?}");
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(
+            lines[0],
+            "run,env,arch,bias,samples,episodes,solved,p_solved,p_solved_lo,p_solved_hi,\
+             expected_guesses,expected_guesses_lo,best_mean,p99.9_mean,median_mean,\
+             normalised_best,normalised_p99.9,difficulty_rank"
+        );
+        assert!(lines[1].starts_with("plain,E,0HL,false,"), "{csv}");
+        assert!(lines[1].ends_with(",,0.5,1"), "{csv}");
+        assert_eq!(lines[1].split(',').count(), 18, "{csv}");
+        assert_eq!(lines[2], lines[1].replacen("plain", "\"a,\"\"b\"\"\"", 1));
+        assert_eq!(
+            format!("{}\n{}", lines[3], lines[4]),
+            lines[1].replacen("plain", "\"two\nlines\"", 1)
+        );
     }
 }

@@ -287,10 +287,7 @@ impl Table {
 
     fn csv(&self) -> String {
         let mut out = format!("# {}\n", self.title).into_bytes();
-        let mut w = csv::WriterBuilder::new()
-            .has_headers(false)
-            .terminator(csv::Terminator::Any(b'\n'))
-            .from_writer(&mut out);
+        let mut w = rwg_study::rundir::export::csv_writer(&mut out);
         for r in std::iter::once(&self.header).chain(&self.rows) {
             w.write_record(texts(r)).expect("writing to memory");
         }
