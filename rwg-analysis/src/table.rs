@@ -72,6 +72,8 @@ pub enum Align {
 pub struct TextColumns {
     columns: Vec<(usize, Align)>,
     sep: &'static str,
+    /// Separators that differ from `sep`: `(i, gap)` joins columns `i` and `i + 1`.
+    gaps: Vec<(usize, &'static str)>,
 }
 
 impl TextColumns {
@@ -80,7 +82,16 @@ impl TextColumns {
         TextColumns {
             columns: columns.to_vec(),
             sep,
+            gaps: vec![],
         }
+    }
+
+    /// The same columns with `gap` instead of the separator between column
+    /// `i` and column `i + 1` (e.g. more space before a free-text column).
+    pub fn gap(mut self, i: usize, gap: &'static str) -> Self {
+        self.gaps.retain(|g| g.0 != i);
+        self.gaps.push((i, gap));
+        self
     }
 
     /// Columns as wide as the widest of `header` and `rows` in each column,
@@ -104,6 +115,7 @@ impl TextColumns {
                 .map(|(i, &w)| (w, align(i)))
                 .collect(),
             sep,
+            gaps: vec![],
         }
     }
 
@@ -115,15 +127,19 @@ impl TextColumns {
     /// One line (no newline): each cell padded and aligned to its column.
     /// Cells beyond the last column are ignored.
     pub fn line<S: AsRef<str>>(&self, cells: &[S]) -> String {
-        let parts: Vec<String> = cells
-            .iter()
-            .zip(&self.columns)
-            .map(|(c, &(w, align))| match align {
-                Align::Left => format!("{:<w$}", c.as_ref()),
-                Align::Right => format!("{:>w$}", c.as_ref()),
-            })
-            .collect();
-        parts.join(self.sep).trim_end().to_string()
+        let mut out = String::new();
+        for (i, (c, &(w, align))) in cells.iter().zip(&self.columns).enumerate() {
+            if i > 0 {
+                let gap = self.gaps.iter().find(|g| g.0 == i - 1);
+                out.push_str(gap.map_or(self.sep, |g| g.1));
+            }
+            match align {
+                Align::Left => out.push_str(&format!("{:<w$}", c.as_ref())),
+                Align::Right => out.push_str(&format!("{:>w$}", c.as_ref())),
+            }
+        }
+        out.truncate(out.trim_end().len());
+        out
     }
 }
 
@@ -321,6 +337,12 @@ mod tests {
         let fit = TextColumns::fit(&["id", "n"], &rows, |_| Align::Left, "  ");
         assert_eq!(fit.widths().collect::<Vec<_>>(), [3, 3]);
         assert_eq!(fit.line(&rows[0]), "é–x  2");
+        let gapped = c.gap(1, "  ");
+        assert_eq!(gapped.line(&["ab", "1.5", "x"]), "ab      1.5  x");
+        assert_eq!(
+            gapped.gap(0, "|").line(&["ab", "1.5", "x"]),
+            "ab  |   1.5  x"
+        );
     }
 
     #[test]

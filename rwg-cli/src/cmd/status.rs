@@ -4,6 +4,7 @@
 use crate::cluster::{merged_complete, sh_path, shard_state, Plan, ShardState, ShardedDir};
 use anyhow::{bail, Result};
 use rwg_analysis::report::REPORT_HTML;
+use rwg_analysis::table::{Align, TextColumns};
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::blocks::n_blocks;
 use rwg_study::rundir::meta::read_run_meta as read_meta;
@@ -112,7 +113,12 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 fn print_cells(cells: &[CellProgress], shard: bool) {
-    crate::outln!("  {:<46} {:>13}  state", "cell", "blocks");
+    let columns = TextColumns::new(
+        &[(46, Align::Left), (13, Align::Right), (0, Align::Left)],
+        " ",
+    )
+    .gap(1, "  ");
+    crate::outln!("  {}", columns.line(&["cell", "blocks", "state"]));
     for c in cells {
         let state = if c.finalised {
             "complete"
@@ -127,11 +133,8 @@ fn print_cells(cells: &[CellProgress], shard: bool) {
         } else {
             "in progress"
         };
-        crate::outln!(
-            "  {:<46} {:>13}  {state}",
-            c.dir,
-            format!("{}/{}", c.blocks_done, c.blocks_total)
-        );
+        let blocks = format!("{}/{}", c.blocks_done, c.blocks_total);
+        crate::outln!("  {}", columns.line(&[c.dir.as_str(), &blocks, state]));
     }
 }
 
@@ -203,7 +206,11 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
         }
     }
     print_cells(&cells, true);
-    crate::outln!("  {:<6} {:<50} state", "shard", "directory");
+    let columns = TextColumns::new(
+        &[(6, Align::Left), (50, Align::Left), (0, Align::Left)],
+        " ",
+    );
+    crate::outln!("  {}", columns.line(&["shard", "directory", "state"]));
     let mut unfinished = vec![];
     for k in 0..count {
         let dir = sd.shard(k);
@@ -221,11 +228,8 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
             }
             ShardState::Complete(t) => format!("complete ({} blocks)", t.blocks),
         };
-        crate::outln!(
-            "  {:<6} {:<50} {state}",
-            format!("{k}/{count}"),
-            dir.display().to_string()
-        );
+        let (shard, dir) = (format!("{k}/{count}"), dir.display().to_string());
+        crate::outln!("  {}", columns.line(&[shard, dir, state]));
     }
     let merged = merged_complete(root);
     let merge_state = if merged {
