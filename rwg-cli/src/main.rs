@@ -14,6 +14,7 @@ mod slurm_script;
 mod stdio;
 mod step_lines;
 mod summary;
+mod timing_table;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};

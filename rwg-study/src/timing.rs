@@ -49,7 +49,8 @@ impl CellTiming {
     }
 }
 
-/// The phases of a run (the report, written by the caller, is not included).
+/// The phases of a run (the report, written by the caller, is not included);
+/// `rwg run --timing` prints them as a table.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunTiming {
     /// Planning the cells (loading plugins), preparing the run directory,
@@ -62,60 +63,31 @@ pub struct RunTiming {
 }
 
 impl RunTiming {
-    /// A table of the phases; `report`: the analysis' time if the caller ran it.
-    pub fn table(&self, report: Option<Duration>) -> String {
-        let ms = |d: Duration| format!("{:.1}", d.as_secs_f64() * 1e3);
-        let mut s = format!(
-            "{:<44} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10} {:>7}\n",
-            "phase (wall ms)",
-            "sampling",
-            "commit I/O",
-            "commit end",
-            "finalise",
-            "run.json",
-            "total",
-            "serial"
-        );
+    /// The cells' phases added up (`dir` empty; `commit_io` is not added:
+    /// it overlaps the sampling).
+    pub fn cells_sum(&self) -> CellTiming {
         let mut sum = CellTiming::default();
         for c in &self.cells {
-            s += &format!(
-                "{:<44} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10} {:>6.2}%\n",
-                c.dir,
-                ms(c.sampling),
-                ms(c.commit_io),
-                ms(c.commit_wait),
-                ms(c.finalize),
-                ms(c.run_json),
-                ms(c.total()),
-                100.0 * c.serial_share()
-            );
             sum.sampling += c.sampling;
             sum.commit_wait += c.commit_wait;
             sum.finalize += c.finalize;
             sum.run_json += c.run_json;
         }
-        let report = report.unwrap_or_default();
+        sum
+    }
+
+    /// The run's serial time (set-up, the cells' serial phases, wrap-up and
+    /// `report`, the analysis' time if the caller ran it) and its whole
+    /// wall time (the serial time plus the cells' sampling).
+    pub fn serial_and_total(&self, report: Duration) -> (Duration, Duration) {
+        let sum = self.cells_sum();
         let serial = self.setup + sum.serial() + self.wrap_up + report;
-        let total = serial + sum.sampling;
-        s += &format!(
-            "cells: sampling {} ms, serial {} ms; set-up {} ms, wrap-up {} ms, report {} ms\n",
-            ms(sum.sampling),
-            ms(sum.serial()),
-            ms(self.setup),
-            ms(self.wrap_up),
-            ms(report)
-        );
-        s += &format!(
-            "whole run: {} ms, serial share {:.2}% (cells alone {:.2}%)\n",
-            ms(total),
-            100.0 * share(serial, total),
-            100.0 * sum.serial_share()
-        );
-        s
+        (serial, serial + sum.sampling)
     }
 }
 
-fn share(part: Duration, whole: Duration) -> f64 {
+/// `part / whole` (0 when `whole` is zero).
+pub fn share(part: Duration, whole: Duration) -> f64 {
     if whole.is_zero() {
         0.0
     } else {
@@ -141,14 +113,18 @@ mod tests {
         assert!((c.serial_share() - 0.1).abs() < 1e-12);
         let t = RunTiming {
             setup: Duration::from_millis(50),
-            cells: vec![c],
+            cells: vec![c.clone(), c],
             wrap_up: Duration::from_millis(0),
         };
-        let table = t.table(Some(Duration::from_millis(50)));
-        assert!(table.contains("CartPole-v0__0HL__nobias"), "{table}");
-        assert!(table.contains("10.00%"), "{table}");
-        // (50 + 100 + 50) / 1100
-        assert!(table.contains("serial share 18.18%"), "{table}");
+        assert_eq!(t.cells_sum().sampling, Duration::from_millis(1800));
+        assert_eq!(t.cells_sum().commit_io, Duration::ZERO);
+        let (serial, total) = t.serial_and_total(Duration::from_millis(50));
+        // 50 + 2 * 100 + 50 of 2100
+        assert_eq!(
+            (serial, total),
+            (Duration::from_millis(300), Duration::from_millis(2100))
+        );
+        assert!((share(serial, total) - 1.0 / 7.0).abs() < 1e-12);
         assert_eq!(CellTiming::default().serial_share(), 0.0);
     }
 }

@@ -291,7 +291,10 @@ pub fn run(args: Args) -> Result<()> {
         ),
     }
     if args.timing {
-        eprint!("{}", report.timing.table(report_time));
+        eprint!(
+            "{}",
+            crate::timing_table::timing_table(&report.timing, report_time)
+        );
     }
     Ok(())
 }
