@@ -4,6 +4,7 @@
 //! `../shared/peers/ref_numpy.py`), in one invocation.
 
 use anyhow::{bail, Context, Result};
+use rwg_analysis::table::{Align, TextColumns};
 use rwg_core::policy::Architecture;
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError, WeightDist};
 use rwg_gym::GymSource;
@@ -234,18 +235,23 @@ pub fn run(args: GymBenchArgs) -> Result<()> {
                 row.steps_per_run,
                 args.repeats
             );
+            let columns = TextColumns::new(
+                &[
+                    (48, Align::Left),
+                    (26, Align::Right),
+                    (26, Align::Right),
+                    (0, Align::Left),
+                ],
+                " ",
+            )
+            .gap(2, "  ");
             crate::outln!(
-                "  {:<48} {:>26} {:>26}",
-                "",
-                "env steps/s (wall)",
-                "env steps/CPU-s"
+                "  {}",
+                columns.line(&["", "env steps/s (wall)", "env steps/CPU-s"])
             );
             let line = |what: &str, wall: &[f64], cpu: &[f64], note: String| {
-                crate::outln!(
-                    "  {what:<48} {:>26} {:>26}  {note}",
-                    fmt_stat(wall),
-                    fmt_stat(cpu)
-                );
+                let cells = [what.to_string(), fmt_stat(wall), fmt_stat(cpu), note];
+                crate::outln!("  {}", columns.line(&cells));
             };
             line(
                 "pure-Python loop, pre-drawn actions (ceiling)",

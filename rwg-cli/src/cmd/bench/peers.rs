@@ -17,6 +17,7 @@
 //! every episode, up to and including the terminal or truncating one).
 
 use anyhow::{bail, Context, Result};
+use rwg_analysis::table::{Align, TextColumns};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -571,24 +572,32 @@ fn print_table(r: &Report) {
     crate::outln!(
         "env steps per CPU-second, median [min-max]; rwg: whole process; gymnax-raw: its run, compile excluded\n"
     );
+    let columns = TextColumns::new(
+        &[
+            (34, Align::Left),
+            (26, Align::Right),
+            (26, Align::Right),
+            (20, Align::Right),
+        ],
+        "  ",
+    );
     crate::outln!(
-        "{:<34}  {:>26}  {:>26}  {:>20}",
-        "workload",
-        "rwg run",
-        "gymnax-raw",
-        "rwg / gymnax-raw"
+        "{}",
+        columns.line(&["workload", "rwg run", "gymnax-raw", "rwg / gymnax-raw"])
     );
     let sci = |s: &Side| format!("{:.3e} [{:.2e}-{:.2e}]", s.median, s.min, s.max);
     for row in &r.rows {
         crate::outln!(
-            "{:<34}  {:>26}  {:>26}  {:>20}",
-            format!("{} {}", row.env, hidden_label(&row.hidden)),
-            sci(&row.rwg),
-            sci(&row.gymnax_raw),
-            format!(
-                "{:.2}x [{:.2}-{:.2}]",
-                row.ratio.median, row.ratio.min, row.ratio.max
-            )
+            "{}",
+            columns.line(&[
+                format!("{} {}", row.env, hidden_label(&row.hidden)),
+                sci(&row.rwg),
+                sci(&row.gymnax_raw),
+                format!(
+                    "{:.2}x [{:.2}-{:.2}]",
+                    row.ratio.median, row.ratio.min, row.ratio.max
+                ),
+            ])
         );
     }
 }
