@@ -103,7 +103,7 @@ pub fn write_analysis(run_dir: &Path, png: bool) -> Result<Vec<PathBuf>, Analysi
         run_dir.join(rwg_study::rundir::STATS_JSON),
         run_dir.join(rwg_study::rundir::STATS_CSV),
     ];
-    let fig_dir = run_dir.join("figures");
+    let fig_dir = run_dir.join(rwg_study::rundir::FIGURES);
     std::fs::create_dir_all(&fig_dir).map_err(|source| AnalysisError::Write {
         path: fig_dir.clone(),
         source,

@@ -15,8 +15,9 @@ use rwg_env::float::fmt_f64;
 use rwg_study::rundir::data::{Run, RunStats};
 use rwg_study::stats::CellSummary;
 
-/// File name of the report in the run directory.
-pub const REPORT_HTML: &str = "report.html";
+/// File name of the report in the run directory (named with the run
+/// directory's other files in `rwg_study::rundir`).
+pub use rwg_study::rundir::REPORT_HTML;
 
 /// The stylesheet of the report and the comparison page: fits a 1280 px
 /// window; wide tables scroll inside their own box.

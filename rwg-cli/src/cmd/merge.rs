@@ -47,7 +47,7 @@ pub fn run(args: Args) -> Result<()> {
             "{} already holds this study, merged and complete; nothing to do.",
             out.display()
         );
-        if !args.no_report && !out.join("report.html").exists() {
+        if !args.no_report && !out.join(rwg_study::rundir::REPORT_HTML).exists() {
             write_report(out)?;
         }
         return Ok(());

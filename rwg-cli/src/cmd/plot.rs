@@ -20,7 +20,9 @@ pub struct Args {
 
 /// Runs `rwg plot`.
 pub fn run(args: Args) -> Result<()> {
-    let out = args.out.unwrap_or_else(|| args.run_dir.join("figures"));
+    let out = args
+        .out
+        .unwrap_or_else(|| args.run_dir.join(rwg_study::rundir::FIGURES));
     let _lock = crate::cmd::lock_if_inside(&args.run_dir, &out)?;
     let run = Run::open(&args.run_dir)?;
     crate::cmd::warn_unverified(&run);

@@ -9,6 +9,7 @@ use rwg_study::cells::Cell;
 use rwg_study::env_source::EnvSource;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::meta::ShardMeta;
+use rwg_study::rundir::REPORT_HTML;
 use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome};
 use rwg_study::StudyError;
 use std::io::IsTerminal;
@@ -111,7 +112,7 @@ pub(crate) fn write_report(out: &Path) -> Result<()> {
         .count();
     crate::outln!(
         "Report: {}  (stats.json, stats.csv, {figures} figures in figures/)",
-        out.join("report.html").display()
+        out.join(REPORT_HTML).display()
     );
     Ok(())
 }
@@ -215,7 +216,7 @@ pub fn run(args: Args) -> Result<()> {
                 "{} already holds this study, complete; nothing to do.",
                 out.display()
             );
-            if args.shard.is_none() && !args.no_report && !out.join("report.html").exists() {
+            if args.shard.is_none() && !args.no_report && !out.join(REPORT_HTML).exists() {
                 write_report(&out)?;
             }
             return Ok(());

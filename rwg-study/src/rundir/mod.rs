@@ -55,6 +55,10 @@ pub const CELL_JSON: &str = "cell.json";
 pub const STATS_JSON: &str = "stats.json";
 /// The run's statistics, CSV (one row per cell).
 pub const STATS_CSV: &str = "stats.csv";
+/// The run's figures (written by `rwg-analysis`).
+pub const FIGURES: &str = "figures";
+/// The run's HTML report (written by `rwg-analysis`).
+pub const REPORT_HTML: &str = "report.html";
 /// Header of a cell's `scores.csv` (and of its block files).
 pub const SCORES_HEADER: &str = "sample,episode,score,steps";
 /// Header of a cell's `samples.csv`.

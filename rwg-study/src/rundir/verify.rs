@@ -37,7 +37,7 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
         r.problems.push(format!(
             "{}: run format {}: written by an older rwg without checksums, so nothing in it \
              can be verified",
-            dir.join("run.json").display(),
+            dir.join(crate::rundir::RUN_JSON).display(),
             meta.format
         ));
         return r;

@@ -356,7 +356,7 @@ fn peer_python(args: &PeersArgs) -> Result<PathBuf> {
 
 /// Reads `env_steps` of a finished run directory's run.json.
 fn run_env_steps(dir: &Path) -> Result<u64> {
-    let p = dir.join("run.json");
+    let p = dir.join(rwg_study::rundir::RUN_JSON);
     let text =
         std::fs::read_to_string(&p).with_context(|| format!("cannot read {}", p.display()))?;
     let v: serde_json::Value =
