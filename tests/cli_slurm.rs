@@ -271,6 +271,15 @@ fn sharded_studies_on_a_real_slurm_cluster() {
             looked = true;
             let s = rwg_ok(&["status", study.to_str().unwrap()]);
             assert!(s.contains("0/3") && s.contains("Merged run"), "{s}");
+            // Without the cluster's slurm.conf squeue fails: said, not fatal.
+            assert!(s.contains("Slurm's queue could not be read"), "{s}");
+            // With it, the shard being computed is shown as Slurm's, and no
+            // command offers to compute it a second time.
+            let s = rwg_in(&cluster, &submit, &["status", study.to_str().unwrap()]);
+            eprintln!("while shard 0 runs:\n{s}");
+            assert!(s.contains(&format!("Slurm task {array}_0 (RUNNING)")), "{s}");
+            assert!(s.contains("Slurm is still computing"), "{s}");
+            assert!(!s.contains("--shard 0/3"), "{s}");
         }
         if requeued == 0 && committed(0) > 0 {
             requeued = 1;

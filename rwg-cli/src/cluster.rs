@@ -11,7 +11,7 @@
 //! DIR/shards/<K>/           shard K's run directory (`rwg run --shard K/N`)
 //! ```
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::meta::read_run_meta as read_meta;
 use rwg_study::rundir::meta::ShardMeta;
@@ -133,6 +133,79 @@ pub fn merged_complete(dir: &Path) -> bool {
     read_meta(dir).is_ok_and(|m| m.shard.is_none() && m.end_time.is_some())
 }
 
+/// A job, or one task of a job array, of a [`Plan`] that Slurm still lists
+/// (pending, running, completing, ...).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LiveJob {
+    /// As `squeue` prints it: `123` for a job, `123_2` for an array task.
+    pub id: String,
+    /// The plan's kind of the job: `shards` or `merge`.
+    pub kind: String,
+    /// The shard an array task computes (its array index).
+    pub shard: Option<u64>,
+    /// Slurm's state, e.g. `PENDING`, `RUNNING`.
+    pub state: String,
+    /// Slurm's reason for the state (`None` when there is none).
+    pub reason: String,
+}
+
+impl LiveJob {
+    /// `123_2 (PENDING, Resources)` or `123_2 (RUNNING)`.
+    pub fn describe(&self) -> String {
+        if self.reason.is_empty() || self.reason == "None" {
+            format!("{} ({})", self.id, self.state)
+        } else {
+            format!("{} ({}, {})", self.id, self.state, self.reason)
+        }
+    }
+}
+
+/// The jobs of `plan` that `squeue` still lists, one line per array task
+/// (`squeue -r`). Jobs Slurm has forgotten are simply absent.
+pub fn live_jobs(plan: &Plan) -> Result<Vec<LiveJob>> {
+    if plan.jobs.is_empty() {
+        return Ok(vec![]);
+    }
+    let ids: Vec<&str> = plan.jobs.iter().map(|j| j.id.as_str()).collect();
+    let o = std::process::Command::new("squeue")
+        .args(["-h", "-r", "-o", "%i|%T|%r", "-j", &ids.join(",")])
+        .output()
+        .context("cannot run squeue")?;
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    // squeue fails on ids it has forgotten altogether.
+    if !o.status.success() && !stderr.contains("Invalid job id") {
+        bail!("squeue -j {} failed: {}", ids.join(","), stderr.trim());
+    }
+    Ok(parse_squeue(&String::from_utf8_lossy(&o.stdout), plan))
+}
+
+/// Parses `squeue -h -r -o '%i|%T|%r'` lines, keeping the plan's jobs.
+fn parse_squeue(stdout: &str, plan: &Plan) -> Vec<LiveJob> {
+    let mut live = vec![];
+    for line in stdout.lines() {
+        let mut it = line.trim().split('|');
+        let (Some(id), Some(state)) = (it.next(), it.next()) else {
+            continue;
+        };
+        let reason = it.next().unwrap_or("");
+        let (base, task) = match id.split_once('_') {
+            Some((b, t)) => (b, t.parse::<u64>().ok()),
+            None => (id, None),
+        };
+        let Some(job) = plan.jobs.iter().find(|j| j.id == base) else {
+            continue;
+        };
+        live.push(LiveJob {
+            id: id.to_string(),
+            kind: job.kind.clone(),
+            shard: if job.kind == "shards" { task } else { None },
+            state: state.to_string(),
+            reason: reason.to_string(),
+        });
+    }
+    live
+}
+
 /// `s` quoted for a POSIX shell (unchanged when it needs no quoting).
 pub fn sh_quote(s: &str) -> String {
     let safe = |c: char| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c);
@@ -159,5 +232,30 @@ mod tests {
         assert_eq!(sh_quote("it's"), r"'it'\''s'");
         assert_eq!(sh_quote(""), "''");
         assert_eq!(sh_quote("$HOME"), "'$HOME'");
+    }
+
+    #[test]
+    fn squeue_lines_map_array_tasks_to_shards() {
+        let job = |kind: &str, id: &str| Job {
+            kind: kind.into(),
+            id: id.into(),
+            tasks: vec![],
+        };
+        let plan = Plan {
+            shards: 3,
+            jobs: vec![job("shards", "40"), job("merge", "41")],
+            ..Plan::default()
+        };
+        let live = parse_squeue(
+            "40_0|RUNNING|None\n40_2|PENDING|Resources\n41|PENDING|Dependency\n99_1|RUNNING|None\n",
+            &plan,
+        );
+        let shards: Vec<_> = live.iter().map(|j| (j.kind.as_str(), j.shard)).collect();
+        assert_eq!(
+            shards,
+            [("shards", Some(0)), ("shards", Some(2)), ("merge", None)]
+        );
+        assert_eq!(live[0].describe(), "40_0 (RUNNING)");
+        assert_eq!(live[1].describe(), "40_2 (PENDING, Resources)");
     }
 }

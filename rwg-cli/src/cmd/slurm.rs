@@ -1,7 +1,9 @@
 //! `rwg slurm`: submit a study to Slurm as a job array of shards plus a merge
 //! job that depends on it; run again to resubmit what did not finish.
 
-use crate::cluster::{merged_complete, sh_path, shard_state, Job, Plan, ShardState, ShardedDir};
+use crate::cluster::{
+    live_jobs, merged_complete, sh_path, shard_state, Job, Plan, ShardState, ShardedDir,
+};
 use crate::slurm_script::{
     array_spec, check_sbatch_option, check_sbatch_path, parse_job_id, show_command, Scripts,
 };
@@ -376,47 +378,17 @@ fn sbatch(cmd: &[String]) -> Result<String> {
 /// earlier merge job that still waits (its dependency failed, or a new merge
 /// replaces it), and refuses while a merge runs.
 fn cancel_or_refuse(plan: &Plan, root: &Path) -> Result<()> {
-    if plan.jobs.is_empty() {
-        return Ok(());
-    }
-    let ids: Vec<&str> = plan.jobs.iter().map(|j| j.id.as_str()).collect();
-    let o = Command::new("squeue")
-        .args(["-h", "-o", "%i|%T|%r", "-j", &ids.join(",")])
-        .output()
-        .context("cannot run squeue")?;
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    if !o.status.success() && !stderr.contains("Invalid job id") {
-        bail!("squeue -j {} failed: {}", ids.join(","), stderr.trim());
-    }
-    let stdout = String::from_utf8_lossy(&o.stdout);
     let mut busy = vec![];
     let mut cancel = vec![];
-    for line in stdout.lines() {
-        let mut it = line.split('|');
-        let (Some(id), Some(state), reason) = (it.next(), it.next(), it.next().unwrap_or(""))
-        else {
-            continue;
-        };
-        let base = id.split('_').next().unwrap_or(id);
-        let kind = plan
-            .jobs
-            .iter()
-            .find(|j| j.id == base)
-            .map(|j| j.kind.as_str());
-        match (kind, state) {
-            (Some("merge"), "PENDING") => cancel.push(base.to_string()),
-            (Some(_), _) => busy.push(format!(
-                "{id} ({state}{})",
-                if reason.is_empty() || reason == "None" {
-                    String::new()
-                } else {
-                    format!(", {reason}")
-                }
-            )),
-            (None, _) => {}
+    for job in live_jobs(plan)? {
+        if job.kind == "merge" && job.state == "PENDING" {
+            cancel.push(job.id);
+        } else {
+            busy.push(job.describe());
         }
     }
     if !busy.is_empty() {
+        let ids: Vec<&str> = plan.jobs.iter().map(|j| j.id.as_str()).collect();
         bail!(
             "jobs of {} are still queued or running: {}; wait for them (squeue -j {}) or cancel \
              them (scancel ID), then run this command again",

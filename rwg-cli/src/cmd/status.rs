@@ -1,7 +1,9 @@
 //! `rwg status`: how far a run, a shard or a sharded study has got, and the
 //! command that finishes it. Read-only: safe while the run is being written.
 
-use crate::cluster::{merged_complete, sh_path, shard_state, Plan, ShardState, ShardedDir};
+use crate::cluster::{
+    live_jobs, merged_complete, sh_path, shard_state, LiveJob, Plan, ShardState, ShardedDir,
+};
 use anyhow::{bail, Result};
 use rwg_analysis::report::REPORT_HTML;
 use rwg_analysis::table::{Align, TextColumns};
@@ -206,15 +208,25 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
         }
     }
     print_cells(&cells, true);
+    // What Slurm still runs or queues: those shards finish on their own.
+    let (live, queue_error) = if slurm {
+        match live_jobs(&plan) {
+            Ok(live) => (live, None),
+            Err(e) => (vec![], Some(format!("{e:#}"))),
+        }
+    } else {
+        (vec![], None)
+    };
+    let task_of = |k: u64| live.iter().find(|j| j.shard == Some(k));
     let columns = TextColumns::new(
         &[(6, Align::Left), (50, Align::Left), (0, Align::Left)],
         " ",
     );
     crate::outln!("  {}", columns.line(&["shard", "directory", "state"]));
-    let mut unfinished = vec![];
+    let (mut unfinished, mut computing) = (vec![], vec![]);
     for k in 0..count {
         let dir = sd.shard(k);
-        let state = match shard_state(&dir, &m, k, count) {
+        let mut state = match shard_state(&dir, &m, k, count) {
             ShardState::Missing => {
                 unfinished.push(k);
                 "missing (not started)".to_string()
@@ -228,6 +240,13 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
             }
             ShardState::Complete(t) => format!("complete ({} blocks)", t.blocks),
         };
+        if let Some(task) = task_of(k) {
+            state.push_str(&format!("; Slurm task {}", task.describe()));
+            if unfinished.last() == Some(&k) {
+                unfinished.pop();
+                computing.push(task);
+            }
+        }
         let (shard, dir) = (format!("{k}/{count}"), dir.display().to_string());
         crate::outln!("  {}", columns.line(&[shard, dir, state]));
     }
@@ -256,6 +275,12 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
             ids.join(",")
         );
     }
+    if let Some(e) = &queue_error {
+        crate::outln!(
+            "Slurm's queue could not be read ({e}); shards its tasks may still be computing \
+             are listed below as unfinished."
+        );
+    }
     if merged {
         if !root.join(REPORT_HTML).exists() {
             crate::outln!(
@@ -264,6 +289,33 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
             );
         }
         return Ok(());
+    }
+    if !computing.is_empty() {
+        crate::outln!(
+            "Slurm is still computing {}: {}.",
+            if computing.len() == 1 {
+                "a shard"
+            } else {
+                "shards"
+            },
+            computing
+                .iter()
+                .map(|j| j.describe())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        if unfinished.is_empty() {
+            let merge: Vec<&LiveJob> = live.iter().filter(|j| j.kind == "merge").collect();
+            match merge.first() {
+                Some(j) if j.reason != "DependencyNeverSatisfied" => crate::outln!(
+                    "Merge job {} runs when they end: nothing to do but wait.",
+                    j.describe()
+                ),
+                _ => crate::outln!("When they end, run rwg status again."),
+            }
+            return Ok(());
+        }
+        crate::outln!("When they end, finish the other shards:");
     }
     let manifest = sh_path(&manifest);
     if slurm {
