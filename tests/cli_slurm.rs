@@ -277,7 +277,10 @@ fn sharded_studies_on_a_real_slurm_cluster() {
             // command offers to compute it a second time.
             let s = rwg_in(&cluster, &submit, &["status", study.to_str().unwrap()]);
             eprintln!("while shard 0 runs:\n{s}");
-            assert!(s.contains(&format!("Slurm task {array}_0 (RUNNING)")), "{s}");
+            assert!(
+                s.contains(&format!("Slurm task {array}_0 (RUNNING)")),
+                "{s}"
+            );
             assert!(s.contains("Slurm is still computing"), "{s}");
             assert!(!s.contains("--shard 0/3"), "{s}");
         }
