@@ -3,9 +3,12 @@
 //! call ([`reset`], and `step`'s body [`step_inline`]), so the two paths
 //! cannot differ (same
 //! checks, same panic catching, same results bit for bit); what a batch
-//! saves is the host's side of a call per lane.
+//! saves is the host's side of a call per lane. Both are instantiated per
+//! environment type `E`, so the lane loop calls `E`'s `step` directly (no
+//! trait object; the compiler can inline it).
 
-use super::trampolines::{reset, step_inline};
+use super::trampolines::{reset, step_fast, step_inline};
+use crate::env::Environment;
 use crate::plugin::abi::*;
 
 /// Whether the whole call must be refused: a NULL where `n > 0` needs a
@@ -13,11 +16,19 @@ use crate::plugin::abi::*;
 ///
 /// # Safety
 /// `mask` is NULL or valid for `n` reads.
+#[inline]
 unsafe fn refused(n: usize, pointers_ok: bool, mask: *const u8) -> bool {
     if n == 0 {
         return false;
     }
-    !pointers_ok || (!mask.is_null() && std::slice::from_raw_parts(mask, n).iter().any(|&m| m > 1))
+    // One pass without a branch per lane (vectorised): any value above 1
+    // has a bit above bit 0.
+    !pointers_ok
+        || (!mask.is_null()
+            && std::slice::from_raw_parts(mask, n)
+                .iter()
+                .fold(0, |a, &m| a | m)
+                > 1)
 }
 
 #[inline(always)]
@@ -33,7 +44,7 @@ unsafe fn report(failed: *mut usize, i: usize) {
 }
 
 /// `reset_many`: `reset(envs[i], 1, seeds[i], ...)` on every masked lane.
-pub(super) unsafe extern "C" fn reset_many(
+pub(super) unsafe extern "C" fn reset_many<E: Environment>(
     envs: *const *mut RwgEnv,
     n: usize,
     mask: *const u8,
@@ -54,7 +65,7 @@ pub(super) unsafe extern "C" fn reset_many(
         if !masked(mask, i) {
             continue;
         }
-        let status = reset(
+        let status = reset::<E>(
             *envs.add(i),
             1,
             *seeds.add(i),
@@ -72,7 +83,7 @@ pub(super) unsafe extern "C" fn reset_many(
 /// `step_many`: `step(envs[i], ...)` on every masked lane, its reward and
 /// flags scattered into the three arrays.
 #[allow(clippy::too_many_arguments)]
-pub(super) unsafe extern "C" fn step_many(
+pub(super) unsafe extern "C" fn step_many<E: Environment>(
     envs: *const *mut RwgEnv,
     n: usize,
     mask: *const u8,
@@ -95,31 +106,68 @@ pub(super) unsafe extern "C" fn step_many(
         report(failed, n);
         return RWG_ERR_INVALID_ARGUMENT;
     }
+    for i in 0..n {
+        if !masked(mask, i) {
+            continue;
+        }
+        let (env, action, o) = (
+            *envs.add(i),
+            actions.add(i * action_len),
+            obs.add(i * obs_len),
+        );
+        // The single call's fast path, its results written straight into
+        // the lane's slots; anything unusual goes through the single call.
+        let status = match step_fast::<E>(env, action, action_len, o, obs_len) {
+            Ok(s) => {
+                *rewards.add(i) = s.reward;
+                *terminated.add(i) = u8::from(s.terminated);
+                *truncated.add(i) = u8::from(s.truncated);
+                continue;
+            }
+            Err(Some(status)) => status,
+            Err(None) => lane_checked::<E>(
+                env,
+                action,
+                action_len,
+                o,
+                obs_len,
+                rewards.add(i),
+                terminated.add(i),
+                truncated.add(i),
+            ),
+        };
+        report(failed, i);
+        return status;
+    }
+    RWG_OK
+}
+
+/// A lane the fast path refused, through the single call (which finds
+/// and reports what is wrong, or steps the env if nothing is).
+#[cold]
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn lane_checked<E: Environment>(
+    env: *mut RwgEnv,
+    action: *const f64,
+    action_len: usize,
+    obs: *mut f64,
+    obs_len: usize,
+    reward: *mut f64,
+    terminated: *mut u8,
+    truncated: *mut u8,
+) -> Status {
     let mut out = RwgStepOut {
         reward: 0.0,
         terminated: 0,
         truncated: 0,
         reserved: [0; 6],
     };
-    for i in 0..n {
-        if !masked(mask, i) {
-            continue;
-        }
-        let status = step_inline(
-            *envs.add(i),
-            actions.add(i * action_len),
-            action_len,
-            obs.add(i * obs_len),
-            obs_len,
-            &mut out,
-        );
-        if status != RWG_OK {
-            report(failed, i);
-            return status;
-        }
-        *rewards.add(i) = out.reward;
-        *terminated.add(i) = out.terminated;
-        *truncated.add(i) = out.truncated;
+    let status = step_inline::<E>(env, action, action_len, obs, obs_len, &mut out);
+    if status == RWG_OK {
+        *reward = out.reward;
+        *terminated = out.terminated;
+        *truncated = out.truncated;
     }
-    RWG_OK
+    status
 }

@@ -8,8 +8,8 @@ use std::sync::OnceLock;
 
 use super::batched::{reset_many, step_many};
 use super::trampolines::{
-    create, deinit, destroy, env_count, env_desc, env_vtable, get_extension, init, last_error,
-    reset, step,
+    create, deinit, destroy, env_count, env_desc, env_vtable, get_extension, init, instantiate,
+    last_error, reset, step,
 };
 use crate::env::{EnvSpec, Environment};
 use crate::plugin::abi::*;
@@ -18,12 +18,43 @@ use crate::space::Space;
 /// An exported environment instance behind a trait object.
 pub type DynEnv = Box<dyn Environment + Send>;
 
-pub(super) type Constructor = Box<dyn Fn(&str) -> Result<DynEnv, String> + Send + Sync>;
+/// Builds an instance (`Box<Instance<E>>` as `rwg_env_t *`) from the
+/// user's config, given the descriptor's observation dimension and action
+/// shape; the error is the status and message `create` returns.
+pub(super) type Constructor =
+    Box<dyn Fn(&str, usize, ActionKind) -> Result<*mut RwgEnv, (Status, String)> + Send + Sync>;
+
+/// The functions of an environment's table that depend on its concrete
+/// type: instantiated per environment type, so the env's `step` is a
+/// direct (inlinable) call in the single and batched step loops.
+#[derive(Clone, Copy)]
+struct TypedFns {
+    destroy: DestroyFn,
+    reset: ResetFn,
+    step: StepFn,
+    last_error: LastErrorFn,
+    reset_many: ResetManyFn,
+    step_many: StepManyFn,
+}
+
+impl TypedFns {
+    fn of<E: Environment + Send + 'static>() -> TypedFns {
+        TypedFns {
+            destroy: destroy::<E>,
+            reset: reset::<E>,
+            step: step::<E>,
+            last_error: last_error::<E>,
+            reset_many: reset_many::<E>,
+            step_many: step_many::<E>,
+        }
+    }
+}
 
 struct EnvExport {
     spec: EnvSpec,
     summary: String,
     make: Constructor,
+    fns: TypedFns,
 }
 
 /// Describes a plugin: its id, version and environments.
@@ -51,29 +82,37 @@ impl PluginBuilder {
     }
 
     /// Adds an environment built by `make(config)`.
-    pub fn env<E, Er, F>(self, spec: EnvSpec, summary: impl Into<String>, make: F) -> Self
+    ///
+    /// The exported functions are instantiated for `E`, so `E`'s `step` is
+    /// called directly (and can be inlined into the batched call's lane
+    /// loop): give the concrete type, not a `Box<dyn Environment>`, where
+    /// speed matters.
+    pub fn env<E, Er, F>(mut self, spec: EnvSpec, summary: impl Into<String>, make: F) -> Self
     where
         E: Environment + Send + 'static,
         Er: Display,
         F: Fn(&str) -> Result<E, Er> + Send + Sync + 'static,
     {
-        self.env_boxed(spec, summary, move |config: &str| {
-            make(config).map(|e| Box::new(e) as DynEnv)
-        })
+        self.envs.push(EnvExport {
+            spec,
+            summary: summary.into(),
+            make: Box::new(move |config: &str, obs_dim, action| {
+                let env = make(config).map_err(|e| (RWG_ERR_INVALID_ARGUMENT, e.to_string()))?;
+                instantiate(env, obs_dim, action)
+            }),
+            fns: TypedFns::of::<E>(),
+        });
+        self
     }
 
-    /// Adds an environment whose constructor already returns a boxed env.
-    pub fn env_boxed<Er, F>(mut self, spec: EnvSpec, summary: impl Into<String>, make: F) -> Self
+    /// Adds an environment whose constructor returns a boxed env (every call
+    /// of its `step` goes through the trait object).
+    pub fn env_boxed<Er, F>(self, spec: EnvSpec, summary: impl Into<String>, make: F) -> Self
     where
         Er: Display,
         F: Fn(&str) -> Result<DynEnv, Er> + Send + Sync + 'static,
     {
-        self.envs.push(EnvExport {
-            spec,
-            summary: summary.into(),
-            make: Box::new(move |config: &str| make(config).map_err(|e| e.to_string())),
-        });
-        self
+        self.env::<DynEnv, Er, F>(spec, summary, make)
     }
 
     /// Number of environments added so far.
@@ -228,12 +267,12 @@ impl ExportedPlugin {
                 struct_size: ENV_VTABLE_SIZE_V1_1,
                 reserved: 0,
                 create: Some(create::<P>),
-                destroy: Some(destroy),
-                reset: Some(reset),
-                step: Some(step),
-                last_error: Some(last_error),
-                reset_many: Some(reset_many),
-                step_many: Some(step_many),
+                destroy: Some(e.fns.destroy),
+                reset: Some(e.fns.reset),
+                step: Some(e.fns.step),
+                last_error: Some(e.fns.last_error),
+                reset_many: Some(e.fns.reset_many),
+                step_many: Some(e.fns.step_many),
             };
             envs.push(ExportedEnv {
                 desc,

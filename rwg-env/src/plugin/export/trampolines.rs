@@ -7,8 +7,8 @@ use std::any::Any;
 use std::ffi::{c_char, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use super::builder::{ActionKind, DynEnv, ExportedPlugin, PluginStatic};
-use crate::env::{Action, EnvError, EnvSpec};
+use super::builder::{ActionKind, ExportedPlugin, PluginStatic};
+use crate::env::{Action, EnvError, EnvSpec, Environment, Step};
 use crate::plugin::abi::*;
 use crate::space::Space;
 
@@ -94,9 +94,10 @@ pub(super) unsafe extern "C" fn get_extension(_id: *const c_char) -> *const () {
     std::ptr::null()
 }
 
-/// An instance as the C side sees it (`rwg_env_t *`).
-struct Instance {
-    env: DynEnv,
+/// An instance as the C side sees it (`rwg_env_t *`), of the environment
+/// type `E` its table's functions are instantiated for.
+pub(super) struct Instance<E> {
+    env: E,
     obs_dim: usize,
     action: ActionKind,
     /// The message of the panic that poisoned the instance.
@@ -105,7 +106,7 @@ struct Instance {
     error: Vec<u8>,
 }
 
-impl Instance {
+impl<E> Instance<E> {
     fn set_error(&mut self, msg: &str) {
         self.error.clear();
         self.error
@@ -122,6 +123,40 @@ fn same_shape(spec: &EnvSpec, obs_dim: usize, action: ActionKind) -> bool {
         _ => false,
     };
     obs_ok && act_ok
+}
+
+/// Boxes `env` as the instance `create` hands out, after checking that its
+/// spaces are those of the descriptor.
+pub(super) fn instantiate<E: Environment>(
+    env: E,
+    obs_dim: usize,
+    action: ActionKind,
+) -> Result<*mut RwgEnv, (Status, String)> {
+    let spec = env.spec();
+    if !same_shape(spec, obs_dim, action) {
+        return Err((
+            RWG_ERR_INTERNAL,
+            format!(
+                "create: the constructor built an env with spaces {} / {}, \
+                 but the descriptor says Box({}) / {}",
+                spec.observation_space.describe(),
+                spec.action_space.describe(),
+                obs_dim,
+                match action {
+                    ActionKind::Discrete(n) => format!("Discrete({n})"),
+                    ActionKind::Box(d) => format!("Box({d})"),
+                }
+            ),
+        ));
+    }
+    let inst = Box::new(Instance {
+        env,
+        obs_dim,
+        action,
+        poisoned: None,
+        error: vec![0],
+    });
+    Ok(Box::into_raw(inst).cast::<RwgEnv>())
 }
 
 pub(super) unsafe extern "C" fn create<P: PluginStatic>(
@@ -149,32 +184,7 @@ pub(super) unsafe extern "C" fn create<P: PluginStatic>(
                     .to_str()
                     .map_err(|_| invalid("create: config is not UTF-8".into()))?
             };
-            let env = (e.make)(config).map_err(invalid)?;
-            let spec = env.spec();
-            if !same_shape(spec, e.obs_dim, e.action) {
-                return Err((
-                    RWG_ERR_INTERNAL,
-                    format!(
-                        "create: the constructor built an env with spaces {} / {}, \
-                     but the descriptor says Box({}) / {}",
-                        spec.observation_space.describe(),
-                        spec.action_space.describe(),
-                        e.obs_dim,
-                        match e.action {
-                            ActionKind::Discrete(n) => format!("Discrete({n})"),
-                            ActionKind::Box(d) => format!("Box({d})"),
-                        }
-                    ),
-                ));
-            }
-            let inst = Box::new(Instance {
-                env,
-                obs_dim: e.obs_dim,
-                action: e.action,
-                poisoned: None,
-                error: vec![0],
-            });
-            Ok(Box::into_raw(inst).cast::<RwgEnv>())
+            (e.make)(config, e.obs_dim, e.action)
         },
     ));
     let (status, msg) = match result {
@@ -192,11 +202,11 @@ pub(super) unsafe extern "C" fn create<P: PluginStatic>(
     status
 }
 
-pub(super) unsafe extern "C" fn destroy(env: *mut RwgEnv) {
+pub(super) unsafe extern "C" fn destroy<E>(env: *mut RwgEnv) {
     if env.is_null() {
         return;
     }
-    let inst = Box::from_raw(env.cast::<Instance>());
+    let inst = Box::from_raw(env.cast::<Instance<E>>());
     // A panicking Drop must not unwind into C; whatever it left is leaked.
     let _ = catch_unwind(AssertUnwindSafe(move || drop(inst)));
 }
@@ -212,11 +222,11 @@ pub fn status_of(e: &EnvError) -> Status {
 }
 
 /// Runs `f` on the instance behind `env`, catching panics and recording errors.
-unsafe fn with_instance(
+unsafe fn with_instance<E>(
     env: *mut RwgEnv,
-    f: impl FnOnce(&mut DynEnv, usize, ActionKind) -> Result<(), (Status, String)>,
+    f: impl FnOnce(&mut E, usize, ActionKind) -> Result<(), (Status, String)>,
 ) -> Status {
-    let Some(inst) = env.cast::<Instance>().as_mut() else {
+    let Some(inst) = env.cast::<Instance<E>>().as_mut() else {
         return RWG_ERR_INVALID_ARGUMENT;
     };
     if let Some(p) = &inst.poisoned {
@@ -267,14 +277,14 @@ fn env_err(e: EnvError) -> (Status, String) {
 }
 
 #[inline]
-pub(super) unsafe extern "C" fn reset(
+pub(super) unsafe extern "C" fn reset<E: Environment>(
     env: *mut RwgEnv,
     has_seed: u8,
     seed: u64,
     obs: *mut f64,
     obs_len: usize,
 ) -> Status {
-    with_instance(env, |e, obs_dim, _| {
+    with_instance(env, |e: &mut E, obs_dim, _| {
         match has_seed {
             1 => {}
             0 => {
@@ -340,7 +350,7 @@ fn action_of(a: &[f64], kind: ActionKind) -> Result<Action<'_>, String> {
     }
 }
 
-pub(super) unsafe extern "C" fn step(
+pub(super) unsafe extern "C" fn step<E: Environment>(
     env: *mut RwgEnv,
     action: *const f64,
     action_len: usize,
@@ -348,12 +358,12 @@ pub(super) unsafe extern "C" fn step(
     obs_len: usize,
     out: *mut RwgStepOut,
 ) -> Status {
-    step_inline(env, action, action_len, obs, obs_len, out)
+    step_inline::<E>(env, action, action_len, obs, obs_len, out)
 }
 
-/// The body of [`step`], inlined into `step_many`'s loop as well.
+/// The body of [`step`].
 #[inline(always)]
-pub(super) unsafe fn step_inline(
+pub(super) unsafe fn step_inline<E: Environment>(
     env: *mut RwgEnv,
     action: *const f64,
     action_len: usize,
@@ -361,53 +371,75 @@ pub(super) unsafe fn step_inline(
     obs_len: usize,
     out: *mut RwgStepOut,
 ) -> Status {
-    // Fast path: a well-formed call on a healthy instance. Anything unusual
-    // goes to `step_checked`, which finds and reports the problem; nothing has
-    // been done to the env before that, so the two paths behave the same.
-    if let Some(inst) = env.cast::<Instance>().as_mut() {
-        if inst.poisoned.is_none()
-            && !out.is_null()
-            && !obs.is_null()
-            && obs_len == inst.obs_dim
-            && action_len != 0
-            && !action.is_null()
-        {
-            let a = std::slice::from_raw_parts(action, action_len);
-            if let Some(a) = action_fast(a, inst.action) {
-                let o = std::slice::from_raw_parts_mut(obs, obs_len);
-                let env = &mut inst.env;
-                return match catch_unwind(AssertUnwindSafe(|| env.step(a, o))) {
-                    Ok(Ok(s)) => {
-                        *out = RwgStepOut {
-                            reward: s.reward,
-                            terminated: u8::from(s.terminated),
-                            truncated: u8::from(s.truncated),
-                            reserved: [0; 6],
-                        };
-                        if inst.error.len() != 1 {
-                            inst.error.clear();
-                            inst.error.push(0);
-                        }
-                        RWG_OK
-                    }
-                    Ok(Err(e)) => step_error(inst, e),
-                    Err(p) => step_panic(inst, p),
+    if !out.is_null() && !obs.is_null() && !action.is_null() {
+        match step_fast::<E>(env, action, action_len, obs, obs_len) {
+            Ok(s) => {
+                *out = RwgStepOut {
+                    reward: s.reward,
+                    terminated: u8::from(s.terminated),
+                    truncated: u8::from(s.truncated),
+                    reserved: [0; 6],
                 };
+                return RWG_OK;
             }
+            Err(Some(status)) => return status,
+            Err(None) => {}
         }
     }
-    step_checked(env, action, action_len, obs, obs_len, out)
+    step_checked::<E>(env, action, action_len, obs, obs_len, out)
+}
+
+/// The fast path of a step, shared by `step` and `step_many`'s lane loop:
+/// a well-formed call (`action` and `obs` non-NULL, the caller checked) on
+/// a healthy instance steps the env. `Err(None)` if the call is unusual in
+/// any way: nothing has been done to the env then, and the caller goes to
+/// [`step_checked`], which finds and reports the problem, so the two paths
+/// behave the same. `Err(Some(status))` if the env failed or panicked
+/// (recorded in the instance, as `step_checked` records it).
+#[inline(always)]
+pub(super) unsafe fn step_fast<E: Environment>(
+    env: *mut RwgEnv,
+    action: *const f64,
+    action_len: usize,
+    obs: *mut f64,
+    obs_len: usize,
+) -> Result<Step, Option<Status>> {
+    let Some(inst) = env.cast::<Instance<E>>().as_mut() else {
+        return Err(None);
+    };
+    if inst.poisoned.is_some() || obs_len != inst.obs_dim || action_len == 0 {
+        return Err(None);
+    }
+    let a = std::slice::from_raw_parts(action, action_len);
+    let Some(a) = action_fast(a, inst.action) else {
+        return Err(None);
+    };
+    let o = std::slice::from_raw_parts_mut(obs, obs_len);
+    let env = &mut inst.env;
+    match catch_unwind(AssertUnwindSafe(|| env.step(a, o))) {
+        Ok(Ok(s)) => {
+            if inst.error.len() != 1 {
+                clear_error(inst);
+            }
+            Ok(s)
+        }
+        Ok(Err(e)) => Err(Some(step_error(inst, e))),
+        Err(p) => Err(Some(step_panic(inst, p))),
+    }
 }
 
 /// The action if it is valid, for the fast path (no message on failure).
-#[inline]
+#[inline(always)]
 fn action_fast(a: &[f64], kind: ActionKind) -> Option<Action<'_>> {
     match kind {
         ActionKind::Discrete(n) => {
             let v = *a.first()?;
-            let i = v as u64; // saturating; NaN gives 0, caught by the comparison
-            (a.len() == 1 && v >= 0.0 && v < n as f64 && i as f64 == v)
-                .then_some(Action::Discrete(i as i64))
+            // Through i64 (one instruction on x86-64; u64 takes a dozen):
+            // saturating, NaN gives 0, so `i as f64 == v` holds exactly for
+            // integral v in i64's range, and the unsigned comparison
+            // refuses negative i. -0.0 is action 0, as in `action_of`.
+            let i = v as i64;
+            (a.len() == 1 && i as f64 == v && (i as u64) < n).then_some(Action::Discrete(i))
         }
         ActionKind::Box(dim) => {
             (a.len() == dim && a.iter().all(|x| x.is_finite())).then_some(Action::Continuous(a))
@@ -415,9 +447,17 @@ fn action_fast(a: &[f64], kind: ActionKind) -> Option<Action<'_>> {
     }
 }
 
+/// Clears `last_error` after a successful call that followed a failed one.
 #[cold]
 #[inline(never)]
-fn step_error(inst: &mut Instance, e: EnvError) -> Status {
+fn clear_error<E>(inst: &mut Instance<E>) {
+    inst.error.clear();
+    inst.error.push(0);
+}
+
+#[cold]
+#[inline(never)]
+fn step_error<E>(inst: &mut Instance<E>, e: EnvError) -> Status {
     let (status, msg) = env_err(e);
     inst.set_error(&msg);
     status
@@ -425,7 +465,7 @@ fn step_error(inst: &mut Instance, e: EnvError) -> Status {
 
 #[cold]
 #[inline(never)]
-fn step_panic(inst: &mut Instance, p: Box<dyn std::any::Any + Send>) -> Status {
+fn step_panic<E>(inst: &mut Instance<E>, p: Box<dyn std::any::Any + Send>) -> Status {
     let msg = panic_message(&*p);
     inst.set_error(&format!("panic: {msg}"));
     inst.poisoned = Some(msg);
@@ -435,7 +475,7 @@ fn step_panic(inst: &mut Instance, p: Box<dyn std::any::Any + Send>) -> Status {
 /// `step` with every argument checked and every problem reported.
 #[cold]
 #[inline(never)]
-unsafe fn step_checked(
+unsafe fn step_checked<E: Environment>(
     env: *mut RwgEnv,
     action: *const f64,
     action_len: usize,
@@ -443,7 +483,7 @@ unsafe fn step_checked(
     obs_len: usize,
     out: *mut RwgStepOut,
 ) -> Status {
-    with_instance(env, |e, obs_dim, kind| {
+    with_instance(env, |e: &mut E, obs_dim, kind| {
         let invalid = |m: String| (RWG_ERR_INVALID_ARGUMENT, m);
         if out.is_null() {
             return Err(invalid("step: out is NULL".into()));
@@ -468,8 +508,8 @@ unsafe fn step_checked(
     })
 }
 
-pub(super) unsafe extern "C" fn last_error(env: *const RwgEnv) -> *const c_char {
-    match env.cast::<Instance>().as_ref() {
+pub(super) unsafe extern "C" fn last_error<E>(env: *const RwgEnv) -> *const c_char {
+    match env.cast::<Instance<E>>().as_ref() {
         Some(inst) => inst.error.as_ptr().cast(),
         None => c"last_error: env is NULL".as_ptr(),
     }
