@@ -17,6 +17,7 @@ const TAU: f64 = 0.02;
 const X_THRESHOLD: f64 = 2.4;
 
 /// 12 degrees in radians, computed as Gymnasium does: `12 * 2 * pi / 360`.
+#[inline]
 fn theta_threshold() -> f64 {
     12.0 * 2.0 * std::f64::consts::PI / 360.0
 }
@@ -65,6 +66,7 @@ impl CartPole {
         }
     }
 
+    #[inline]
     fn write_obs(&self, obs: &mut [f64]) {
         for (o, s) in obs.iter_mut().zip(self.state) {
             *o = f32r(s);

@@ -44,6 +44,7 @@ impl MountainCar {
         }
     }
 
+    #[inline]
     fn write_obs(&self, obs: &mut [f64]) {
         for (o, s) in obs.iter_mut().zip(self.state) {
             *o = f32r(s);

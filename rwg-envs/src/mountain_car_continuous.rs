@@ -186,6 +186,7 @@ impl MountainCarContinuous {
     }
 
     /// Observation: the state as float32 (after a step it already is).
+    #[inline]
     fn write_obs(&self, obs: &mut [f64]) {
         for (o, s) in obs.iter_mut().zip(self.state) {
             *o = f32r(s);

@@ -118,6 +118,7 @@ impl Pendulum {
     }
 
     /// `[cos theta, sin theta, theta_dot]`: cast to float32 in v1, float64 in v0.
+    #[inline]
     fn write_obs(&mut self, obs: &mut [f64]) {
         let [th, thdot] = self.state;
         self.sin_th = th.sin();

@@ -7,14 +7,21 @@
 //! host applies `max_episode_steps` from the descriptor, so a plugin episode
 //! reproduces the built-in one bit for bit.
 //!
+//! Each env is exported with its concrete type (from [`rwg_envs::visit`]),
+//! so the exported `step` and `step_many` call the env's `step` directly,
+//! as the built-in sampler does, instead of through a trait object.
+//!
 //! Config string: `""` (defaults) or `action_dtype=float32` /
 //! `action_dtype=float64`, the dtype of the continuous action array (see
 //! [`rwg_env::ActionDtype`]; it matters for Pendulum-v1 and
 //! MountainCarContinuous-v0 only).
 
-use rwg_env::plugin::{DynEnv, PluginBuilder};
-use rwg_env::ActionDtype;
-use rwg_envs::{make, EnvOptions, REGISTRY};
+use std::any::Any;
+use std::marker::PhantomData;
+
+use rwg_env::plugin::PluginBuilder;
+use rwg_env::{ActionDtype, EnvSpec, Environment};
+use rwg_envs::{visit, EnvOptions, EnvVisitor, Registration, REGISTRY};
 
 /// The namespace of this plugin's ids.
 pub const NAMESPACE: &str = "classic_control";
@@ -39,24 +46,49 @@ fn options(config: &str) -> Result<EnvOptions, String> {
     Ok(opts)
 }
 
+/// Adds the built-in env it is handed to the builder, with its concrete type.
+struct Export {
+    builder: PluginBuilder,
+    reg: &'static Registration,
+}
+
+impl EnvVisitor for Export {
+    type Output = PluginBuilder;
+    fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> PluginBuilder {
+        let id = self.reg.id;
+        let mut spec: EnvSpec = env.spec().clone();
+        spec.id = format!("{NAMESPACE}/{id}");
+        self.builder.env(
+            spec,
+            self.reg.summary,
+            move |config: &str| -> Result<E, String> {
+                let opts = options(config)?;
+                visit(id, &opts, Exact::<E>(PhantomData)).map_err(|e| e.to_string())?
+            },
+        )
+    }
+}
+
+/// Hands back the env [`visit`] builds if it has the type `E` (the type
+/// of an id does not depend on the options).
+struct Exact<E>(PhantomData<E>);
+
+impl<E: 'static> EnvVisitor for Exact<E> {
+    type Output = Result<E, String>;
+    fn visit<F: Environment + Clone + Send + Sync + 'static>(self, env: F) -> Result<E, String> {
+        let any: Box<dyn Any> = Box::new(env);
+        any.downcast::<E>()
+            .map(|e| *e)
+            .map_err(|_| "the env's type changed with its options (a bug in the plugin)".into())
+    }
+}
+
 /// Describes the plugin: one export per registered built-in environment.
 pub fn plugin() -> PluginBuilder {
     let mut b = PluginBuilder::new(NAMESPACE, env!("CARGO_PKG_VERSION"));
-    for r in REGISTRY {
-        let id = r.id;
-        let mut spec = make(id, &EnvOptions::default())
-            .unwrap_or_else(|e| panic!("registered env {id} does not build: {e}"))
-            .spec()
-            .clone();
-        spec.id = format!("{NAMESPACE}/{id}");
-        b = b.env_boxed(
-            spec,
-            r.summary,
-            move |config: &str| -> Result<DynEnv, String> {
-                let opts = options(config)?;
-                make(id, &opts).map_err(|e| e.to_string())
-            },
-        );
+    for reg in REGISTRY {
+        b = visit(reg.id, &EnvOptions::default(), Export { builder: b, reg })
+            .unwrap_or_else(|e| panic!("registered env {} does not build: {e}", reg.id));
     }
     b
 }
