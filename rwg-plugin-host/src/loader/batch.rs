@@ -166,21 +166,23 @@ impl PluginBatch {
     /// Calls `call(start, failed)` (the batched call on lanes `start..`) until
     /// every lane of `todo` is done: a failing lane is reported (as `what`,
     /// "reset" or "step") and cleared, and the call repeated for the lanes
-    /// after it.
+    /// after it. Returns whether no lane failed.
     fn run(
         &mut self,
         what: &str,
         on_fail: &mut impl FnMut(LaneFailure),
         mut call: impl FnMut(&Self, usize, &mut usize) -> Status,
-    ) {
+    ) -> bool {
         let n = self.envs.len();
         let mut start = 0;
+        let mut clean = true;
         while start < n {
             let mut failed = usize::MAX;
             let status = call(self, start, &mut failed);
             if status == RWG_OK {
-                return;
+                return clean;
             }
+            clean = false;
             let rest = n - start;
             if failed >= rest {
                 // Refused as a whole: every lane still to do fails.
@@ -195,7 +197,7 @@ impl PluginBatch {
                         on_fail(LaneFailure { lane: i, error });
                     }
                 }
-                return;
+                return false;
             }
             let i = start + failed;
             self.todo[i] = 0;
@@ -204,6 +206,7 @@ impl PluginBatch {
             on_fail(LaneFailure { lane: i, error });
             start = i + 1;
         }
+        clean
     }
 
     /// Resets every lane `i` with `mask[i] == 1` with `seeds[i]`, its first
@@ -228,7 +231,7 @@ impl PluginBatch {
         }
         let reset_many = self.reset_many;
         let obs_ptr = obs.as_mut_ptr();
-        self.run("reset", &mut on_fail, |b, s, failed| {
+        let clean = self.run("reset", &mut on_fail, |b, s, failed| {
             // SAFETY: lanes s.. of buffers sized for n lanes; the handles
             // are live instances of this table, used by this thread only.
             unsafe {
@@ -243,12 +246,23 @@ impl PluginBatch {
                 )
             }
         });
-        for i in 0..n {
-            if self.todo[i] == 1 {
-                let lane = &obs[i * d..(i + 1) * d];
-                match self.envs[i].check_obs("reset", lane) {
-                    Ok(()) => self.has_reset[i] = true,
-                    Err(error) => on_fail(LaneFailure { lane: i, error }),
+        if clean && all_finite(obs) {
+            // The common case (see `step_many`): no lane to check one by one,
+            // and no lane failed, so none is newly poisoned.
+            for (r, &m) in self.has_reset.iter_mut().zip(&self.todo) {
+                *r |= m == 1;
+            }
+            if self.all_ready {
+                return;
+            }
+        } else {
+            for i in 0..n {
+                if self.todo[i] == 1 {
+                    let lane = &obs[i * d..(i + 1) * d];
+                    match self.envs[i].check_obs("reset", lane) {
+                        Ok(()) => self.has_reset[i] = true,
+                        Err(error) => on_fail(LaneFailure { lane: i, error }),
+                    }
                 }
             }
         }
@@ -285,19 +299,27 @@ impl PluginBatch {
             "buffers of {n} lanes"
         );
         self.start(mask, true, &mut on_fail);
-        for i in 0..n {
-            if self.todo[i] == 1 {
-                obs[i * d..(i + 1) * d].fill(f64::NAN);
-                // Values a plugin cannot leave there by accident unnoticed.
-                rewards[i] = f64::NAN;
-                terminated[i] = 0xff;
-                truncated[i] = 0xff;
+        // Values a plugin cannot leave there by accident unnoticed.
+        if all_ones(&self.todo) {
+            // Every lane: whole buffers at once.
+            obs.fill(f64::NAN);
+            rewards.fill(f64::NAN);
+            terminated.fill(0xff);
+            truncated.fill(0xff);
+        } else {
+            for i in 0..n {
+                if self.todo[i] == 1 {
+                    obs[i * d..(i + 1) * d].fill(f64::NAN);
+                    rewards[i] = f64::NAN;
+                    terminated[i] = 0xff;
+                    truncated[i] = 0xff;
+                }
             }
         }
         let step_many = self.step_many;
         let (obs_ptr, rew_ptr) = (obs.as_mut_ptr(), rewards.as_mut_ptr());
         let (term_ptr, trunc_ptr) = (terminated.as_mut_ptr(), truncated.as_mut_ptr());
-        self.run("step", &mut on_fail, |b, s, failed| {
+        let _ = self.run("step", &mut on_fail, |b, s, failed| {
             // SAFETY: lanes s.. of buffers sized for n lanes (checked above);
             // the handles are live instances used by this thread only.
             unsafe {
@@ -316,6 +338,18 @@ impl PluginBatch {
                 )
             }
         });
+        // The common case in one pass over whole buffers: every lane's flags
+        // are 0 or 1 and its reward and observation finite (lanes not
+        // stepped included, so this is a sufficient test, not the exact one:
+        // if it fails, the lanes are checked one by one below).
+        if flags_ok(terminated) && flags_ok(truncated) && all_finite(rewards) && all_finite(obs) {
+            let max = self.max_steps;
+            for ((e, t), &m) in self.elapsed.iter_mut().zip(truncated).zip(&self.todo) {
+                *e = e.saturating_add(u32::from(m));
+                *t |= u8::from(*e >= max) & m;
+            }
+            return;
+        }
         for i in 0..n {
             if self.todo[i] != 1 {
                 continue;
@@ -338,6 +372,97 @@ impl PluginBatch {
             self.elapsed[i] = self.elapsed[i].saturating_add(1);
             if self.elapsed[i] >= self.max_steps {
                 truncated[i] = 1;
+            }
+        }
+    }
+}
+
+/// The bytes of `bytes` OR-ed together, eight at a time.
+#[inline]
+fn or_bytes(bytes: &[u8]) -> u8 {
+    let mut chunks = bytes.chunks_exact(8);
+    let mut acc = 0u64;
+    for c in &mut chunks {
+        acc |= u64::from_ne_bytes(c.try_into().expect("8 bytes"));
+    }
+    let acc = acc.to_ne_bytes().iter().fold(0, |a, &b| a | b);
+    chunks.remainder().iter().fold(acc, |a, &b| a | b)
+}
+
+/// Whether every flag is 0 or 1 (one pass, no branch per value: a value
+/// above 1 has a bit above bit 0).
+#[inline]
+fn flags_ok(flags: &[u8]) -> bool {
+    or_bytes(flags) <= 1
+}
+
+/// Whether every byte is 1 (a mask of every lane).
+#[inline]
+fn all_ones(mask: &[u8]) -> bool {
+    let mut chunks = mask.chunks_exact(8);
+    let ones = u64::from_ne_bytes([1; 8]);
+    (&mut chunks).all(|c| u64::from_ne_bytes(c.try_into().expect("8 bytes")) == ones)
+        && chunks.remainder().iter().all(|&m| m == 1)
+}
+
+/// Whether every value is finite, in one pass without a branch per value:
+/// `x - x` is 0 for a finite `x` and NaN for an infinite or NaN one, and a
+/// NaN stays in a sum (four sums, so the compiler can use vector adds
+/// without reordering any one of them).
+#[inline]
+fn all_finite(values: &[f64]) -> bool {
+    let mut chunks = values.chunks_exact(4);
+    let mut acc = [0.0f64; 4];
+    for c in &mut chunks {
+        for k in 0..4 {
+            acc[k] += c[k] - c[k];
+        }
+    }
+    let tail = chunks.remainder().iter().fold(0.0, |a, &x| a + (x - x));
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail == 0.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn all_finite_finds_any_non_finite_value_at_any_position() {
+        for n in 0..40 {
+            let ok: Vec<f64> = (0..n).map(|i| (i as f64 - 7.5) * 1e300).collect();
+            assert!(all_finite(&ok), "{n}");
+            for i in 0..n {
+                for bad in [f64::NAN, -f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                    let mut v = ok.clone();
+                    v[i] = bad;
+                    assert!(!all_finite(&v), "{n} {i} {bad}");
+                }
+            }
+        }
+        assert!(all_finite(&[
+            f64::MAX,
+            f64::MIN,
+            -0.0,
+            f64::MIN_POSITIVE / 2.0
+        ]));
+    }
+
+    #[test]
+    fn flags_and_masks_are_checked_at_every_position() {
+        for n in 0..40 {
+            let zeros = vec![0u8; n];
+            let ones = vec![1u8; n];
+            assert!(flags_ok(&zeros) && flags_ok(&ones) && all_ones(&ones));
+            assert_eq!(all_ones(&zeros), n == 0);
+            for i in 0..n {
+                for bad in [2u8, 3, 0x80, 0xff] {
+                    let mut v = ones.clone();
+                    v[i] = bad;
+                    assert!(!flags_ok(&v) && !all_ones(&v), "{n} {i} {bad}");
+                }
+                let mut v = ones.clone();
+                v[i] = 0;
+                assert!(flags_ok(&v) && !all_ones(&v));
             }
         }
     }
