@@ -401,7 +401,7 @@ fn flags_ok(flags: &[u8]) -> bool {
 fn all_ones(mask: &[u8]) -> bool {
     let mut chunks = mask.chunks_exact(8);
     let ones = u64::from_ne_bytes([1; 8]);
-    (&mut chunks).all(|c| u64::from_ne_bytes(c.try_into().expect("8 bytes")) == ones)
+    chunks.all(|c| u64::from_ne_bytes(c.try_into().expect("8 bytes")) == ones)
         && chunks.remainder().iter().all(|&m| m == 1)
 }
 
@@ -410,6 +410,7 @@ fn all_ones(mask: &[u8]) -> bool {
 /// NaN stays in a sum (four sums, so the compiler can use vector adds
 /// without reordering any one of them).
 #[inline]
+#[allow(clippy::eq_op)] // `x - x` is the test, not a mistake
 fn all_finite(values: &[f64]) -> bool {
     let mut chunks = values.chunks_exact(4);
     let mut acc = [0.0f64; 4];
