@@ -7,7 +7,7 @@
 //! it; `rwg check` tests it), so `scores.csv` and `samples.csv` do not
 //! depend on the path. They are used only when `RWG_PLUGIN_BATCH=1` is in
 //! the environment ([`use_batched_calls`]): measured, they save ~100 CPU
-//! instructions per env step over the single calls but still cost 1.1-1.45x
+//! instructions per env step over the single calls but still cost 1.1-1.5x
 //! the built-in on the cheap classic envs (docs/performance.md), and a fault
 //! inside one cannot be traced to its network and step, which the single
 //! calls' reports name.
