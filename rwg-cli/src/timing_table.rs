@@ -6,7 +6,9 @@ use rwg_study::timing::{share, RunTiming};
 use std::time::Duration;
 
 /// The phases of `t` as a table; `report`: the analysis' time if the run
-/// wrote it.
+/// wrote it. Left of `|`, a cell's wall time on the runner's thread
+/// (sampling, serial time and share); right of it, the cell's end,
+/// overlapped with the next cell's sampling.
 pub fn timing_table(t: &RunTiming, report: Option<Duration>) -> String {
     let ms = |d: Duration| format!("{:.1}", d.as_secs_f64() * 1e3);
     let columns = TextColumns::new(
@@ -14,45 +16,51 @@ pub fn timing_table(t: &RunTiming, report: Option<Duration>) -> String {
             (44, Align::Left),
             (10, Align::Right),
             (10, Align::Right),
+            (7, Align::Right),
+            (1, Align::Left),
+            (10, Align::Right),
             (10, Align::Right),
             (10, Align::Right),
             (9, Align::Right),
-            (10, Align::Right),
-            (7, Align::Right),
         ],
         " ",
     );
     let mut s = columns.line(&[
         "phase (wall ms)",
         "sampling",
+        "serial",
+        "serial",
+        "|",
         "commit I/O",
         "commit end",
         "finalise",
         "run.json",
-        "total",
-        "serial",
     ]) + "\n";
     for c in &t.cells {
         s += &columns.line(&[
             c.dir.clone(),
             ms(c.sampling),
+            ms(c.serial),
+            format!("{:.2}%", 100.0 * c.serial_share()),
+            "|".into(),
             ms(c.commit_io),
-            ms(c.commit_wait),
+            ms(c.commit_end),
             ms(c.finalize),
             ms(c.run_json),
-            ms(c.total()),
-            format!("{:.2}%", 100.0 * c.serial_share()),
         ]);
         s.push('\n');
     }
+    s += "(right of |: the cell's end, overlapped with the next cell's sampling, not part of its wall time)\n";
     let report = report.unwrap_or_default();
     let sum = t.cells_sum();
     let (serial, total) = t.serial_and_total(report);
     s += &format!(
-        "cells: sampling {} ms, serial {} ms; set-up {} ms, wrap-up {} ms, report {} ms\n",
+        "cells: sampling {} ms, serial {} ms; set-up {} ms, last cells' ends {} ms, \
+         wrap-up {} ms, report {} ms\n",
         ms(sum.sampling),
-        ms(sum.serial()),
+        ms(sum.serial),
         ms(t.setup),
+        ms(t.drain),
         ms(t.wrap_up),
         ms(report)
     );
@@ -75,45 +83,48 @@ mod tests {
         let c = CellTiming {
             dir: "CartPole-v0__0HL__nobias".into(),
             sampling: Duration::from_millis(900),
-            commit_wait: Duration::from_millis(60),
+            serial: Duration::from_millis(100),
             commit_io: Duration::from_millis(500),
+            commit_end: Duration::from_millis(60),
             finalize: Duration::from_millis(30),
             run_json: Duration::from_millis(10),
         };
         let t = RunTiming {
             setup: Duration::from_millis(50),
             cells: vec![c],
-            wrap_up: Duration::from_millis(0),
+            drain: Duration::from_millis(40),
+            wrap_up: Duration::from_millis(10),
         };
         let table = timing_table(&t, Some(Duration::from_millis(50)));
         let lines: Vec<&str> = table.lines().collect();
-        // The layout of the format strings the table was written with before.
         let header = format!(
-            "{:<44} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10} {:>7}",
+            "{:<44} {:>10} {:>10} {:>7} | {:>10} {:>10} {:>10} {:>9}",
             "phase (wall ms)",
             "sampling",
+            "serial",
+            "serial",
             "commit I/O",
             "commit end",
             "finalise",
-            "run.json",
-            "total",
-            "serial"
+            "run.json"
         );
         assert_eq!(lines[0], header);
         let row = format!(
-            "{:<44} {:>10} {:>10} {:>10} {:>10} {:>9} {:>10} {:>6.2}%",
-            "CartPole-v0__0HL__nobias", "900.0", "500.0", "60.0", "30.0", "10.0", "1000.0", 10.0
+            "{:<44} {:>10} {:>10} {:>6.2}% | {:>10} {:>10} {:>10} {:>9}",
+            "CartPole-v0__0HL__nobias", "900.0", "100.0", 10.0, "500.0", "60.0", "30.0", "10.0"
         );
         assert_eq!(lines[1], row);
-        assert_eq!(
-            lines[2],
-            "cells: sampling 900.0 ms, serial 100.0 ms; set-up 50.0 ms, wrap-up 0.0 ms, report 50.0 ms"
-        );
-        // (50 + 100 + 50) / 1100
+        assert!(lines[2].starts_with("(right of |"), "{}", lines[2]);
         assert_eq!(
             lines[3],
-            "whole run: 1100.0 ms, serial share 18.18% (cells alone 10.00%)"
+            "cells: sampling 900.0 ms, serial 100.0 ms; set-up 50.0 ms, last cells' ends 40.0 ms, \
+             wrap-up 10.0 ms, report 50.0 ms"
         );
-        assert_eq!(lines.len(), 4);
+        // (50 + 100 + 40 + 10 + 50) / 1150
+        assert_eq!(
+            lines[4],
+            "whole run: 1150.0 ms, serial share 21.74% (cells alone 10.00%)"
+        );
+        assert_eq!(lines.len(), 5);
     }
 }

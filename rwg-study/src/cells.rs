@@ -1,6 +1,7 @@
 //! A manifest expanded into cells, and what `run` and `merge` share about them.
 
 use crate::env_source::{describe, is_builtin, EnvSource, Found, PluginSource, Plugins};
+use crate::error::CellError;
 use crate::manifest::{EnvEntry, Manifest, ManifestError};
 use crate::rundir::blocks::{finalize_cell, CellTotals, BLOCK_SAMPLES};
 use crate::rundir::cell_dir;
@@ -361,6 +362,29 @@ impl Cell {
             source,
         })?;
         Ok((meta.expect("set by finalize_cell"), totals))
+    }
+
+    /// The run's error for a failure of this cell (naming the cell, its
+    /// plugin or Gymnasium env, and the run directory).
+    pub fn failure(&self, out: &Path, e: CellError) -> StudyError {
+        match e {
+            CellError::Interrupted => StudyError::Interrupted,
+            source => StudyError::Cell {
+                cell: self.id.dir.clone(),
+                plugin: match &self.source {
+                    EnvSource::Plugin(p) => Some(p.path().to_path_buf()),
+                    EnvSource::Builtin(_) | EnvSource::Gym(_) => None,
+                },
+                gym: match &self.source {
+                    EnvSource::Gym(g) => {
+                        Some(format!("{}, Python {}", self.spec.id, g.config().python))
+                    }
+                    _ => None,
+                },
+                out: out.to_path_buf(),
+                source: Box::new(source),
+            },
+        }
     }
 
     /// One line of the end-of-run summary, computed by the statistics code

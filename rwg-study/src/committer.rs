@@ -67,12 +67,15 @@ pub struct CommitThreads<'scope> {
 
 impl Committer {
     /// Starts [`COMMIT_THREADS`] I/O threads in `scope` committing blocks of
-    /// the cell in `cell_dir` (`episodes` per network).
-    pub fn start<'scope, 'env>(
-        scope: &'scope Scope<'scope, 'env>,
-        cell_dir: &'env Path,
+    /// the cell in `cell_dir` (`episodes` per network). The threads may
+    /// outlive the cell's sampling (the runner waits for them on another
+    /// thread while the next cell samples).
+    pub fn start<'scope>(
+        scope: &'scope Scope<'scope, '_>,
+        cell_dir: &Path,
         episodes: u32,
     ) -> (Committer, CommitThreads<'scope>) {
+        let cell_dir: Arc<Path> = Arc::from(cell_dir);
         let (tx, rx) = sync_channel::<BlockResult>(QUEUE);
         let rx = Arc::new(Mutex::new(rx));
         let failed: FirstError = Arc::default();
@@ -80,7 +83,8 @@ impl Committer {
             .map(|_| {
                 let rx = Arc::clone(&rx);
                 let failed = Arc::clone(&failed);
-                scope.spawn(move || commit_loop(&rx, &failed, cell_dir, episodes))
+                let cell_dir = Arc::clone(&cell_dir);
+                scope.spawn(move || commit_loop(&rx, &failed, &cell_dir, episodes))
             })
             .collect();
         (

@@ -23,6 +23,7 @@ pub mod manifest;
 pub mod manifest_text;
 pub mod merge;
 pub mod plugin_batch;
+mod recorder;
 pub mod rundir;
 pub mod runner;
 pub mod stats;

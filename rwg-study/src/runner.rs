@@ -13,14 +13,15 @@ use crate::env_source::EnvSource;
 use crate::error::CellError;
 use crate::fault_context::{self, Watched};
 use crate::manifest::Manifest;
+use crate::recorder::{spawn_cell_end, Record, Recorded, Recorder};
 use crate::rundir::blocks::{
-    block_samples, cell_complete, n_blocks, tidy_complete_cell, BlockIndex, CellTotals,
+    block_samples, cell_complete, n_blocks, tidy_complete_cell, BlockIndex,
 };
 use crate::rundir::checksum::verify_cell;
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::lock::RunLock;
 use crate::rundir::meta::{
-    read_cell_meta, read_run_meta, write_run_meta, CellMeta, RunMeta, ShardMeta, RUN_FORMAT,
+    read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta, RUN_FORMAT,
 };
 use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
 use crate::timing::{CellTiming, RunTiming};
@@ -28,10 +29,8 @@ use crate::StudyError;
 use rwg_core::sampler::{run_blocks, BlockResult};
 use rwg_env::Environment;
 use rwg_envs::{visit, EnvVisitor};
-use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::thread::ScopedJoinHandle;
 use std::time::{Instant, SystemTime};
 
 /// How to run a study.
@@ -171,38 +170,45 @@ pub fn run_study(
     if let Some(p) = &previous {
         meta.start_time = p.start_time.clone();
     }
-    let mut lines = vec![];
     let mut steps_now = 0u64;
+    // Set by the recorder when a cell's end fails: the run stops after the
+    // blocks in flight and reports that failure.
+    let abort = AtomicBool::new(false);
 
-    // A cell whose blocks are all committed is finalised (scores.csv,
-    // statistics, samples.csv, cell.json) on a thread of its own while the
-    // next cells sample (at most MAX_FINALIZING at a time); the results are
-    // recorded in cell order, each as soon as it and the cells before it
-    // are finalised.
-    std::thread::scope(|fin| -> Result<(), StudyError> {
-        let mut pending: VecDeque<Pending<'_, '_>> = VecDeque::new();
-        let mut rec = Recorder {
-            out,
-            t0,
-            meta: &mut meta,
-            lines: &mut lines,
-            timing: &mut timing,
-        };
+    // After a cell's sampling, its end (the last block commits, finalising
+    // it: scores.csv, statistics, samples.csv, cell.json) runs on a thread of
+    // its own, and the recorder records the cells in order (run.json), while
+    // the next cells sample (see `recorder`).
+    let mut main_serial = Vec::with_capacity(cells.len());
+    let recorded = std::thread::scope(|fin| -> Result<Recorded, StudyError> {
+        let recorder = Recorder::start(fin, out, t0, meta, &abort);
         for (ci, cell) in cells.iter().enumerate() {
+            let t_iter = Instant::now();
             let dir = cell_dir(out, &cell.id.dir);
             if opts.shard.is_none() && cell_complete(&dir) {
-                rec.finalized(&mut pending, 0)?;
-                tidy_complete_cell(&dir).map_err(|source| StudyError::RunDir {
-                    context: format!("cannot tidy cell {}", cell.id.dir),
-                    source,
-                })?;
-                verify_cell(&dir).map_err(|source| StudyError::RunDir {
-                    context: format!("cell {} is complete but does not verify", cell.id.dir),
-                    source,
-                })?;
-                let cm = read_cell_meta(&dir)?;
-                rec.meta.env_steps += cm.env_steps;
-                rec.meta.cells.push(cm);
+                let checked = tidy_complete_cell(&dir)
+                    .map_err(|source| StudyError::RunDir {
+                        context: format!("cannot tidy cell {}", cell.id.dir),
+                        source,
+                    })
+                    .and_then(|()| {
+                        verify_cell(&dir).map_err(|source| StudyError::RunDir {
+                            context: format!(
+                                "cell {} is complete but does not verify",
+                                cell.id.dir
+                            ),
+                            source,
+                        })
+                    })
+                    .and_then(|_| read_cell_meta(&dir));
+                let aborted = abort.load(Ordering::SeqCst);
+                let handed = match checked {
+                    Ok(cm) => recorder.send(Record::Complete(cm)),
+                    Err(e) => return fail(progress, recorder, out, t0, e, aborted),
+                };
+                if !handed {
+                    return fail(progress, recorder, out, t0, StudyError::Interrupted, true);
+                }
                 continue;
             }
             let label = format!(
@@ -232,79 +238,80 @@ pub fn run_study(
                 .collect();
             let t_cell = Instant::now();
             let mut cell_steps = 0u64;
-            let mut ct = CellTiming {
-                dir: cell.id.dir.clone(),
-                ..CellTiming::default()
-            };
             // Blocks are committed by I/O threads while the workers compute
-            // the next ones; the cell's sampling ends when the last one is
-            // committed.
-            let result = std::thread::scope(|scope| {
-                let (committer, io_threads) = Committer::start(scope, &dir, m.episodes);
-                let sampled = pool.install(|| {
-                    run_cell_blocks(cell, &blocks, opts.stop, &committer, |b: &BlockResult| {
-                        let s: u64 = b.episodes.iter().map(|r| r.steps as u64).sum();
-                        cell_steps += s;
-                        steps_now += s;
-                        progress.block(&label, b.samples.end - b.samples.start, s);
-                    })
-                });
-                drop(committer);
-                let t_wait = Instant::now();
-                let committed = io_threads.finish();
-                ct.commit_wait = t_wait.elapsed();
-                ct.sampling = t_cell.elapsed() - ct.commit_wait;
-                match committed {
-                    Ok(busy) => {
-                        ct.commit_io = busy;
-                        sampled
-                    }
-                    Err(e) => sampled.and(Err(e.into())),
-                }
+            // the next ones; the cell's end waits for the last commits.
+            let (committer, io_threads) = Committer::start(fin, &dir, m.episodes);
+            let t_sampling = Instant::now();
+            let stop = [opts.stop, &abort];
+            let sampled = pool.install(|| {
+                run_cell_blocks(cell, &blocks, &stop, &committer, |b: &BlockResult| {
+                    let s: u64 = b.episodes.iter().map(|r| r.steps as u64).sum();
+                    cell_steps += s;
+                    steps_now += s;
+                    progress.block(&label, b.samples.end - b.samples.start, s);
+                })
             });
-            if let Err(e) = result {
-                progress.finish(false);
-                // The cell's error is the one to report (on a full disk
-                // run.json fails too, and would hide which file failed
-                // first); run.json is rewritten when the run resumes.
-                let _ = rec.finalized(&mut pending, 0);
-                rec.meta.wall_s = t0.elapsed().as_secs_f64();
-                let _ = write_run_meta(out, rec.meta);
-                return Err(match e {
-                    CellError::Interrupted => StudyError::Interrupted,
-                    source => StudyError::Cell {
-                        cell: cell.id.dir.clone(),
-                        plugin: match &cell.source {
-                            EnvSource::Plugin(p) => Some(p.path().to_path_buf()),
-                            EnvSource::Builtin(_) | EnvSource::Gym(_) => None,
-                        },
-                        gym: match &cell.source {
-                            EnvSource::Gym(g) => {
-                                Some(format!("{}, Python {}", cell.spec.id, g.config().python))
-                            }
-                            _ => None,
-                        },
-                        out: out.clone(),
-                        source: Box::new(source),
-                    },
-                });
+            let sampling = t_sampling.elapsed();
+            drop(committer);
+            if let Err(e) = sampled {
+                // The blocks computed before are committed before the run
+                // ends (a rerun resumes after them).
+                let e = match io_threads.finish() {
+                    Err(io) if matches!(e, CellError::Interrupted) => CellError::from(io),
+                    _ => e,
+                };
+                // On a full disk run.json fails too, and would hide which
+                // file failed first: the cell's error is the one to report
+                // (unless the run was stopped by an earlier cell's failure).
+                let aborted = abort.load(Ordering::SeqCst);
+                let e = cell.failure(out, e);
+                return fail(progress, recorder, out, t0, e, aborted);
             }
-            let wall = t_cell.elapsed().as_secs_f64();
-            if opts.shard.is_none() {
-                rec.finalized(&mut pending, MAX_FINALIZING - 1)?;
-                let pool = &pool;
-                pending.push_back(Pending {
-                    cell,
-                    ct,
-                    finalize: fin.spawn(move || pool.install(|| cell.finalize(m, out, wall))),
-                });
-            } else {
-                rec.meta.env_steps += cell_steps;
-                rec.run_json(ct)?;
+            let end = spawn_cell_end(
+                fin,
+                cell,
+                m,
+                out,
+                &pool,
+                io_threads,
+                t_cell,
+                opts.shard.is_some(),
+            );
+            let handed = recorder.send(Record::Sampled {
+                cell,
+                steps: cell_steps,
+                timing: CellTiming {
+                    dir: cell.id.dir.clone(),
+                    sampling,
+                    ..CellTiming::default()
+                },
+                end,
+            });
+            main_serial.push(t_iter.elapsed() - sampling);
+            if !handed {
+                return fail(progress, recorder, out, t0, StudyError::Interrupted, true);
             }
         }
-        rec.finalized(&mut pending, 0)
+        let t_drain = Instant::now();
+        let (rec, ended) = recorder.finish();
+        timing.drain = t_drain.elapsed();
+        match ended {
+            Ok(()) => Ok(rec),
+            Err(e) => {
+                progress.finish(false);
+                Err(e)
+            }
+        }
     })?;
+    let Recorded {
+        mut meta,
+        lines,
+        cells: mut cell_timing,
+    } = recorded;
+    for (ct, serial) in cell_timing.iter_mut().zip(main_serial) {
+        ct.serial = serial;
+    }
+    timing.cells = cell_timing;
     let t_wrap = Instant::now();
     progress.finish(true);
     meta.wall_s = t0.elapsed().as_secs_f64();
@@ -323,69 +330,25 @@ pub fn run_study(
     })))
 }
 
-/// Cells finalised at the same time, at most (each on a thread of its own).
-const MAX_FINALIZING: usize = 4;
-
-/// A cell being finalised on its own thread.
-struct Pending<'scope, 'c> {
-    cell: &'c Cell,
-    ct: CellTiming,
-    finalize: ScopedJoinHandle<'scope, Result<(CellMeta, CellTotals), StudyError>>,
-}
-
-/// Records finished cells into the run's metadata, summary and timing, and
-/// keeps `run.json` current.
-struct Recorder<'a> {
-    out: &'a Path,
+/// Ends a run that failed with `e`: waits for the cells handed to the
+/// recorder, writes `run.json`, and returns the error to report: the
+/// recorder's if it stopped the run (`aborted`: a cell's end failed), else `e`.
+fn fail<'scope, 'c: 'scope>(
+    progress: &mut dyn Progress,
+    recorder: Recorder<'scope, 'c>,
+    out: &Path,
     t0: Instant,
-    meta: &'a mut RunMeta,
-    lines: &'a mut Vec<SummaryLine>,
-    timing: &'a mut RunTiming,
-}
-
-impl Recorder<'_> {
-    /// Records the cells being finalised, in order: those already done,
-    /// then, waiting for them, as many more as needed to leave at most
-    /// `keep` being finalised.
-    fn finalized(
-        &mut self,
-        pending: &mut VecDeque<Pending<'_, '_>>,
-        keep: usize,
-    ) -> Result<(), StudyError> {
-        while let Some(p) = pending.pop_front() {
-            if pending.len() < keep && !p.finalize.is_finished() {
-                pending.push_front(p);
-                return Ok(());
-            }
-            let Pending {
-                cell,
-                mut ct,
-                finalize,
-            } = p;
-            let t = Instant::now();
-            let done = finalize
-                .join()
-                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-            ct.finalize = t.elapsed();
-            let (cm, totals) = done?;
-            self.lines
-                .push(cell.summary_line(&totals.means, Some(cm.steps_per_s)));
-            self.meta.env_steps += cm.env_steps;
-            self.meta.cells.push(cm);
-            self.run_json(ct)?;
-        }
-        Ok(())
-    }
-
-    /// Writes `run.json` after a cell, timing it into the cell's phases.
-    fn run_json(&mut self, mut ct: CellTiming) -> Result<(), StudyError> {
-        let t = Instant::now();
-        self.meta.wall_s = self.t0.elapsed().as_secs_f64();
-        write_run_meta(self.out, self.meta)?;
-        ct.run_json = t.elapsed();
-        self.timing.cells.push(ct);
-        Ok(())
-    }
+    e: StudyError,
+    aborted: bool,
+) -> Result<Recorded, StudyError> {
+    progress.finish(false);
+    let (mut rec, ended) = recorder.finish();
+    rec.meta.wall_s = t0.elapsed().as_secs_f64();
+    let _ = write_run_meta(out, &rec.meta);
+    Err(match ended {
+        Err(first) if aborted => first,
+        _ => e,
+    })
 }
 
 /// Runs the given blocks of a cell. Built-in envs are statically dispatched
@@ -394,18 +357,19 @@ impl Recorder<'_> {
 /// ABI 1.1's batched calls, through the in-process batched sampler
 /// (`plugin_batch`); isolated plugin envs and Gymnasium envs through the
 /// batched sampler (`rwg_core::batch`). Each finished block goes to
-/// `on_done`, then to `committer`.
+/// `on_done`, then to `committer`; the cell stops after a block when a flag
+/// of `stop` is set.
 fn run_cell_blocks(
     cell: &Cell,
     blocks: &[std::ops::Range<u64>],
-    stop: &AtomicBool,
+    stop: &[&AtomicBool],
     committer: &Committer,
     on_done: impl FnMut(&BlockResult),
 ) -> Result<(), CellError> {
     struct Runner<'a, F> {
         cell: &'a Cell,
         blocks: &'a [std::ops::Range<u64>],
-        stop: &'a AtomicBool,
+        stop: &'a [&'a AtomicBool],
         committer: &'a Committer,
         on_done: F,
     }
@@ -414,7 +378,7 @@ fn run_cell_blocks(
         fn on_block(&mut self, b: BlockResult) -> Result<(), CellError> {
             (self.on_done)(&b);
             self.committer.submit(b)?;
-            if self.stop.load(Ordering::SeqCst) {
+            if self.stop.iter().any(|s| s.load(Ordering::SeqCst)) {
                 return Err(CellError::Interrupted);
             }
             Ok(())

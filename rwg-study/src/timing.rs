@@ -3,9 +3,13 @@
 //! The runner measures every phase with the wall clock (a few clock reads per
 //! cell: no cost worth switching off). The sampling of a cell runs on the
 //! worker threads, with the block commits overlapped on I/O threads
-//! ([`crate::committer`]); everything else (set-up, waiting for the last
-//! commits, finalising a cell, `run.json`, the report) runs on one thread
-//! while the workers wait, so it is the run's serial share: what limits the
+//! ([`crate::committer`]); the cell's end (its last commits, finalising it,
+//! `run.json`) runs on threads of its own while the next cell samples
+//! ([`crate::recorder`]). What the runner's thread does for a cell outside
+//! its sampling (starting the cell's I/O threads, handing the cell's end
+//! over, waiting when too many cells are still ending) keeps the workers
+//! waiting: that is the cell's serial time, and with set-up, the wait for the
+//! last cells' ends and the report, the run's serial share: what limits the
 //! speed-up with more threads (Amdahl).
 
 use std::time::Duration;
@@ -18,34 +22,33 @@ pub struct CellTiming {
     /// Waves of blocks on the worker threads (parallel), the block commits
     /// that overlap them included.
     pub sampling: Duration,
-    /// Waiting, after the sampling, for the last blocks to be committed
-    /// (serial).
-    pub commit_wait: Duration,
+    /// The runner's thread busy with the cell, or waiting, outside its
+    /// sampling, while the workers wait (serial).
+    pub serial: Duration,
     /// Busy time of the I/O threads committing the blocks (formatting,
-    /// writing, syncing, renaming), overlapped with the sampling: not part
-    /// of the cell's wall time.
+    /// writing, syncing, renaming), overlapped with the sampling.
     pub commit_io: Duration,
+    /// From the end of the sampling until the last block was committed
+    /// (overlapped with the next cell's sampling).
+    pub commit_end: Duration,
     /// Finalising the cell: `scores.csv`, per-sample statistics,
-    /// `samples.csv`, `cell.json` (serial).
+    /// `samples.csv`, `cell.json` (overlapped with the next cell's sampling).
     pub finalize: Duration,
-    /// Writing `run.json` after the cell (serial).
+    /// Writing `run.json` after the cell (overlapped with the next cell's
+    /// sampling).
     pub run_json: Duration,
 }
 
 impl CellTiming {
-    /// The cell's whole wall time.
+    /// The cell's wall time on the runner's thread: from its start to the
+    /// next cell's (its end, overlapped, is not part of it).
     pub fn total(&self) -> Duration {
-        self.sampling + self.serial()
-    }
-
-    /// The cell's serial phases.
-    pub fn serial(&self) -> Duration {
-        self.commit_wait + self.finalize + self.run_json
+        self.sampling + self.serial
     }
 
     /// Serial share of the cell's wall time (0 for an empty cell).
     pub fn serial_share(&self) -> f64 {
-        share(self.serial(), self.total())
+        share(self.serial, self.total())
     }
 }
 
@@ -58,30 +61,33 @@ pub struct RunTiming {
     pub setup: Duration,
     /// The cells computed in this session, in order.
     pub cells: Vec<CellTiming>,
-    /// Everything after the last cell (final `run.json`).
+    /// After the last cell's sampling, waiting for the ends of the cells
+    /// still ending (the last cell's commits, finalisation and `run.json`,
+    /// nothing left to overlap them with).
+    pub drain: Duration,
+    /// Everything after that (final `run.json`).
     pub wrap_up: Duration,
 }
 
 impl RunTiming {
-    /// The cells' phases added up (`dir` empty; `commit_io` is not added:
-    /// it overlaps the sampling).
+    /// The cells' sampling and serial time added up (`dir` empty; the
+    /// overlapped phases are not added).
     pub fn cells_sum(&self) -> CellTiming {
         let mut sum = CellTiming::default();
         for c in &self.cells {
             sum.sampling += c.sampling;
-            sum.commit_wait += c.commit_wait;
-            sum.finalize += c.finalize;
-            sum.run_json += c.run_json;
+            sum.serial += c.serial;
         }
         sum
     }
 
-    /// The run's serial time (set-up, the cells' serial phases, wrap-up and
-    /// `report`, the analysis' time if the caller ran it) and its whole
-    /// wall time (the serial time plus the cells' sampling).
+    /// The run's serial time (set-up, the cells' serial time, the wait for
+    /// the last cells' ends, wrap-up and `report`, the analysis' time if the
+    /// caller ran it) and its whole wall time (the serial time plus the
+    /// cells' sampling).
     pub fn serial_and_total(&self, report: Duration) -> (Duration, Duration) {
         let sum = self.cells_sum();
-        let serial = self.setup + sum.serial() + self.wrap_up + report;
+        let serial = self.setup + sum.serial + self.drain + self.wrap_up + report;
         (serial, serial + sum.sampling)
     }
 }
@@ -100,12 +106,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn serial_share_counts_everything_but_sampling() {
+    fn serial_share_counts_everything_but_sampling_and_the_overlapped_ends() {
         let c = CellTiming {
             dir: "CartPole-v0__0HL__nobias".into(),
             sampling: Duration::from_millis(900),
-            commit_wait: Duration::from_millis(60),
+            serial: Duration::from_millis(100),
             commit_io: Duration::from_millis(500),
+            commit_end: Duration::from_millis(60),
             finalize: Duration::from_millis(30),
             run_json: Duration::from_millis(10),
         };
@@ -114,17 +121,19 @@ mod tests {
         let t = RunTiming {
             setup: Duration::from_millis(50),
             cells: vec![c.clone(), c],
-            wrap_up: Duration::from_millis(0),
+            drain: Duration::from_millis(40),
+            wrap_up: Duration::from_millis(10),
         };
         assert_eq!(t.cells_sum().sampling, Duration::from_millis(1800));
-        assert_eq!(t.cells_sum().commit_io, Duration::ZERO);
+        assert_eq!(t.cells_sum().serial, Duration::from_millis(200));
+        assert_eq!(t.cells_sum().finalize, Duration::ZERO);
         let (serial, total) = t.serial_and_total(Duration::from_millis(50));
-        // 50 + 2 * 100 + 50 of 2100
+        // 50 + 2 * 100 + 40 + 10 + 50 of 2150
         assert_eq!(
             (serial, total),
-            (Duration::from_millis(300), Duration::from_millis(2100))
+            (Duration::from_millis(350), Duration::from_millis(2150))
         );
-        assert!((share(serial, total) - 1.0 / 7.0).abs() < 1e-12);
+        assert!((share(serial, total) - 350.0 / 2150.0).abs() < 1e-12);
         assert_eq!(CellTiming::default().serial_share(), 0.0);
     }
 }

@@ -96,8 +96,9 @@ pub struct Args {
     #[arg(long, short)]
     quiet: bool,
     /// Print where the wall time went to stderr at the end: set-up, per cell
-    /// sampling (parallel), block commits, finalising, run.json (serial), and
-    /// the report; with each cell's serial share.
+    /// sampling (parallel) and serial time with its share, the cell's last
+    /// block commits, finalising and run.json (overlapped with the next
+    /// cell), the wait for the last cells, and the report.
     #[arg(long)]
     timing: bool,
 }
