@@ -200,7 +200,13 @@ fn render(what: &impl Paint, size: (u32, u32), format: ImageFormat) -> Result<Ve
                 what.paint(&root, &mut layers)?;
                 root.present().map_err(draw_err)?;
             }
-            encode_png(&buf, size.0, size.1, png::ColorType::Rgb)
+            encode_png(
+                &buf,
+                size.0,
+                size.1,
+                png::ColorType::Rgb,
+                raster::STANDALONE,
+            )
         }
     }
 }

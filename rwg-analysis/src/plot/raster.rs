@@ -69,9 +69,9 @@ impl Raster {
         p[3] = (oa * 255.0).round() as u8;
     }
 
-    /// Encodes the raster as an RGBA PNG.
+    /// Encodes the raster as an RGBA PNG, at [`EMBEDDED`] compression.
     pub fn png(&self) -> Result<Vec<u8>, PlotError> {
-        encode_png(&self.rgba, self.w, self.h, png::ColorType::Rgba)
+        encode_png(&self.rgba, self.w, self.h, png::ColorType::Rgba, EMBEDDED)
     }
 
     /// Paints the raster onto the drawing area it was created over.
@@ -94,19 +94,34 @@ impl Raster {
     }
 }
 
+/// Compression of the scatter rasters embedded in SVG figures (and so in
+/// `report.html`), which every `rwg run` writes: zlib's default level. At
+/// `Best` the deflate was the larger part of the report's CPU time (and the
+/// report about a third of a 3000-network CartPole cell's whole run), for
+/// pages 0.4 % smaller than at `Default`; `Fast` (fdeflate) saves a little
+/// more time but makes `report.html` 57–80 % larger (docs/performance.md).
+/// Deterministic, as every level: the same pixels give the same bytes.
+pub const EMBEDDED: png::Compression = png::Compression::Default;
+
+/// Compression of whole PNG figures (`rwg plot --png`, `rwg compare
+/// --figure`): written only on request, to be kept or published, so the
+/// smallest files.
+pub const STANDALONE: png::Compression = png::Compression::Best;
+
 /// Encodes 8-bit pixels as PNG.
 pub fn encode_png(
     pixels: &[u8],
     w: u32,
     h: u32,
     color: png::ColorType,
+    compression: png::Compression,
 ) -> Result<Vec<u8>, PlotError> {
     let mut out = Vec::new();
     {
         let mut enc = png::Encoder::new(&mut out, w, h);
         enc.set_color(color);
         enc.set_depth(png::BitDepth::Eight);
-        enc.set_compression(png::Compression::Best);
+        enc.set_compression(compression);
         let mut writer = enc
             .write_header()
             .map_err(|e| PlotError::Png(e.to_string()))?;

@@ -117,3 +117,30 @@ fn png_figures_decode() {
         );
     }
 }
+
+#[test]
+fn png_levels_are_lossless_and_deterministic() {
+    // A scatter-like RGBA raster: mostly transparent, some blended dots.
+    let (w, h) = (97u32, 61u32);
+    let px: Vec<u8> = (0..w * h * 4)
+        .map(|i| {
+            let p = i / 4;
+            if p.wrapping_mul(2_654_435_761) % 7 < 2 {
+                (i * 37 % 251) as u8
+            } else {
+                0
+            }
+        })
+        .collect();
+    for level in [super::raster::EMBEDDED, super::raster::STANDALONE] {
+        let a = encode_png(&px, w, h, png::ColorType::Rgba, level).unwrap();
+        let b = encode_png(&px, w, h, png::ColorType::Rgba, level).unwrap();
+        assert_eq!(a, b, "{level:?}: same pixels, other bytes");
+        let mut reader = png::Decoder::new(std::io::Cursor::new(&a))
+            .read_info()
+            .unwrap();
+        let mut buf = vec![0; reader.output_buffer_size()];
+        reader.next_frame(&mut buf).unwrap();
+        assert_eq!(buf, px, "{level:?}: pixels changed");
+    }
+}
