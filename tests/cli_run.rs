@@ -223,3 +223,48 @@ fn manifest_errors_name_file_line_and_key_and_nothing_runs() {
         assert!(!out.exists(), "{to}: the run must not start");
     }
 }
+
+#[test]
+fn timing_shows_every_cell_and_its_serial_share_and_records_every_cell_in_order() {
+    let dir = temp_dir("timing");
+    let m = manifest(
+        &dir,
+        "m.toml",
+        &CARTPOLE.replace("[[envs]]", "bias = [true, false]\n[[envs]]"),
+    );
+    let out = dir.join("run");
+    let o = rwg(&["run", &m, "--timing", "-q", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    let cells = ["CartPole-v0__1HL__nobias", "CartPole-v0__1HL__bias"];
+    for c in cells {
+        let line = err
+            .lines()
+            .find(|l| l.starts_with(c))
+            .unwrap_or_else(|| panic!("no timing line for {c}:\n{err}"));
+        // sampling, serial, serial share | commit I/O, commit end, finalise, run.json
+        let cols: Vec<_> = line.split_whitespace().collect();
+        assert_eq!(cols.len(), 9, "{line}");
+        assert!(cols[3].ends_with('%') && cols[4] == "|", "{line}");
+    }
+    assert!(err.contains("last cells' ends"), "{err}");
+    assert!(err.contains("whole run:"), "{err}");
+    // run.json records the cells in the manifest's order, each finalised
+    let run: serde_json::Value = serde_json::from_str(&read(out.join("run.json"))).unwrap();
+    let recorded: Vec<_> = run["cells"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["dir"].as_str().unwrap_or_default().to_string())
+        .collect();
+    // (the timing table lists the cells in the order they ran: the study's)
+    let ran: Vec<_> = err
+        .lines()
+        .filter(|l| cells.iter().any(|c| l.starts_with(c)))
+        .map(|l| l.split_whitespace().next().unwrap().to_string())
+        .collect();
+    assert_eq!(recorded, ran, "{run}");
+    for c in &recorded {
+        assert!(out.join("cells").join(c).join("cell.json").exists(), "{c}");
+    }
+}
