@@ -227,15 +227,11 @@ fn manifest_errors_name_file_line_and_key_and_nothing_runs() {
 #[test]
 fn timing_shows_every_cell_and_its_serial_share_and_records_every_cell_in_order() {
     let dir = temp_dir("timing");
-    let m = manifest(
-        &dir,
-        "m.toml",
-        &CARTPOLE.replace("[[envs]]", "bias = [true, false]\n[[envs]]"),
-    );
+    let m = manifest(&dir, "m.toml", &format!("bias = [true, false]\n{CARTPOLE}"));
     let out = dir.join("run");
     let o = rwg(&["run", &m, "--timing", "-q", "--out", out.to_str().unwrap()]);
-    assert!(o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
     let cells = ["CartPole-v0__1HL__nobias", "CartPole-v0__1HL__bias"];
     for c in cells {
         let line = err
