@@ -264,3 +264,40 @@ fn timing_shows_every_cell_and_its_serial_share_and_records_every_cell_in_order(
         assert!(out.join("cells").join(c).join("cell.json").exists(), "{c}");
     }
 }
+
+#[test]
+fn a_commit_failing_after_the_cells_sampling_fails_the_run_naming_the_cell_and_resumes() {
+    // One block per cell: its commit fails on the I/O thread after the
+    // sampling, so the failure is found by the cell's end (the recorder), not
+    // while sampling. A non-empty directory where the block file goes makes
+    // the commit's rename fail.
+    let dir = temp_dir("end-fails");
+    let m = manifest(
+        &dir,
+        "m.toml",
+        &(CARTPOLE.replace("samples = 40", "samples = 20") + "[[envs]]\nid = \"MountainCar-v0\"\n"),
+    );
+    let run = dir.join("run");
+    let obstacle = run.join("cells/CartPole-v0__1HL__nobias/blocks/b0000000.csv");
+    std::fs::create_dir_all(obstacle.join("x")).unwrap();
+    let err = rwg_err(&["run", &m, "-q", "--out", run.to_str().unwrap()]);
+    assert!(
+        err.contains("cell CartPole-v0__1HL__nobias failed"),
+        "{err}"
+    );
+    assert!(err.contains("b0000000.csv"), "{err}");
+    let meta: serde_json::Value = serde_json::from_str(&read(run.join("run.json"))).unwrap();
+    assert_eq!(meta["cells"].as_array().unwrap().len(), 0, "{meta}");
+    assert!(meta["end_time"].is_null(), "{meta}");
+    // Fixed, the run resumes to the bytes of a clean run.
+    std::fs::remove_dir_all(&obstacle).unwrap();
+    rwg_ok(&["run", &m, "-q", "--out", run.to_str().unwrap()]);
+    let clean = dir.join("clean");
+    rwg_ok(&["run", &m, "-q", "--out", clean.to_str().unwrap()]);
+    for cell in ["CartPole-v0__1HL__nobias", "MountainCar-v0__1HL__nobias"] {
+        for f in ["scores.csv", "samples.csv"] {
+            let p = format!("cells/{cell}/{f}");
+            assert_eq!(read(run.join(&p)), read(clean.join(&p)), "{p}");
+        }
+    }
+}

@@ -293,15 +293,15 @@ pub fn run_study(
             }
         }
         let t_drain = Instant::now();
-        let (rec, ended) = recorder.finish();
+        let (mut rec, ended) = recorder.finish();
         timing.drain = t_drain.elapsed();
-        match ended {
-            Ok(()) => Ok(rec),
-            Err(e) => {
-                progress.finish(false);
-                Err(e)
-            }
+        if let Err(e) = ended {
+            progress.finish(false);
+            rec.meta.wall_s = t0.elapsed().as_secs_f64();
+            let _ = write_run_meta(out, &rec.meta);
+            return Err(e);
         }
+        Ok(rec)
     })?;
     let Recorded {
         mut meta,
