@@ -215,6 +215,9 @@ pub struct PolicyLanes<const K: usize> {
     z: Vec<f64>,
     /// Continuous actions of all lanes, lane-major.
     action: Vec<f64>,
+    /// Discrete actions of all lanes, from `forward`'s pass over all lanes;
+    /// -1 where [`argmax_tanh`] must compare tanh values (`action` does).
+    argmax: [i64; K],
     /// The instruction set `forward` is compiled for.
     simd: Simd,
 }
@@ -280,6 +283,7 @@ impl<const K: usize> PolicyLanes<K> {
             b: vec![[0.0; K]; w],
             z: vec![0.0; n_out],
             action: vec![0.0; K * n_out],
+            argmax: [0; K],
             shape,
             map,
             simd: Simd::detect(),
@@ -372,7 +376,31 @@ impl<const K: usize> PolicyLanes<K> {
         }
         let n_out = input.len();
         match &self.map {
-            ActionMap::Argmax => {}
+            ActionMap::Argmax => {
+                // argmax_tanh's first pass for all lanes at once, branch-free
+                // so that it vectorises: the first maximum, and whether any
+                // other output is close to it. Lanes with a close output get
+                // -1 and go through argmax_tanh itself in `action`.
+                let mut zb = input[0];
+                let mut best = [0i64; K];
+                for (o, y) in input.iter().enumerate().skip(1) {
+                    for l in 0..K {
+                        let gt = y[l] > zb[l];
+                        zb[l] = if gt { y[l] } else { zb[l] };
+                        best[l] = if gt { o as i64 } else { best[l] };
+                    }
+                }
+                let mut close = [false; K];
+                for (o, y) in input.iter().enumerate() {
+                    for l in 0..K {
+                        let near = (zb[l] - y[l] < 1e-6) | (zb[l] > 5.0) | (y[l] < -5.0);
+                        close[l] |= (best[l] != o as i64) & near;
+                    }
+                }
+                for l in 0..K {
+                    self.argmax[l] = if close[l] { -1 } else { best[l] };
+                }
+            }
             ActionMap::Symmetric(high) => {
                 for (d, (h, y)) in high.iter().zip(input).enumerate() {
                     let t = tanh_lanes(*y);
@@ -399,6 +427,9 @@ impl<const K: usize> PolicyLanes<K> {
         let n_out = self.z.len();
         match &self.map {
             ActionMap::Argmax => {
+                if self.argmax[lane] >= 0 {
+                    return Action::Discrete(self.argmax[lane]);
+                }
                 // The outputs are in `a` after an odd number of layers.
                 let y = if self.shape.layers.len() % 2 == 1 {
                     &self.a
@@ -645,6 +676,77 @@ mod tests {
                                 assert!(same, "{simd:?} {space:?} {hidden:?} {bias}: lane {l}");
                             }
                         }
+                    }
+                }
+            }
+        }
+    }
+
+    /// The all-lanes argmax pass in `forward` picks what `Policy::act`
+    /// picks on edge outputs: ties, outputs within 1e-6, at and beyond +-5,
+    /// saturated, NaN and infinite (identity weights, so the outputs are the
+    /// observations).
+    #[test]
+    fn lanes_argmax_matches_policy_on_edges() {
+        let arch = Architecture {
+            hidden: vec![],
+            bias: false,
+        };
+        let edges = [
+            0.0,
+            -0.0,
+            0.3,
+            0.3 + 1e-7,
+            0.3 + 2e-6,
+            5.0,
+            5.0 + 1e-15,
+            4.9999999,
+            -5.0,
+            -5.0 - 1e-15,
+            19.5,
+            22.0,
+            -30.0,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        const K: usize = 16;
+        for n in [2usize, 3] {
+            let space = Space::Discrete { n };
+            let shape = NetShape::new(n, &arch, n);
+            for simd in Simd::available() {
+                let mut lanes = PolicyLanes::<K>::new(shape.clone(), &space);
+                lanes.simd = simd;
+                let mut single = Policy::new(shape.clone(), &space);
+                for (i, w) in single.weights_mut().iter_mut().enumerate() {
+                    *w = if i % (n + 1) == 0 { 1.0 } else { 0.0 };
+                }
+                for l in 0..K {
+                    lanes.set_weights(l, single.weights());
+                }
+                // Every combination of edge values over the outputs, K lanes at a time.
+                let combos: Vec<Vec<f64>> = (0..edges.len().pow(n as u32))
+                    .map(|mut c| {
+                        (0..n)
+                            .map(|_| {
+                                let v = edges[c % edges.len()];
+                                c /= edges.len();
+                                v
+                            })
+                            .collect()
+                    })
+                    .collect();
+                for chunk in combos.chunks(K) {
+                    let mut obs = vec![0.1; K * n];
+                    for (l, z) in chunk.iter().enumerate() {
+                        obs[l * n..(l + 1) * n].copy_from_slice(z);
+                    }
+                    lanes.forward(&obs);
+                    for l in 0..chunk.len() {
+                        let want = single.act(&obs[l * n..(l + 1) * n]);
+                        let got = lanes.action(l);
+                        let same = matches!((want, got), (Action::Discrete(a), Action::Discrete(b)) if a == b);
+                        assert!(same, "{simd:?} n={n}: {:?}", &obs[l * n..(l + 1) * n]);
                     }
                 }
             }
