@@ -1,67 +1,325 @@
 //! glibc's `sin` and `cos` over many arguments at once, for environments
 //! stepped in lockstep over lanes (structure of arrays).
 //!
-//! Contract: every output is bit for bit what this process's libm (`f64::sin`
-//! / `f64::cos`, glibc on Linux) returns for the same argument, whatever
-//! implementation runs underneath. Gymnasium computes these with Python's
-//! `math.sin` / `math.cos` (glibc), so the envs' trajectories depend on
-//! exactly these bits. Slices must have equal lengths (panics otherwise).
+//! Contract: every output is bit for bit what this process's libm `sin` /
+//! `cos` (glibc on Linux) returns for the same argument, whatever runs
+//! underneath. Gymnasium computes these with Python's `math.sin` /
+//! `math.cos` (two separate glibc calls), so the envs' trajectories depend on
+//! exactly these bits. [`sincos_lanes`] returns the bits of `sin` and of
+//! `cos`, never those of glibc's `sincos`, which differs from `sin` at rare
+//! arguments (glibc 2.36: `sin(0x1.ad1fb54442d18p+0)` is one ulp above
+//! `sincos`'s sine). Beware that LLVM turns `x.sin()` and `x.cos()` of one
+//! `x` in one function into a `sincos` call; the scalar paths here call
+//! `sin` and `cos` through functions it cannot merge. Slices must have equal
+//! lengths (panics otherwise).
 //!
-//! Today each element is one libm call; a vector implementation may replace
-//! the loops only where it is proven to return the same bits.
+//! # Implementations
+//!
+//! - **Vector** (x86-64 only): a four-lane AVX2+FMA port of glibc 2.36's
+//!   `__sin_fma`/`__cos_fma` for |x| < 105414350 (module `fma`); lanes
+//!   beyond (huge, ±inf, NaN) call libm. Used when (a) the CPU has AVX2
+//!   and FMA, the condition under which glibc's ifunc selects those
+//!   variants, and (b) a one-time self-check on [`edge_arguments`] (every
+//!   path, every path boundary, the table's rounding points, the reduction's
+//!   hard cases: a few thousand arguments) gives this process's libm bits
+//!   for all of them. Another glibc version, another libm (musl, macOS) or
+//!   a CPU without FMA fails (a) or (b) and gets the scalar loop, so the
+//!   contract holds everywhere; only the speed differs.
+//! - **Scalar**: one libm call per element. Forced with the environment
+//!   variable `RWG_SCALAR_LIBM=1` (read once, e.g. for benchmarks).
+//!
+//! [`implementation`] says which one runs and why. `rwg bench libm --check
+//! N` compares the two over N arguments on the user's machine.
+//!
+//! The vector code follows glibc's algorithm and constants (glibc's libm,
+//! originally IBM's Accurate Mathematical Library, is LGPL-2.1-or-later).
 
-/// `out[i] = x[i].sin()` for every `i`.
-pub fn sin_lanes(x: &[f64], out: &mut [f64]) {
-    assert_eq!(x.len(), out.len(), "sin_lanes: arguments and results");
-    for (o, &v) in out.iter_mut().zip(x) {
-        *o = v.sin();
-    }
-}
-
-/// `out[i] = x[i].cos()` for every `i`.
-pub fn cos_lanes(x: &[f64], out: &mut [f64]) {
-    assert_eq!(x.len(), out.len(), "cos_lanes: arguments and results");
-    for (o, &v) in out.iter_mut().zip(x) {
-        *o = v.cos();
-    }
-}
-
-/// `sin[i] = x[i].sin()` and `cos[i] = x[i].cos()` for every `i` (glibc's
-/// `sincos` returns the bits of `sin` and `cos`).
-pub fn sincos_lanes(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
-    assert_eq!(x.len(), sin.len(), "sincos_lanes: arguments and sines");
-    assert_eq!(x.len(), cos.len(), "sincos_lanes: arguments and cosines");
-    for ((s, c), &v) in sin.iter_mut().zip(cos.iter_mut()).zip(x) {
-        let (a, b) = v.sin_cos();
-        *s = a;
-        *c = b;
-    }
-}
-
+#[cfg(target_arch = "x86_64")]
+mod fma;
+#[cfg(target_arch = "x86_64")]
+mod table;
 #[cfg(test)]
-mod tests {
-    use super::*;
+mod tests;
 
-    #[test]
-    fn lanes_give_libm_bits() {
-        let x: Vec<f64> = (0..1000)
-            .map(|i| (i as f64 - 500.0) * 0.0137 + 1e-9 * i as f64)
-            .chain([0.0, -0.0, 1e-300, 1e300, f64::NAN, f64::INFINITY])
-            .collect();
-        let (mut s, mut c, mut s2, mut c2) = (
-            vec![0.0; x.len()],
-            vec![0.0; x.len()],
-            vec![0.0; x.len()],
-            vec![0.0; x.len()],
-        );
-        sin_lanes(&x, &mut s);
-        cos_lanes(&x, &mut c);
-        sincos_lanes(&x, &mut s2, &mut c2);
-        for (i, &v) in x.iter().enumerate() {
-            assert_eq!(s[i].to_bits(), v.sin().to_bits(), "sin({v:e})");
-            assert_eq!(c[i].to_bits(), v.cos().to_bits(), "cos({v:e})");
-            assert_eq!(s2[i].to_bits(), v.sin().to_bits(), "sincos({v:e}).0");
-            assert_eq!(c2[i].to_bits(), v.cos().to_bits(), "sincos({v:e}).1");
+use std::sync::OnceLock;
+
+/// libm's `sin`, as a call LLVM cannot merge with a `cos` into `sincos`.
+#[inline(never)]
+fn libm_sin(x: f64) -> f64 {
+    x.sin()
+}
+
+/// libm's `cos`, as a call LLVM cannot merge with a `sin` into `sincos`.
+#[inline(never)]
+fn libm_cos(x: f64) -> f64 {
+    x.cos()
+}
+
+/// One libm call per element: the reference the vector code must match.
+pub mod scalar {
+    use super::{libm_cos, libm_sin};
+
+    /// `out[i] = sin(x[i])` by libm.
+    pub fn sin_lanes(x: &[f64], out: &mut [f64]) {
+        assert_eq!(x.len(), out.len(), "sin_lanes: arguments and results");
+        for (o, &v) in out.iter_mut().zip(x) {
+            *o = libm_sin(v);
         }
     }
+
+    /// `out[i] = cos(x[i])` by libm.
+    pub fn cos_lanes(x: &[f64], out: &mut [f64]) {
+        assert_eq!(x.len(), out.len(), "cos_lanes: arguments and results");
+        for (o, &v) in out.iter_mut().zip(x) {
+            *o = libm_cos(v);
+        }
+    }
+
+    /// `sin[i] = sin(x[i])`, `cos[i] = cos(x[i])` by libm's `sin` and `cos`.
+    pub fn sincos_lanes(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
+        assert_eq!(x.len(), sin.len(), "sincos_lanes: arguments and sines");
+        assert_eq!(x.len(), cos.len(), "sincos_lanes: arguments and cosines");
+        for ((s, c), &v) in sin.iter_mut().zip(cos.iter_mut()).zip(x) {
+            *s = libm_sin(v);
+            *c = libm_cos(v);
+        }
+    }
+}
+
+/// The vector implementation, available only on a CPU with AVX2 and FMA
+/// (holding a `Vector` proves it). Whether its bits are this process's
+/// libm's is what the self-check (and `rwg bench libm --check`) tests:
+/// [`sin_lanes`] & co. use it only when that passed.
+#[derive(Clone, Copy, Debug)]
+pub struct Vector {
+    _cpu_checked: (),
+}
+
+impl Vector {
+    /// `Some` on an x86-64 CPU with AVX2 and FMA.
+    pub fn detect() -> Option<Vector> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            (is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"))
+                .then_some(Vector { _cpu_checked: () })
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            None
+        }
+    }
+
+    /// `out[i] = sin(x[i])`, four lanes at a time.
+    pub fn sin_lanes(self, x: &[f64], out: &mut [f64]) {
+        assert_eq!(x.len(), out.len(), "sin_lanes: arguments and results");
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
+        unsafe {
+            fma::sin_lanes(x, out, libm_sin)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        scalar::sin_lanes(x, out)
+    }
+
+    /// `out[i] = cos(x[i])`, four lanes at a time.
+    pub fn cos_lanes(self, x: &[f64], out: &mut [f64]) {
+        assert_eq!(x.len(), out.len(), "cos_lanes: arguments and results");
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
+        unsafe {
+            fma::cos_lanes(x, out, libm_cos)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        scalar::cos_lanes(x, out)
+    }
+
+    /// `sin[i], cos[i] = sin(x[i]), cos(x[i])`, four lanes at a time.
+    pub fn sincos_lanes(self, x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
+        assert_eq!(x.len(), sin.len(), "sincos_lanes: arguments and sines");
+        assert_eq!(x.len(), cos.len(), "sincos_lanes: arguments and cosines");
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
+        unsafe {
+            fma::sincos_lanes(x, sin, cos, libm_sin, libm_cos)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        scalar::sincos_lanes(x, sin, cos)
+    }
+
+    /// The first argument of `x` where this implementation's `sin` or `cos`
+    /// (alone or through `sincos_lanes`) differs from libm's, if any.
+    pub fn first_mismatch(self, x: &[f64]) -> Option<f64> {
+        let n = x.len();
+        let (mut s, mut c, mut s2, mut c2) =
+            (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        self.sin_lanes(x, &mut s);
+        self.cos_lanes(x, &mut c);
+        self.sincos_lanes(x, &mut s2, &mut c2);
+        (0..n)
+            .find(|&i| {
+                let (ws, wc) = (libm_sin(x[i]).to_bits(), libm_cos(x[i]).to_bits());
+                s[i].to_bits() != ws
+                    || s2[i].to_bits() != ws
+                    || c[i].to_bits() != wc
+                    || c2[i].to_bits() != wc
+            })
+            .map(|i| x[i])
+    }
+}
+
+/// Which implementation [`sin_lanes`], [`cos_lanes`] and [`sincos_lanes`] use.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Implementation {
+    /// The vector code: the CPU has AVX2 and FMA and the self-check passed.
+    Vector,
+    /// One libm call per element, for the reason given.
+    Scalar(ScalarReason),
+}
+
+/// Why the scalar loop runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ScalarReason {
+    /// `RWG_SCALAR_LIBM=1` was set.
+    Forced,
+    /// Not an x86-64 CPU with AVX2 and FMA.
+    NoCpuSupport,
+    /// The self-check found an argument (this one) where the vector code's
+    /// bits differ from this process's libm (another glibc or libm).
+    SelfCheckFailed(f64),
+}
+
+impl std::fmt::Display for Implementation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Implementation::Vector => {
+                write!(f, "vector (AVX2+FMA, glibc 2.36's bits, self-check passed)")
+            }
+            Implementation::Scalar(ScalarReason::Forced) => write!(f, "scalar (RWG_SCALAR_LIBM=1)"),
+            Implementation::Scalar(ScalarReason::NoCpuSupport) => {
+                write!(f, "scalar (no x86-64 CPU with AVX2 and FMA)")
+            }
+            Implementation::Scalar(ScalarReason::SelfCheckFailed(x)) => write!(
+                f,
+                "scalar (the vector code differs from this libm at x = {x:e} = {:#018x})",
+                x.to_bits()
+            ),
+        }
+    }
+}
+
+/// The implementation in use, decided once per process.
+pub fn implementation() -> Implementation {
+    static CHOICE: OnceLock<Implementation> = OnceLock::new();
+    *CHOICE.get_or_init(|| {
+        if std::env::var_os("RWG_SCALAR_LIBM").is_some_and(|v| v == "1") {
+            return Implementation::Scalar(ScalarReason::Forced);
+        }
+        let Some(v) = Vector::detect() else {
+            return Implementation::Scalar(ScalarReason::NoCpuSupport);
+        };
+        match v.first_mismatch(&edge_arguments()) {
+            None => Implementation::Vector,
+            Some(x) => Implementation::Scalar(ScalarReason::SelfCheckFailed(x)),
+        }
+    })
+}
+
+#[inline]
+fn vector() -> Option<Vector> {
+    match implementation() {
+        Implementation::Vector => Vector::detect(),
+        Implementation::Scalar(_) => None,
+    }
+}
+
+/// `out[i] = sin(x[i])` for every `i`.
+pub fn sin_lanes(x: &[f64], out: &mut [f64]) {
+    match vector() {
+        Some(v) => v.sin_lanes(x, out),
+        None => scalar::sin_lanes(x, out),
+    }
+}
+
+/// `out[i] = cos(x[i])` for every `i`.
+pub fn cos_lanes(x: &[f64], out: &mut [f64]) {
+    match vector() {
+        Some(v) => v.cos_lanes(x, out),
+        None => scalar::cos_lanes(x, out),
+    }
+}
+
+/// `sin[i] = sin(x[i])` and `cos[i] = cos(x[i])` for every `i`: the bits of
+/// libm's `sin` and `cos` (see the module docs on `sincos`).
+pub fn sincos_lanes(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
+    match vector() {
+        Some(v) => v.sincos_lanes(x, sin, cos),
+        None => scalar::sincos_lanes(x, sin, cos),
+    }
+}
+
+/// A few thousand arguments that exercise every path of glibc's `sin` and
+/// `cos` and their boundaries (the self-check's set): ±0, subnormals, each
+/// path limit and 0.126 within ±8 ulps, the table's rounding points k/128 +
+/// 1/256 within ±2 ulps (also as pi/2 minus them, the middle path's), the
+/// doubles nearest to multiples of pi/2 (reduced arguments near 0), ±inf,
+/// NaN, huge values, and log-uniform pseudo-random arguments over 1e-9 to
+/// 2e8; all with both signs.
+pub fn edge_arguments() -> Vec<f64> {
+    let mut v: Vec<f64> = vec![
+        0.0,
+        f64::from_bits(1),
+        f64::from_bits(0x000f_ffff_ffff_ffff),
+        f64::MIN_POSITIVE,
+        1e-300,
+        1e300,
+        f64::MAX,
+        f64::INFINITY,
+        f64::NAN,
+        2e8,
+        std::f64::consts::FRAC_PI_2,
+        std::f64::consts::PI,
+        std::f64::consts::TAU,
+    ];
+    let near = |v: &mut Vec<f64>, x: f64, ulps: i64| {
+        for d in -ulps..=ulps {
+            v.push(f64::from_bits((x.to_bits() as i64 + d) as u64));
+        }
+    };
+    for limit in [
+        0x3e50_0000_0000_0000u64, // sin: x
+        0x3e40_0000_0000_0000,    // cos: 1
+        0x3fc0_20c4_9ba5_e354,    // 0.126: Taylor / table
+        0x3feb_6000_0000_0000,    // small / middle
+        0x4003_68fd_0000_0000,    // middle / reduction
+        0x4199_21fb_0000_0000,    // reduction / __branred
+    ] {
+        near(&mut v, f64::from_bits(limit), 8);
+    }
+    let hp0 = f64::from_bits(0x3ff9_21fb_5444_2d18);
+    for k in 0..110 {
+        let m = (k as f64 + 0.5) / 128.0;
+        near(&mut v, m, 2);
+        if hp0 - m > 0.855 {
+            near(&mut v, hp0 - m, 2);
+        }
+        near(&mut v, hp0 + m, 2);
+    }
+    // Doubles nearest to n pi/2: reduced arguments close to zero.
+    let mut n = 1.0;
+    while n < 6.0e7 {
+        near(&mut v, n * hp0, 1);
+        n = (n * 1.37f64).ceil();
+    }
+    // Log-uniform over [1e-9, 2e8], deterministic.
+    let mut s: u64 = 0x9e37_79b9_7f4a_7c15;
+    for _ in 0..1500 {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        let u = (s >> 11) as f64 / (1u64 << 53) as f64;
+        v.push((u * (2e8f64 / 1e-9).ln()).exp() * 1e-9);
+    }
+    let neg: Vec<f64> = v.iter().map(|x| -x).collect();
+    v.extend(neg);
+    v
 }
