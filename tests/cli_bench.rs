@@ -273,3 +273,50 @@ fn bench_peers_measures_both_sides_and_their_ratio() {
         std::fs::read_to_string(work.join("w0/cells/Pendulum-v1__1HL__nobias/scores.csv")).unwrap();
     assert_eq!(scores.lines().count(), 1 + 6 * 2, "{scores}");
 }
+
+#[test]
+fn bench_libm_checks_every_range_and_times_both() {
+    let out = rwg_ok(&["bench", "libm", "--check", "50000", "--rounds", "1"]);
+    assert!(out.starts_with("lanes_math in use: "), "{out}");
+    if out.contains("needs an x86-64 CPU with AVX2 and FMA") {
+        skip(
+            "bench_libm_checks_every_range_and_times_both",
+            "no AVX2+FMA on this CPU: the vector code cannot run",
+        );
+        return;
+    }
+    // Each set's line: name, arguments, then three zero mismatch counts.
+    for (name, args) in [
+        ("edges", None),
+        ("cartpole", Some("10,000")),
+        ("mcc", Some("10,000")),
+        ("acrobot", Some("10,000")),
+        ("pendulum", Some("10,000")),
+        ("log-all", Some("10,000")),
+    ] {
+        let cells: Vec<&str> = out
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(name))
+            .unwrap_or_else(|| panic!("{name} missing from:\n{out}"))
+            .split_whitespace()
+            .collect();
+        if let Some(args) = args {
+            assert_eq!(cells[1], args, "{name}: {out}");
+        }
+        assert_eq!(&cells[2..5], &["0", "0", "0"], "{name}: {out}");
+    }
+    assert!(out.contains("; 0 differing results."), "{out}");
+    assert!(!out.contains("MISMATCH"), "{out}");
+    // The timing table: every range and function, scalar and vector figures.
+    for name in ["cartpole", "mcc", "acrobot", "pendulum", "log-all"] {
+        for f in ["sin", "cos", "sincos"] {
+            assert!(
+                out.lines().any(|l| {
+                    let c: Vec<&str> = l.split_whitespace().collect();
+                    c.len() == 8 && c[0] == name && c[1] == f && c[2].parse::<f64>().is_ok()
+                }),
+                "{name} {f} timing missing from:\n{out}"
+            );
+        }
+    }
+}

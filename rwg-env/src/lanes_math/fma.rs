@@ -100,7 +100,8 @@ unsafe fn any(mask: V) -> bool {
 
 /// The table entries `[sn, ssn, cs, ccs]` at `k = low 32 bits of u`, where
 /// `u = BIG + |a|`. Indices are clamped to the table (lanes that are not on
-/// a table path may hold anything; valid lanes have k <= 109).
+/// a table path may hold anything; valid lanes have k <= 109). Four row
+/// loads and a 4x4 transpose: cheaper than four gathers.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn lookup(u: V) -> [V; 4] {
@@ -110,14 +111,23 @@ unsafe fn lookup(u: V) -> [V; 4] {
     );
     let k = _mm256_castsi256_si128(lo);
     let k = _mm_max_epi32(_mm_min_epi32(k, _mm_set1_epi32(109)), _mm_setzero_si128());
-    let i = _mm_slli_epi32::<2>(k);
-    let t = SINCOSTAB.as_ptr();
-    // SAFETY (for the caller's unsafe block): 4 * k + 3 <= 439 < 440.
+    let mut ks = [0u32; 4];
+    _mm_storeu_si128(ks.as_mut_ptr().cast(), _mm_slli_epi32::<2>(k));
+    let t = SINCOSTAB.0.as_ptr();
+    // SAFETY (for the caller's unsafe block): each row 4k..4k+3 <= 439 < 440.
+    let r0 = _mm256_load_pd(t.add(ks[0] as usize));
+    let r1 = _mm256_load_pd(t.add(ks[1] as usize));
+    let r2 = _mm256_load_pd(t.add(ks[2] as usize));
+    let r3 = _mm256_load_pd(t.add(ks[3] as usize));
+    let t0 = _mm256_unpacklo_pd(r0, r1); // sn0 sn1 cs0 cs1
+    let t1 = _mm256_unpackhi_pd(r0, r1); // ssn0 ssn1 ccs0 ccs1
+    let t2 = _mm256_unpacklo_pd(r2, r3);
+    let t3 = _mm256_unpackhi_pd(r2, r3);
     [
-        _mm256_i32gather_pd::<8>(t, i),
-        _mm256_i32gather_pd::<8>(t.add(1), i),
-        _mm256_i32gather_pd::<8>(t.add(2), i),
-        _mm256_i32gather_pd::<8>(t.add(3), i),
+        _mm256_permute2f128_pd::<0x20>(t0, t2),
+        _mm256_permute2f128_pd::<0x20>(t1, t3),
+        _mm256_permute2f128_pd::<0x31>(t0, t2),
+        _mm256_permute2f128_pd::<0x31>(t1, t3),
     ]
 }
 
@@ -134,55 +144,55 @@ unsafe fn taylor_sin(a: V, da: V) -> V {
     _mm256_add_pd(a, _mm256_fmadd_pd(xx, q, da))
 }
 
-/// `do_sin(a, da)` for |a| >= 0.126 (the table path).
+/// `BIG + |a|`: its low bits index the table.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn sin_table(a: V, da: V) -> V {
+unsafe fn table_key(a: V) -> V {
+    _mm256_add_pd(abs(a), splat(BIG))
+}
+
+/// `do_sin(a, da)` for |a| >= 0.126 (the table path); `u = table_key(a)`,
+/// `rows = lookup(u)`.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn sin_table(a: V, da: V, u: V, rows: [V; 4]) -> V {
     let le0 = _mm256_cmp_pd::<_CMP_LE_OQ>(a, _mm256_setzero_pd());
     let dx = pick(da, neg(da), le0);
     let ax = abs(a);
-    let u = _mm256_add_pd(ax, splat(BIG));
     let x = _mm256_sub_pd(ax, _mm256_sub_pd(u, splat(BIG)));
     let xx = _mm256_mul_pd(x, x);
     let p = _mm256_fmadd_pd(xx, splat(SN5), splat(SN3));
     let s = _mm256_add_pd(x, _mm256_fmadd_pd(_mm256_mul_pd(x, xx), p, dx));
     let q = _mm256_fmadd_pd(xx, _mm256_fmadd_pd(xx, splat(CS6), splat(CS4)), splat(CS2));
     let c = _mm256_fmadd_pd(x, dx, _mm256_mul_pd(xx, q));
-    let [sn, ssn, cs, ccs] = lookup(u);
+    let [sn, ssn, cs, ccs] = rows;
     let cor = _mm256_fmadd_pd(s, cs, _mm256_fnmadd_pd(c, sn, _mm256_fmadd_pd(s, ccs, ssn)));
     copysign(_mm256_add_pd(sn, cor), a)
 }
 
-/// `do_sin(a, da)`: Taylor below 0.126, the table above; only what a lane
-/// in `live` needs.
+/// `do_sin(a, da)`: Taylor below 0.126, the table above (both computed:
+/// a branch on the lanes' mix would be mispredicted often).
 #[inline]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn do_sin(a: V, da: V, live: V) -> V {
+unsafe fn do_sin(a: V, da: V, u: V, rows: [V; 4]) -> V {
     let taylor = _mm256_cmp_pd::<_CMP_LT_OQ>(abs(a), splat(TAYLOR_MAX));
-    let want_taylor = _mm256_and_pd(taylor, live);
-    let want_table = _mm256_andnot_pd(taylor, live);
-    match (any(want_taylor), any(want_table)) {
-        (true, false) => taylor_sin(a, da),
-        (false, true) => sin_table(a, da),
-        _ => pick(sin_table(a, da), taylor_sin(a, da), taylor),
-    }
+    pick(sin_table(a, da, u, rows), taylor_sin(a, da), taylor)
 }
 
-/// `do_cos(a, da)`.
+/// `do_cos(a, da)`; `u = table_key(a)`, `rows = lookup(u)`.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn do_cos(a: V, da: V) -> V {
+unsafe fn do_cos(a: V, da: V, u: V, rows: [V; 4]) -> V {
     let lt0 = _mm256_cmp_pd::<_CMP_LT_OQ>(a, _mm256_setzero_pd());
     let dx = pick(da, neg(da), lt0);
     let ax = abs(a);
-    let u = _mm256_add_pd(ax, splat(BIG));
     let x = _mm256_add_pd(_mm256_sub_pd(ax, _mm256_sub_pd(u, splat(BIG))), dx);
     let xx = _mm256_mul_pd(x, x);
     let p = _mm256_fmadd_pd(xx, splat(SN5), splat(SN3));
     let s = _mm256_fmadd_pd(_mm256_mul_pd(x, xx), p, x);
     let q = _mm256_fmadd_pd(xx, _mm256_fmadd_pd(xx, splat(CS6), splat(CS4)), splat(CS2));
     let c = _mm256_mul_pd(xx, q);
-    let [sn, ssn, cs, ccs] = lookup(u);
+    let [sn, ssn, cs, ccs] = rows;
     let cor = _mm256_fnmadd_pd(
         s,
         sn,
@@ -232,17 +242,16 @@ unsafe fn eval<const SIN: bool, const COS: bool>(x: V) -> (V, V, i32) {
     let (mut sa, mut sda, mut ca, mut cda) = (x, zero, x, zero);
     let (mut sin_c, mut cos_c) = (mid, small);
     let (mut sin_neg, mut cos_neg) = (zero, zero);
-    if any(mid) {
-        // sin: do_cos(hp0 - |x|, hp1); cos: do_sin of that, split in two.
-        let t = _mm256_sub_pd(splat(HP0), ax);
-        ca = pick(ca, t, mid);
-        cda = pick(cda, splat(HP1), mid);
-        if COS {
-            let a = _mm256_add_pd(t, splat(HP1));
-            let da = _mm256_add_pd(_mm256_sub_pd(t, a), splat(HP1));
-            sa = pick(sa, a, mid);
-            sda = pick(sda, da, mid);
-        }
+    // Middle path (computed whatever the lanes: cheaper than a branch).
+    // sin: do_cos(hp0 - |x|, hp1); cos: do_sin of that, split in two.
+    let t = _mm256_sub_pd(splat(HP0), ax);
+    ca = pick(ca, t, mid);
+    cda = pick(cda, splat(HP1), mid);
+    if COS {
+        let a = _mm256_add_pd(t, splat(HP1));
+        let da = _mm256_add_pd(_mm256_sub_pd(t, a), splat(HP1));
+        sa = pick(sa, a, mid);
+        sda = pick(sda, da, mid);
     }
     if any(red) {
         let (a, da, n) = reduce(x);
@@ -269,12 +278,25 @@ unsafe fn eval<const SIN: bool, const COS: bool>(x: V) -> (V, V, i32) {
         need_s = _mm256_or_pd(need_s, _mm256_andnot_pd(cos_c, ok));
         need_c = _mm256_or_pd(need_c, _mm256_and_pd(cos_c, ok));
     }
-    let ks = if any(need_s) {
-        do_sin(sa, sda, need_s)
-    } else {
-        zero
+    // One table lookup when both kernels read the same rows (the usual case
+    // when both run: the same argument, or pi/2 - |x| and its split).
+    let (us, uc) = (table_key(sa), table_key(ca));
+    let (run_s, run_c) = (any(need_s), any(need_c));
+    let (ks, kc) = match (run_s, run_c) {
+        (true, false) => (do_sin(sa, sda, us, lookup(us)), zero),
+        (false, true) => (zero, do_cos(ca, cda, uc, lookup(uc))),
+        (false, false) => (zero, zero),
+        (true, true) => {
+            let rs = lookup(us);
+            let same = _mm256_cmp_pd::<_CMP_EQ_OQ>(us, uc);
+            let rc = if _mm256_movemask_pd(same) == 0xf {
+                rs
+            } else {
+                lookup(uc)
+            };
+            (do_sin(sa, sda, us, rs), do_cos(ca, cda, uc, rc))
+        }
     };
-    let kc = if any(need_c) { do_cos(ca, cda) } else { zero };
 
     let mut s = zero;
     if SIN {

@@ -4,8 +4,12 @@
 //! error. The bits were read from this machine's glibc 2.36 libm (x86-64)
 //! and equal those of glibc's `sysdeps/ieee754/dbl-64/sincostab.c`.
 
-/// `[sin, sin error, cos, cos error]` of k/128 for k = 0..110, as bits.
-pub(super) static SINCOSTAB: [f64; 440] = {
+/// 32-byte aligned: each row of four is one aligned vector load.
+#[repr(align(32))]
+pub(super) struct Aligned(pub(super) [f64; 440]);
+
+/// `[sin, sin error, cos, cos error]` of k/128 for k = 0..110.
+pub(super) static SINCOSTAB: Aligned = Aligned({
     const B: [u64; 440] = [
         0x00000000_00000000,
         0x00000000_00000000,
@@ -455,4 +459,4 @@ pub(super) static SINCOSTAB: [f64; 440] = {
         i += 1;
     }
     t
-};
+});

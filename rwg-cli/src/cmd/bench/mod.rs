@@ -21,10 +21,12 @@
 //! plugin`: the RWG workload on a plugin's single and batched calls against
 //! the built-ins), `sampler` (the RWG workload), `peers` (the whole `rwg run` against gymnax-raw, side by
 //! side), `gym` (Gymnasium envs through the bridge against a pure-Python
-//! loop); the timing and the table output are shared, here.
+//! loop), `libm` (`rwg_env::lanes_math`'s vector sin/cos against libm, bits
+//! and speed); the timing and the table output are shared, here.
 
 mod envs;
 mod gym;
+mod libm;
 mod peers;
 mod plugin;
 mod plugin_sampler;
@@ -129,6 +131,24 @@ built-in. Build with --release for meaningful figures.
 Example:
   rwg bench plugin --plugin target/release/librwg_plugin_classic_control.so")]
     Plugin(plugin_sampler::PluginArgs),
+    /// The vector sin/cos of the lockstep envs against this machine's libm: bits and speed.
+    #[command(after_help = "\
+rwg_env::lanes_math computes sin and cos four lanes at a time with AVX2+FMA, a port of \
+glibc 2.36's __sin_fma/__cos_fma meant to return exactly libm's bits; it is used only \
+when a one-time self-check on a few thousand edge arguments passes. This command checks \
+it on many more: the fixed edge set plus N pseudo-random arguments split evenly over \
+CartPole's |x| < 0.3, MountainCarContinuous' |x| <= 3.6, Acrobot's |x| <= 20, \
+Pendulum's |x| <= 200 and a log-uniform sweep 2^-30 <= |x| < 105414350 (every path of \
+the vector code), comparing sin, cos and sincos (both halves) with one libm sin and \
+one libm cos call per argument. Differing results are printed (argument, libm's bits, \
+the vector's bits) and make the command fail. Then, for each range, the CPU time per \
+element of libm (one call per element) and of the vector code on 16-lane slices, ROUNDS \
+interleaved rounds: median [min-max]. Build with --release: a debug build checks the \
+same bits, slowly.
+
+Example (about 10^9 arguments):
+  rwg bench libm --check 1000000000 --rounds 0")]
+    Libm(libm::LibmArgs),
 }
 
 /// Runs `rwg bench`.
@@ -139,6 +159,7 @@ pub fn run(args: Args) -> Result<()> {
         What::Peers(a) => peers::run(a),
         What::Gym(a) => gym::run(a),
         What::Plugin(a) => plugin_sampler::run(a),
+        What::Libm(a) => libm::run(a),
     }
 }
 

@@ -1,0 +1,396 @@
+//! `rwg bench libm`: the vector `sin`/`cos` of `rwg_env::lanes_math` against
+//! this machine's libm, bit for bit over many arguments (`--check N`), and
+//! the cost per element of both on 16-lane slices, side by side.
+
+use super::Clock;
+use anyhow::{bail, Result};
+use rwg_analysis::table::{Align, TextColumns};
+use rwg_env::lanes_math::{self, scalar, Vector};
+use std::hint::black_box;
+use std::time::Instant;
+
+/// Arguments of `rwg bench libm`.
+#[derive(clap::Args)]
+pub struct LibmArgs {
+    /// Pseudo-random arguments to check (split evenly over the ranges),
+    /// besides the fixed edge set; 0 checks the edge set only.
+    #[arg(long, default_value_t = 1_000_000, value_name = "N")]
+    check: u64,
+    /// Seed of the pseudo-random arguments.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Interleaved timing rounds (0: no timing).
+    #[arg(long, default_value_t = 7)]
+    rounds: usize,
+    /// Mismatches printed at most.
+    #[arg(long, default_value_t = 20)]
+    show: usize,
+}
+
+/// A range of arguments: name and how to draw one from a uniform `u` in
+/// [0, 1) and a fair sign bit.
+struct Range {
+    name: &'static str,
+    what: &'static str,
+    draw: fn(f64) -> f64,
+}
+
+/// The envs' ranges and a log-uniform sweep over every vector path.
+const RANGES: [Range; 5] = [
+    Range {
+        name: "cartpole",
+        what: "|x| < 0.3 (CartPole's angle)",
+        draw: |u| 0.3 * u,
+    },
+    Range {
+        name: "mcc",
+        what: "|x| <= 3.6 (MountainCarContinuous' cos(3 pos))",
+        draw: |u| 3.6 * u,
+    },
+    Range {
+        name: "acrobot",
+        what: "|x| <= 20 (Acrobot's angles and sums)",
+        draw: |u| 20.0 * u,
+    },
+    Range {
+        name: "pendulum",
+        what: "|x| <= 200 (Pendulum's theta)",
+        draw: |u| 200.0 * u,
+    },
+    Range {
+        name: "log-all",
+        what: "log-uniform 2^-30 <= |x| < 105414350 (every vector path)",
+        draw: |u| (u * (105_414_350f64 / 2f64.powi(-30)).ln()).exp() * 2f64.powi(-30),
+    },
+];
+
+/// xorshift64: reproducible arguments without a dependency.
+struct Rng(u64);
+
+impl Rng {
+    fn new(seed: u64) -> Rng {
+        Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1)
+    }
+
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+
+    /// `draw(u)` with a random sign.
+    fn arg(&mut self, draw: fn(f64) -> f64) -> f64 {
+        let b = self.next();
+        let x = draw((b >> 11) as f64 / (1u64 << 53) as f64);
+        if b & 1 == 1 {
+            -x
+        } else {
+            x
+        }
+    }
+}
+
+/// Mismatch counts of one range.
+#[derive(Default)]
+struct Tally {
+    args: u64,
+    sin: u64,
+    cos: u64,
+    sincos: u64,
+}
+
+/// Runs `rwg bench libm`.
+pub fn run(a: LibmArgs) -> Result<()> {
+    crate::outln!("lanes_math in use: {}", lanes_math::implementation());
+    let Some(v) = Vector::detect() else {
+        crate::outln!(
+            "The vector code needs an x86-64 CPU with AVX2 and FMA: nothing to check or time \
+             here (every lane calls libm)."
+        );
+        return Ok(());
+    };
+    let bad = check(v, &a)?;
+    if a.rounds > 0 {
+        time(v, a.rounds, a.seed);
+    }
+    if bad > 0 {
+        bail!(
+            "{bad} results of the vector code differ from this machine's libm: lanes_math \
+             falls back to libm only if its self-check catches it; report the arguments above"
+        );
+    }
+    Ok(())
+}
+
+/// Compares vector and libm bits over the edge set and `a.check` random
+/// arguments; prints a table; returns the number of differing results.
+fn check(v: Vector, a: &LibmArgs) -> Result<u64> {
+    const CHUNK: usize = 1 << 16;
+    let cols = TextColumns::new(
+        &[
+            (8, Align::Left),
+            (14, Align::Right),
+            (9, Align::Right),
+            (9, Align::Right),
+            (9, Align::Right),
+            (0, Align::Left),
+        ],
+        "  ",
+    );
+    crate::outln!(
+        "\nBits of sin, cos and sincos (both halves), vector vs one libm call per argument:"
+    );
+    crate::outln!(
+        "{}",
+        cols.line(&[
+            "range",
+            "arguments",
+            "sin diff",
+            "cos diff",
+            "sincos",
+            "what"
+        ])
+    );
+    let started = Instant::now();
+    let mut shown = 0;
+    let mut total = 0;
+    let mut buf = Buffers::new(CHUNK);
+    let edges = lanes_math::edge_arguments();
+    let per_range = a.check / RANGES.len() as u64;
+    let mut sets: Vec<(&str, &str, u64)> =
+        vec![("edges", "fixed: every path limit, table point, n pi/2", 0)];
+    for (i, r) in RANGES.iter().enumerate() {
+        // The remainder goes to the last range.
+        let n = if i + 1 == RANGES.len() {
+            a.check - per_range * (RANGES.len() as u64 - 1)
+        } else {
+            per_range
+        };
+        sets.push((r.name, r.what, n));
+    }
+    for (si, &(name, what, n)) in sets.iter().enumerate() {
+        let mut t = Tally::default();
+        let mut rng = Rng::new(a.seed ^ (si as u64) << 56);
+        let mut done = 0u64;
+        loop {
+            let x: Vec<f64> = if si == 0 {
+                if done > 0 {
+                    break;
+                }
+                edges.clone()
+            } else {
+                if done >= n {
+                    break;
+                }
+                let k = (n - done).min(CHUNK as u64) as usize;
+                let draw = RANGES[si - 1].draw;
+                (0..k).map(|_| rng.arg(draw)).collect()
+            };
+            done += x.len() as u64;
+            t.args += x.len() as u64;
+            buf.compare(v, &x, &mut t, |f, arg, want, got| {
+                if shown < a.show {
+                    crate::outln!(
+                        "  MISMATCH {f}({arg:e} = {:#018x}): libm {want:#018x}, vector {got:#018x}",
+                        arg.to_bits()
+                    );
+                }
+                shown += 1;
+            });
+        }
+        total += t.sin + t.cos + t.sincos;
+        crate::outln!(
+            "{}",
+            cols.line(&[
+                name.to_string(),
+                super::group(t.args),
+                super::group(t.sin),
+                super::group(t.cos),
+                super::group(t.sincos),
+                what.to_string(),
+            ])
+        );
+    }
+    let secs = started.elapsed().as_secs_f64();
+    crate::outln!(
+        "{} arguments checked in {secs:.1} s; {} differing results.",
+        super::group(a.check + edges.len() as u64),
+        super::group(total)
+    );
+    Ok(total)
+}
+
+/// Output buffers of one chunk.
+struct Buffers {
+    s: Vec<f64>,
+    c: Vec<f64>,
+    s2: Vec<f64>,
+    c2: Vec<f64>,
+    ws: Vec<f64>,
+    wc: Vec<f64>,
+}
+
+impl Buffers {
+    fn new(n: usize) -> Buffers {
+        let z = || vec![0.0; n];
+        Buffers {
+            s: z(),
+            c: z(),
+            s2: z(),
+            c2: z(),
+            ws: z(),
+            wc: z(),
+        }
+    }
+
+    /// Vector vs libm on `x`; `report(function, x, libm bits, vector bits)`
+    /// for each differing result.
+    fn compare(
+        &mut self,
+        v: Vector,
+        x: &[f64],
+        t: &mut Tally,
+        mut report: impl FnMut(&str, f64, u64, u64),
+    ) {
+        let n = x.len();
+        v.sin_lanes(x, &mut self.s[..n]);
+        v.cos_lanes(x, &mut self.c[..n]);
+        v.sincos_lanes(x, &mut self.s2[..n], &mut self.c2[..n]);
+        scalar::sin_lanes(x, &mut self.ws[..n]);
+        scalar::cos_lanes(x, &mut self.wc[..n]);
+        for i in 0..n {
+            let (ws, wc) = (self.ws[i].to_bits(), self.wc[i].to_bits());
+            if self.s[i].to_bits() != ws {
+                t.sin += 1;
+                report("sin", x[i], ws, self.s[i].to_bits());
+            }
+            if self.c[i].to_bits() != wc {
+                t.cos += 1;
+                report("cos", x[i], wc, self.c[i].to_bits());
+            }
+            if self.s2[i].to_bits() != ws || self.c2[i].to_bits() != wc {
+                t.sincos += 1;
+                report(
+                    "sincos",
+                    x[i],
+                    ws ^ wc,
+                    self.s2[i].to_bits() ^ self.c2[i].to_bits(),
+                );
+            }
+        }
+    }
+}
+
+/// Median, min and max.
+fn spread(mut v: Vec<f64>) -> (f64, f64, f64) {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    let med = if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        (v[n / 2 - 1] + v[n / 2]) / 2.0
+    };
+    (med, v[0], v[n - 1])
+}
+
+/// CPU (else wall) nanoseconds per element of `f` over `x` in slices of 16,
+/// repeated for at least ~20 ms.
+fn per_element(
+    x: &[f64],
+    out: &mut [f64],
+    out2: &mut [f64],
+    f: &dyn Fn(&[f64], &mut [f64], &mut [f64]),
+) -> f64 {
+    let mut reps = 0u64;
+    let clock = Clock::start();
+    let wall = Instant::now();
+    while reps == 0 || wall.elapsed().as_secs_f64() < 0.02 {
+        for ((xs, o), o2) in x
+            .chunks(16)
+            .zip(out.chunks_mut(16))
+            .zip(out2.chunks_mut(16))
+        {
+            f(black_box(xs), o, o2);
+        }
+        black_box(&mut *out);
+        black_box(&mut *out2);
+        reps += 1;
+    }
+    let (w, cpu) = clock.stop();
+    cpu.unwrap_or(w) * 1e9 / (reps as f64 * x.len() as f64)
+}
+
+/// Prints scalar vs vector ns per element for each range and function,
+/// `rounds` interleaved rounds (the order alternating).
+fn time(v: Vector, rounds: usize, seed: u64) {
+    const N: usize = 4096;
+    crate::outln!(
+        "\nCPU ns per element on 16-lane slices ({N} arguments per range), {rounds} interleaved \
+         rounds: median [min-max]; speed-up = per-round scalar / vector:"
+    );
+    let cols = TextColumns::new(
+        &[
+            (8, Align::Left),
+            (6, Align::Left),
+            (20, Align::Right),
+            (20, Align::Right),
+            (20, Align::Right),
+        ],
+        "  ",
+    );
+    crate::outln!(
+        "{}",
+        cols.line(&["range", "fn", "libm (scalar)", "vector", "speed-up"])
+    );
+    type F = dyn Fn(&[f64], &mut [f64], &mut [f64]);
+    let fns: [(&str, Box<F>, Box<F>); 3] = [
+        (
+            "sin",
+            Box::new(|x, o, _| scalar::sin_lanes(x, o)),
+            Box::new(move |x, o, _| v.sin_lanes(x, o)),
+        ),
+        (
+            "cos",
+            Box::new(|x, o, _| scalar::cos_lanes(x, o)),
+            Box::new(move |x, o, _| v.cos_lanes(x, o)),
+        ),
+        (
+            "sincos",
+            Box::new(|x, o, o2| scalar::sincos_lanes(x, o, o2)),
+            Box::new(move |x, o, o2| v.sincos_lanes(x, o, o2)),
+        ),
+    ];
+    let (mut out, mut out2) = (vec![0.0; N], vec![0.0; N]);
+    for (ri, r) in RANGES.iter().enumerate() {
+        let mut rng = Rng::new(seed ^ 0xabcd ^ (ri as u64) << 48);
+        let x: Vec<f64> = (0..N).map(|_| rng.arg(r.draw)).collect();
+        for (name, sf, vf) in &fns {
+            let (mut s, mut vv, mut ratio) = (vec![], vec![], vec![]);
+            for round in 0..rounds {
+                let (a, b) = if round % 2 == 0 {
+                    let a = per_element(&x, &mut out, &mut out2, sf.as_ref());
+                    (a, per_element(&x, &mut out, &mut out2, vf.as_ref()))
+                } else {
+                    let b = per_element(&x, &mut out, &mut out2, vf.as_ref());
+                    (per_element(&x, &mut out, &mut out2, sf.as_ref()), b)
+                };
+                s.push(a);
+                vv.push(b);
+                ratio.push(a / b);
+            }
+            let show =
+                |t: (f64, f64, f64), d: usize| format!("{:.d$} [{:.d$}-{:.d$}]", t.0, t.1, t.2);
+            crate::outln!(
+                "{}",
+                cols.line(&[
+                    r.name.to_string(),
+                    name.to_string(),
+                    show(spread(s), 2),
+                    show(spread(vv), 2),
+                    show(spread(ratio), 2),
+                ])
+            );
+        }
+    }
+}
