@@ -259,21 +259,21 @@ impl Buffers {
         v.sincos_lanes(x, &mut self.s2[..n], &mut self.c2[..n]);
         scalar::sin_lanes(x, &mut self.ws[..n]);
         scalar::cos_lanes(x, &mut self.wc[..n]);
-        for i in 0..n {
+        for (i, &arg) in x.iter().enumerate() {
             let (ws, wc) = (self.ws[i].to_bits(), self.wc[i].to_bits());
             if self.s[i].to_bits() != ws {
                 t.sin += 1;
-                report("sin", x[i], ws, self.s[i].to_bits());
+                report("sin", arg, ws, self.s[i].to_bits());
             }
             if self.c[i].to_bits() != wc {
                 t.cos += 1;
-                report("cos", x[i], wc, self.c[i].to_bits());
+                report("cos", arg, wc, self.c[i].to_bits());
             }
             if self.s2[i].to_bits() != ws || self.c2[i].to_bits() != wc {
                 t.sincos += 1;
                 report(
                     "sincos",
-                    x[i],
+                    arg,
                     ws ^ wc,
                     self.s2[i].to_bits() ^ self.c2[i].to_bits(),
                 );
@@ -281,6 +281,9 @@ impl Buffers {
         }
     }
 }
+
+/// sin, cos or sincos of a slice into one or two output slices.
+type Lanes = dyn Fn(&[f64], &mut [f64], &mut [f64]);
 
 /// Median, min and max.
 fn spread(mut v: Vec<f64>) -> (f64, f64, f64) {
@@ -296,12 +299,7 @@ fn spread(mut v: Vec<f64>) -> (f64, f64, f64) {
 
 /// CPU (else wall) nanoseconds per element of `f` over `x` in slices of 16,
 /// repeated for at least ~20 ms.
-fn per_element(
-    x: &[f64],
-    out: &mut [f64],
-    out2: &mut [f64],
-    f: &dyn Fn(&[f64], &mut [f64], &mut [f64]),
-) -> f64 {
+fn per_element(x: &[f64], out: &mut [f64], out2: &mut [f64], f: &Lanes) -> f64 {
     let mut reps = 0u64;
     let clock = Clock::start();
     let wall = Instant::now();
@@ -343,8 +341,7 @@ fn time(v: Vector, rounds: usize, seed: u64) {
         "{}",
         cols.line(&["range", "fn", "libm (scalar)", "vector", "speed-up"])
     );
-    type F = dyn Fn(&[f64], &mut [f64], &mut [f64]);
-    let fns: [(&str, Box<F>, Box<F>); 3] = [
+    let fns: [(&str, Box<Lanes>, Box<Lanes>); 3] = [
         (
             "sin",
             Box::new(|x, o, _| scalar::sin_lanes(x, o)),
@@ -357,7 +354,7 @@ fn time(v: Vector, rounds: usize, seed: u64) {
         ),
         (
             "sincos",
-            Box::new(|x, o, o2| scalar::sincos_lanes(x, o, o2)),
+            Box::new(scalar::sincos_lanes),
             Box::new(move |x, o, o2| v.sincos_lanes(x, o, o2)),
         ),
     ];
