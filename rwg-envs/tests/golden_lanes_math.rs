@@ -25,11 +25,9 @@ fn arguments(id: &str, states: &[Vec<f64>]) -> Vec<f64> {
     for s in states {
         x.extend_from_slice(s);
         match id {
-            "Acrobot-v1" if s.len() >= 2 => x.extend([
-                s[0] + s[1],
-                s[0] - FRAC_PI_2,
-                s[0] + s[1] - FRAC_PI_2,
-            ]),
+            "Acrobot-v1" if s.len() >= 2 => {
+                x.extend([s[0] + s[1], s[0] - FRAC_PI_2, s[0] + s[1] - FRAC_PI_2])
+            }
             id if id.starts_with("Pendulum") => x.push(s[0] + PI),
             id if id.starts_with("MountainCar") => x.push(3.0 * s[0]),
             _ => {}
@@ -42,8 +40,8 @@ fn arguments(id: &str, states: &[Vec<f64>]) -> Vec<f64> {
 fn golden_angles_give_libm_bits() {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data");
     // Called through black_box'd pointers so LLVM cannot merge them into sincos.
-    let (libm_sin, libm_cos): (fn(f64) -> f64, fn(f64) -> f64) =
-        (black_box(f64::sin), black_box(f64::cos));
+    let libm_sin: fn(f64) -> f64 = black_box(f64::sin);
+    let libm_cos: fn(f64) -> f64 = black_box(f64::cos);
     let mut checked = 0;
     for id in [
         "Acrobot-v1",

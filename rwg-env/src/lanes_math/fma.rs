@@ -22,6 +22,13 @@
 //! Lanes beyond (huge, ±inf, NaN) are flagged for the caller, which computes
 //! them with libm. Lanes on different paths are all computed and blended; a
 //! kernel no lane needs is skipped.
+//!
+//! Every function here is `unsafe` only because it is compiled for AVX2+FMA
+//! (`#[target_feature]`; safe target-feature functions need Rust 1.86, the
+//! workspace supports 1.85): calling it is sound on a CPU with both, which
+//! `Vector::detect` checks before the three entry points are reachable. The
+//! only memory accesses are slices (bounds-checked) and the table rows of
+//! `lookup`, whose indices are clamped into the table.
 
 use super::table::SINCOSTAB;
 use std::arch::x86_64::*;

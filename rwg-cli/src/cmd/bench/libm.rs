@@ -269,14 +269,15 @@ impl Buffers {
                 t.cos += 1;
                 report("cos", arg, wc, self.c[i].to_bits());
             }
-            if self.s2[i].to_bits() != ws || self.c2[i].to_bits() != wc {
+            let (s2, c2) = (self.s2[i].to_bits(), self.c2[i].to_bits());
+            if s2 != ws || c2 != wc {
                 t.sincos += 1;
-                report(
-                    "sincos",
-                    arg,
-                    ws ^ wc,
-                    self.s2[i].to_bits() ^ self.c2[i].to_bits(),
-                );
+            }
+            if s2 != ws {
+                report("sincos.sin", arg, ws, s2);
+            }
+            if c2 != wc {
+                report("sincos.cos", arg, wc, c2);
             }
         }
     }
