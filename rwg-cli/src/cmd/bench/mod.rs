@@ -146,8 +146,8 @@ element of libm (one call per element) and of the vector code on 16-lane slices,
 interleaved rounds: median [min-max]. Build with --release: a debug build checks the \
 same bits, slowly.
 
-Example (about 10^9 arguments):
-  rwg bench libm --check 1000000000 --rounds 0")]
+Example:
+  rwg bench libm --check 1000000000 --rounds 0   # 10^9 arguments, a few minutes")]
     Libm(libm::LibmArgs),
 }
 
