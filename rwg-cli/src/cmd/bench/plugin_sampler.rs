@@ -24,6 +24,9 @@ pub(super) struct PluginArgs {
     /// Only this built-in env id (repeatable; default: every one the plugin re-exports).
     #[arg(long = "env", value_name = "ID")]
     envs: Vec<String>,
+    /// Only this architecture: 0HL, [4] or [4,4] (repeatable; default: all three).
+    #[arg(long = "arch", value_name = "ARCH")]
+    archs: Vec<String>,
     /// Networks per run.
     #[arg(long, value_name = "N", default_value_t = 1000)]
     samples: u64,
@@ -36,6 +39,26 @@ pub(super) struct PluginArgs {
     /// Print a JSON array instead of a table.
     #[arg(long)]
     json: bool,
+    /// Run only this variant (for instruction counts under a profiler such
+    /// as callgrind, where the three must run in separate processes; the
+    /// other columns are then empty).
+    #[arg(long, value_enum, value_name = "VARIANT")]
+    only: Option<Variant>,
+}
+
+/// One of the three ways `rwg bench plugin` runs a workload.
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Variant {
+    /// The built-in env.
+    Builtin,
+    /// The plugin through its single calls.
+    Single,
+    /// The plugin through ABI 1.1's batched calls.
+    Batched,
+}
+
+impl Variant {
+    const ALL: [Variant; 3] = [Variant::Builtin, Variant::Single, Variant::Batched];
 }
 
 /// The architectures measured: the paper's three.
@@ -52,9 +75,17 @@ struct Spread {
 }
 
 impl Spread {
+    /// NaN (shown as "-", null in JSON) for a variant not run (`--only`).
     fn of(mut v: Vec<f64>) -> Spread {
         v.sort_by(f64::total_cmp);
         let n = v.len();
+        if n == 0 {
+            return Spread {
+                median: f64::NAN,
+                min: f64::NAN,
+                max: f64::NAN,
+            };
+        }
         let median = if n % 2 == 1 {
             v[n / 2]
         } else {
@@ -68,6 +99,9 @@ impl Spread {
     }
 
     fn show(&self, digits: usize) -> String {
+        if self.median.is_nan() {
+            return "-".to_string();
+        }
         format!(
             "{:.d$} [{:.d$}-{:.d$}]",
             self.median,
@@ -164,6 +198,9 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
             ty.id()
         );
     }
+    if let Some(a) = args.archs.iter().find(|a| !ARCHS.iter().any(|(n, _)| n == a)) {
+        bail!("--arch {a}: not one of 0HL, [4], [4,4]");
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
         .build()
@@ -175,6 +212,9 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
     let mut rows = Vec::new();
     for (builtin, ty) in &twins {
         for (name, hidden) in ARCHS {
+            if !args.archs.is_empty() && !args.archs.iter().any(|a| a == name) {
+                continue;
+            }
             // The built-in id seeds all three, so they run the same episodes.
             let plan = CellPlan {
                 seed: 0,
@@ -198,6 +238,9 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                 let mut round_ns = [0.0; 3];
                 for k in 0..3 {
                     let v = (k + round) % 3; // rotate who goes first
+                    if args.only.is_some_and(|o| o != Variant::ALL[v]) {
+                        continue;
+                    }
                     let m = pool.install(|| -> Result<Measured> {
                         match v {
                             0 => measure(|on_block| {
@@ -249,7 +292,9 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                     round_ns[v] = cpu * 1e9 / steps as f64;
                 }
                 for v in 0..3 {
-                    times[v].push(round_ns[v]);
+                    if args.only.is_none_or(|o| o == Variant::ALL[v]) {
+                        times[v].push(round_ns[v]);
+                    }
                 }
             }
             let ratio =
