@@ -198,7 +198,11 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
             ty.id()
         );
     }
-    if let Some(a) = args.archs.iter().find(|a| !ARCHS.iter().any(|(n, _)| n == a)) {
+    if let Some(a) = args
+        .archs
+        .iter()
+        .find(|a| !ARCHS.iter().any(|(n, _)| n == a))
+    {
         bail!("--arch {a}: not one of 0HL, [4], [4,4]");
     }
     let pool = rayon::ThreadPoolBuilder::new()
