@@ -1,13 +1,15 @@
 //! ABI 1.1's batched calls, `reset_many` and `step_many`, for exported Rust
-//! environments: each masked lane goes through the very code of the single
-//! call ([`reset`], and `step`'s body [`step_inline`]), so the two paths
-//! cannot differ (same
-//! checks, same panic catching, same results bit for bit); what a batch
-//! saves is the host's side of a call per lane. Both are instantiated per
+//! environments: each masked lane goes through the code of the single call
+//! ([`reset`]; for `step`, its fast path [`step_fast`] and, for anything
+//! unusual, its checked path), so the two paths cannot differ (same checks,
+//! same panic catching, same results bit for bit); what a batch saves is
+//! the host's side of a call per lane. Both are instantiated per
 //! environment type `E`, so the lane loop calls `E`'s `step` directly (no
-//! trait object; the compiler can inline it).
+//! trait object), and the fast path tests an instance with one comparison
+//! ([`FastKey`](super::trampolines::FastKey): healthy, and the call's
+//! lengths its own).
 
-use super::trampolines::{reset, step_fast, step_inline};
+use super::trampolines::{call_keys, reset, step_fast, step_inline};
 use crate::env::Environment;
 use crate::plugin::abi::*;
 
@@ -106,18 +108,20 @@ pub(super) unsafe extern "C" fn step_many<E: Environment>(
         report(failed, n);
         return RWG_ERR_INVALID_ARGUMENT;
     }
+    let keys = call_keys(obs_len, action_len);
+    // Lane i's action and observation, advanced lane by lane (no multiply).
+    let (mut action, mut o) = (actions, obs);
     for i in 0..n {
+        let lane = (action, o);
+        action = action.wrapping_add(action_len);
+        o = o.wrapping_add(obs_len);
         if !masked(mask, i) {
             continue;
         }
-        let (env, action, o) = (
-            *envs.add(i),
-            actions.add(i * action_len),
-            obs.add(i * obs_len),
-        );
+        let (env, (action, o)) = (*envs.add(i), lane);
         // The single call's fast path, its results written straight into
         // the lane's slots; anything unusual goes through the single call.
-        let status = match step_fast::<E>(env, action, action_len, o, obs_len) {
+        let status = match step_fast::<E>(env, keys, action, action_len, o, obs_len) {
             Ok(s) => {
                 *rewards.add(i) = s.reward;
                 *terminated.add(i) = u8::from(s.terminated);

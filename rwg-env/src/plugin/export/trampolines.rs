@@ -100,6 +100,13 @@ pub(super) struct Instance<E> {
     env: E,
     obs_dim: usize,
     action: ActionKind,
+    /// A Discrete space's `n` as a double (exact: `n` is at most 2^53).
+    action_n: f64,
+    /// The [`FastKey`] of a step call the fast path takes on this instance
+    /// (its shapes), or [`FastKey::NONE`] while it is poisoned or holds a
+    /// failed call's message (the checked path then runs and clears it):
+    /// one comparison for the instance's state and both lengths.
+    fast: FastKey,
     /// The message of the panic that poisoned the instance.
     poisoned: Option<String>,
     /// `last_error`'s text, always NUL-terminated ("" when the last call succeeded).
@@ -112,6 +119,22 @@ impl<E> Instance<E> {
         self.error
             .extend(msg.bytes().map(|b| if b == 0 { b' ' } else { b }));
         self.error.push(0);
+        self.fast = FastKey::NONE;
+    }
+
+    /// Clears `last_error` (after a successful call that followed a failed one).
+    fn clear_error(&mut self) {
+        self.error.clear();
+        self.error.push(0);
+        if self.poisoned.is_none() {
+            self.fast = FastKey::of_instance(self.obs_dim, self.action);
+        }
+    }
+
+    /// Poisons the instance after a panic with message `msg`.
+    fn poison(&mut self, msg: String) {
+        self.set_error(&format!("panic: {msg}"));
+        self.poisoned = Some(msg);
     }
 }
 
@@ -149,10 +172,16 @@ pub(super) fn instantiate<E: Environment>(
             ),
         ));
     }
+    let action_n = match action {
+        ActionKind::Discrete(n) => n as f64,
+        ActionKind::Box(_) => 0.0,
+    };
     let inst = Box::new(Instance {
         env,
         obs_dim,
         action,
+        action_n,
+        fast: FastKey::of_instance(obs_dim, action),
         poisoned: None,
         error: vec![0],
     });
@@ -240,8 +269,7 @@ unsafe fn with_instance<E>(
         Ok(Ok(())) => {
             if inst.error.len() != 1 {
                 // The last call failed: its message is no longer current.
-                inst.error.clear();
-                inst.error.push(0);
+                inst.clear_error();
             }
             RWG_OK
         }
@@ -250,9 +278,7 @@ unsafe fn with_instance<E>(
             status
         }
         Err(p) => {
-            let msg = panic_message(&*p);
-            inst.set_error(&format!("panic: {msg}"));
-            inst.poisoned = Some(msg);
+            inst.poison(panic_message(&*p));
             RWG_ERR_PANIC
         }
     }
@@ -372,7 +398,8 @@ pub(super) unsafe fn step_inline<E: Environment>(
     out: *mut RwgStepOut,
 ) -> Status {
     if !out.is_null() && !obs.is_null() && !action.is_null() {
-        match step_fast::<E>(env, action, action_len, obs, obs_len) {
+        let keys = call_keys(obs_len, action_len);
+        match step_fast::<E>(env, keys, action, action_len, obs, obs_len) {
             Ok(s) => {
                 *out = RwgStepOut {
                     reward: s.reward,
@@ -389,16 +416,59 @@ pub(super) unsafe fn step_inline<E: Environment>(
     step_checked::<E>(env, action, action_len, obs, obs_len, out)
 }
 
+/// What the fast path of a step compares an instance with: the call's
+/// observation and action lengths and the kind of action, packed into one
+/// word (an instance that is not healthy has [`FastKey::NONE`], which no
+/// call has).
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) struct FastKey(u64);
+
+impl FastKey {
+    /// The key of no call.
+    const NONE: FastKey = FastKey(u64::MAX);
+
+    /// The key of a call with these lengths on a discrete (`discrete`) or
+    /// continuous action space; `NONE` for lengths no instance has.
+    #[inline(always)]
+    pub(super) fn of_call(obs_len: usize, action_len: usize, discrete: bool) -> FastKey {
+        if obs_len > u32::MAX as usize || action_len > (u32::MAX >> 1) as usize {
+            return FastKey::NONE;
+        }
+        FastKey(((obs_len as u64) << 32) | ((action_len as u64) << 1) | u64::from(discrete))
+    }
+
+    /// The key of a well-formed step call on a healthy instance with these
+    /// spaces (its dimensions are at most 2^20, so it is never `NONE`).
+    fn of_instance(obs_dim: usize, action: ActionKind) -> FastKey {
+        match action {
+            ActionKind::Discrete(_) => FastKey::of_call(obs_dim, 1, true),
+            ActionKind::Box(d) => FastKey::of_call(obs_dim, d, false),
+        }
+    }
+}
+
+/// The keys of a step call with these lengths on a discrete and on a
+/// continuous action space.
+#[inline(always)]
+pub(super) fn call_keys(obs_len: usize, action_len: usize) -> (FastKey, FastKey) {
+    (
+        FastKey::of_call(obs_len, action_len, true),
+        FastKey::of_call(obs_len, action_len, false),
+    )
+}
+
 /// The fast path of a step, shared by `step` and `step_many`'s lane loop:
-/// a well-formed call (`action` and `obs` non-NULL, the caller checked) on
-/// a healthy instance steps the env. `Err(None)` if the call is unusual in
-/// any way: nothing has been done to the env then, and the caller goes to
-/// [`step_checked`], which finds and reports the problem, so the two paths
-/// behave the same. `Err(Some(status))` if the env failed or panicked
-/// (recorded in the instance, as `step_checked` records it).
+/// a well-formed call (`action` and `obs` non-NULL, the caller checked; its
+/// [`call_keys`] in `keys`) on a healthy instance steps the env. `Err(None)`
+/// if the call is unusual in any way: nothing has been done to the env
+/// then, and the caller goes to [`step_checked`], which finds and reports
+/// the problem, so the two paths behave the same. `Err(Some(status))` if the
+/// env failed or panicked (recorded in the instance, as `step_checked`
+/// records it).
 #[inline(always)]
 pub(super) unsafe fn step_fast<E: Environment>(
     env: *mut RwgEnv,
+    keys: (FastKey, FastKey),
     action: *const f64,
     action_len: usize,
     obs: *mut f64,
@@ -407,52 +477,52 @@ pub(super) unsafe fn step_fast<E: Environment>(
     let Some(inst) = env.cast::<Instance<E>>().as_mut() else {
         return Err(None);
     };
-    if inst.poisoned.is_some() || obs_len != inst.obs_dim || action_len == 0 {
-        return Err(None);
-    }
-    let a = std::slice::from_raw_parts(action, action_len);
-    let Some(a) = action_fast(a, inst.action) else {
+    let Some(a) = action_fast(inst, keys, action, action_len) else {
         return Err(None);
     };
     let o = std::slice::from_raw_parts_mut(obs, obs_len);
     let env = &mut inst.env;
     match catch_unwind(AssertUnwindSafe(|| env.step(a, o))) {
-        Ok(Ok(s)) => {
-            if inst.error.len() != 1 {
-                clear_error(inst);
-            }
-            Ok(s)
-        }
+        Ok(Ok(s)) => Ok(s),
         Ok(Err(e)) => Err(Some(step_error(inst, e))),
         Err(p) => Err(Some(step_panic(inst, p))),
     }
 }
 
-/// The action if it is valid, for the fast path (no message on failure).
+/// The action of a fast-path call on `inst` if the instance is healthy,
+/// the lengths are its own (one comparison of [`FastKey`]s) and the action
+/// is valid; `None` otherwise (no message).
+///
+/// # Safety
+/// `action` is valid for `len` reads.
 #[inline(always)]
-fn action_fast(a: &[f64], kind: ActionKind) -> Option<Action<'_>> {
-    match kind {
-        ActionKind::Discrete(n) => {
-            let v = *a.first()?;
-            // Through i64 (one instruction on x86-64; u64 takes a dozen):
-            // saturating, NaN gives 0, so `i as f64 == v` holds exactly for
-            // integral v in i64's range, and the unsigned comparison
-            // refuses negative i. -0.0 is action 0, as in `action_of`.
-            let i = v as i64;
-            (a.len() == 1 && i as f64 == v && (i as u64) < n).then_some(Action::Discrete(i))
+unsafe fn action_fast<'a, E>(
+    inst: &Instance<E>,
+    (discrete, continuous): (FastKey, FastKey),
+    action: *const f64,
+    len: usize,
+) -> Option<Action<'a>> {
+    if inst.fast == discrete {
+        let v = *action;
+        // 0 <= v < n (false for NaN; n is at most 2^53, exact) and
+        // integral: exactly the valid actions, in two comparisons and one
+        // round trip through i64 (in range, so the unchecked conversion is
+        // exact truncation). -0.0 is action 0, as in `action_of`.
+        if v >= 0.0 && v < inst.action_n {
+            let i = v.to_int_unchecked::<i64>();
+            if i as f64 == v {
+                return Some(Action::Discrete(i));
+            }
         }
-        ActionKind::Box(dim) => {
-            (a.len() == dim && a.iter().all(|x| x.is_finite())).then_some(Action::Continuous(a))
-        }
+        None
+    } else if inst.fast == continuous {
+        let a = std::slice::from_raw_parts(action, len);
+        a.iter()
+            .all(|x| x.is_finite())
+            .then_some(Action::Continuous(a))
+    } else {
+        None
     }
-}
-
-/// Clears `last_error` after a successful call that followed a failed one.
-#[cold]
-#[inline(never)]
-fn clear_error<E>(inst: &mut Instance<E>) {
-    inst.error.clear();
-    inst.error.push(0);
 }
 
 #[cold]
@@ -466,9 +536,7 @@ fn step_error<E>(inst: &mut Instance<E>, e: EnvError) -> Status {
 #[cold]
 #[inline(never)]
 fn step_panic<E>(inst: &mut Instance<E>, p: Box<dyn std::any::Any + Send>) -> Status {
-    let msg = panic_message(&*p);
-    inst.set_error(&format!("panic: {msg}"));
-    inst.poisoned = Some(msg);
+    inst.poison(panic_message(&*p));
     RWG_ERR_PANIC
 }
 
