@@ -13,6 +13,7 @@ use rwg_env::env::{EnvError, EnvSpec};
 use rwg_env::plugin::abi::*;
 use rwg_env::space::Space;
 
+use super::batch_scan::{all_finite, all_ones, fill_sentinels, outputs_ok};
 use super::{PluginEnv, PluginEnvType};
 
 /// One lane's failure in a batched call.
@@ -38,7 +39,15 @@ pub struct PluginBatch {
     obs_dim: usize,
     action_len: usize,
     max_steps: u32,
-    elapsed: Vec<u32>,
+    /// Steps of each lane's episode, kept as `clock - base[i]`: `clock`
+    /// counts `step_many` calls, and a lane that does not step in one has
+    /// its `base` moved up, so a call in which every lane steps updates one
+    /// counter, not one per lane.
+    clock: u64,
+    base: Vec<u64>,
+    /// At least the steps of every lane's episode: the lanes are compared
+    /// with the time limit only when this reaches it.
+    elapsed_bound: u64,
     has_reset: Vec<bool>,
     /// The lanes of the call in progress still to be done (a copy of the
     /// caller's mask; a lane is cleared when it fails).
@@ -103,7 +112,9 @@ impl PluginEnvType {
             action_len,
             max_steps: spec.max_episode_steps.unwrap_or(u32::MAX),
             spec,
-            elapsed: vec![0; lanes],
+            clock: 0,
+            base: vec![0; lanes],
+            elapsed_bound: 0,
             has_reset: vec![false; lanes],
             todo: vec![0; lanes],
             all_ready: false,
@@ -166,19 +177,26 @@ impl PluginBatch {
     /// Calls `call(start, failed)` (the batched call on lanes `start..`) until
     /// every lane of `todo` is done: a failing lane is reported (as `what`,
     /// "reset" or "step") and cleared, and the call repeated for the lanes
-    /// after it. Returns whether no lane failed.
+    /// after it. `first` is the status and failed lane of a first call on
+    /// every lane already made, if one was. Returns whether no lane failed.
     fn run(
         &mut self,
         what: &str,
         on_fail: &mut impl FnMut(LaneFailure),
+        mut first: Option<(Status, usize)>,
         mut call: impl FnMut(&Self, usize, &mut usize) -> Status,
     ) -> bool {
         let n = self.envs.len();
         let mut start = 0;
         let mut clean = true;
         while start < n {
-            let mut failed = usize::MAX;
-            let status = call(self, start, &mut failed);
+            let (status, failed) = match first.take() {
+                Some(done) => done,
+                None => {
+                    let mut failed = usize::MAX;
+                    (call(self, start, &mut failed), failed)
+                }
+            };
             if status == RWG_OK {
                 return clean;
             }
@@ -226,12 +244,12 @@ impl PluginBatch {
         );
         self.start(mask, false, &mut on_fail);
         for i in (0..n).filter(|&i| self.todo[i] == 1) {
-            self.elapsed[i] = 0;
+            self.base[i] = self.clock;
             obs[i * d..(i + 1) * d].fill(f64::NAN);
         }
         let reset_many = self.reset_many;
         let obs_ptr = obs.as_mut_ptr();
-        let clean = self.run("reset", &mut on_fail, |b, s, failed| {
+        let clean = self.run("reset", &mut on_fail, None, |b, s, failed| {
             // SAFETY: lanes s.. of buffers sized for n lanes; the handles
             // are live instances of this table, used by this thread only.
             unsafe {
@@ -298,30 +316,115 @@ impl PluginBatch {
                 && truncated.len() == n,
             "buffers of {n} lanes"
         );
-        self.start(mask, true, &mut on_fail);
-        // Values a plugin cannot leave there by accident unnoticed.
-        if all_ones(&self.todo) {
-            // Every lane: whole buffers at once.
-            obs.fill(f64::NAN);
-            rewards.fill(f64::NAN);
-            terminated.fill(0xff);
-            truncated.fill(0xff);
-        } else {
-            for i in 0..n {
-                if self.todo[i] == 1 {
-                    obs[i * d..(i + 1) * d].fill(f64::NAN);
-                    rewards[i] = f64::NAN;
-                    terminated[i] = 0xff;
-                    truncated[i] = 0xff;
+        if self.all_ready {
+            // The common case: no lane to refuse (every one was reset and
+            // none is poisoned), so the plugin gets the caller's mask as it
+            // is, and the outputs are checked over whole buffers.
+            let every = all_ones(mask);
+            fill_sentinels(mask, every, d, obs, rewards, terminated, truncated);
+            self.clock += 1;
+            let mut failed = usize::MAX;
+            // SAFETY: buffers sized for n lanes (checked above); the handles
+            // are live instances used by this thread only.
+            let status = unsafe {
+                (self.step_many)(
+                    self.handles.as_ptr(),
+                    n,
+                    mask.as_ptr(),
+                    actions.as_ptr(),
+                    a,
+                    obs.as_mut_ptr(),
+                    d,
+                    rewards.as_mut_ptr(),
+                    terminated.as_mut_ptr(),
+                    truncated.as_mut_ptr(),
+                    &mut failed,
+                )
+            };
+            if status == RWG_OK && outputs_ok(obs, rewards, terminated, truncated) {
+                if !every {
+                    // The lanes not stepped keep their count.
+                    for (b, &m) in self.base.iter_mut().zip(mask) {
+                        *b += u64::from(m == 0);
+                    }
                 }
+                self.elapsed_bound += 1;
+                if self.elapsed_bound >= u64::from(self.max_steps) {
+                    self.time_limit(mask, truncated);
+                }
+                return;
             }
+            // Something to report: the lanes one by one, as below.
+            self.todo.copy_from_slice(mask);
+            self.step_rest(
+                Some((status, failed)),
+                actions,
+                obs,
+                rewards,
+                terminated,
+                truncated,
+                &mut on_fail,
+            );
+            return;
         }
+        self.start(mask, true, &mut on_fail);
+        let every = all_ones(&self.todo);
+        fill_sentinels(&self.todo, every, d, obs, rewards, terminated, truncated);
+        self.clock += 1;
+        self.step_rest(
+            None,
+            actions,
+            obs,
+            rewards,
+            terminated,
+            truncated,
+            &mut on_fail,
+        );
+    }
+
+    /// The host's time limit, after a call in which the lanes of `mask`
+    /// stepped (and the others did not): `truncated` set on those whose
+    /// episode reached it, and the bound recomputed.
+    #[cold]
+    #[inline(never)]
+    fn time_limit(&mut self, mask: &[u8], truncated: &mut [u8]) {
+        let max = u64::from(self.max_steps);
+        let mut bound = 0;
+        for ((&b, t), &m) in self.base.iter().zip(truncated).zip(mask) {
+            let elapsed = self.clock - b;
+            if m == 1 && elapsed >= max {
+                *t = 1;
+            }
+            bound = bound.max(elapsed);
+        }
+        self.elapsed_bound = bound;
+    }
+
+    /// `step_many` for the lanes of `todo` (sentinels filled): the batched
+    /// call until every lane is done (`first`: the result of a first call
+    /// on every lane already made), then every lane's outputs checked, the
+    /// failures reported, the time limit applied to the others.
+    #[allow(clippy::too_many_arguments)]
+    #[cold]
+    #[inline(never)]
+    fn step_rest(
+        &mut self,
+        first: Option<(Status, usize)>,
+        actions: &[f64],
+        obs: &mut [f64],
+        rewards: &mut [f64],
+        terminated: &mut [u8],
+        truncated: &mut [u8],
+        on_fail: &mut impl FnMut(LaneFailure),
+    ) {
+        let (n, d, a) = (self.envs.len(), self.obs_dim, self.action_len);
         let step_many = self.step_many;
         let (obs_ptr, rew_ptr) = (obs.as_mut_ptr(), rewards.as_mut_ptr());
         let (term_ptr, trunc_ptr) = (terminated.as_mut_ptr(), truncated.as_mut_ptr());
-        let _ = self.run("step", &mut on_fail, |b, s, failed| {
-            // SAFETY: lanes s.. of buffers sized for n lanes (checked above);
-            // the handles are live instances used by this thread only.
+        let _ = self.run("step", on_fail, first, |b, s, failed| {
+            // SAFETY: lanes s.. of buffers sized for n lanes (checked by
+            // the caller); the handles are live instances used by this
+            // thread only.
             unsafe {
                 step_many(
                     b.handles.as_ptr().add(s),
@@ -338,18 +441,6 @@ impl PluginBatch {
                 )
             }
         });
-        // The common case in one pass over whole buffers: every lane's flags
-        // are 0 or 1 and its reward and observation finite (lanes not
-        // stepped included, so this is a sufficient test, not the exact one:
-        // if it fails, the lanes are checked one by one below).
-        if flags_ok(terminated) && flags_ok(truncated) && all_finite(rewards) && all_finite(obs) {
-            let max = self.max_steps;
-            for ((e, t), &m) in self.elapsed.iter_mut().zip(truncated).zip(&self.todo) {
-                *e = e.saturating_add(u32::from(m));
-                *t |= u8::from(*e >= max) & m;
-            }
-            return;
-        }
         for i in 0..n {
             if self.todo[i] != 1 {
                 continue;
@@ -367,104 +458,17 @@ impl PluginBatch {
                 };
                 let error = self.envs[i].step_failure(RWG_OK, &out, lane);
                 on_fail(LaneFailure { lane: i, error });
-                continue;
-            }
-            self.elapsed[i] = self.elapsed[i].saturating_add(1);
-            if self.elapsed[i] >= self.max_steps {
-                truncated[i] = 1;
+                self.todo[i] = 0;
             }
         }
-    }
-}
-
-/// The bytes of `bytes` OR-ed together, eight at a time.
-#[inline]
-fn or_bytes(bytes: &[u8]) -> u8 {
-    let mut chunks = bytes.chunks_exact(8);
-    let mut acc = 0u64;
-    for c in &mut chunks {
-        acc |= u64::from_ne_bytes(c.try_into().expect("8 bytes"));
-    }
-    let acc = acc.to_ne_bytes().iter().fold(0, |a, &b| a | b);
-    chunks.remainder().iter().fold(acc, |a, &b| a | b)
-}
-
-/// Whether every flag is 0 or 1 (one pass, no branch per value: a value
-/// above 1 has a bit above bit 0).
-#[inline]
-fn flags_ok(flags: &[u8]) -> bool {
-    or_bytes(flags) <= 1
-}
-
-/// Whether every byte is 1 (a mask of every lane).
-#[inline]
-fn all_ones(mask: &[u8]) -> bool {
-    let mut chunks = mask.chunks_exact(8);
-    let ones = u64::from_ne_bytes([1; 8]);
-    chunks.all(|c| u64::from_ne_bytes(c.try_into().expect("8 bytes")) == ones)
-        && chunks.remainder().iter().all(|&m| m == 1)
-}
-
-/// Whether every value is finite, in one pass without a branch per value:
-/// `x - x` is 0 for a finite `x` and NaN for an infinite or NaN one, and a
-/// NaN stays in a sum (four sums, so the compiler can use vector adds
-/// without reordering any one of them).
-#[inline]
-#[allow(clippy::eq_op)] // `x - x` is the test, not a mistake
-fn all_finite(values: &[f64]) -> bool {
-    let mut chunks = values.chunks_exact(4);
-    let mut acc = [0.0f64; 4];
-    for c in &mut chunks {
-        for k in 0..4 {
-            acc[k] += c[k] - c[k];
+        // The lanes that did not step (refused, failed, not masked) keep
+        // their count; the others get the time limit.
+        for (b, &m) in self.base.iter_mut().zip(&self.todo) {
+            *b += u64::from(m != 1);
         }
-    }
-    let tail = chunks.remainder().iter().fold(0.0, |a, &x| a + (x - x));
-    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail == 0.0
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn all_finite_finds_any_non_finite_value_at_any_position() {
-        for n in 0..40 {
-            let ok: Vec<f64> = (0..n).map(|i| (i as f64 - 7.5) * 1e300).collect();
-            assert!(all_finite(&ok), "{n}");
-            for i in 0..n {
-                for bad in [f64::NAN, -f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
-                    let mut v = ok.clone();
-                    v[i] = bad;
-                    assert!(!all_finite(&v), "{n} {i} {bad}");
-                }
-            }
-        }
-        assert!(all_finite(&[
-            f64::MAX,
-            f64::MIN,
-            -0.0,
-            f64::MIN_POSITIVE / 2.0
-        ]));
-    }
-
-    #[test]
-    fn flags_and_masks_are_checked_at_every_position() {
-        for n in 0..40 {
-            let zeros = vec![0u8; n];
-            let ones = vec![1u8; n];
-            assert!(flags_ok(&zeros) && flags_ok(&ones) && all_ones(&ones));
-            assert_eq!(all_ones(&zeros), n == 0);
-            for i in 0..n {
-                for bad in [2u8, 3, 0x80, 0xff] {
-                    let mut v = ones.clone();
-                    v[i] = bad;
-                    assert!(!flags_ok(&v) && !all_ones(&v), "{n} {i} {bad}");
-                }
-                let mut v = ones.clone();
-                v[i] = 0;
-                assert!(flags_ok(&v) && !all_ones(&v));
-            }
-        }
+        self.elapsed_bound += 1;
+        let todo = std::mem::take(&mut self.todo);
+        self.time_limit(&todo, truncated);
+        self.todo = todo;
     }
 }

@@ -13,6 +13,7 @@
 //! `Library` is leaked for the life of the process.
 
 mod batch;
+mod batch_scan;
 mod error;
 mod handshake;
 mod instance;

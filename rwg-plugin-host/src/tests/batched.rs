@@ -4,6 +4,8 @@
 //! reports.
 
 use super::*;
+use crate::loader::{PluginBatch, PluginEnv};
+use rwg_env::time_limit::TimeLimit;
 
 unsafe extern "C" fn v1_0_vtable(i: u32) -> *const RwgEnvVtable {
     let e = &*entry_v1::<TestPlugin>(ABI_MAJOR, ABI_MINOR);
@@ -159,4 +161,105 @@ fn a_batch_reports_a_nan_reward_as_the_single_path_does() {
         );
     }
     assert_eq!(got, [(0, want.clone()), (1, want)]);
+}
+
+#[test]
+fn finite_outputs_whose_sum_overflows_pass_the_lane_by_lane_check() {
+    // speed=1e308: after a step every lane's position and reward are about
+    // ±1e308, finite, but their sums over the buffers are not.
+    let p = test_plugin();
+    let ty = p.env("test/Walker-v0").unwrap();
+    let mut single = ty.make("speed=1e308", None).unwrap();
+    let mut sobs = [0.0; 2];
+    single.reset(5, &mut sobs).unwrap();
+    let want = single.step(Action::Discrete(2), &mut sobs).unwrap();
+    let mut batch = ty.make_batch("speed=1e308", 2, None).unwrap();
+    let mut obs = [0.0; 4];
+    batch.reset_many(&[1, 1], &[5, 5], &mut obs, |f| panic!("{f:?}"));
+    let (mut r, mut te, mut tr) = ([0.0; 2], [0u8; 2], [0u8; 2]);
+    batch.step_many(
+        &[1, 1],
+        &[2.0, 2.0],
+        &mut obs,
+        &mut r,
+        &mut te,
+        &mut tr,
+        |f| panic!("{f:?}"),
+    );
+    for i in 0..2 {
+        assert_eq!(obs[2 * i..2 * i + 2], sobs);
+        assert_eq!(
+            (r[i], te[i], tr[i]),
+            (want.reward, u8::from(want.terminated), 0)
+        );
+    }
+}
+
+#[test]
+fn the_time_limit_counts_each_lane_s_own_steps_under_any_mask() {
+    // Three lanes stepped under changing masks and reset when their episode
+    // ends, each beside a single-call instance given the same calls: the
+    // same flags (the limit is 4 steps) and observations at every step.
+    let p = test_plugin();
+    let ty = p.env("test/Walker-v0").unwrap();
+    let mut singles: Vec<_> = (0..3).map(|_| ty.make("", Some(4)).unwrap()).collect();
+    let mut batch = ty.make_batch("", 3, Some(4)).unwrap();
+    let (mut obs, mut sobs) = ([0.0; 6], [0.0; 6]);
+    let mut seed = 0u64;
+    let mut reset = |lanes: &[usize],
+                     batch: &mut PluginBatch,
+                     obs: &mut [f64; 6],
+                     sobs: &mut [f64; 6],
+                     singles: &mut Vec<TimeLimit<PluginEnv>>| {
+        let mut mask = [0u8; 3];
+        let mut seeds = [0u64; 3];
+        for &i in lanes {
+            seed += 1;
+            mask[i] = 1;
+            seeds[i] = seed;
+            singles[i].reset(seed, &mut sobs[2 * i..2 * i + 2]).unwrap();
+        }
+        batch.reset_many(&mask, &seeds, obs, |f| panic!("{f:?}"));
+    };
+    reset(&[0, 1, 2], &mut batch, &mut obs, &mut sobs, &mut singles);
+    let (mut truncations, mut steps) = (0, 0);
+    for k in 0..60u32 {
+        // Every lane most of the time, some lanes now and then.
+        let mask: [u8; 3] = match k % 7 {
+            3 => [1, 0, 1],
+            5 => [0, 1, 0],
+            6 => [0, 0, 0],
+            _ => [1, 1, 1],
+        };
+        let actions = [1.0, f64::from(k % 3), 1.0];
+        let (mut r, mut te, mut tr) = ([0.0; 3], [0u8; 3], [0u8; 3]);
+        batch.step_many(&mask, &actions, &mut obs, &mut r, &mut te, &mut tr, |f| {
+            panic!("{f:?}")
+        });
+        let mut ended = vec![];
+        for i in (0..3).filter(|&i| mask[i] == 1) {
+            let s = singles[i]
+                .step(
+                    Action::Discrete(actions[i] as i64),
+                    &mut sobs[2 * i..2 * i + 2],
+                )
+                .unwrap();
+            assert_eq!(
+                (te[i], tr[i]),
+                (u8::from(s.terminated), u8::from(s.truncated)),
+                "call {k} lane {i}"
+            );
+            assert_eq!(r[i], s.reward);
+            steps += 1;
+            if s.terminated || s.truncated {
+                truncations += usize::from(s.truncated);
+                ended.push(i);
+            }
+        }
+        assert_eq!(obs, sobs, "call {k}");
+        if !ended.is_empty() {
+            reset(&ended, &mut batch, &mut obs, &mut sobs, &mut singles);
+        }
+    }
+    assert!(truncations >= 10 && steps > 100, "{truncations} {steps}");
 }
