@@ -25,12 +25,18 @@ pub(super) fn fill_sentinels(
         fill_bytes(truncated, 0xff);
         return;
     }
-    for (i, &m) in mask.iter().enumerate() {
+    if d == 0 {
+        return;
+    }
+    let lanes = obs
+        .chunks_exact_mut(d)
+        .zip(rewards.iter_mut().zip(terminated.iter_mut().zip(truncated)));
+    for ((o, (r, (te, tr))), &m) in lanes.zip(mask) {
         if m == 1 {
-            obs[i * d..(i + 1) * d].fill(f64::NAN);
-            rewards[i] = f64::NAN;
-            terminated[i] = 0xff;
-            truncated[i] = 0xff;
+            o.fill(f64::NAN);
+            *r = f64::NAN;
+            *te = 0xff;
+            *tr = 0xff;
         }
     }
 }

@@ -132,6 +132,13 @@ fn the_shim_refuses_malformed_batches_and_stops_at_the_failing_lane() {
     assert!(r[0] == -1.0 && r[1].is_nan() && r[2].is_nan(), "{r:?}");
     let msg = unsafe { std::ffi::CStr::from_ptr((l.vt.last_error.unwrap())(l.envs[1])) };
     assert!(msg.to_str().unwrap().contains("7"), "{msg:?}");
+    // Lane 1 holds that message (the checked path's business): the next
+    // call steps it and the lanes after it all the same, and clears it.
+    let (st, _, r) = l.step(None, &[2.0; 3], false);
+    assert_eq!(st, RWG_OK);
+    assert!(r.iter().all(|x| x.is_finite()), "{r:?}");
+    let msg = unsafe { std::ffi::CStr::from_ptr((l.vt.last_error.unwrap())(l.envs[1])) };
+    assert_eq!(msg.to_str().unwrap(), "");
 }
 
 #[test]

@@ -33,6 +33,25 @@ unsafe fn refused(n: usize, pointers_ok: bool, mask: *const u8) -> bool {
                 > 1)
 }
 
+/// `mask`, or NULL if every one of its `n` values is 1 (the lane loop then
+/// tests no lane), for a mask [`refused`] accepted.
+///
+/// # Safety
+/// `mask` is NULL or valid for `n` reads.
+#[inline]
+unsafe fn simplified(n: usize, mask: *const u8) -> *const u8 {
+    if mask.is_null()
+        || std::slice::from_raw_parts(mask, n)
+            .iter()
+            .fold(1, |a, &m| a & m)
+            == 1
+    {
+        std::ptr::null()
+    } else {
+        mask
+    }
+}
+
 #[inline(always)]
 unsafe fn masked(mask: *const u8, i: usize) -> bool {
     mask.is_null() || *mask.add(i) == 1
@@ -109,24 +128,17 @@ pub(super) unsafe extern "C" fn step_many<E: Environment>(
         return RWG_ERR_INVALID_ARGUMENT;
     }
     let keys = call_keys(obs_len, action_len);
-    // Lane i's action and observation, advanced lane by lane (no multiply).
-    let (mut action, mut o) = (actions, obs);
-    for i in 0..n {
-        let lane = (action, o);
-        action = action.wrapping_add(action_len);
-        o = o.wrapping_add(obs_len);
-        if !masked(mask, i) {
-            continue;
-        }
-        let (env, (action, o)) = (*envs.add(i), lane);
-        // The single call's fast path, its results written straight into
-        // the lane's slots; anything unusual goes through the single call.
+    // Lane i: the single call's fast path, its results written straight
+    // into the lane's slots; anything unusual goes through the single call.
+    // `Err` stops the call at the lane that failed.
+    let step_lane = |i: usize, action: *const f64, o: *mut f64| -> Result<(), Status> {
+        let env = *envs.add(i);
         let status = match step_fast::<E>(env, keys, action, action_len, o, obs_len) {
             Ok(s) => {
                 *rewards.add(i) = s.reward;
                 *terminated.add(i) = u8::from(s.terminated);
                 *truncated.add(i) = u8::from(s.truncated);
-                continue;
+                return Ok(());
             }
             Err(Some(status)) => status,
             Err(None) => lane_checked::<E>(
@@ -140,8 +152,26 @@ pub(super) unsafe extern "C" fn step_many<E: Environment>(
                 truncated.add(i),
             ),
         };
-        report(failed, i);
-        return status;
+        if status == RWG_OK {
+            Ok(())
+        } else {
+            report(failed, i);
+            Err(status)
+        }
+    };
+    // Lane i's action and observation, advanced lane by lane (no multiply);
+    // a loop without a mask test when every lane steps.
+    let (mut action, mut o) = (actions, obs);
+    let every = simplified(n, mask).is_null();
+    for i in 0..n {
+        let lane = (action, o);
+        action = action.wrapping_add(action_len);
+        o = o.wrapping_add(obs_len);
+        if every || *mask.add(i) == 1 {
+            if let Err(status) = step_lane(i, lane.0, lane.1) {
+                return status;
+            }
+        }
     }
     RWG_OK
 }
