@@ -2,8 +2,9 @@
 # What the plugin ABI costs: `rwg run` on the built-in CartPole-v0 and on the
 # same code through the reference plugin (classic_control/CartPole-v0), one
 # worker thread, for three architectures; the plugin both through its single
-# calls (the default, RWG_PLUGIN_BATCH=0, "single") and through ABI 1.1's
-# batched calls (RWG_PLUGIN_BATCH=1, "batched"). Runs alternate (built-in, single, batched, built-in, ...)
+# calls (RWG_PLUGIN_BATCH=0, "single") and through ABI 1.1's batched calls
+# (rwg run's default for a plugin that has them; RWG_PLUGIN_BATCH=1 here,
+# "batched"). Runs alternate (built-in, single, batched, built-in, ...)
 # and the medians of RUNS runs are reported: user CPU time per environment step
 # (robust on a busy machine) and wall time of the whole `rwg run` (what you
 # wait for, results written included; a plugin run also loads the plugin and

@@ -150,7 +150,7 @@ fn where_text(c: CallSnapshot, out: &mut Msg) {
         out.num(episode);
         out.push(b" lanes (batched call ");
         out.num(step);
-        out.push(b" of the thread; rerun without RWG_PLUGIN_BATCH=1 to name the network and step)");
+        out.push(b" of the thread; rerun with RWG_PLUGIN_BATCH=0 to name the network and step)");
     }
     if matches!(phase, Phase::Reset | Phase::Step) {
         out.push(b", network ");

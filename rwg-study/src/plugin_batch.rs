@@ -5,12 +5,13 @@
 //!
 //! The episodes are those of the single calls bit for bit (the ABI promises
 //! it; `rwg check` tests it), so `scores.csv` and `samples.csv` do not
-//! depend on the path. They are used only when `RWG_PLUGIN_BATCH=1` is in
-//! the environment ([`use_batched_calls`]): measured, they save ~100 CPU
-//! instructions per env step over the single calls but still cost 1.1-1.5x
-//! the built-in on the cheap classic envs (docs/performance.md), and a fault
-//! inside one cannot be traced to its network and step, which the single
-//! calls' reports name.
+//! depend on the path. `rwg run` uses them for every in-process plugin env
+//! that has them unless `RWG_PLUGIN_BATCH=0` is in the environment
+//! ([`use_batched_calls`]): measured, they cost fewer CPU instructions per
+//! env step than the single calls on every classic env and architecture
+//! (docs/performance.md). What they give up: a crash inside one is reported
+//! as the batched call, not the network and step the single calls' reports
+//! name (rerun with `RWG_PLUGIN_BATCH=0` for those).
 
 use crate::env_source::PluginSource;
 use crate::fault_context::{recorded_batch, recorded_create, Phase};
@@ -20,40 +21,78 @@ use rwg_env::{EnvError, EnvSpec};
 use rwg_plugin_host::PluginBatch;
 use std::ops::Range;
 
-/// The environment variable that turns the batched calls on (`1`).
+/// The environment variable that turns the batched calls off (`0`: the
+/// single calls, for fault reports that name the network and step, or for
+/// comparison).
 pub const BATCH_VAR: &str = "RWG_PLUGIN_BATCH";
 
 /// Whether `rwg run` steps `source` through the batched calls: the plugin
-/// has them and `RWG_PLUGIN_BATCH` is `1`.
+/// has them and `RWG_PLUGIN_BATCH` is not `0`.
 pub fn use_batched_calls(source: &PluginSource) -> bool {
-    source.ty.has_batched_calls() && std::env::var(BATCH_VAR).as_deref() == Ok("1")
+    source.ty.has_batched_calls() && std::env::var(BATCH_VAR).as_deref() != Ok("0")
 }
 
 /// [`LANES`] instances of a plugin env, their calls recorded for fault
-/// reports ([`crate::fault_context`]).
-pub struct PluginLanes {
-    batch: PluginBatch,
+/// reports ([`crate::fault_context`]). Made for a block, they go back to
+/// their [`Spare`] set when dropped unless a lane failed, for the next
+/// block (every episode starts with a seeded reset, which fixes all that
+/// follows: the ABI's rule, which `rwg check` tests), so a cell creates
+/// `LANES` instances per worker thread, not per block.
+pub struct PluginLanes<'a> {
+    /// `None` only while being dropped.
+    batch: Option<PluginBatch>,
+    spare: Option<&'a Spare>,
+    failed: bool,
 }
 
-impl PluginLanes {
+/// Batches of a cell no longer in use, none with a failed lane.
+pub type Spare = std::sync::Mutex<Vec<PluginBatch>>;
+
+impl<'a> PluginLanes<'a> {
     /// [`LANES`] instances of `source`'s env, with its config and time limit.
     pub fn new(source: &PluginSource) -> Result<Self, EnvError> {
-        let batch = recorded_create(|| {
-            source
-                .ty
-                .make_batch(&source.config, LANES, source.max_episode_steps)
-        })?;
-        Ok(PluginLanes { batch })
+        Self::make(source, None)
+    }
+
+    /// A batch of `spare` if it has one, else new instances; given back to
+    /// `spare` when dropped unless a lane failed.
+    pub fn reusing(source: &PluginSource, spare: &'a Spare) -> Result<Self, EnvError> {
+        Self::make(source, Some(spare))
+    }
+
+    fn make(source: &PluginSource, spare: Option<&'a Spare>) -> Result<Self, EnvError> {
+        let reused = spare.and_then(|s| s.lock().unwrap_or_else(|e| e.into_inner()).pop());
+        let batch = match reused {
+            Some(b) => b,
+            None => recorded_create(|| {
+                source
+                    .ty
+                    .make_batch(&source.config, LANES, source.max_episode_steps)
+            })?,
+        };
+        Ok(PluginLanes {
+            batch: Some(batch),
+            spare,
+            failed: false,
+        })
     }
 }
 
-impl ManyEnv for PluginLanes {
+impl Drop for PluginLanes<'_> {
+    fn drop(&mut self) {
+        if let (Some(spare), Some(batch), false) = (self.spare, self.batch.take(), self.failed) {
+            spare.lock().unwrap_or_else(|e| e.into_inner()).push(batch);
+        }
+    }
+}
+
+impl ManyEnv for PluginLanes<'_> {
     fn spec(&self) -> &EnvSpec {
-        self.batch.spec()
+        self.batch.as_ref().expect("a batch until dropped").spec()
     }
 
     fn lanes(&self) -> usize {
-        self.batch.len()
+        self.batch.as_ref().map_or(0, |b| b.len())
     }
 
     fn reset_many(
@@ -63,9 +102,13 @@ impl ManyEnv for PluginLanes {
         obs: &mut [f64],
         on_fail: &mut dyn FnMut(usize, EnvError),
     ) {
-        let batch = &mut self.batch;
+        let failed = &mut self.failed;
+        let batch = self.batch.as_mut().expect("a batch until dropped");
         recorded_batch(Phase::ResetMany, mask.len(), || {
-            batch.reset_many(mask, seeds, obs, |f| on_fail(f.lane, f.error))
+            batch.reset_many(mask, seeds, obs, |f| {
+                *failed = true;
+                on_fail(f.lane, f.error)
+            })
         })
     }
 
@@ -79,9 +122,11 @@ impl ManyEnv for PluginLanes {
         truncated: &mut [u8],
         on_fail: &mut dyn FnMut(usize, EnvError),
     ) {
-        let batch = &mut self.batch;
+        let failed = &mut self.failed;
+        let batch = self.batch.as_mut().expect("a batch until dropped");
         recorded_batch(Phase::StepMany, mask.len(), || {
             batch.step_many(mask, actions, obs, rewards, terminated, truncated, |f| {
+                *failed = true;
                 on_fail(f.lane, f.error)
             })
         })
@@ -101,5 +146,12 @@ pub fn run_blocks<X>(
 where
     X: From<SampleError> + Send,
 {
-    run_blocks_many(plan, blocks, wave, || PluginLanes::new(source), on_block)
+    let spare = Spare::default();
+    run_blocks_many(
+        plan,
+        blocks,
+        wave,
+        || PluginLanes::reusing(source, &spare),
+        on_block,
+    )
 }
