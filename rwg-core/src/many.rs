@@ -16,49 +16,9 @@ use crate::sampler::{
     SampleError, LANES,
 };
 use rayon::prelude::*;
-use rwg_env::{Action, EnvError, EnvSpec, Space};
+pub use rwg_env::many::ManyEnv;
+use rwg_env::{Action, EnvError, Space};
 use std::ops::Range;
-
-/// Many instances of one environment (lanes), reset and stepped together.
-///
-/// Buffers are lane-major: lane `i`'s observation is
-/// `obs[i * obs_dim..(i + 1) * obs_dim]`, its action
-/// `actions[i * action_len..]` with `action_len` 1 for a Discrete space (the
-/// action as an integral double) and the dimension of a Box. Only lanes with
-/// `mask[i] == 1` take part; the others' slots are left alone. A lane that
-/// fails goes to `on_fail` (the others are done all the same); a failed
-/// lane is not used again.
-pub trait ManyEnv {
-    /// The environment's description (with its time limit).
-    fn spec(&self) -> &EnvSpec;
-
-    /// Number of lanes.
-    fn lanes(&self) -> usize;
-
-    /// Resets each masked lane `i` with `seeds[i]` (Gymnasium's
-    /// `reset(seed=...)`), writing its first observation.
-    fn reset_many(
-        &mut self,
-        mask: &[u8],
-        seeds: &[u64],
-        obs: &mut [f64],
-        on_fail: &mut dyn FnMut(usize, EnvError),
-    );
-
-    /// Steps each masked lane with its action: observation, reward and flags
-    /// (0 or 1; `truncated` includes the time limit) into lane `i`'s slots.
-    #[allow(clippy::too_many_arguments)]
-    fn step_many(
-        &mut self,
-        mask: &[u8],
-        actions: &[f64],
-        obs: &mut [f64],
-        rewards: &mut [f64],
-        terminated: &mut [u8],
-        truncated: &mut [u8],
-        on_fail: &mut dyn FnMut(usize, EnvError),
-    );
-}
 
 /// What one lane of a [`ManyLaneWorker`] is doing.
 #[derive(Debug, Clone, Copy)]

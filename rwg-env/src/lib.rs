@@ -14,6 +14,7 @@
 pub mod env;
 pub mod float;
 pub mod lanes_math;
+pub mod many;
 pub mod mt19937;
 pub mod plugin;
 pub mod seeding;

@@ -1,7 +1,7 @@
 use super::*;
 use crate::policy::Architecture;
 use crate::sampler::{run_blocks, WeightDist};
-use rwg_env::{BoxSpace, Environment, Step};
+use rwg_env::{BoxSpace, EnvSpec, Environment, Step};
 
 /// A toy env: episodes of 1 + (seed % 7) steps; fails at step 2 of
 /// episodes whose seed is a multiple of `fail_every`, and at reset when it
