@@ -21,29 +21,29 @@ use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 use std::f64::consts::PI;
 
 /// Time step of one action (one RK4 step over `[0, DT]`).
-const DT: f64 = 0.2;
+pub(crate) const DT: f64 = 0.2;
 /// Length of link 1.
-const LINK_LENGTH_1: f64 = 1.0;
+pub(crate) const LINK_LENGTH_1: f64 = 1.0;
 /// Mass of link 1.
-const LINK_MASS_1: f64 = 1.0;
+pub(crate) const LINK_MASS_1: f64 = 1.0;
 /// Mass of link 2.
-const LINK_MASS_2: f64 = 1.0;
+pub(crate) const LINK_MASS_2: f64 = 1.0;
 /// Position of the centre of mass of link 1.
-const LINK_COM_POS_1: f64 = 0.5;
+pub(crate) const LINK_COM_POS_1: f64 = 0.5;
 /// Position of the centre of mass of link 2.
-const LINK_COM_POS_2: f64 = 0.5;
+pub(crate) const LINK_COM_POS_2: f64 = 0.5;
 /// Moment of inertia of link 1.
-const LINK_MOI_1: f64 = 1.0;
+pub(crate) const LINK_MOI_1: f64 = 1.0;
 /// Moment of inertia of link 2.
-const LINK_MOI_2: f64 = 1.0;
+pub(crate) const LINK_MOI_2: f64 = 1.0;
 /// Gravity.
-const G: f64 = 9.8;
+pub(crate) const G: f64 = 9.8;
 /// Bound of θ̇1: `4 · π`.
-const MAX_VEL_1: f64 = 4.0 * PI;
+pub(crate) const MAX_VEL_1: f64 = 4.0 * PI;
 /// Bound of θ̇2: `9 · π`.
-const MAX_VEL_2: f64 = 9.0 * PI;
+pub(crate) const MAX_VEL_2: f64 = 9.0 * PI;
 /// Torque of actions 0, 1, 2.
-const AVAIL_TORQUE: [f64; 3] = [-1.0, 0.0, 1.0];
+pub(crate) const AVAIL_TORQUE: [f64; 3] = [-1.0, 0.0, 1.0];
 
 /// Beyond this magnitude an angle is reduced with a floored remainder instead
 /// of Gymnasium's repeated ±2π loop, which would need more than ~10⁵
@@ -169,7 +169,7 @@ fn rk4(y0: &[f64; 5], sin_cos_t2: (f64, f64)) -> [f64; 5] {
 /// reduced with a floored remainder instead, where Gymnasium would loop for
 /// very long or forever.
 #[inline(always)]
-fn wrap(mut x: f64) -> f64 {
+pub(crate) fn wrap(mut x: f64) -> f64 {
     if x.abs() > WRAP_LOOP_MAX {
         return (x + PI).rem_euclid(2.0 * PI) - PI;
     }
@@ -185,7 +185,7 @@ fn wrap(mut x: f64) -> f64 {
 /// Python's `min(max(x, lo), hi)`: like a clamp, but a NaN passes through
 /// (Python keeps the first argument unless a later one compares greater/less).
 #[inline(always)]
-fn bound(x: f64, lo: f64, hi: f64) -> f64 {
+pub(crate) fn bound(x: f64, lo: f64, hi: f64) -> f64 {
     let m = if lo > x { lo } else { x };
     if hi < m {
         hi

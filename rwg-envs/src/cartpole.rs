@@ -8,17 +8,17 @@ use rwg_env::float::f32r;
 use rwg_env::seeding::Pcg64;
 use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
-const GRAVITY: f64 = 9.8;
-const MASSCART: f64 = 1.0;
-const MASSPOLE: f64 = 0.1;
-const LENGTH: f64 = 0.5; // half the pole's length
-const FORCE_MAG: f64 = 10.0;
-const TAU: f64 = 0.02;
-const X_THRESHOLD: f64 = 2.4;
+pub(crate) const GRAVITY: f64 = 9.8;
+pub(crate) const MASSCART: f64 = 1.0;
+pub(crate) const MASSPOLE: f64 = 0.1;
+pub(crate) const LENGTH: f64 = 0.5; // half the pole's length
+pub(crate) const FORCE_MAG: f64 = 10.0;
+pub(crate) const TAU: f64 = 0.02;
+pub(crate) const X_THRESHOLD: f64 = 2.4;
 
 /// 12 degrees in radians, computed as Gymnasium does: `12 * 2 * pi / 360`.
 #[inline]
-fn theta_threshold() -> f64 {
+pub(crate) fn theta_threshold() -> f64 {
     12.0 * 2.0 * std::f64::consts::PI / 360.0
 }
 

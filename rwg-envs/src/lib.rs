@@ -34,9 +34,11 @@ macro_rules! array_state {
 
 pub mod acrobot;
 pub mod cartpole;
+pub mod lockstep;
 pub mod mountain_car;
 pub mod mountain_car_continuous;
 pub mod pendulum;
 pub mod registry;
 
+pub use lockstep::{visit_lockstep, LockstepEnv, LockstepVisitor};
 pub use registry::{make, visit, EnvOptions, EnvVisitor, Registration, UnknownEnv, REGISTRY};

@@ -9,13 +9,13 @@ use rwg_env::float::f32r;
 use rwg_env::seeding::Pcg64;
 use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
-const MIN_POSITION: f64 = -1.2;
-const MAX_POSITION: f64 = 0.6;
-const MAX_SPEED: f64 = 0.07;
-const GOAL_POSITION: f64 = 0.5;
-const GOAL_VELOCITY: f64 = 0.0;
-const FORCE: f64 = 0.001;
-const GRAVITY: f64 = 0.0025;
+pub(crate) const MIN_POSITION: f64 = -1.2;
+pub(crate) const MAX_POSITION: f64 = 0.6;
+pub(crate) const MAX_SPEED: f64 = 0.07;
+pub(crate) const GOAL_POSITION: f64 = 0.5;
+pub(crate) const GOAL_VELOCITY: f64 = 0.0;
+pub(crate) const FORCE: f64 = 0.001;
+pub(crate) const GRAVITY: f64 = 0.0025;
 
 /// Drive an under-powered car up the right hill by rocking it back and forth.
 ///

@@ -30,17 +30,17 @@ use rwg_env::{Action, ActionDtype, BoxSpace, EnvError, EnvSpec, Environment, Spa
 
 use crate::mountain_car::{observation_box, reset_state};
 
-const MIN_ACTION: f64 = -1.0;
-const MAX_ACTION: f64 = 1.0;
-const MIN_POSITION: f64 = -1.2;
-const MAX_POSITION: f64 = 0.6;
-const MAX_SPEED: f64 = 0.07;
-const GOAL_POSITION: f64 = 0.45;
-const POWER: f64 = 0.0015;
+pub(crate) const MIN_ACTION: f64 = -1.0;
+pub(crate) const MAX_ACTION: f64 = 1.0;
+pub(crate) const MIN_POSITION: f64 = -1.2;
+pub(crate) const MAX_POSITION: f64 = 0.6;
+pub(crate) const MAX_SPEED: f64 = 0.07;
+pub(crate) const GOAL_POSITION: f64 = 0.45;
+pub(crate) const POWER: f64 = 0.0015;
 
 /// The numpy-2 kind of a scalar.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Kind {
+pub(crate) enum Kind {
     /// A Python float: float64 value, adopts the other operand's precision.
     Py,
     /// `np.float64`.
@@ -64,19 +64,19 @@ impl Kind {
 /// A scalar with its numpy-2 kind. The value is held as `f64`; a `F32` value
 /// is always f32-representable.
 #[derive(Debug, Clone, Copy)]
-struct Num {
-    x: f64,
-    kind: Kind,
+pub(crate) struct Num {
+    pub(crate) x: f64,
+    pub(crate) kind: Kind,
 }
 
 impl Num {
     #[inline(always)]
-    const fn py(x: f64) -> Num {
+    pub(crate) const fn py(x: f64) -> Num {
         Num { x, kind: Kind::Py }
     }
 
     #[inline(always)]
-    const fn new(x: f64, kind: Kind) -> Num {
+    pub(crate) const fn new(x: f64, kind: Kind) -> Num {
         Num { x, kind }
     }
 
@@ -101,22 +101,22 @@ impl Num {
     }
 
     #[inline(always)]
-    fn gt(self, o: Num) -> bool {
+    pub(crate) fn gt(self, o: Num) -> bool {
         self.cmp(o, f64::gt, f32::gt)
     }
 
     #[inline(always)]
-    fn lt(self, o: Num) -> bool {
+    pub(crate) fn lt(self, o: Num) -> bool {
         self.cmp(o, f64::lt, f32::lt)
     }
 
     #[inline(always)]
-    fn ge(self, o: Num) -> bool {
+    pub(crate) fn ge(self, o: Num) -> bool {
         self.cmp(o, f64::ge, f32::ge)
     }
 
     #[inline(always)]
-    fn eq(self, o: Num) -> bool {
+    pub(crate) fn eq(self, o: Num) -> bool {
         self.cmp(o, f64::eq, f32::eq)
     }
 }

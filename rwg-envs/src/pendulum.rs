@@ -18,12 +18,12 @@ use rwg_env::seeding::{gym_np_random, Pcg64};
 use rwg_env::{Action, ActionDtype, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 use std::f64::consts::PI;
 
-const MAX_SPEED: f64 = 8.0;
-const MAX_TORQUE: f64 = 2.0;
-const DT: f64 = 0.05;
-const G: f64 = 10.0;
-const M: f64 = 1.0;
-const L: f64 = 1.0;
+pub(crate) const MAX_SPEED: f64 = 8.0;
+pub(crate) const MAX_TORQUE: f64 = 2.0;
+pub(crate) const DT: f64 = 0.05;
+pub(crate) const G: f64 = 10.0;
+pub(crate) const M: f64 = 1.0;
+pub(crate) const L: f64 = 1.0;
 
 /// `((x + pi) mod 2pi) - pi` with Python's floored modulo (the remainder has
 /// the sign of 2pi, so it lies in [0, 2pi)).
@@ -42,13 +42,13 @@ pub fn angle_normalize(x: f64) -> f64 {
 
 /// `np.clip(x, lo, hi)`: NaN stays NaN.
 #[inline(always)]
-fn clip(x: f64, lo: f64, hi: f64) -> f64 {
+pub(crate) fn clip(x: f64, lo: f64, hi: f64) -> f64 {
     x.clamp(lo, hi)
 }
 
 /// Which implementation the env follows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Version {
+pub(crate) enum Version {
     /// gym 0.17.2's `Pendulum-v0`.
     V0,
     /// Gymnasium 1.4's `Pendulum-v1`.
