@@ -26,9 +26,10 @@ use crate::rundir::meta::{
 use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
 use crate::timing::{CellTiming, RunTiming};
 use crate::StudyError;
-use rwg_core::sampler::{run_blocks, BlockResult};
+use rwg_core::many::run_blocks_many;
+use rwg_core::sampler::{run_blocks, BlockResult, LANES};
 use rwg_env::Environment;
-use rwg_envs::{visit, EnvVisitor};
+use rwg_envs::{visit, visit_lockstep, EnvVisitor, LockstepEnv, LockstepVisitor};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Instant, SystemTime};
@@ -351,8 +352,22 @@ fn fail<'scope, 'c: 'scope>(
     })
 }
 
+/// The environment variable that turns the lockstep built-in envs off
+/// (`0`): their cells then run through the lane sampler, one scalar env per
+/// lane, as before (for comparisons; the results are identical).
+pub const LOCKSTEP_VAR: &str = "RWG_LOCKSTEP";
+
+/// Whether built-in envs with a lockstep version run through it
+/// (`rwg_envs::lockstep`, driven by `rwg_core::many`): unless
+/// `RWG_LOCKSTEP=0`.
+pub fn use_lockstep() -> bool {
+    std::env::var(LOCKSTEP_VAR).as_deref() != Ok("0")
+}
+
 /// Runs the given blocks of a cell. Built-in envs are statically dispatched
-/// (the sampler is monomorphised for each); plugin envs run through the same
+/// (the sampler is monomorphised for each), through their lockstep version
+/// (all lanes in one `step_many`, [`use_lockstep`]) where they have one;
+/// plugin envs run through the same
 /// generic sampler as `Watched<TimeLimit<PluginEnv>>`, or, when the plugin has
 /// ABI 1.1's batched calls, through the in-process batched sampler
 /// (`plugin_batch`); isolated plugin envs and Gymnasium envs through the
@@ -401,6 +416,20 @@ fn run_cell_blocks(
             self.run(|| env.clone())
         }
     }
+    impl<F: FnMut(&BlockResult)> LockstepVisitor for Runner<'_, F> {
+        type Output = Result<(), CellError>;
+        fn visit<M: LockstepEnv + Clone + Send + Sync + 'static>(mut self, env: M) -> Self::Output {
+            let wave = rayon::current_num_threads() * 2;
+            let (plan, blocks) = (&self.cell.plan, self.blocks);
+            run_blocks_many(
+                plan,
+                blocks,
+                wave,
+                || Ok(env.clone()),
+                |b: BlockResult| self.on_block(b),
+            )
+        }
+    }
     let mut runner = Runner {
         cell,
         blocks,
@@ -409,8 +438,16 @@ fn run_cell_blocks(
         on_done,
     };
     match &cell.source {
-        EnvSource::Builtin(opts) => visit(&cell.plan.env_id, opts, runner)
-            .expect("env ids are checked when cells are planned"),
+        EnvSource::Builtin(opts) => {
+            let id = &cell.plan.env_id;
+            if use_lockstep() {
+                match visit_lockstep::<LANES, _>(id, opts, runner) {
+                    Ok(done) => return done,
+                    Err(back) => runner = back,
+                }
+            }
+            visit(id, opts, runner).expect("env ids are checked when cells are planned")
+        }
         // Isolated: batched, one worker process per thread (see isolate).
         EnvSource::Plugin(p) if p.isolated.is_some() => {
             let wave = rayon::current_num_threads() * 2;
