@@ -1,11 +1,14 @@
 //! The step loop allocates nothing: `Environment::step` of every built-in
 //! env, `Policy::act`, `PolicyLanes::forward` / `action`, and `reset`
-//! (counted with a global allocator that counts the calls of this thread).
+//! (counted with a global allocator that counts the calls of this thread),
+//! and the lockstep envs' `reset_many` / `step_many`.
 
 use rwg_core::policy::{Architecture, NetShape, Policy, PolicyLanes};
 use rwg_env::seeding::Pcg64;
-use rwg_env::{Action, Environment, Space};
-use rwg_envs::{visit, EnvOptions, EnvVisitor, REGISTRY};
+use rwg_env::{Action, ActionDtype, Environment, Space};
+use rwg_envs::{
+    visit, visit_lockstep, EnvOptions, EnvVisitor, LockstepEnv, LockstepVisitor, REGISTRY,
+};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
@@ -121,6 +124,92 @@ fn step_loop_allocates_nothing() {
                 r.id
             );
             assert_eq!(lanes, 0, "{} {hidden:?}: PolicyLanes allocated", r.id);
+        }
+    }
+}
+
+/// 2000 lockstep steps of 16 lanes (a `PolicyLanes` choosing the actions,
+/// finished lanes reset, every third lane masked out now and then): the
+/// allocations of `reset_many` and `step_many`.
+struct LockstepLoop;
+
+impl LockstepVisitor for LockstepLoop {
+    type Output = u64;
+    fn visit<M: LockstepEnv + Clone + Send + Sync + 'static>(self, mut env: M) -> u64 {
+        const N: usize = 16;
+        let spec = env.spec().clone();
+        let d = spec.obs_dim();
+        let arch = Architecture {
+            hidden: vec![4],
+            bias: true,
+        };
+        let shape = NetShape::new(d, &arch, NetShape::outputs_for(&spec.action_space));
+        let mut lanes = PolicyLanes::<N>::new(shape.clone(), &spec.action_space);
+        let mut rng = Pcg64::from_seed(3);
+        let mut w = vec![0.0; shape.n_weights()];
+        for l in 0..N {
+            for x in w.iter_mut() {
+                *x = rng.uniform(-2.0, 2.0);
+            }
+            lanes.set_weights(l, &w);
+        }
+        let mut obs = vec![0.0; N * d];
+        let mut actions = vec![0.0; N];
+        let (mut rewards, mut term, mut trunc) = ([0.0; N], [0u8; N], [0u8; N]);
+        let mut reset_mask = [1u8; N];
+        let mut step_mask = [1u8; N];
+        let mut seeds = [0u64; N];
+        let mut next_seed = 0;
+        allocations(|| {
+            for t in 0..2000 {
+                if reset_mask.contains(&1) {
+                    for (i, s) in seeds.iter_mut().enumerate() {
+                        if reset_mask[i] == 1 {
+                            next_seed += 1;
+                            *s = next_seed;
+                        }
+                    }
+                    env.reset_many(&reset_mask, &seeds, &mut obs, &mut |_, e| panic!("{e}"));
+                    reset_mask = [0; N];
+                }
+                lanes.forward(&obs);
+                for (i, m) in step_mask.iter_mut().enumerate() {
+                    *m = u8::from(!(i % 3 == 0 && t % 5 == 0));
+                    actions[i] = match lanes.action(i) {
+                        Action::Discrete(a) => a as f64,
+                        Action::Continuous(v) => v[0],
+                    };
+                }
+                env.step_many(
+                    &step_mask,
+                    &actions,
+                    &mut obs,
+                    &mut rewards,
+                    &mut term,
+                    &mut trunc,
+                    &mut |_, e| panic!("{e}"),
+                );
+                for i in 0..N {
+                    if step_mask[i] == 1 && (term[i] == 1 || trunc[i] == 1) {
+                        reset_mask[i] = 1;
+                    }
+                }
+            }
+        })
+    }
+}
+
+#[test]
+fn lockstep_step_loop_allocates_nothing() {
+    for r in REGISTRY {
+        for dtype in [ActionDtype::F64, ActionDtype::F32] {
+            let opts = EnvOptions {
+                action_dtype: dtype,
+                max_episode_steps: None,
+            };
+            let n = visit_lockstep::<16, _>(r.id, &opts, LockstepLoop)
+                .unwrap_or_else(|_| panic!("{} has a lockstep version", r.id));
+            assert_eq!(n, 0, "{} {dtype:?}: reset_many + step_many allocated", r.id);
         }
     }
 }
