@@ -144,6 +144,8 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
                 if lane.active {
                     match self.policy.action(i) {
                         Action::Discrete(x) => self.actions[i] = x as f64,
+                        // One value without a call to memmove.
+                        Action::Continuous(&[v]) => self.actions[i] = v,
                         Action::Continuous(v) => {
                             self.actions[i * a..(i + 1) * a].copy_from_slice(v)
                         }

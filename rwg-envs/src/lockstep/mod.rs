@@ -175,7 +175,7 @@ pub(crate) fn gather_continuous1<const N: usize>(
 
 /// Writes the flags of the lanes that ran: `terminated[i]` as given and
 /// `truncated[i]` by the lane's clock.
-#[inline]
+#[inline(always)]
 pub(crate) fn finish_flags<const N: usize>(
     clocks: &mut Clocks<N>,
     live: &[bool; N],
