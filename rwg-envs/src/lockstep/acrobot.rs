@@ -2,15 +2,17 @@
 //! stage computed for all lanes at once. Each stage's `sin θ2, cos θ2` is
 //! one `sincos_lanes` (the first stage reuses the observation's), its
 //! `cos(θ1 + θ2 − π/2)` and `cos(θ1 − π/2)` one `cos_lanes` each; the
-//! `x**2` terms are `pow2` per lane in loops of their own, so the loops of
+//! `x**2` terms are `pow2`'s bits through `pow2_lanes`, so the loops of
 //! plain arithmetic around them vectorise.
 
-use super::{check_lens, finish_flags, gather_discrete, limited_spec, Clocks, LockstepEnv};
+use super::{
+    check_lens, finish_flags, gather_discrete, limited_spec, pow2_lanes, Clocks, LockstepEnv,
+};
 use crate::acrobot::{
     bound, wrap, Acrobot, AVAIL_TORQUE, DT, G, LINK_COM_POS_1, LINK_COM_POS_2, LINK_LENGTH_1,
     LINK_MASS_1, LINK_MASS_2, LINK_MOI_1, LINK_MOI_2, MAX_VEL_1, MAX_VEL_2,
 };
-use rwg_env::float::{f32r, pow2};
+use rwg_env::float::f32r;
 use rwg_env::lanes_math::{cos_lanes, sincos_lanes};
 use rwg_env::many::ManyEnv;
 use rwg_env::seeding::Pcg64;
@@ -78,13 +80,11 @@ fn dsdt<const N: usize>(y: &Y<N>, a: &[f64; N], sin_t2: &[f64; N], cos_t2: &[f64
         d1[i] = M1 * LC1_SQ + M2 * (L1_SQ + LC2_SQ + 2.0 * L1 * LC2 * cos_t2[i]) + I1 + I2;
         d2[i] = M2 * (LC2_SQ + L1 * LC2 * cos_t2[i]) + I2;
     }
-    // Python's x**2: libm pow, per lane.
+    // Python's x**2: libm pow's bits (`pow2`).
     let (mut sq_d1, mut sq_d2, mut sq_dd2) = ([0.0; N], [0.0; N], [0.0; N]);
-    for i in 0..N {
-        sq_d1[i] = pow2(y.d1[i]);
-        sq_d2[i] = pow2(y.d2[i]);
-        sq_dd2[i] = pow2(d2[i]);
-    }
+    pow2_lanes(&y.d1, &mut sq_d1);
+    pow2_lanes(&y.d2, &mut sq_d2);
+    pow2_lanes(&d2, &mut sq_dd2);
     let mut out = Y::ZERO;
     for i in 0..N {
         let (dtheta1, dtheta2, sin_t2) = (y.d1[i], y.d2[i], sin_t2[i]);

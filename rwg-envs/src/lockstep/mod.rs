@@ -23,6 +23,7 @@
 
 use crate::EnvOptions;
 use rwg_env::env::{continuous_action, discrete_action};
+use rwg_env::float::{pow2_libm, square_error};
 use rwg_env::{Action, EnvError, EnvSpec, Environment};
 
 pub use rwg_env::many::ManyEnv;
@@ -199,6 +200,38 @@ pub(crate) fn check_lens(n: usize, mask: &[u8], obs: &[f64], obs_dim: usize) {
     assert_eq!(obs.len(), n * obs_dim, "observations of {n} lanes");
 }
 
+/// Smallest `|x|` of [`rwg_env::float::pow2`]'s 0.48-ulp fast path: `2^-60`.
+const TIGHT_MIN: f64 = 8.673617379884035e-19;
+/// Largest `|x|` of its 0.48-ulp fast path: `2^32`.
+const TIGHT_MAX: f64 = 4294967296.0;
+
+/// `out[i] = pow2(x[i])` ([`rwg_env::float::pow2`], Python's `x**2`) for
+/// every lane: its fast-path test for all lanes in one branch-free loop
+/// (which vectorises), then libm `pow` for the lanes the test refuses (about
+/// 4 % of squares), so the bits are `pow2`'s.
+#[inline(always)]
+pub(crate) fn pow2_lanes<const N: usize>(x: &[f64; N], out: &mut [f64; N]) {
+    let mut slow = [false; N];
+    for i in 0..N {
+        let x = x[i];
+        let p = x * x;
+        let ax = x.abs();
+        let tight = ax >= TIGHT_MIN && ax <= TIGHT_MAX;
+        let wide = p >= 1e-270 && p < 1e300;
+        let limit = if tight { 0.48 } else { 0.4 };
+        // ulp of p where one of the paths applies (p is normal there).
+        let ulp = f64::from_bits((p.to_bits() & 0x7ff0_0000_0000_0000).wrapping_sub(52u64 << 52));
+        let fast = (tight || wide) && square_error(x, p).abs() <= limit * ulp;
+        out[i] = p;
+        slow[i] = !fast;
+    }
+    for i in 0..N {
+        if slow[i] {
+            out[i] = pow2_libm(x[i]);
+        }
+    }
+}
+
 /// Receives a concrete lockstep environment type from
 /// [`crate::registry::visit_lockstep`].
 pub trait LockstepVisitor {
@@ -236,6 +269,52 @@ pub fn visit_lockstep<const N: usize, V: LockstepVisitor>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pow2_lanes_gives_pow2_bits() {
+        use rwg_env::float::pow2;
+        let mut s: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            1e-300,
+            1e-200,
+            1e-150,
+            1e150,
+            1e160,
+            TIGHT_MIN,
+            TIGHT_MAX,
+            -TIGHT_MAX,
+            4294967297.0,
+            8.6e-19,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::MAX,
+            0.6800728488750654,
+        ];
+        for _ in 0..400_000 {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            // Magnitudes 2^-80 .. 2^80, both signs.
+            let m = f64::from_bits((s >> 12) | 0x3ff0_0000_0000_0000) - 1.0;
+            let e = ((s >> 4) % 161) as i32 - 80;
+            let sign = if s & 1 == 0 { 1.0 } else { -1.0 };
+            xs.push(sign * (1.0 + m) * 2f64.powi(e));
+        }
+        for chunk in xs.chunks(16) {
+            let mut x = [0.0; 16];
+            x[..chunk.len()].copy_from_slice(chunk);
+            let mut out = [0.0; 16];
+            pow2_lanes(&x, &mut out);
+            for (a, b) in x.iter().zip(out) {
+                assert_eq!(b.to_bits(), pow2(*a).to_bits(), "pow2({a:e})");
+            }
+        }
+    }
 
     #[test]
     fn discrete_actions_must_be_integral() {

@@ -3,13 +3,15 @@
 //! state's and action's kinds), one `cos_lanes` per step for the gravity
 //! term `cos(3 * position)`.
 
-use super::{check_lens, finish_flags, gather_continuous1, limited_spec, Clocks, LockstepEnv};
+use super::{
+    check_lens, finish_flags, gather_continuous1, limited_spec, pow2_lanes, Clocks, LockstepEnv,
+};
 use crate::mountain_car::reset_state;
 use crate::mountain_car_continuous::{
     Kind, MountainCarContinuous, Num, GOAL_POSITION, MAX_ACTION, MAX_POSITION, MAX_SPEED,
     MIN_ACTION, MIN_POSITION, POWER,
 };
-use rwg_env::float::{f32r, pow2};
+use rwg_env::float::f32r;
 use rwg_env::lanes_math::cos_lanes;
 use rwg_env::many::ManyEnv;
 use rwg_env::{ActionDtype, EnvError, EnvSpec};
@@ -69,11 +71,18 @@ impl<const N: usize> MountainCarContinuousLanes<N> {
     }
 }
 
-/// The scalar step of one lane after `math.cos(3 * position)`: returns the
+/// The scalar step of one lane after `math.cos(3 * position)` (and
+/// `sq_a = pow2(a)`, the reward's `math.pow(action[0], 2)`): returns the
 /// new `(position, velocity)` (unrounded), whether it terminated, and the
 /// reward.
 #[inline(always)]
-fn after_cos(a: Num, mut position: Num, mut velocity: Num, cos_3p: f64) -> (Num, Num, bool, f64) {
+fn after_cos(
+    a: Num,
+    mut position: Num,
+    mut velocity: Num,
+    cos_3p: f64,
+    sq_a: f64,
+) -> (Num, Num, bool, f64) {
     let mut force = a;
     if Num::py(MIN_ACTION).gt(force) {
         force = Num::py(MIN_ACTION);
@@ -101,7 +110,7 @@ fn after_cos(a: Num, mut position: Num, mut velocity: Num, cos_3p: f64) -> (Num,
     }
     let terminated = position.ge(Num::py(GOAL_POSITION)) && velocity.x >= 0.0;
     let mut reward = if terminated { 100.0 } else { 0.0 };
-    reward -= pow2(a.x) * 0.1;
+    reward -= sq_a * 0.1;
     (position, velocity, terminated, reward)
 }
 
@@ -153,13 +162,20 @@ impl<const N: usize> ManyEnv for MountainCarContinuousLanes<N> {
         }
         let mut cos_3p = [0.0; N];
         cos_lanes(&three_p, &mut cos_3p);
+        // math.pow(action[0], 2) of the action as the env sees it.
+        let mut a_val = [0.0; N];
+        for i in 0..N {
+            a_val[i] = self.operands(i, raw[i]).0.x;
+        }
+        let mut sq_a = [0.0; N];
+        pow2_lanes(&a_val, &mut sq_a);
         let mut term = [false; N];
         for i in 0..N {
             if !live[i] {
                 continue;
             }
             let (a, position, velocity) = self.operands(i, raw[i]);
-            let (p, v, t, r) = after_cos(a, position, velocity, cos_3p[i]);
+            let (p, v, t, r) = after_cos(a, position, velocity, cos_3p[i], sq_a[i]);
             // self.state = np.array([position, velocity], dtype=np.float32)
             self.position[i] = f32r(p.x);
             self.velocity[i] = f32r(v.x);

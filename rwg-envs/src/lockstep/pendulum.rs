@@ -2,11 +2,13 @@
 //! arithmetic, one `sincos_lanes` per step for the observations (and, in v0,
 //! one `sin_lanes` for the gravity term `sin(theta + pi)`).
 
-use super::{check_lens, finish_flags, gather_continuous1, limited_spec, Clocks, LockstepEnv};
+use super::{
+    check_lens, finish_flags, gather_continuous1, limited_spec, pow2_lanes, Clocks, LockstepEnv,
+};
 use crate::pendulum::{
     angle_normalize, clip, Pendulum, Version, DT, G, L, M, MAX_SPEED, MAX_TORQUE,
 };
-use rwg_env::float::{f32r, pow2, pow2_f32};
+use rwg_env::float::{f32r, pow2_f32};
 use rwg_env::lanes_math::{sin_lanes, sincos_lanes};
 use rwg_env::many::ManyEnv;
 use rwg_env::seeding::{gym_np_random, Pcg64};
@@ -75,16 +77,35 @@ impl<const N: usize> PendulumLanes<N> {
         }
     }
 
+    /// `pow2(angle_normalize(th))` and `pow2(thdot)` of every lane: the
+    /// first two terms of both versions' cost.
+    #[inline(always)]
+    fn state_squares(&self) -> ([f64; N], [f64; N]) {
+        let mut an = [0.0; N];
+        for i in 0..N {
+            an[i] = angle_normalize(self.th[i]);
+        }
+        let (mut sq_th, mut sq_thdot) = ([0.0; N], [0.0; N]);
+        pow2_lanes(&an, &mut sq_th);
+        pow2_lanes(&self.thdot, &mut sq_thdot);
+        (sq_th, sq_thdot)
+    }
+
     /// Gymnasium 1.4's step for every lane: new `(th, thdot)` and costs.
     #[inline]
     fn transition_v1(&self, a: &[f64; N], new: &mut ([f64; N], [f64; N]), costs: &mut [f64; N]) {
         let (mut torque_term, mut u_cost) = ([0.0; N], [0.0; N]);
         match self.dtype {
             ActionDtype::F64 => {
+                let mut u = [0.0; N];
                 for i in 0..N {
-                    let u = clip(a[i], -MAX_TORQUE, MAX_TORQUE);
-                    torque_term[i] = 3.0 / (M * L * L) * u;
-                    u_cost[i] = 0.001 * pow2(u);
+                    u[i] = clip(a[i], -MAX_TORQUE, MAX_TORQUE);
+                    torque_term[i] = 3.0 / (M * L * L) * u[i];
+                }
+                let mut sq_u = [0.0; N];
+                pow2_lanes(&u, &mut sq_u);
+                for i in 0..N {
+                    u_cost[i] = 0.001 * sq_u[i];
                 }
             }
             ActionDtype::F32 => {
@@ -96,8 +117,9 @@ impl<const N: usize> PendulumLanes<N> {
                 }
             }
         }
+        let (sq_th, sq_thdot) = self.state_squares();
         for i in 0..N {
-            costs[i] = pow2(angle_normalize(self.th[i])) + 0.1 * pow2(self.thdot[i]) + u_cost[i];
+            costs[i] = sq_th[i] + 0.1 * sq_thdot[i] + u_cost[i];
         }
         let (newth, newthdot) = new;
         for i in 0..N {
@@ -119,9 +141,11 @@ impl<const N: usize> PendulumLanes<N> {
             };
             u[i] = clip(a, -MAX_TORQUE, MAX_TORQUE);
         }
+        let (sq_th, sq_thdot) = self.state_squares();
+        let mut sq_u = [0.0; N];
+        pow2_lanes(&u, &mut sq_u);
         for i in 0..N {
-            costs[i] =
-                pow2(angle_normalize(self.th[i])) + 0.1 * pow2(self.thdot[i]) + 0.001 * pow2(u[i]);
+            costs[i] = sq_th[i] + 0.1 * sq_thdot[i] + 0.001 * sq_u[i];
         }
         let mut arg = [0.0; N];
         for i in 0..N {
