@@ -216,8 +216,8 @@ pub(crate) fn pow2_lanes<const N: usize>(x: &[f64; N], out: &mut [f64; N]) {
         let x = x[i];
         let p = x * x;
         let ax = x.abs();
-        let tight = ax >= TIGHT_MIN && ax <= TIGHT_MAX;
-        let wide = p >= 1e-270 && p < 1e300;
+        let tight = (TIGHT_MIN..=TIGHT_MAX).contains(&ax);
+        let wide = (1e-270..1e300).contains(&p);
         let limit = if tight { 0.48 } else { 0.4 };
         // ulp of p where one of the paths applies (p is normal there).
         let ulp = f64::from_bits((p.to_bits() & 0x7ff0_0000_0000_0000).wrapping_sub(52u64 << 52));
