@@ -1,6 +1,6 @@
 //! The built-in envs' lockstep versions in `rwg run` (issue 13): a study
 //! gives the same `scores.csv` and `samples.csv` bytes through the lockstep
-//! envs (the default) and through one scalar env per lane
+//! envs (`RWG_LOCKSTEP=1`: all of them) and through one scalar env per lane
 //! (`RWG_LOCKSTEP=0`): the paper's study (examples/paper.toml, small, both
 //! bias settings) and the envs and options it does not cover.
 

@@ -352,21 +352,36 @@ fn fail<'scope, 'c: 'scope>(
     })
 }
 
-/// The environment variable that turns the lockstep built-in envs off
-/// (`0`): their cells then run through the lane sampler, one scalar env per
-/// lane, as before (for comparisons; the results are identical).
+/// The environment variable that chooses how built-in envs are stepped:
+/// `0` runs every cell through the lane sampler, one scalar env per lane (as
+/// before the lockstep envs; for comparisons); `1` runs every built-in env
+/// that has a lockstep version through it; unset (or anything else), the
+/// lockstep version of the envs in which it measured faster
+/// ([`lockstep_by_default`]). The results are identical either way.
 pub const LOCKSTEP_VAR: &str = "RWG_LOCKSTEP";
 
-/// Whether built-in envs with a lockstep version run through it
-/// (`rwg_envs::lockstep`, driven by `rwg_core::many`): unless
-/// `RWG_LOCKSTEP=0`.
-pub fn use_lockstep() -> bool {
-    std::env::var(LOCKSTEP_VAR).as_deref() != Ok("0")
+/// Whether a built-in env runs through its lockstep version when
+/// `RWG_LOCKSTEP` is unset: all but MountainCarContinuous-v0, whose
+/// per-lane numpy-2 precision rules keep its step scalar and which measured
+/// no faster in lockstep (docs/performance.md, "Built-in envs in lockstep").
+pub fn lockstep_by_default(id: &str) -> bool {
+    id != "MountainCarContinuous-v0"
+}
+
+/// Whether the built-in env `id` runs through its lockstep version (if it
+/// has one): see [`LOCKSTEP_VAR`].
+pub fn use_lockstep(id: &str) -> bool {
+    match std::env::var(LOCKSTEP_VAR).as_deref() {
+        Ok("0") => false,
+        Ok("1") => true,
+        _ => lockstep_by_default(id),
+    }
 }
 
 /// Runs the given blocks of a cell. Built-in envs are statically dispatched
 /// (the sampler is monomorphised for each), through their lockstep version
-/// (all lanes in one `step_many`, [`use_lockstep`]) where they have one;
+/// (all lanes in one `step_many`) where they have one and [`use_lockstep`]
+/// says so;
 /// plugin envs run through the same
 /// generic sampler as `Watched<TimeLimit<PluginEnv>>`, or, when the plugin has
 /// ABI 1.1's batched calls, through the in-process batched sampler
@@ -440,7 +455,7 @@ fn run_cell_blocks(
     match &cell.source {
         EnvSource::Builtin(opts) => {
             let id = &cell.plan.env_id;
-            if use_lockstep() {
+            if use_lockstep(id) {
                 match visit_lockstep::<LANES, _>(id, opts, runner) {
                     Ok(done) => return done,
                     Err(back) => runner = back,
