@@ -156,10 +156,10 @@ pub struct MountainCarContinuous {
     spec: EnvSpec,
     dtype: ActionDtype,
     /// `[position, velocity]`; f32-representable when `state_is_f32`.
-    state: [f64; 2],
+    pub(crate) state: [f64; 2],
     /// False right after reset / `set_state` (Gymnasium's float64 reset
     /// array), true after any step (the float32 array `step` stores).
-    state_is_f32: bool,
+    pub(crate) state_is_f32: bool,
 }
 
 impl MountainCarContinuous {
