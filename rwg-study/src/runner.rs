@@ -352,20 +352,30 @@ fn fail<'scope, 'c: 'scope>(
     })
 }
 
-/// The environment variable that runs built-in envs in lockstep: `1` runs
-/// every built-in env that has a lockstep version (`rwg_envs::lockstep`)
-/// through it, all lanes of a worker in one `step_many`; unset or anything
-/// else, one scalar env per lane (the lane sampler). The results are
-/// identical either way. Off by default: with `rwg_env::lanes_math`'s
-/// scalar loop the lockstep path measured no faster (docs/performance.md,
-/// "Built-in envs in lockstep"); with a vectorised `lanes_math` it is
-/// faster on the libm-heavy envs.
+/// The environment variable that chooses how built-in envs are stepped:
+/// `0` runs every cell through the lane sampler, one scalar env per lane
+/// (for comparisons); `1` runs every built-in env that has a lockstep
+/// version (`rwg_envs::lockstep`) through it, all lanes of a worker in one
+/// `step_many`; unset (or anything else), the lockstep version of the envs
+/// where it measured faster ([`lockstep_by_default`]). The results are
+/// identical either way.
 pub const LOCKSTEP_VAR: &str = "RWG_LOCKSTEP";
 
-/// Whether built-in envs run through their lockstep versions
-/// (`RWG_LOCKSTEP=1`, see [`LOCKSTEP_VAR`]).
-pub fn use_lockstep() -> bool {
-    std::env::var(LOCKSTEP_VAR).as_deref() == Ok("1")
+/// Whether a built-in env runs in lockstep when `RWG_LOCKSTEP` is unset: all
+/// but MountainCarContinuous-v0, which measured no faster in lockstep (its
+/// forward pass dominates; docs/performance.md, "Built-in envs in lockstep").
+pub fn lockstep_by_default(id: &str) -> bool {
+    id != "MountainCarContinuous-v0"
+}
+
+/// Whether the built-in env `id` runs through its lockstep version (if it
+/// has one): see [`LOCKSTEP_VAR`].
+pub fn use_lockstep(id: &str) -> bool {
+    match std::env::var(LOCKSTEP_VAR).as_deref() {
+        Ok("0") => false,
+        Ok("1") => true,
+        _ => lockstep_by_default(id),
+    }
 }
 
 /// Runs the given blocks of a cell. Built-in envs are statically dispatched
@@ -445,7 +455,7 @@ fn run_cell_blocks(
     match &cell.source {
         EnvSource::Builtin(opts) => {
             let id = &cell.plan.env_id;
-            if use_lockstep() {
+            if use_lockstep(id) {
                 match visit_lockstep::<LANES, _>(id, opts, runner) {
                     Ok(done) => return done,
                     Err(back) => runner = back,
