@@ -296,3 +296,49 @@ mod tests {
         assert_eq!(fmt_f64(1.0), "1.0");
     }
 }
+
+/// Python's `math.sin(x)`: libm's `sin`, in a call the compiler cannot merge
+/// with a `cos` of the same `x` into glibc's `sincos` (whose sine is one ulp
+/// off `sin`'s at rare arguments, e.g. `0x1.ad1fb54442d18p+0`).
+#[inline]
+pub fn sin(x: f64) -> f64 {
+    crate::lanes_math::libm_sin(x)
+}
+
+/// Python's `math.cos(x)`: libm's `cos`, never merged into `sincos` (see
+/// [`sin`]).
+#[inline]
+pub fn cos(x: f64) -> f64 {
+    crate::lanes_math::libm_cos(x)
+}
+
+/// `(math.sin(x), math.cos(x))`: two libm calls, never glibc's `sincos`
+/// (see [`sin`]); what Gymnasium computes, and what
+/// [`crate::lanes_math::sincos_lanes`] returns.
+#[inline]
+pub fn sin_cos(x: f64) -> (f64, f64) {
+    (sin(x), cos(x))
+}
+
+#[cfg(test)]
+mod sin_cos_tests {
+    /// At this argument glibc 2.36's `sincos` gives a sine one ulp below
+    /// `sin`'s (and Python's `math.sin`, `0x3fefd27acee550dc`); `sin_cos`
+    /// must give `sin`'s bits wherever it runs.
+    #[test]
+    fn sin_cos_is_sin_and_cos_not_sincos() {
+        let x = f64::from_bits(0x3ffad1fb54442d18);
+        let (s, c) = super::sin_cos(x);
+        assert_eq!(s.to_bits(), super::sin(x).to_bits());
+        assert_eq!(c.to_bits(), super::cos(x).to_bits());
+        if cfg!(all(
+            target_os = "linux",
+            target_env = "gnu",
+            target_arch = "x86_64"
+        )) {
+            // The bits Python's math.sin/math.cos give on glibc (checked on 2.36).
+            assert_eq!(s.to_bits(), 0x3fefd27acee550dc);
+            assert_eq!(c.to_bits(), 0xbfbaf33152f68f8b);
+        }
+    }
+}

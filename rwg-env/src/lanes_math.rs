@@ -45,13 +45,13 @@ use std::sync::OnceLock;
 
 /// libm's `sin`, as a call LLVM cannot merge with a `cos` into `sincos`.
 #[inline(never)]
-fn libm_sin(x: f64) -> f64 {
+pub(crate) fn libm_sin(x: f64) -> f64 {
     x.sin()
 }
 
 /// libm's `cos`, as a call LLVM cannot merge with a `sin` into `sincos`.
 #[inline(never)]
-fn libm_cos(x: f64) -> f64 {
+pub(crate) fn libm_cos(x: f64) -> f64 {
     x.cos()
 }
 

@@ -15,7 +15,7 @@
 //!   after the RK4 step, with Python's `min(max(x, lo), hi)`.
 
 use rwg_env::env::discrete_action;
-use rwg_env::float::{f32r, pow2};
+use rwg_env::float::{f32r, pow2, sin, sin_cos};
 use rwg_env::seeding::Pcg64;
 use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 use std::f64::consts::PI;
@@ -91,9 +91,9 @@ impl Acrobot {
     #[inline(always)]
     fn write_obs(&mut self, cos_t1: f64, obs: &mut [f64]) {
         let [t1, t2, dt1, dt2] = self.state;
-        self.sin_cos_t2 = t2.sin_cos();
+        self.sin_cos_t2 = sin_cos(t2);
         let (sin_t2, cos_t2) = self.sin_cos_t2;
-        let out = [cos_t1, t1.sin(), cos_t2, sin_t2, dt1, dt2];
+        let out = [cos_t1, sin(t1), cos_t2, sin_t2, dt1, dt2];
         for (o, v) in obs.iter_mut().zip(out) {
             *o = f32r(v);
         }
@@ -105,7 +105,7 @@ impl Acrobot {
 #[inline(always)]
 fn dsdt(y: &[f64; 5]) -> [f64; 5] {
     // sin θ2 and cos θ2 each occur several times; evaluate them once.
-    dsdt_with(y, y[1].sin_cos())
+    dsdt_with(y, sin_cos(y[1]))
 }
 
 /// [`dsdt`] given `(sin θ2, cos θ2)` of `y`.
@@ -242,6 +242,26 @@ impl Environment for Acrobot {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// At this angle glibc's `sincos` gives a sine one ulp below `sin`'s;
+    /// Gymnasium (numpy's `sin`, libm's) gives `sin`'s, which the dynamics
+    /// then use in float64.
+    #[test]
+    fn sin_theta2_is_libm_sin_not_sincos() {
+        let t2 = f64::from_bits(0x3ffad1fb54442d18);
+        let mut env = Acrobot::new();
+        let mut obs = [0.0; 6];
+        env.set_state(&[0.1, t2, 0.0, 0.0], &mut obs).unwrap();
+        assert_eq!(env.sin_cos_t2.0.to_bits(), t2.sin().to_bits());
+        assert_eq!(env.sin_cos_t2.1.to_bits(), t2.cos().to_bits());
+        if cfg!(all(
+            target_os = "linux",
+            target_env = "gnu",
+            target_arch = "x86_64"
+        )) {
+            assert_eq!(env.sin_cos_t2.0.to_bits(), 0x3fefd27acee550dc);
+        }
+    }
 
     /// Starts from `state`, applies `action`, returns the new state and step.
     fn step_from(state: [f64; 4], action: i64) -> ([f64; 4], Step) {

@@ -4,7 +4,7 @@
 //! reward threshold (195 / 475) differ.
 
 use rwg_env::env::discrete_action;
-use rwg_env::float::f32r;
+use rwg_env::float::{f32r, sin_cos};
 use rwg_env::seeding::Pcg64;
 use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
@@ -94,8 +94,7 @@ impl Environment for CartPole {
         let a = discrete_action(action, 2)?;
         let [x, x_dot, theta, theta_dot] = self.state;
         let force = if a == 1 { FORCE_MAG } else { -FORCE_MAG };
-        let costheta = theta.cos();
-        let sintheta = theta.sin();
+        let (sintheta, costheta) = sin_cos(theta);
         let total_mass = MASSPOLE + MASSCART;
         let polemass_length = MASSPOLE * LENGTH;
 

@@ -13,7 +13,7 @@
 //!   with gym 0.17.2's SHA-512 + MT19937 scheme.
 
 use rwg_env::env::continuous_action;
-use rwg_env::float::{f32r, fmod_pos, pow2, pow2_f32};
+use rwg_env::float::{f32r, fmod_pos, pow2, pow2_f32, sin_cos};
 use rwg_env::seeding::{gym_np_random, Pcg64};
 use rwg_env::{Action, ActionDtype, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 use std::f64::consts::PI;
@@ -121,8 +121,9 @@ impl Pendulum {
     #[inline]
     fn write_obs(&mut self, obs: &mut [f64]) {
         let [th, thdot] = self.state;
-        self.sin_th = th.sin();
-        let o = [th.cos(), self.sin_th, thdot];
+        let (sin_th, cos_th) = sin_cos(th);
+        self.sin_th = sin_th;
+        let o = [cos_th, sin_th, thdot];
         for (dst, v) in obs.iter_mut().zip(o) {
             *dst = match self.version {
                 Version::V1 => f32r(v),
@@ -221,6 +222,24 @@ impl Environment for Pendulum {
 mod tests {
     use super::*;
     use rwg_env::float::pow2_libm;
+
+    /// At this angle glibc's `sincos` gives a sine one ulp below `sin`'s;
+    /// Gymnasium (numpy's `sin`, libm's) gives `sin`'s: 0x3fefd27acee550dc.
+    #[test]
+    fn observation_sine_is_libm_sin_not_sincos() {
+        let th = f64::from_bits(0x3ffad1fb54442d18);
+        let mut env = Pendulum::v0(ActionDtype::F32);
+        let mut obs = [0.0; 3];
+        env.set_state(&[th, 0.0], &mut obs).unwrap();
+        assert_eq!(obs[1].to_bits(), th.sin().to_bits());
+        if cfg!(all(
+            target_os = "linux",
+            target_env = "gnu",
+            target_arch = "x86_64"
+        )) {
+            assert_eq!(obs[1].to_bits(), 0x3fefd27acee550dc);
+        }
+    }
 
     fn from_state(mut env: Pendulum, state: [f64; 2]) -> Pendulum {
         let mut obs = [0.0; 3];
