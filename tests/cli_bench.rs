@@ -214,27 +214,36 @@ fn bench_peers_measures_both_sides_and_their_ratio() {
         return;
     };
     let work = temp_dir("peers");
-    let out = rwg_ok(&[
-        "bench",
-        "peers",
-        "--python",
-        &python,
-        "--peers",
-        peers.to_str().unwrap(),
-        "--work-dir",
-        work.to_str().unwrap(),
-        "--env",
-        "Pendulum-v1",
-        "--rwg-samples",
-        "6",
-        "--peer-samples",
-        "4",
-        "--episodes",
-        "2",
-        "--rounds",
-        "2",
-        "--json",
-    ]);
+    // --peers relative to the working directory, as the README writes it
+    // (the peer itself runs in that directory: the path must not be resolved twice).
+    let peers = peers.canonicalize().unwrap();
+    let (parent, name) = (peers.parent().unwrap(), peers.file_name().unwrap());
+    let out = std::process::Command::new(rwg_bin())
+        .current_dir(parent)
+        .args(["bench", "peers", "--python", &python, "--peers"])
+        .arg(name)
+        .args(["--work-dir", work.to_str().unwrap()])
+        .args([
+            "--env",
+            "Pendulum-v1",
+            "--rwg-samples",
+            "6",
+            "--peer-samples",
+            "4",
+            "--episodes",
+            "2",
+            "--rounds",
+            "2",
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "rwg bench peers failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = String::from_utf8(out.stdout).unwrap();
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["setup"]["pinned_cpu"], 0);
     let rows = v["rows"].as_array().unwrap();

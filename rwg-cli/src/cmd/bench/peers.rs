@@ -416,6 +416,11 @@ pub fn run(args: PeersArgs) -> Result<()> {
             script.display()
         );
     }
+    // The peer runs with the scripts' directory as its working directory, so
+    // a relative --peers would be resolved twice: make it absolute.
+    let peers_dir = std::fs::canonicalize(&args.peers)
+        .with_context(|| format!("cannot resolve --peers {}", args.peers.display()))?;
+    let script = peers_dir.join("gymnax_rwg.py");
     let python = peer_python(&args)?;
     let rwg = match &args.rwg {
         Some(p) => p.clone(),
@@ -502,7 +507,7 @@ pub fn run(args: PeersArgs) -> Result<()> {
                         .arg(args.seed.to_string())
                         .arg("--out")
                         .arg(work.join(format!("{name}-gymnax.csv")))
-                        .current_dir(&args.peers);
+                        .current_dir(&peers_dir);
                     let (stdout, _, _) = measure(cmd, &format!("gymnax-raw ({label})"))?;
                     let p = parse_peer_output(&stdout)
                         .with_context(|| format!("gymnax-raw ({label})"))?;
