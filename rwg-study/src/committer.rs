@@ -1,7 +1,7 @@
 //! Block commits off the sampling path.
 //!
 //! Committing a block (formatting its rows, writing, syncing and renaming its
-//! file: [`write_block`]) is mostly waiting for the disk. Done on the thread
+//! file: [`write_blocks`]) is mostly waiting for the disk. Done on the thread
 //! that collects the blocks, it stalls every worker after each wave (on a
 //! busy disk, longer than a CartPole cell's sampling). A [`Committer`] hands
 //! the blocks to a few I/O threads instead, which commit them while the
@@ -16,7 +16,7 @@
 //! `O_APPEND` write of a whole line, and the index is keyed by block name,
 //! so its line order does not matter.
 
-use crate::rundir::blocks::{write_block, RunDirError};
+use crate::rundir::blocks::{write_blocks, RunDirError};
 use rwg_core::sampler::BlockResult;
 use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering::SeqCst};
@@ -30,9 +30,11 @@ pub const COMMIT_THREADS: usize = 4;
 /// Blocks waiting for an I/O thread before [`Committer::submit`] blocks
 /// (bounds the memory held by finished, uncommitted blocks).
 const QUEUE: usize = 64;
+/// Most blocks one I/O thread commits as one group.
+const GROUP: usize = 16;
 
 /// Blocks handed to an I/O thread (of any committer of this process) and not
-/// yet through [`write_block`].
+/// yet through [`write_blocks`].
 static IN_FLIGHT: AtomicUsize = AtomicUsize::new(0);
 
 /// Waits, at most `limit`, until every block handed to a committer has been
@@ -132,7 +134,10 @@ impl CommitThreads<'_> {
 }
 
 /// One I/O thread: commits blocks until the channel closes; after an error,
-/// only drains the queue. Returns its busy time.
+/// only drains the queue. Takes every block waiting (up to [`GROUP`]) and
+/// commits them as one group ([`write_blocks`]): when the workers produce
+/// blocks faster than the disk syncs them, fewer syncs per block. Returns
+/// its busy time.
 fn commit_loop(
     rx: &Mutex<Receiver<BlockResult>>,
     failed: &Mutex<Option<RunDirError>>,
@@ -140,19 +145,30 @@ fn commit_loop(
     episodes: u32,
 ) -> Duration {
     let mut busy = Duration::ZERO;
+    let mut group = Vec::with_capacity(GROUP);
     loop {
-        // The guard is dropped at the end of this statement: the other
-        // threads wait only for the hand-over, not for the commit.
-        let next = lock(rx).recv();
-        let Ok(block) = next else { return busy };
+        {
+            // The guard is dropped at the end of this block: the other
+            // threads wait only for the hand-over, not for the commit.
+            let rx = lock(rx);
+            let Ok(block) = rx.recv() else { return busy };
+            group.push(block);
+            while group.len() < GROUP {
+                match rx.try_recv() {
+                    Ok(block) => group.push(block),
+                    Err(_) => break,
+                }
+            }
+        }
         let t = Instant::now();
         let stopped = lock(failed).is_some();
         if !stopped {
-            if let Err(e) = write_block(cell_dir, &block, episodes) {
+            if let Err(e) = write_blocks(cell_dir, &group, episodes) {
                 lock(failed).get_or_insert(e);
             }
         }
-        IN_FLIGHT.fetch_sub(1, SeqCst);
+        IN_FLIGHT.fetch_sub(group.len(), SeqCst);
+        group.clear();
         busy += t.elapsed();
     }
 }
@@ -166,7 +182,7 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rundir::blocks::{block_done, block_path, block_samples, n_blocks};
+    use crate::rundir::blocks::{block_done, block_path, block_samples, n_blocks, write_block};
     use rwg_core::sampler::EpisodeResult;
 
     fn block(b: u64, samples: u64) -> BlockResult {

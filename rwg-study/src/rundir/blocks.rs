@@ -10,18 +10,15 @@
 //! so they are byte-identical whether the cell ran in one go, was resumed, or
 //! was computed in shards and merged.
 
-use crate::rundir::checksum::{
-    self, append_sum, read_sums, sums_text, Digest, HashingReader, SUMS,
-};
+use crate::rundir::checksum::{self, append_sum, append_sums, read_sums, sums_text, Digest, SUMS};
 use crate::rundir::export::{
-    csv_io_error, csv_reader, csv_writer, sync_dir, write_atomic_hashed, write_sample_rows,
-    write_score_rows, AtomicFile,
+    sync_dir, write_atomic_hashed, write_sample_rows, write_score_rows, AtomicFile,
 };
-use crate::rundir::{BLOCKS, CELL_JSON, SAMPLES_CSV, SCORES_CSV, SCORES_HEADER};
+use crate::rundir::{rows, BLOCKS, CELL_JSON, SAMPLES_CSV, SCORES_CSV, SCORES_HEADER};
 use crate::stats::{ranks, sample_stats};
 use rwg_core::sampler::BlockResult;
 use std::collections::BTreeMap;
-use std::io;
+use std::io::{self, Write};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
@@ -80,19 +77,6 @@ pub enum RunDirError {
         /// Block index.
         block: u64,
     },
-}
-
-/// A CSV read error of a block file: I/O, or a malformed row with its line.
-fn read_error(path: &Path, e: csv::Error) -> RunDirError {
-    let line = e.position().map_or(0, |p| p.line() as usize);
-    match e.into_kind() {
-        csv::ErrorKind::Io(e) => io_err(path)(e),
-        other => RunDirError::Corrupt {
-            path: path.to_path_buf(),
-            line,
-            message: format!("{other:?}"),
-        },
-    }
 }
 
 fn io_err(path: &Path) -> impl FnOnce(io::Error) -> RunDirError + '_ {
@@ -191,14 +175,52 @@ pub fn tidy_complete_cell(cell_dir: &Path) -> Result<(), RunDirError> {
 
 /// Commits a block atomically: its `scores.csv` rows, without header.
 pub fn write_block(cell_dir: &Path, block: &BlockResult, episodes: u32) -> Result<(), RunDirError> {
-    let b = block.samples.start / BLOCK_SAMPLES;
-    let path = block_path(cell_dir, b);
-    let dir = path.parent().expect("block path has a parent");
-    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
-    let mut f = AtomicFile::create(&path).map_err(io_err(&path))?;
-    write_score_rows(&mut f, block, episodes).map_err(io_err(&path))?;
-    let digest = f.commit_hashed().map_err(io_err(&path))?;
-    append_sum(&dir.join(SUMS), &block_name(b), &digest)
+    write_blocks(cell_dir, std::slice::from_ref(block), episodes)
+}
+
+/// Commits several blocks of one cell as a group: each block's file is
+/// written, synced and renamed into place, then the directory is synced
+/// once and the blocks' index lines are appended in one synced write. What
+/// is on disk, and when a block counts as committed (its file in place and
+/// durable, then its line in the index), is what [`write_block`] gives each
+/// block; a group saves two syncs per block after its first. If a block
+/// fails, the blocks before it are still indexed, and the error is returned.
+pub fn write_blocks(
+    cell_dir: &Path,
+    blocks: &[BlockResult],
+    episodes: u32,
+) -> Result<(), RunDirError> {
+    let dir = cell_dir.join(BLOCKS);
+    if !dir.is_dir() {
+        std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+    }
+    let mut done = Vec::with_capacity(blocks.len());
+    let mut failed = None;
+    for block in blocks {
+        let b = block.samples.start / BLOCK_SAMPLES;
+        let path = block_path(cell_dir, b);
+        let written = AtomicFile::create(&path).and_then(|mut f| {
+            write_score_rows(&mut f, block, episodes)?;
+            f.commit_hashed_keep_dir()
+        });
+        match written {
+            Ok(digest) => done.push((block_name(b), digest)),
+            Err(e) => {
+                failed = Some(io_err(&path)(e));
+                break;
+            }
+        }
+    }
+    if !done.is_empty() {
+        // The renames are made durable before the index lists the blocks.
+        let synced = sync_dir(&dir.join(SUMS)).map_err(io_err(&dir));
+        if let Err(e) = synced {
+            return Err(failed.unwrap_or(e));
+        }
+        let entries: Vec<(&str, Digest)> = done.iter().map(|(n, d)| (n.as_str(), *d)).collect();
+        append_sums(&dir.join(SUMS), &entries)?;
+    }
+    failed.map_or(Ok(()), Err)
 }
 
 /// Copies committed block `b` of the cell in `src` into the cell in `dst`
@@ -236,12 +258,11 @@ pub struct CellTotals {
 }
 
 /// Parses one `sample,episode,score,steps` row, checking it is the expected one.
-fn parse_row(row: &csv::StringRecord, sample: u64, episode: u32) -> Result<(f64, u64), String> {
-    let line = row.iter().collect::<Vec<_>>().join(",");
-    let [s, e, score, steps] = match row.iter().collect::<Vec<_>>()[..] {
-        [s, e, score, steps] => [s, e, score, steps],
-        _ => return Err(format!("expected 4 columns: '{line}'")),
-    };
+fn parse_row(line: &[u8], sample: u64, episode: u32) -> Result<(f64, u64), String> {
+    let line = std::str::from_utf8(line)
+        .map_err(|_| format!("not UTF-8 text: '{}'", String::from_utf8_lossy(line)))?;
+    let [s, e, score, steps] =
+        rows::split_fields::<4>(line).map_err(|_| format!("expected 4 columns: '{line}'"))?;
     if s.parse::<u64>().ok() != Some(sample) || e.parse::<u32>().ok() != Some(episode) {
         return Err(format!(
             "expected sample {sample}, episode {episode}: '{line}'"
@@ -275,19 +296,18 @@ pub fn finalize_cell(
         }
     }
     let scores_path = cell_dir.join(SCORES_CSV);
-    let scores_file = AtomicFile::create(&scores_path).map_err(io_err(&scores_path))?;
-    let mut scores = csv_writer(scores_file);
-    let write_err = |e: csv::Error| io_err(&scores_path)(csv_io_error(e));
-    scores
-        .write_record(SCORES_HEADER.split(','))
-        .map_err(write_err)?;
+    let mut scores = AtomicFile::create(&scores_path).map_err(io_err(&scores_path))?;
+    writeln!(scores, "{SCORES_HEADER}").map_err(io_err(&scores_path))?;
     let mut summaries = Vec::with_capacity(samples as usize);
     let mut env_steps = 0u64;
     let mut buf = Vec::with_capacity(episodes as usize);
     for b in 0..n_blocks(samples) {
+        // A block is small (32 networks' rows): read whole, checked row by
+        // row, then copied as it is (rwg wrote it, in the form scores.csv
+        // takes) and checked against its digest.
         let path = block_path(cell_dir, b);
-        let file = std::fs::File::open(&path).map_err(io_err(&path))?;
-        let mut rows = csv_reader(HashingReader::new(file), false).into_records();
+        let text = std::fs::read(&path).map_err(io_err(&path))?;
+        let mut rows = rows::lines(&text);
         let mut line_no = 0;
         for sample in block_samples(b, samples) {
             buf.clear();
@@ -298,19 +318,17 @@ pub fn finalize_cell(
                     line: line_no,
                     message,
                 };
-                let row = match rows.next() {
-                    Some(r) => r.map_err(|e| read_error(&path, e))?,
-                    None => return Err(corrupt("file ends early".into())),
-                };
-                let (score, steps) = parse_row(&row, sample, episode).map_err(corrupt)?;
+                let row = rows
+                    .next()
+                    .ok_or_else(|| corrupt("file ends early".into()))?;
+                let (score, steps) = parse_row(row, sample, episode).map_err(corrupt)?;
                 buf.push(score);
                 env_steps += steps;
-                scores.write_record(&row).map_err(write_err)?;
             }
             summaries.push(sample_stats(&buf));
         }
         if let Some(extra) = rows.next() {
-            let extra = extra.map_or(String::new(), |r| r.iter().collect::<Vec<_>>().join(","));
+            let extra = String::from_utf8_lossy(extra);
             let message = format!("unexpected row after the block's last sample: '{extra}'");
             return Err(RunDirError::Corrupt {
                 path,
@@ -318,16 +336,13 @@ pub fn finalize_cell(
                 message,
             });
         }
-        let got = rows
-            .into_reader()
-            .into_inner()
-            .finish()
-            .map_err(io_err(&path))?;
+        let got: Digest = {
+            use sha2::Digest as _;
+            sha2::Sha256::digest(&text).into()
+        };
         checksum::check(&path, index.digest(b).expect("checked above"), &got)?;
+        scores.write_all(&text).map_err(io_err(&scores_path))?;
     }
-    let scores = scores
-        .into_inner()
-        .map_err(|e| io_err(&scores_path)(e.into_error()))?;
     let mut sums = vec![(
         SCORES_CSV,
         scores.commit_hashed().map_err(io_err(&scores_path))?,
@@ -361,6 +376,7 @@ pub fn finalize_cell(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rundir::export;
     use rwg_core::sampler::EpisodeResult;
 
     fn block(b: u64, samples: u64, episodes: u32) -> BlockResult {
@@ -409,6 +425,38 @@ mod tests {
         tidy_complete_cell(&dir).unwrap();
         assert!(!dir.join("blocks").exists());
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_group_commits_like_single_blocks_and_indexes_those_before_a_failure() {
+        let base = std::env::temp_dir().join(format!("rwg-rundir-group-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&base);
+        let (one, group) = (base.join("one"), base.join("group"));
+        let samples = 5 * BLOCK_SAMPLES;
+        let blocks: Vec<_> = (0..5).map(|b| block(b, samples, 3)).collect();
+        for b in &blocks {
+            write_block(&one, b, 3).unwrap();
+        }
+        write_blocks(&group, &blocks[..2], 3).unwrap();
+        // Block 3's temporary path is taken by a directory: its commit fails.
+        std::fs::create_dir_all(export::tmp_path(&block_path(&group, 3))).unwrap();
+        let err = write_blocks(&group, &blocks[2..], 3)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("b0000003.csv"), "{err}");
+        let index = BlockIndex::load(&group).unwrap();
+        for b in 0..5 {
+            assert_eq!(index.done(b), b < 3, "block {b}");
+            if b < 3 {
+                assert_eq!(
+                    std::fs::read(block_path(&one, b)).unwrap(),
+                    std::fs::read(block_path(&group, b)).unwrap()
+                );
+                assert_eq!(index.digest(b), BlockIndex::load(&one).unwrap().digest(b));
+            }
+        }
+        assert!(!block_path(&group, 4).exists());
+        std::fs::remove_dir_all(&base).unwrap();
     }
 
     #[test]

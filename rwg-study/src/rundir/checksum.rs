@@ -172,6 +172,11 @@ pub fn read_sums(
 /// syncs it. A line left unfinished by a killed run is closed first, so the
 /// new line stands on its own.
 pub fn append_sum(path: &Path, name: &str, digest: &Digest) -> Result<(), RunDirError> {
+    append_sums(path, &[(name, *digest)])
+}
+
+/// [`append_sum`] for several entries: one write of all their lines, one sync.
+pub fn append_sums(path: &Path, entries: &[(&str, Digest)]) -> Result<(), RunDirError> {
     // The run's block committers append from several threads: one at a time,
     // so that the repair of a crash's partial last line below (read the last
     // byte, then write) cannot interleave with another append.
@@ -186,17 +191,17 @@ pub fn append_sum(path: &Path, name: &str, digest: &Digest) -> Result<(), RunDir
     }
     let mut f = opts.open(path).map_err(io_err(path))?;
     let len = f.seek(SeekFrom::End(0)).map_err(io_err(path))?;
-    let mut line = String::new();
+    let mut text = String::new();
     if len > 0 {
         f.seek(SeekFrom::Start(len - 1)).map_err(io_err(path))?;
         let mut last = [0u8];
         f.read_exact(&mut last).map_err(io_err(path))?;
         if last[0] != b'\n' {
-            line.push('\n');
+            text.push('\n');
         }
     }
-    line.push_str(&format!("{}  {name}\n", hex(digest)));
-    f.write_all(line.as_bytes()).map_err(io_err(path))?;
+    text.push_str(&sums_text(entries));
+    f.write_all(text.as_bytes()).map_err(io_err(path))?;
     f.sync_all().map_err(io_err(path))
 }
 

@@ -14,6 +14,7 @@ use crate::rundir::blocks::RunDirError;
 use crate::rundir::checksum;
 use crate::rundir::export::{csv_reader, csv_writer};
 use crate::rundir::meta::{load_json, CellMeta, JsonFileError, RunMeta, RUN_FORMAT};
+use crate::rundir::rows;
 use crate::rundir::{
     cell_dir, MANIFEST, RUN_JSON, SAMPLES_CSV, SAMPLES_HEADER, SCORES_CSV, SCORES_HEADER,
 };
@@ -21,6 +22,7 @@ use crate::stats::{self, CellSummary, SampleStats};
 use rwg_env::float::fmt_f64;
 use serde::{Deserialize, Serialize};
 use std::fs::File;
+use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 
 /// Why a run directory could not be read.
@@ -375,24 +377,36 @@ impl Run {
     }
 }
 
+/// One data record of a CSV file: a line of a plain file
+/// ([`rows::is_plain`]), or a record of the `csv` reader.
+#[derive(Clone, Copy)]
+enum Record<'a> {
+    Plain(&'a str),
+    Csv(&'a csv::StringRecord),
+}
+
 /// The fields of one CSV record, checking the count.
 fn fields<'a, const K: usize>(
-    row: &'a csv::StringRecord,
+    row: Record<'a>,
     path: &Path,
     lineno: usize,
 ) -> Result<[&'a str; K], RunReadError> {
-    let mut out = [""; K];
-    if row.len() != K {
-        return Err(RunReadError::Csv {
-            path: path.to_path_buf(),
-            line: lineno,
-            message: format!("expected {K} fields, found {}", row.len()),
-        });
-    }
-    for (o, f) in out.iter_mut().zip(row) {
-        *o = f;
-    }
-    Ok(out)
+    let got = match row {
+        Record::Plain(line) => rows::split_fields::<K>(line),
+        Record::Csv(r) if r.len() == K => {
+            let mut out = [""; K];
+            for (o, f) in out.iter_mut().zip(r) {
+                *o = f;
+            }
+            Ok(out)
+        }
+        Record::Csv(r) => Err(r.len()),
+    };
+    got.map_err(|n| RunReadError::Csv {
+        path: path.to_path_buf(),
+        line: lineno,
+        message: format!("expected {K} fields, found {n}"),
+    })
 }
 
 fn parse<T: std::str::FromStr>(
@@ -421,38 +435,62 @@ fn csv_error(path: &Path, e: csv::Error) -> RunReadError {
     }
 }
 
-/// Reads a CSV file through the `csv` crate (fields trimmed, empty lines
-/// skipped): checks the header, then calls `row` with each data record and
-/// its 1-based line number. `row` returns `false` to stop early.
+/// Reads a CSV file: checks the header, then calls `row` with each data
+/// record and its 1-based line number; `row` returns `false` to stop early.
+/// A plain file (what rwg writes) is split by [`rows`]; any other goes
+/// through the `csv` crate (fields trimmed, empty lines skipped, a BOM
+/// allowed), which gives the same records for a plain one.
 fn read_csv(
     path: &Path,
     header: &str,
-    mut row: impl FnMut(&csv::StringRecord, usize) -> Result<bool, RunReadError>,
+    mut row: impl FnMut(Record<'_>, usize) -> Result<bool, RunReadError>,
 ) -> Result<(), RunReadError> {
+    let empty = || RunReadError::Csv {
+        path: path.to_path_buf(),
+        line: 1,
+        message: format!("empty file, expected header {header:?}"),
+    };
+    let bad_header = |found: &str| RunReadError::Csv {
+        path: path.to_path_buf(),
+        line: 1,
+        message: format!("header is {found:?}, expected {header:?}"),
+    };
+    if rows::is_plain_file(path).map_err(io_err(path))? {
+        let mut input = BufReader::with_capacity(1 << 16, File::open(path).map_err(io_err(path))?);
+        let mut line = Vec::with_capacity(64);
+        let mut lineno = 0;
+        loop {
+            line.clear();
+            if input.read_until(b'\n', &mut line).map_err(io_err(path))? == 0 {
+                return if lineno == 0 { Err(empty()) } else { Ok(()) };
+            }
+            lineno += 1;
+            let text = line.strip_suffix(b"\n").unwrap_or(&line);
+            // Plain text is ASCII.
+            let text = std::str::from_utf8(text).expect("a plain file is ASCII");
+            if lineno == 1 {
+                if text != header {
+                    return Err(bad_header(text));
+                }
+            } else if !row(Record::Plain(text), lineno)? {
+                return Ok(());
+            }
+        }
+    }
     let file = File::open(path).map_err(io_err(path))?;
     let mut records = csv_reader(file, true).into_records();
     let first = match records.next() {
-        None => {
-            return Err(RunReadError::Csv {
-                path: path.to_path_buf(),
-                line: 1,
-                message: format!("empty file, expected header {header:?}"),
-            })
-        }
+        None => return Err(empty()),
         Some(r) => r.map_err(|e| csv_error(path, e))?,
     };
     let found = first.iter().collect::<Vec<_>>().join(",");
     if found.trim_start_matches('\u{feff}') != header {
-        return Err(RunReadError::Csv {
-            path: path.to_path_buf(),
-            line: 1,
-            message: format!("header is {found:?}, expected {header:?}"),
-        });
+        return Err(bad_header(&found));
     }
     for r in records {
         let r = r.map_err(|e| csv_error(path, e))?;
         let lineno = r.position().map_or(0, |p| p.line() as usize);
-        if !row(&r, lineno)? {
+        if !row(Record::Csv(&r), lineno)? {
             break;
         }
     }

@@ -8,6 +8,7 @@
 //! name.
 
 use crate::rundir::checksum::{Digest, HashingWriter};
+use crate::rundir::rows;
 use crate::rundir::SAMPLES_HEADER;
 use crate::stats::SampleStats;
 use rwg_core::sampler::BlockResult;
@@ -70,11 +71,20 @@ impl AtomicFile {
 
     /// [`AtomicFile::commit`], returning the SHA-256 of the file's contents.
     pub fn commit_hashed(self) -> io::Result<Digest> {
+        let path = self.path.clone();
+        let digest = self.commit_hashed_keep_dir()?;
+        sync_dir(&path)?;
+        Ok(digest)
+    }
+
+    /// [`AtomicFile::commit_hashed`] without the sync of the directory: the
+    /// file's contents are durable, its new name is not until the caller
+    /// syncs the directory (once for several files).
+    pub fn commit_hashed_keep_dir(self) -> io::Result<Digest> {
         let (mut out, digest) = self.out.finish();
         out.flush()?;
         out.get_ref().sync_all()?;
         std::fs::rename(&self.tmp, &self.path)?;
-        sync_dir(&self.path)?;
         Ok(digest)
     }
 }
@@ -150,26 +160,16 @@ pub fn csv_io_error(e: csv::Error) -> io::Error {
     }
 }
 
-/// Appends a block's rows to a `scores.csv` writer: `sample,episode,score,steps`.
+/// Appends a block's rows to a `scores.csv` writer: `sample,episode,score,steps`
+/// ([`rows::push_score_rows`]).
 pub fn write_score_rows<W: Write>(
     out: &mut W,
     block: &BlockResult,
     episodes: u32,
 ) -> io::Result<()> {
-    let e = episodes as usize;
-    let mut w = csv_writer(out);
-    for (k, sample) in block.samples.clone().enumerate() {
-        for (ep, r) in block.episodes[k * e..(k + 1) * e].iter().enumerate() {
-            w.write_record([
-                sample.to_string(),
-                ep.to_string(),
-                fmt_f64(r.score),
-                r.steps.to_string(),
-            ])
-            .map_err(csv_io_error)?;
-        }
-    }
-    w.flush()
+    let mut buf = Vec::with_capacity(block.episodes.len() * 24);
+    rows::push_score_rows(&mut buf, block, episodes);
+    out.write_all(&buf)
 }
 
 /// Writes `samples.csv` rows for samples `0..summaries.len()`.

@@ -22,6 +22,7 @@
 //! - [`meta`]: `run.json` / `cell.json` contents and cell directory names.
 //! - [`blocks`]: block files, resume, and a cell's finalisation.
 //! - [`export`]: the CSV writers and atomic file replacement.
+//! - [`rows`]: the fast path for rwg's own plain numeric CSV rows.
 //! - [`data`]: reading a finished run for analysis, writing its statistics.
 //! - [`status`]: how far a run or a shard has got (read-only, safe while it runs).
 
@@ -32,6 +33,7 @@ pub mod export;
 pub mod lock;
 pub mod meta;
 pub mod names;
+pub mod rows;
 pub mod status;
 pub mod verify;
 

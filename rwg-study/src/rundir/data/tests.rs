@@ -297,3 +297,46 @@ fn damaged_files_are_caught_by_their_checksums() {
         "{e}"
     );
 }
+
+/// The plain-file fast path and the `csv` crate give the same values and the
+/// same errors (a BOM, which the csv path allows, sends the same rows there).
+#[test]
+fn plain_and_csv_paths_read_the_same() {
+    let dir = temp_dir("plain-vs-csv");
+    let path = dir.join("scores.csv");
+    let good = "sample,episode,score,steps\n0,0,1.5,3\n0,1,-0.1,7\n1,0,1e-20,1\n1,1,200.0,200";
+    let texts = [
+        good.to_string(),
+        format!("{good}\n"),
+        good.replace("1.5", "abc"),
+        good.replace("0,1,-0.1,7", "0,1,7"),
+        good.replace("0,1,-0.1,7", "0,1,-0.1,7,"),
+        good.replace("1,0,1e-20", "1,1,1e-20"),
+        good.replace("steps", "step"),
+        good.replace(",200\n", ",-1\n").replace(",200", ",x"),
+        good.lines().take(4).collect::<Vec<_>>().join("\n"),
+        String::new(),
+        "sample,episode,score,steps\n".into(),
+    ];
+    for text in texts {
+        assert!(rows::is_plain(text.as_bytes()), "{text:?}");
+        std::fs::write(&path, &text).unwrap();
+        let plain = read_scores_csv(&path, 2).map_err(|e| e.to_string());
+        let sample = read_sample_scores(&path, 1, 2).map_err(|e| e.to_string());
+        std::fs::write(&path, format!("\u{feff}{text}")).unwrap();
+        if !text.is_empty() {
+            assert!(!rows::is_plain_file(&path).unwrap());
+            assert_eq!(
+                read_scores_csv(&path, 2).map_err(|e| e.to_string()),
+                plain,
+                "{text:?}"
+            );
+            assert_eq!(
+                read_sample_scores(&path, 1, 2).map_err(|e| e.to_string()),
+                sample,
+                "{text:?}"
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
