@@ -258,9 +258,7 @@ pub struct CellTotals {
 }
 
 /// Parses one `sample,episode,score,steps` row, checking it is the expected one.
-fn parse_row(line: &[u8], sample: u64, episode: u32) -> Result<(f64, u64), String> {
-    let line = std::str::from_utf8(line)
-        .map_err(|_| format!("not UTF-8 text: '{}'", String::from_utf8_lossy(line)))?;
+fn parse_row(line: &str, sample: u64, episode: u32) -> Result<(f64, u64), String> {
     let [s, e, score, steps] =
         rows::split_fields::<4>(line).map_err(|_| format!("expected 4 columns: '{line}'"))?;
     if s.parse::<u64>().ok() != Some(sample) || e.parse::<u32>().ok() != Some(episode) {
@@ -307,7 +305,18 @@ pub fn finalize_cell(
         // takes) and checked against its digest.
         let path = block_path(cell_dir, b);
         let text = std::fs::read(&path).map_err(io_err(&path))?;
-        let mut rows = rows::lines(&text);
+        let utf8 = std::str::from_utf8(&text).map_err(|e| {
+            let line = 1 + text[..e.valid_up_to()]
+                .iter()
+                .filter(|&&c| c == b'\n')
+                .count();
+            RunDirError::Corrupt {
+                path: path.clone(),
+                line,
+                message: "not UTF-8 text".into(),
+            }
+        })?;
+        let mut rows = rows::lines(utf8);
         let mut line_no = 0;
         for sample in block_samples(b, samples) {
             buf.clear();
@@ -328,7 +337,6 @@ pub fn finalize_cell(
             summaries.push(sample_stats(&buf));
         }
         if let Some(extra) = rows.next() {
-            let extra = String::from_utf8_lossy(extra);
             let message = format!("unexpected row after the block's last sample: '{extra}'");
             return Err(RunDirError::Corrupt {
                 path,
@@ -472,6 +480,19 @@ mod tests {
             err.contains("b0000000.csv:4: expected sample 1, episode 1"),
             "{err}"
         );
+        let mut bytes = std::fs::read(&p).unwrap();
+        let third = bytes
+            .iter()
+            .enumerate()
+            .filter(|(_, &c)| c == b'\n')
+            .nth(1)
+            .unwrap()
+            .0
+            + 1;
+        bytes[third + 2] = 0xff;
+        std::fs::write(&p, bytes).unwrap();
+        let err = finalize_cell(&dir, 3, 2, |_| None).unwrap_err().to_string();
+        assert!(err.contains("b0000000.csv:3: not UTF-8 text"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
