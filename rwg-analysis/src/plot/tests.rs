@@ -144,3 +144,48 @@ fn png_levels_are_lossless_and_deterministic() {
         assert_eq!(buf, px, "{level:?}: pixels changed");
     }
 }
+
+/// Decodes a PNG to 8-bit RGBA (palettes and tRNS expanded).
+fn decode_rgba(bytes: &[u8]) -> (u32, u32, Vec<u8>) {
+    let mut dec = png::Decoder::new(std::io::Cursor::new(bytes));
+    dec.set_transformations(png::Transformations::EXPAND | png::Transformations::ALPHA);
+    let mut reader = dec.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size()];
+    let frame = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(frame.color_type, png::ColorType::Rgba);
+    buf.truncate(frame.buffer_size());
+    (frame.width, frame.height, buf)
+}
+
+#[test]
+fn embedded_rasters_decode_to_their_exact_pixels_indexed_or_not() {
+    let (w, h) = (53u32, 41u32);
+    // Few colours (a scatter's blends): indexed. Every pixel its own colour: RGBA.
+    let few: Vec<u8> = (0..w * h)
+        .flat_map(|p| match p.wrapping_mul(2_654_435_761) % 9 {
+            0..=4 => [0, 0, 0, 0],
+            5 => [0, 0, 255, 51],
+            6 => [0, 0, 255, 92],
+            7 => [0, 128, 0, 255],
+            _ => [12, 34, 200, 180],
+        })
+        .collect();
+    let many: Vec<u8> = (0..w * h).flat_map(|p| (p * 977).to_le_bytes()).collect();
+    for (px, want_indexed) in [(few, true), (many, false)] {
+        assert_eq!(super::raster::indexed(&px).is_some(), want_indexed);
+        let r = Raster::from_rgba(w, h, px.clone());
+        let bytes = r.png().unwrap();
+        let info = png::Decoder::new(std::io::Cursor::new(&bytes))
+            .read_info()
+            .unwrap()
+            .info()
+            .color_type;
+        let want = if want_indexed {
+            png::ColorType::Indexed
+        } else {
+            png::ColorType::Rgba
+        };
+        assert_eq!(info, want);
+        assert_eq!(decode_rgba(&bytes), (w, h, px));
+    }
+}
