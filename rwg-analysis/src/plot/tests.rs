@@ -188,4 +188,78 @@ fn embedded_rasters_decode_to_their_exact_pixels_indexed_or_not() {
         assert_eq!(info, want);
         assert_eq!(decode_rgba(&bytes), (w, h, px));
     }
+
+/// FNV-1a, 64 bits: a fingerprint of figure bytes (not a security hash).
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
+    })
+}
+
+/// Every figure of a dense synthetic run (2000 networks × 12 episodes:
+/// 2-pixel dots, overlapping blends) and of a sparse one, SVG and PNG, has
+/// the bytes the figure code wrote before the raster's blend was made
+/// cheaper (fingerprints recorded with that code). Changing how figures
+/// look changes these on purpose: update them then, never for a speed-up.
+#[test]
+fn figure_bytes_unchanged() {
+    let dense_dir = std::env::temp_dir().join(format!("rwg-plot-{}-dense", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dense_dir);
+    write_synthetic_run(
+        &dense_dir,
+        &SyntheticRun {
+            samples: 2000,
+            episodes: 12,
+            seed: 5,
+            cells: vec![
+                SyntheticCell::cartpole("0HL", &[], false),
+                SyntheticCell::pendulum("1HL-4", &[4], true),
+            ],
+        },
+    )
+    .unwrap();
+    let dense = crate::load_cells(&Run::open(&dense_dir).unwrap()).unwrap();
+    let sparse = cells("golden", true);
+    let mut got = Vec::new();
+    for (cells, format) in [
+        (&dense, ImageFormat::Svg),
+        (&dense, ImageFormat::Png),
+        (&sparse, ImageFormat::Svg),
+    ] {
+        for f in run_figures(cells, format).unwrap() {
+            got.push(format!("{} {:016x}", f.file_name(), fnv1a(&f.bytes)));
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dense_dir);
+    let want: &[&str] = &[
+        "overview_nobias.svg 6f630604b90d2fcf",
+        "overview_bias.svg e6c6b6f73da264c2",
+        "CartPole-v0__0HL__nobias.hist.svg f4bc4d2507d81484",
+        "CartPole-v0__0HL__nobias.scores.svg c7412ca05ad3d260",
+        "CartPole-v0__0HL__nobias.variance.svg 7a80a79919adc599",
+        "Pendulum-v1__1HL-4__bias.hist.svg ab1aa1fd69d05dba",
+        "Pendulum-v1__1HL-4__bias.scores.svg 4c838967a4974ae8",
+        "Pendulum-v1__1HL-4__bias.variance.svg 180d2f6a278f7366",
+        "overview_nobias.png 4a460098b5510123",
+        "overview_bias.png f036aa70fd06961e",
+        "CartPole-v0__0HL__nobias.hist.png 00b6488e8f8005c3",
+        "CartPole-v0__0HL__nobias.scores.png 9b1e54a13ef3d20e",
+        "CartPole-v0__0HL__nobias.variance.png e8ea767c46a3b16e",
+        "Pendulum-v1__1HL-4__bias.hist.png 82d7a99f1dfc30ff",
+        "Pendulum-v1__1HL-4__bias.scores.png dc21aef91e10fa4e",
+        "Pendulum-v1__1HL-4__bias.variance.png 7667674326bb21b1",
+        "overview_nobias.svg d95747db0a0fe09e",
+        "overview_bias.svg e38422352a6aeaf7",
+        "bias_histograms.svg 33c5253cb9634431",
+        "CartPole-v0__0HL__nobias.hist.svg 5cfe5250c05adc3f",
+        "CartPole-v0__0HL__nobias.scores.svg 9af038693d5064c5",
+        "CartPole-v0__0HL__nobias.variance.svg e3d1d314781dfd8c",
+        "Pendulum-v1__1HL-4__nobias.hist.svg a5a196fd157e7827",
+        "Pendulum-v1__1HL-4__nobias.scores.svg 83db75cf05861cbc",
+        "Pendulum-v1__1HL-4__nobias.variance.svg 8b6b36266854eac3",
+        "CartPole-v0__0HL__bias.hist.svg f8675566e851b426",
+        "CartPole-v0__0HL__bias.scores.svg 9e84addc81f6e642",
+        "CartPole-v0__0HL__bias.variance.svg 107ddd49c4063230",
+    ];
+    assert_eq!(got, want, "figure bytes changed:\n{}", got.join("\n"));
 }
