@@ -188,6 +188,7 @@ fn embedded_rasters_decode_to_their_exact_pixels_indexed_or_not() {
         assert_eq!(info, want);
         assert_eq!(decode_rgba(&bytes), (w, h, px));
     }
+}
 
 /// FNV-1a, 64 bits: a fingerprint of figure bytes (not a security hash).
 fn fnv1a(bytes: &[u8]) -> u64 {
@@ -199,8 +200,12 @@ fn fnv1a(bytes: &[u8]) -> u64 {
 /// Every figure of a dense synthetic run (2000 networks × 12 episodes:
 /// 2-pixel dots, overlapping blends) and of a sparse one, SVG and PNG, has
 /// the bytes the figure code wrote before the raster's blend was made
-/// cheaper (fingerprints recorded with that code). Changing how figures
-/// look changes these on purpose: update them then, never for a speed-up.
+/// cheaper (fingerprints recorded with that code; the SVGs' again when
+/// their embedded rasters became indexed PNGs: the standalone PNG figures,
+/// which paint the same rasters, kept theirs, and
+/// `embedded_rasters_decode_to_their_exact_pixels_indexed_or_not` checks
+/// the encoding). Changing how figures look changes these on purpose:
+/// update them then, never for a speed-up.
 #[test]
 fn figure_bytes_unchanged() {
     let dense_dir = std::env::temp_dir().join(format!("rwg-plot-{}-dense", std::process::id()));
@@ -232,14 +237,14 @@ fn figure_bytes_unchanged() {
     }
     let _ = std::fs::remove_dir_all(&dense_dir);
     let want: &[&str] = &[
-        "overview_nobias.svg 6f630604b90d2fcf",
-        "overview_bias.svg e6c6b6f73da264c2",
+        "overview_nobias.svg d26feba6fb2f501a",
+        "overview_bias.svg d583285ebf0e5545",
         "CartPole-v0__0HL__nobias.hist.svg f4bc4d2507d81484",
-        "CartPole-v0__0HL__nobias.scores.svg c7412ca05ad3d260",
-        "CartPole-v0__0HL__nobias.variance.svg 7a80a79919adc599",
+        "CartPole-v0__0HL__nobias.scores.svg dcefb267b4cba71f",
+        "CartPole-v0__0HL__nobias.variance.svg 4039affcb8899f16",
         "Pendulum-v1__1HL-4__bias.hist.svg ab1aa1fd69d05dba",
-        "Pendulum-v1__1HL-4__bias.scores.svg 4c838967a4974ae8",
-        "Pendulum-v1__1HL-4__bias.variance.svg 180d2f6a278f7366",
+        "Pendulum-v1__1HL-4__bias.scores.svg 3d7bcc25bfc26321",
+        "Pendulum-v1__1HL-4__bias.variance.svg 0a7fa241c64dbf66",
         "overview_nobias.png 4a460098b5510123",
         "overview_bias.png f036aa70fd06961e",
         "CartPole-v0__0HL__nobias.hist.png 00b6488e8f8005c3",
@@ -248,18 +253,18 @@ fn figure_bytes_unchanged() {
         "Pendulum-v1__1HL-4__bias.hist.png 82d7a99f1dfc30ff",
         "Pendulum-v1__1HL-4__bias.scores.png dc21aef91e10fa4e",
         "Pendulum-v1__1HL-4__bias.variance.png 7667674326bb21b1",
-        "overview_nobias.svg d95747db0a0fe09e",
-        "overview_bias.svg e38422352a6aeaf7",
+        "overview_nobias.svg 0f81a014dd86618e",
+        "overview_bias.svg 7390aa1f879f2439",
         "bias_histograms.svg 33c5253cb9634431",
         "CartPole-v0__0HL__nobias.hist.svg 5cfe5250c05adc3f",
-        "CartPole-v0__0HL__nobias.scores.svg 9af038693d5064c5",
-        "CartPole-v0__0HL__nobias.variance.svg e3d1d314781dfd8c",
+        "CartPole-v0__0HL__nobias.scores.svg 8e1ec51f0b54aca2",
+        "CartPole-v0__0HL__nobias.variance.svg d8ebe008bcb093ab",
         "Pendulum-v1__1HL-4__nobias.hist.svg a5a196fd157e7827",
-        "Pendulum-v1__1HL-4__nobias.scores.svg 83db75cf05861cbc",
-        "Pendulum-v1__1HL-4__nobias.variance.svg 8b6b36266854eac3",
+        "Pendulum-v1__1HL-4__nobias.scores.svg b5aaf9b55de1c07a",
+        "Pendulum-v1__1HL-4__nobias.variance.svg 23d24a3f1d422a4c",
         "CartPole-v0__0HL__bias.hist.svg f8675566e851b426",
-        "CartPole-v0__0HL__bias.scores.svg 9e84addc81f6e642",
-        "CartPole-v0__0HL__bias.variance.svg 107ddd49c4063230",
+        "CartPole-v0__0HL__bias.scores.svg 952865c127dafd21",
+        "CartPole-v0__0HL__bias.variance.svg 7ae976aac4bcdb88",
     ];
     assert_eq!(got, want, "figure bytes changed:\n{}", got.join("\n"));
 }
