@@ -435,3 +435,32 @@ fn golden_trajectories_through_lockstep() {
         assert!(replay_lockstep(r.id) > 0, "{}", r.id);
     }
 }
+
+/// The tests above, again in a child process with `RWG_LOCKSTEP_AVX2=0`:
+/// on an AVX2 CPU this process ran the step bodies compiled for AVX2, the
+/// child runs the baseline ones, so both builds are checked against the
+/// scalar envs (the choice is read once per process).
+#[test]
+fn the_baseline_step_bodies_match_too() {
+    if std::env::var_os("RWG_LOCKSTEP_AVX2").is_some() {
+        return; // already the child (or the whole run is pinned to one body)
+    }
+    let exe = std::env::current_exe().unwrap();
+    for name in [
+        "every_lockstep_env_matches_the_scalar_env_lane_by_lane",
+        "long_episodes_match",
+        "golden_trajectories_through_lockstep",
+    ] {
+        let out = std::process::Command::new(&exe)
+            .args(["--exact", name, "--test-threads=1"])
+            .env("RWG_LOCKSTEP_AVX2", "0")
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success() && stdout.contains("1 passed"),
+            "{name} with RWG_LOCKSTEP_AVX2=0:\n{stdout}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}

@@ -5,6 +5,7 @@
 //! `x**2` terms are `pow2`'s bits through `pow2_lanes`, so the loops of
 //! plain arithmetic around them vectorise.
 
+use super::wide::wide_step;
 use super::{
     check_lens, finish_flags, gather_discrete, limited_spec, pow2_lanes, Clocks, LockstepEnv,
 };
@@ -141,6 +142,7 @@ impl<const N: usize> AcrobotLanes<N> {
     /// Writes the observations `f32([cos θ1, sin θ1, cos θ2, sin θ2, θ̇1, θ̇2])`
     /// of the lanes in `lanes`, keeps their `sin θ2, cos θ2`, and returns
     /// every lane's `cos θ1`.
+    #[inline(always)]
     fn write_obs(&mut self, lanes: &[bool; N], obs: &mut [f64]) -> [f64; N] {
         let (mut s1, mut c1, mut s2, mut c2) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
         sincos_lanes(&self.state.t1, &mut s1, &mut c1);
@@ -202,6 +204,26 @@ impl<const N: usize> ManyEnv for AcrobotLanes<N> {
     }
 
     fn step_many(
+        &mut self,
+        mask: &[u8],
+        actions: &[f64],
+        obs: &mut [f64],
+        rewards: &mut [f64],
+        terminated: &mut [u8],
+        truncated: &mut [u8],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    ) {
+        self.step_dispatch(mask, actions, obs, rewards, terminated, truncated, on_fail)
+    }
+}
+
+wide_step!(AcrobotLanes);
+
+impl<const N: usize> AcrobotLanes<N> {
+    /// The step of every lane ([`ManyEnv::step_many`]).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn step_body(
         &mut self,
         mask: &[u8],
         actions: &[f64],

@@ -1,6 +1,7 @@
 //! CartPole-v0 / CartPole-v1 over `N` lanes: [`crate::cartpole`]'s Euler
 //! step in loops over lanes, one `sincos_lanes` per step for the pole angle.
 
+use super::wide::wide_step;
 use super::{check_lens, finish_flags, gather_discrete, limited_spec, Clocks, LockstepEnv};
 use crate::cartpole::{
     theta_threshold, CartPole, FORCE_MAG, GRAVITY, LENGTH, MASSCART, MASSPOLE, TAU, X_THRESHOLD,
@@ -50,7 +51,7 @@ impl<const N: usize> CartPoleLanes<N> {
     }
 
     /// Lane `i`'s observation: its state as float32.
-    #[inline]
+    #[inline(always)]
     fn write_obs(&self, i: usize, obs: &mut [f64]) {
         let o = &mut obs[i * 4..i * 4 + 4];
         o[0] = f32r(self.x[i]);
@@ -93,6 +94,26 @@ impl<const N: usize> ManyEnv for CartPoleLanes<N> {
     }
 
     fn step_many(
+        &mut self,
+        mask: &[u8],
+        actions: &[f64],
+        obs: &mut [f64],
+        rewards: &mut [f64],
+        terminated: &mut [u8],
+        truncated: &mut [u8],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    ) {
+        self.step_dispatch(mask, actions, obs, rewards, terminated, truncated, on_fail)
+    }
+}
+
+wide_step!(CartPoleLanes);
+
+impl<const N: usize> CartPoleLanes<N> {
+    /// The step of every lane ([`ManyEnv::step_many`]).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn step_body(
         &mut self,
         mask: &[u8],
         actions: &[f64],

@@ -33,6 +33,7 @@ pub mod cartpole;
 pub mod mountain_car;
 pub mod mountain_car_continuous;
 pub mod pendulum;
+mod wide;
 
 /// A lockstep env whose lanes' states can be read (as the scalar env's
 /// [`Environment::state`]), for tests and diagnostics.

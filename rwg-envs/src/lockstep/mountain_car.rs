@@ -1,6 +1,7 @@
 //! MountainCar-v0 over `N` lanes: [`crate::mountain_car`]'s float64 step in
 //! loops over lanes, one `cos_lanes` per step for `cos(3 * position)`.
 
+use super::wide::wide_step;
 use super::{check_lens, finish_flags, gather_discrete, limited_spec, Clocks, LockstepEnv};
 use crate::mountain_car::{
     reset_state, MountainCar, FORCE, GOAL_POSITION, GOAL_VELOCITY, GRAVITY, MAX_POSITION,
@@ -34,7 +35,7 @@ impl<const N: usize> MountainCarLanes<N> {
     }
 
     /// Lane `i`'s observation: its state as float32.
-    #[inline]
+    #[inline(always)]
     fn write_obs(&self, i: usize, obs: &mut [f64]) {
         obs[i * 2] = f32r(self.position[i]);
         obs[i * 2 + 1] = f32r(self.velocity[i]);
@@ -68,6 +69,26 @@ impl<const N: usize> ManyEnv for MountainCarLanes<N> {
     }
 
     fn step_many(
+        &mut self,
+        mask: &[u8],
+        actions: &[f64],
+        obs: &mut [f64],
+        rewards: &mut [f64],
+        terminated: &mut [u8],
+        truncated: &mut [u8],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    ) {
+        self.step_dispatch(mask, actions, obs, rewards, terminated, truncated, on_fail)
+    }
+}
+
+wide_step!(MountainCarLanes);
+
+impl<const N: usize> MountainCarLanes<N> {
+    /// The step of every lane ([`ManyEnv::step_many`]).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn step_body(
         &mut self,
         mask: &[u8],
         actions: &[f64],

@@ -3,6 +3,7 @@
 //! state's and action's kinds), one `cos_lanes` per step for the gravity
 //! term `cos(3 * position)`.
 
+use super::wide::wide_step;
 use super::{
     check_lens, finish_flags, gather_continuous1, limited_spec, pow2_lanes, Clocks, LockstepEnv,
 };
@@ -45,7 +46,7 @@ impl<const N: usize> MountainCarContinuousLanes<N> {
     }
 
     /// The observation of lane `i`: its state as float32.
-    #[inline]
+    #[inline(always)]
     fn write_obs(&self, i: usize, obs: &mut [f64]) {
         obs[i * 2] = f32r(self.position[i]);
         obs[i * 2 + 1] = f32r(self.velocity[i]);
@@ -105,6 +106,26 @@ impl<const N: usize> ManyEnv for MountainCarContinuousLanes<N> {
     }
 
     fn step_many(
+        &mut self,
+        mask: &[u8],
+        actions: &[f64],
+        obs: &mut [f64],
+        rewards: &mut [f64],
+        terminated: &mut [u8],
+        truncated: &mut [u8],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    ) {
+        self.step_dispatch(mask, actions, obs, rewards, terminated, truncated, on_fail)
+    }
+}
+
+wide_step!(MountainCarContinuousLanes);
+
+impl<const N: usize> MountainCarContinuousLanes<N> {
+    /// The step of every lane ([`ManyEnv::step_many`]).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn step_body(
         &mut self,
         mask: &[u8],
         actions: &[f64],

@@ -2,6 +2,7 @@
 //! arithmetic, one `sincos_lanes` per step for the observations (and, in v0,
 //! one `sin_lanes` for the gravity term `sin(theta + pi)`).
 
+use super::wide::wide_step;
 use super::{
     check_lens, finish_flags, gather_continuous1, limited_spec, pow2_lanes, Clocks, LockstepEnv,
 };
@@ -56,6 +57,7 @@ impl<const N: usize> PendulumLanes<N> {
 
     /// Writes the observations `[cos th, sin th, thdot]` of the lanes in
     /// `lanes` (float32 in v1) and keeps their `sin th`.
+    #[inline(always)]
     fn write_obs(&mut self, lanes: &[bool; N], obs: &mut [f64]) {
         let (mut s, mut c) = ([0.0; N], [0.0; N]);
         sincos_lanes(&self.th, &mut s, &mut c);
@@ -92,7 +94,7 @@ impl<const N: usize> PendulumLanes<N> {
     }
 
     /// Gymnasium 1.4's step for every lane: new `(th, thdot)` and costs.
-    #[inline]
+    #[inline(always)]
     fn transition_v1(&self, a: &[f64; N], new: &mut ([f64; N], [f64; N]), costs: &mut [f64; N]) {
         let (mut torque_term, mut u_cost) = ([0.0; N], [0.0; N]);
         match self.dtype {
@@ -131,7 +133,7 @@ impl<const N: usize> PendulumLanes<N> {
     }
 
     /// gym 0.17.2's step for every lane: new `(th, thdot)` and costs.
-    #[inline]
+    #[inline(always)]
     fn transition_v0(&self, a: &[f64; N], new: &mut ([f64; N], [f64; N]), costs: &mut [f64; N]) {
         let mut u = [0.0; N];
         for i in 0..N {
@@ -202,6 +204,26 @@ impl<const N: usize> ManyEnv for PendulumLanes<N> {
     }
 
     fn step_many(
+        &mut self,
+        mask: &[u8],
+        actions: &[f64],
+        obs: &mut [f64],
+        rewards: &mut [f64],
+        terminated: &mut [u8],
+        truncated: &mut [u8],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    ) {
+        self.step_dispatch(mask, actions, obs, rewards, terminated, truncated, on_fail)
+    }
+}
+
+wide_step!(PendulumLanes);
+
+impl<const N: usize> PendulumLanes<N> {
+    /// The step of every lane ([`ManyEnv::step_many`]).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn step_body(
         &mut self,
         mask: &[u8],
         actions: &[f64],
