@@ -5,7 +5,7 @@
 //! `x**2` terms are `pow2`'s bits through `pow2_lanes`, so the loops of
 //! plain arithmetic around them vectorise.
 
-use super::wide::wide_step;
+use super::wide::{step_many_dispatched, wide_step};
 use super::{
     check_lens, finish_flags, gather_discrete, limited_spec, pow2_lanes, Clocks, LockstepEnv,
 };
@@ -203,18 +203,7 @@ impl<const N: usize> ManyEnv for AcrobotLanes<N> {
         self.write_obs(&lanes, obs);
     }
 
-    fn step_many(
-        &mut self,
-        mask: &[u8],
-        actions: &[f64],
-        obs: &mut [f64],
-        rewards: &mut [f64],
-        terminated: &mut [u8],
-        truncated: &mut [u8],
-        on_fail: &mut dyn FnMut(usize, EnvError),
-    ) {
-        self.step_dispatch(mask, actions, obs, rewards, terminated, truncated, on_fail)
-    }
+    step_many_dispatched!();
 }
 
 wide_step!(AcrobotLanes);

@@ -1,7 +1,7 @@
 //! CartPole-v0 / CartPole-v1 over `N` lanes: [`crate::cartpole`]'s Euler
 //! step in loops over lanes, one `sincos_lanes` per step for the pole angle.
 
-use super::wide::wide_step;
+use super::wide::{step_many_dispatched, wide_step};
 use super::{check_lens, finish_flags, gather_discrete, limited_spec, Clocks, LockstepEnv};
 use crate::cartpole::{
     theta_threshold, CartPole, FORCE_MAG, GRAVITY, LENGTH, MASSCART, MASSPOLE, TAU, X_THRESHOLD,
@@ -93,18 +93,7 @@ impl<const N: usize> ManyEnv for CartPoleLanes<N> {
         }
     }
 
-    fn step_many(
-        &mut self,
-        mask: &[u8],
-        actions: &[f64],
-        obs: &mut [f64],
-        rewards: &mut [f64],
-        terminated: &mut [u8],
-        truncated: &mut [u8],
-        on_fail: &mut dyn FnMut(usize, EnvError),
-    ) {
-        self.step_dispatch(mask, actions, obs, rewards, terminated, truncated, on_fail)
-    }
+    step_many_dispatched!();
 }
 
 wide_step!(CartPoleLanes);

@@ -1,7 +1,7 @@
 //! MountainCar-v0 over `N` lanes: [`crate::mountain_car`]'s float64 step in
 //! loops over lanes, one `cos_lanes` per step for `cos(3 * position)`.
 
-use super::wide::wide_step;
+use super::wide::{step_many_dispatched, wide_step};
 use super::{check_lens, finish_flags, gather_discrete, limited_spec, Clocks, LockstepEnv};
 use crate::mountain_car::{
     reset_state, MountainCar, FORCE, GOAL_POSITION, GOAL_VELOCITY, GRAVITY, MAX_POSITION,
@@ -68,18 +68,7 @@ impl<const N: usize> ManyEnv for MountainCarLanes<N> {
         }
     }
 
-    fn step_many(
-        &mut self,
-        mask: &[u8],
-        actions: &[f64],
-        obs: &mut [f64],
-        rewards: &mut [f64],
-        terminated: &mut [u8],
-        truncated: &mut [u8],
-        on_fail: &mut dyn FnMut(usize, EnvError),
-    ) {
-        self.step_dispatch(mask, actions, obs, rewards, terminated, truncated, on_fail)
-    }
+    step_many_dispatched!();
 }
 
 wide_step!(MountainCarLanes);

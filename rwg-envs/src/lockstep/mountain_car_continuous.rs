@@ -3,7 +3,7 @@
 //! state's and action's kinds), one `cos_lanes` per step for the gravity
 //! term `cos(3 * position)`.
 
-use super::wide::wide_step;
+use super::wide::{step_many_dispatched, wide_step};
 use super::{
     check_lens, finish_flags, gather_continuous1, limited_spec, pow2_lanes, Clocks, LockstepEnv,
 };
@@ -105,18 +105,7 @@ impl<const N: usize> ManyEnv for MountainCarContinuousLanes<N> {
         }
     }
 
-    fn step_many(
-        &mut self,
-        mask: &[u8],
-        actions: &[f64],
-        obs: &mut [f64],
-        rewards: &mut [f64],
-        terminated: &mut [u8],
-        truncated: &mut [u8],
-        on_fail: &mut dyn FnMut(usize, EnvError),
-    ) {
-        self.step_dispatch(mask, actions, obs, rewards, terminated, truncated, on_fail)
-    }
+    step_many_dispatched!();
 }
 
 wide_step!(MountainCarContinuousLanes);

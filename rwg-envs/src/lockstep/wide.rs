@@ -31,7 +31,7 @@ pub(crate) fn avx2() -> bool {
 /// `step_body` (the arguments of [`rwg_env::many::ManyEnv::step_many`]),
 /// defines `step_dispatch`, which runs `step_body` compiled for AVX2 when
 /// [`avx2`] says so and the baseline build otherwise. The env's
-/// `step_many` calls `step_dispatch`.
+/// `step_many` is [`step_many_dispatched`]'s, which calls it.
 macro_rules! wide_step {
     ($ty:ident) => {
         impl<const N: usize> $ty<N> {
@@ -81,3 +81,23 @@ macro_rules! wide_step {
     };
 }
 pub(crate) use wide_step;
+
+/// Inside `impl ManyEnv for $ty<N>`: `step_many` as a call of the
+/// `step_dispatch` that [`wide_step`] defines.
+macro_rules! step_many_dispatched {
+    () => {
+        fn step_many(
+            &mut self,
+            mask: &[u8],
+            actions: &[f64],
+            obs: &mut [f64],
+            rewards: &mut [f64],
+            terminated: &mut [u8],
+            truncated: &mut [u8],
+            on_fail: &mut dyn FnMut(usize, EnvError),
+        ) {
+            self.step_dispatch(mask, actions, obs, rewards, terminated, truncated, on_fail)
+        }
+    };
+}
+pub(crate) use step_many_dispatched;
