@@ -277,7 +277,9 @@ fn parse_row(line: &str, sample: u64, episode: u32) -> Result<(f64, u64), String
 
 /// Streams the cell's blocks into `scores.csv`, writes `samples.csv` (and,
 /// before it, `cell.json` = `cell_json` if given), then removes the blocks.
-/// Memory: one sample's scores plus the per-sample summaries.
+/// Memory: one block file (at most 32 × [`crate::limits::MAX_EPISODES`] rows,
+/// ~8 MB), one
+/// sample's scores and the per-sample summaries.
 pub fn finalize_cell(
     cell_dir: &Path,
     samples: u64,
