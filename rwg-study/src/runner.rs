@@ -354,28 +354,15 @@ fn fail<'scope, 'c: 'scope>(
 
 /// The environment variable that chooses how built-in envs are stepped:
 /// `0` runs every cell through the lane sampler, one scalar env per lane
-/// (for comparisons); `1` runs every built-in env that has a lockstep
-/// version (`rwg_envs::lockstep`) through it, all lanes of a worker in one
-/// `step_many`; unset (or anything else), the lockstep version of the envs
-/// where it measured faster ([`lockstep_by_default`]). The results are
-/// identical either way.
+/// (for comparisons); unset (or anything else) runs every built-in env that
+/// has a lockstep version (`rwg_envs::lockstep`) through it, all lanes of a
+/// worker in one `step_many`. The results are identical either way.
 pub const LOCKSTEP_VAR: &str = "RWG_LOCKSTEP";
 
-/// Whether a built-in env runs in lockstep when `RWG_LOCKSTEP` is unset: all
-/// but MountainCarContinuous-v0, which measured no faster in lockstep (its
-/// forward pass dominates; docs/performance.md, "Built-in envs in lockstep").
-pub fn lockstep_by_default(id: &str) -> bool {
-    id != "MountainCarContinuous-v0"
-}
-
-/// Whether the built-in env `id` runs through its lockstep version (if it
-/// has one): see [`LOCKSTEP_VAR`].
-pub fn use_lockstep(id: &str) -> bool {
-    match std::env::var(LOCKSTEP_VAR).as_deref() {
-        Ok("0") => false,
-        Ok("1") => true,
-        _ => lockstep_by_default(id),
-    }
+/// Whether built-in envs run through their lockstep versions: see
+/// [`LOCKSTEP_VAR`].
+pub fn use_lockstep() -> bool {
+    std::env::var(LOCKSTEP_VAR).as_deref() != Ok("0")
 }
 
 /// Runs the given blocks of a cell. Built-in envs are statically dispatched
@@ -455,7 +442,7 @@ fn run_cell_blocks(
     match &cell.source {
         EnvSource::Builtin(opts) => {
             let id = &cell.plan.env_id;
-            if use_lockstep(id) {
+            if use_lockstep() {
                 match visit_lockstep::<LANES, _>(id, opts, runner) {
                     Ok(done) => return done,
                     Err(back) => runner = back,
