@@ -140,6 +140,8 @@ fn blend(p: [u8; 4], RGBAColor(r, g, b, a): RGBAColor) -> [u8; 4] {
 
 /// Entries of the blend memo (direct-mapped), as a power of two.
 const MEMO_BITS: u32 = 10;
+/// Entries of the blend memo.
+const MEMO_SIZE: usize = 1 << MEMO_BITS;
 
 /// A direct-mapped memo of [`blend`] for one colour at a time: pixel value
 /// (as a little-endian `u32`) to blended value. A key holds the colour's
@@ -148,8 +150,8 @@ const MEMO_BITS: u32 = 10;
 struct BlendMemo {
     color: RGBAColor,
     generation: u32,
-    keys: Box<[u64]>,
-    values: Box<[u32]>,
+    keys: Box<[u64; MEMO_SIZE]>,
+    values: Box<[u32; MEMO_SIZE]>,
 }
 
 impl BlendMemo {
@@ -157,8 +159,8 @@ impl BlendMemo {
         BlendMemo {
             color: RGBAColor(0, 0, 0, f64::NAN),
             generation: 0,
-            keys: vec![0; 1 << MEMO_BITS].into_boxed_slice(),
-            values: vec![0; 1 << MEMO_BITS].into_boxed_slice(),
+            keys: Box::new([0; MEMO_SIZE]),
+            values: Box::new([0; MEMO_SIZE]),
         }
     }
 
