@@ -236,32 +236,45 @@ pub fn encode_png(
 /// straight-alpha RGBA `pixels`, colours numbered in order of first
 /// appearance; `None` above 256 colours.
 pub fn indexed(pixels: &[u8]) -> Option<(Vec<u8>, Vec<u8>, Vec<u8>)> {
-    let mut colours: std::collections::HashMap<[u8; 4], u8> = std::collections::HashMap::new();
-    let (mut palette, mut alpha) = (Vec::new(), Vec::new());
+    // Colours as little-endian u32, in order of first appearance.
+    let mut colours: Vec<u32> = Vec::new();
+    // A direct-mapped cache of colour -> index: `colour << 8 | index`;
+    // `u64::MAX` (no colour shifted by 8 gives it) marks an empty slot.
+    let mut slots = [u64::MAX; 256];
     let mut indices = Vec::with_capacity(pixels.len() / 4);
-    // Runs of one colour (transparent background, dot interiors) skip the map.
-    let mut last: Option<([u8; 4], u8)> = None;
+    // Runs of one colour (transparent background, dot interiors) skip the lookup.
+    let mut last: Option<(u32, u8)> = None;
     for p in pixels.chunks_exact(4) {
-        let c = [p[0], p[1], p[2], p[3]];
+        let c = u32::from_le_bytes([p[0], p[1], p[2], p[3]]);
         let i = match last {
             Some((lc, li)) if lc == c => li,
             _ => {
-                let n = colours.len();
-                let i = match colours.get(&c) {
-                    Some(&i) => i,
-                    None if n < 256 => {
-                        colours.insert(c, n as u8);
-                        palette.extend_from_slice(&c[..3]);
-                        alpha.push(c[3]);
-                        n as u8
-                    }
-                    None => return None,
+                let slot = (c.wrapping_mul(0x9E37_79B1) >> 24) as usize;
+                let i = if slots[slot] >> 8 == u64::from(c) {
+                    slots[slot] as u8
+                } else {
+                    let i = match colours.iter().position(|&k| k == c) {
+                        Some(i) => i as u8,
+                        None if colours.len() < 256 => {
+                            colours.push(c);
+                            (colours.len() - 1) as u8
+                        }
+                        None => return None,
+                    };
+                    slots[slot] = u64::from(c) << 8 | u64::from(i);
+                    i
                 };
                 last = Some((c, i));
                 i
             }
         };
         indices.push(i);
+    }
+    let (mut palette, mut alpha) = (Vec::new(), Vec::new());
+    for c in colours {
+        let [r, g, b, a] = c.to_le_bytes();
+        palette.extend_from_slice(&[r, g, b]);
+        alpha.push(a);
     }
     Some((palette, alpha, indices))
 }
@@ -431,6 +444,78 @@ mod tests {
             assert_eq!(new.rgba, old.rgba);
             assert!(new.rgba.iter().any(|&b| b != 0));
         }
+    }
+
+    /// [`indexed`] before the lookup table, verbatim: the reference.
+    #[allow(clippy::type_complexity)]
+    fn indexed_reference(pixels: &[u8]) -> Option<(Vec<u8>, Vec<u8>, Vec<u8>)> {
+        let mut colours: std::collections::HashMap<[u8; 4], u8> = std::collections::HashMap::new();
+        let (mut palette, mut alpha) = (Vec::new(), Vec::new());
+        let mut indices = Vec::with_capacity(pixels.len() / 4);
+        let mut last: Option<([u8; 4], u8)> = None;
+        for p in pixels.chunks_exact(4) {
+            let c = [p[0], p[1], p[2], p[3]];
+            let i = match last {
+                Some((lc, li)) if lc == c => li,
+                _ => {
+                    let n = colours.len();
+                    let i = match colours.get(&c) {
+                        Some(&i) => i,
+                        None if n < 256 => {
+                            colours.insert(c, n as u8);
+                            palette.extend_from_slice(&c[..3]);
+                            alpha.push(c[3]);
+                            n as u8
+                        }
+                        None => return None,
+                    };
+                    last = Some((c, i));
+                    i
+                }
+            };
+            indices.push(i);
+        }
+        Some((palette, alpha, indices))
+    }
+
+    /// Palettes of 1 to 300 colours (so 256 and 257 too), in runs and
+    /// scattered, including colours whose cache slots collide, and a
+    /// drawn scatter: [`indexed`] gives the reference's palette and indices.
+    #[test]
+    fn indexed_matches_the_reference() {
+        let mut rng = Rng(3);
+        for n in (1..=300).step_by(7).chain([255, 256, 257]) {
+            let table: Vec<[u8; 4]> = (0..n)
+                .map(|k| {
+                    if k % 3 == 0 {
+                        // colours differing in one byte: clustered slots
+                        [k as u8, 7, 9, (k / 256) as u8]
+                    } else {
+                        let [r, g, b, a, ..] = rng.next().to_le_bytes();
+                        [r, g, b, a]
+                    }
+                })
+                .collect();
+            let mut px = Vec::new();
+            while px.len() < 4 * 5_000 {
+                let c = table[rng.below(n as u64) as usize];
+                for _ in 0..1 + rng.below(6) {
+                    px.extend_from_slice(&c);
+                }
+            }
+            for &c in &table {
+                px.extend_from_slice(&c);
+            }
+            assert_eq!(indexed(&px), indexed_reference(&px), "{n} colours");
+            assert_eq!(indexed(&px).is_some(), n <= 256, "{n} colours");
+        }
+        let mut r = Raster::blank((0, 0), 120, 40);
+        for k in 0..3_000 {
+            let c = [RGBAColor(31, 119, 180, 0.3), RGBAColor(44, 160, 44, 1.0)][k % 2];
+            r.dot((rng.below(124) as i32 - 2, rng.below(44) as i32 - 2), 2, c);
+        }
+        assert!(indexed(&r.rgba).is_some());
+        assert_eq!(indexed(&r.rgba), indexed_reference(&r.rgba));
     }
 
     #[test]
