@@ -22,7 +22,7 @@ use crate::stats::{self, CellSummary, SampleStats};
 use rwg_env::float::fmt_f64;
 use serde::{Deserialize, Serialize};
 use std::fs::File;
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
 /// Why a run directory could not be read.
@@ -455,8 +455,12 @@ fn read_csv(
         line: 1,
         message: format!("header is {found:?}, expected {header:?}"),
     };
-    if rows::is_plain_file(path).map_err(io_err(path))? {
-        let mut input = BufReader::with_capacity(1 << 16, File::open(path).map_err(io_err(path))?);
+    // One open file for the check and the read: a file renamed over `path`
+    // in between cannot be read by the wrong path.
+    let mut file = File::open(path).map_err(io_err(path))?;
+    if rows::is_plain_reader(&mut file).map_err(io_err(path))? {
+        file.seek(SeekFrom::Start(0)).map_err(io_err(path))?;
+        let mut input = BufReader::with_capacity(1 << 16, file);
         let mut line = Vec::with_capacity(64);
         let mut lineno = 0;
         loop {
@@ -466,8 +470,12 @@ fn read_csv(
             }
             lineno += 1;
             let text = line.strip_suffix(b"\n").unwrap_or(&line);
-            // Plain text is ASCII.
-            let text = std::str::from_utf8(text).expect("a plain file is ASCII");
+            // Plain text is ASCII; a file changed since the check is an error.
+            let text = std::str::from_utf8(text).map_err(|_| RunReadError::Csv {
+                path: path.to_path_buf(),
+                line: lineno,
+                message: "not UTF-8 text (the file changed while it was read?)".into(),
+            })?;
             if lineno == 1 {
                 if text != header {
                     return Err(bad_header(text));
@@ -477,7 +485,7 @@ fn read_csv(
             }
         }
     }
-    let file = File::open(path).map_err(io_err(path))?;
+    file.seek(SeekFrom::Start(0)).map_err(io_err(path))?;
     let mut records = csv_reader(file, true).into_records();
     let first = match records.next() {
         None => return Err(empty()),

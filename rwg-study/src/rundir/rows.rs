@@ -42,11 +42,16 @@ pub fn is_plain(bytes: &[u8]) -> bool {
 
 /// Whether the file at `path` is plain, read in chunks (constant memory).
 pub fn is_plain_file(path: &Path) -> io::Result<bool> {
-    let mut f = std::fs::File::open(path)?;
+    is_plain_reader(&mut std::fs::File::open(path)?)
+}
+
+/// Whether what `input` holds from where it is to its end is plain, read in
+/// chunks (constant memory).
+pub fn is_plain_reader(input: &mut impl Read) -> io::Result<bool> {
     let mut buf = vec![0u8; 1 << 16];
     let mut prev = b'\n';
     loop {
-        let n = match f.read(&mut buf) {
+        let n = match input.read(&mut buf) {
             Ok(0) => return Ok(true),
             Ok(n) => n,
             Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
