@@ -83,10 +83,7 @@ impl<const N: usize> PendulumLanes<N> {
     /// first two terms of both versions' cost.
     #[inline(always)]
     fn state_squares(&self) -> ([f64; N], [f64; N]) {
-        let mut an = [0.0; N];
-        for i in 0..N {
-            an[i] = angle_normalize(self.th[i]);
-        }
+        let an = angle_normalize_lanes(&self.th);
         let (mut sq_th, mut sq_thdot) = ([0.0; N], [0.0; N]);
         pow2_lanes(&an, &mut sq_th);
         pow2_lanes(&self.thdot, &mut sq_thdot);
@@ -162,6 +159,54 @@ impl<const N: usize> PendulumLanes<N> {
             newthdot[i] = clip(d, -MAX_SPEED, MAX_SPEED);
         }
     }
+}
+
+/// [`angle_normalize`] of every lane, bit for bit, branch-free so that it
+/// vectorises: `fmod_pos`'s quotient and its three candidate remainders are
+/// computed for every lane and the one its tests pick selected. Lanes
+/// beyond `fmod_pos`'s fast range (|θ + π| >= 2π·2^20, inf, NaN) go through
+/// [`angle_normalize`] itself.
+#[inline(always)]
+fn angle_normalize_lanes<const N: usize>(x: &[f64; N]) -> [f64; N] {
+    const TWO_PI: f64 = 2.0 * PI;
+    // fmod_pos's split of the divisor: 26 high bits (q * D_HI is exact).
+    const D_HI: f64 = f64::from_bits(TWO_PI.to_bits() & !((1u64 << 27) - 1));
+    const D_LO: f64 = TWO_PI - D_HI;
+    const FAST: f64 = TWO_PI * 1048576.0;
+    let mut out = [0.0; N];
+    let mut slow = [false; N];
+    for i in 0..N {
+        let y = x[i] + PI;
+        let ay = y.abs();
+        let q = (ay / TWO_PI).trunc();
+        let r0 = (ay - q * D_HI) - q * D_LO;
+        let rm = (ay - (q - 1.0) * D_HI) - (q - 1.0) * D_LO;
+        let rp = (ay - (q + 1.0) * D_HI) - (q + 1.0) * D_LO;
+        let r = if r0 < 0.0 {
+            rm
+        } else if r0 >= TWO_PI {
+            rp
+        } else {
+            r0
+        };
+        // fmod_pos(y, 2π), then Python's floored `%` and its +0.0.
+        let r = if ay < TWO_PI { y } else { r.copysign(y) };
+        let r = if r < 0.0 {
+            r + TWO_PI
+        } else if r == 0.0 {
+            0.0
+        } else {
+            r
+        };
+        out[i] = r - PI;
+        slow[i] = (ay >= FAST) | ay.is_nan();
+    }
+    for i in 0..N {
+        if slow[i] {
+            out[i] = angle_normalize(x[i]);
+        }
+    }
+    out
 }
 
 impl<const N: usize> ManyEnv for PendulumLanes<N> {
@@ -250,5 +295,67 @@ impl<const N: usize> LockstepEnv for PendulumLanes<N> {
 
     fn lane_state(&self, lane: usize, out: &mut [f64]) {
         out.copy_from_slice(&[self.th[lane], self.thdot[lane]]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn angle_normalize_lanes_is_angle_normalize() {
+        let two_pi = 2.0 * PI;
+        let mut s: u64 = 0x5eed;
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            s
+        };
+        let mut xs: Vec<f64> = vec![
+            0.0,
+            -0.0,
+            PI,
+            -PI,
+            two_pi,
+            -two_pi,
+            3.0 * PI,
+            -3.0 * PI,
+            1e-300,
+            -5e-324,
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            1e300,
+            two_pi * 1048576.0,
+            -two_pi * 1048576.0 - PI,
+            two_pi * 1048576.0 - PI,
+        ];
+        for _ in 0..400_000 {
+            let r = next();
+            let u = (r >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0;
+            xs.push(match r % 4 {
+                0 => u * 4.0 * PI,
+                1 => u * 200.0 * PI,
+                2 => u * 3e6 * two_pi, // partly beyond the fast range
+                _ => {
+                    // Within a few ulps of an odd multiple of π (θ + π near k·2π).
+                    let k = ((next() % 2001) as f64 - 1000.0) * two_pi - PI;
+                    f64::from_bits((k.to_bits() as i64 + (next() % 9) as i64 - 4) as u64)
+                }
+            });
+        }
+        for chunk in xs.chunks(16) {
+            let mut x = [0.0; 16];
+            x[..chunk.len()].copy_from_slice(chunk);
+            let got = angle_normalize_lanes(&x);
+            for (g, v) in got.iter().zip(x) {
+                let want = angle_normalize(v);
+                assert!(
+                    g.to_bits() == want.to_bits() || (g.is_nan() && want.is_nan()),
+                    "angle_normalize({v:?}): lanes {g:?}, scalar {want:?}"
+                );
+            }
+        }
     }
 }
