@@ -129,7 +129,9 @@ impl<const N: usize> MountainCarContinuousLanes<N> {
         let live = gather_continuous1(&self.clocks, mask, actions, &mut raw, on_fail);
         // The scalar step's numpy-2 kinds (see `crate::mountain_car_continuous`)
         // as booleans per lane, both precisions computed and one selected,
-        // so the loops have no branches and vectorise. The action's kind is
+        // so the loops have no branches and vectorise (the booleans combine
+        // with `&` and `|`: a short-circuit `&&` or `||` made LLVM keep the
+        // main loop scalar and branchy). The action's kind is
         // the dtype's (a float32 action is f32-representable, so comparing
         // it with the exact bounds ±1 gives the same answer in either
         // precision); the state is float32 after a step, float64 after reset.
@@ -157,9 +159,9 @@ impl<const N: usize> MountainCarContinuousLanes<N> {
             let force = if lo { MIN_ACTION } else { a[i] };
             let hi = MAX_ACTION < force;
             let force = if hi { MAX_ACTION } else { force };
-            let force_py = lo || hi;
+            let force_py = lo | hi;
             // force * power: float32 only for an unclipped float32 action.
-            let fp_f32 = a32 && !force_py;
+            let fp_f32 = a32 & !force_py;
             let fp32 = (force as f32 * POWER as f32) as f64;
             let fp = if fp_f32 { fp32 } else { force * POWER };
             // ... - 0.0025 * math.cos(3 * position) (a Python float).
@@ -167,11 +169,11 @@ impl<const N: usize> MountainCarContinuousLanes<N> {
             let t32 = (fp as f32 - gravity as f32) as f64;
             let t = if fp_f32 { t32 } else { fp - gravity };
             // velocity += t: float32 unless either side is np.float64.
-            let v_f32 = s32 && (a32 || force_py);
+            let v_f32 = s32 & (a32 | force_py);
             let v = add(v_f32, self.velocity[i], t);
             let v_hi = gt(v_f32, v, MAX_SPEED);
-            let v_lo = !v_hi && gt(v_f32, -MAX_SPEED, v);
-            let v_py = v_hi || v_lo;
+            let v_lo = !v_hi & gt(v_f32, -MAX_SPEED, v);
+            let v_py = v_hi | v_lo;
             let v = if v_hi {
                 MAX_SPEED
             } else if v_lo {
@@ -180,11 +182,11 @@ impl<const N: usize> MountainCarContinuousLanes<N> {
                 v
             };
             // position += velocity.
-            let p_f32 = s32 && (v_f32 || v_py);
+            let p_f32 = s32 & (v_f32 | v_py);
             let p = add(p_f32, self.position[i], v);
             let p_hi = gt(p_f32, p, MAX_POSITION);
-            let p_lo = !p_hi && gt(p_f32, MIN_POSITION, p);
-            let p_py = p_hi || p_lo;
+            let p_lo = !p_hi & gt(p_f32, MIN_POSITION, p);
+            let p_py = p_hi | p_lo;
             let p = if p_hi {
                 MAX_POSITION
             } else if p_lo {
@@ -193,13 +195,13 @@ impl<const N: usize> MountainCarContinuousLanes<N> {
                 p
             };
             // A Python float position compares in float64.
-            let pos_f32 = p_f32 && !p_py;
+            let pos_f32 = p_f32 & !p_py;
             let at_min32 = p as f32 == MIN_POSITION as f32;
             let at_min = if pos_f32 { at_min32 } else { p == MIN_POSITION };
-            let v = if at_min && v < 0.0 { 0.0 } else { v };
+            let v = if at_min & (v < 0.0) { 0.0 } else { v };
             let goal32 = p as f32 >= GOAL_POSITION as f32;
             let goal = if pos_f32 { goal32 } else { p >= GOAL_POSITION };
-            let t = goal && v >= 0.0;
+            let t = goal & (v >= 0.0);
             term[i] = t;
             reward[i] = if t { 100.0 } else { 0.0 } - sq_a[i] * 0.1;
             new_p[i] = f32r(p);
