@@ -139,7 +139,8 @@ impl<const N: usize> CartPoleLanes<N> {
             // Strict comparisons: a NaN state does not terminate (as the
             // scalar env).
             #[allow(clippy::manual_range_contains)]
-            let t = x < -X_THRESHOLD || x > X_THRESHOLD || theta < -th || theta > th;
+            // `|`, not `||`: no branch, so the loop vectorises.
+            let t = (x < -X_THRESHOLD) | (x > X_THRESHOLD) | (theta < -th) | (theta > th);
             term[i] = t;
         }
         for i in 0..N {

@@ -103,10 +103,11 @@ impl<const N: usize> MountainCarLanes<N> {
             velocity = velocity.clamp(-MAX_SPEED, MAX_SPEED);
             let mut position = self.position[i] + velocity;
             position = position.clamp(MIN_POSITION, MAX_POSITION);
-            if position == MIN_POSITION && velocity < 0.0 {
+            // `&`, not `&&`: no branch, so the loop vectorises.
+            if (position == MIN_POSITION) & (velocity < 0.0) {
                 velocity = 0.0;
             }
-            term[i] = position >= GOAL_POSITION && velocity >= GOAL_VELOCITY;
+            term[i] = (position >= GOAL_POSITION) & (velocity >= GOAL_VELOCITY);
             pos[i] = position;
             vel[i] = velocity;
         }
