@@ -201,10 +201,16 @@ pub fn gym_hash_seed(seed: u64) -> u64 {
 /// with `_int_list_from_bigint(hash_seed(seed))`, the little-endian 32-bit
 /// words of the hash without leading zero words (`[0]` for 0).
 pub fn gym_np_random(seed: u64) -> Mt19937 {
+    let (words, two) = gym_seed_key(seed);
+    Mt19937::from_key(&words[..if two { 2 } else { 1 }])
+}
+
+/// The key [`gym_np_random`] seeds its `RandomState` with: the two 32-bit
+/// words of the hash and whether the key has both (false: only the first,
+/// the hash being below 2^32). For [`crate::mt19937::first_outputs_lanes`].
+pub fn gym_seed_key(seed: u64) -> ([u32; 2], bool) {
     let h = gym_hash_seed(seed);
-    let words = [h as u32, (h >> 32) as u32];
-    let len = if h >> 32 != 0 { 2 } else { 1 };
-    Mt19937::from_key(&words[..len])
+    ([h as u32, (h >> 32) as u32], h >> 32 != 0)
 }
 
 impl rand_core::RngCore for Pcg64 {

@@ -12,7 +12,8 @@ use crate::pendulum::{
 use rwg_env::float::{f32r, pow2_f32};
 use rwg_env::lanes_math::{sin_lanes, sincos_lanes};
 use rwg_env::many::ManyEnv;
-use rwg_env::seeding::{gym_np_random, Pcg64};
+use rwg_env::mt19937::{first_outputs_lanes, uniform_res53};
+use rwg_env::seeding::{gym_seed_key, Pcg64};
 use rwg_env::{ActionDtype, EnvError, EnvSpec};
 use std::f64::consts::PI;
 
@@ -228,22 +229,42 @@ impl<const N: usize> ManyEnv for PendulumLanes<N> {
         check_lens(N, mask, obs, 3);
         let mut lanes = [false; N];
         for i in 0..N {
-            if mask[i] != 1 {
-                continue;
+            lanes[i] = mask[i] == 1;
+        }
+        // uniform(low=[-pi, -1], high=[pi, 1]): theta, then theta_dot.
+        match self.version {
+            Version::V1 => {
+                for i in 0..N {
+                    if lanes[i] {
+                        let mut rng = Pcg64::from_seed(seeds[i]);
+                        (self.th[i], self.thdot[i]) =
+                            (rng.uniform(-PI, PI), rng.uniform(-1.0, 1.0));
+                    }
+                }
             }
-            lanes[i] = true;
-            // uniform(low=[-pi, -1], high=[pi, 1]): theta, then theta_dot.
-            (self.th[i], self.thdot[i]) = match self.version {
-                Version::V1 => {
-                    let mut rng = Pcg64::from_seed(seeds[i]);
-                    (rng.uniform(-PI, PI), rng.uniform(-1.0, 1.0))
+            Version::V0 => {
+                // gym_np_random's RandomState for every lane at once: its
+                // first four outputs make the two uniforms.
+                let (mut keys, mut two) = ([[0u32; 2]; N], [false; N]);
+                for i in 0..N {
+                    if lanes[i] {
+                        (keys[i], two[i]) = gym_seed_key(seeds[i]);
+                    }
                 }
-                Version::V0 => {
-                    let mut rng = gym_np_random(seeds[i]);
-                    (rng.uniform(-PI, PI), rng.uniform(-1.0, 1.0))
+                let words: [[u32; 4]; N] = first_outputs_lanes(&keys, &two);
+                for i in 0..N {
+                    if lanes[i] {
+                        let [a, b, c, d] = words[i];
+                        self.th[i] = uniform_res53(-PI, PI, a, b);
+                        self.thdot[i] = uniform_res53(-1.0, 1.0, c, d);
+                    }
                 }
-            };
-            self.clocks.reset(i);
+            }
+        }
+        for i in 0..N {
+            if lanes[i] {
+                self.clocks.reset(i);
+            }
         }
         self.write_obs(&lanes, obs);
     }
