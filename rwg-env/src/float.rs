@@ -94,15 +94,14 @@ pub fn square_error(x: f64, p: f64) -> f64 {
 #[inline]
 pub fn fmod_pos(x: f64, d: f64) -> f64 {
     let ax = x.abs();
-    if !(d.is_normal() && d > 0.0 && ax < d * 1048576.0) {
+    if !(d.is_normal() && d > 0.0 && ax < d * FMOD_FAST_QUOTIENT) {
         return x % d;
     }
     if ax < d {
         return x;
     }
-    let d_hi = f64::from_bits(d.to_bits() & !((1u64 << 27) - 1));
-    let d_lo = d - d_hi;
-    let rem = |q: f64| (ax - q * d_hi) - q * d_lo;
+    let split = split_divisor(d);
+    let rem = |q: f64| fmod_rem(ax, q, split);
     let mut q = (ax / d).trunc();
     let mut r = rem(q);
     if r < 0.0 {
@@ -113,6 +112,24 @@ pub fn fmod_pos(x: f64, d: f64) -> f64 {
         r = rem(q);
     }
     r.copysign(x)
+}
+
+/// [`fmod_pos`] computes `|x| < FMOD_FAST_QUOTIENT * d` itself; beyond, `x % d`.
+pub const FMOD_FAST_QUOTIENT: f64 = 1048576.0;
+
+/// `d = d_hi + d_lo` with `d_hi` holding `d`'s top 26 bits, so that
+/// `q * d_hi` is exact for [`fmod_pos`]'s quotients.
+#[inline(always)]
+pub fn split_divisor(d: f64) -> (f64, f64) {
+    let d_hi = f64::from_bits(d.to_bits() & !((1u64 << 27) - 1));
+    (d_hi, d - d_hi)
+}
+
+/// [`fmod_pos`]'s remainder of `ax >= 0` for the quotient `q`:
+/// `(ax - q d_hi) - q d_lo` ([`split_divisor`]).
+#[inline(always)]
+pub fn fmod_rem(ax: f64, q: f64, (d_hi, d_lo): (f64, f64)) -> f64 {
+    (ax - q * d_hi) - q * d_lo
 }
 
 /// libm `pow(x, 2.0)` without the fast path.

@@ -29,15 +29,21 @@ pub(crate) const L: f64 = 1.0;
 /// the sign of 2pi, so it lies in [0, 2pi)).
 #[inline]
 pub fn angle_normalize(x: f64) -> f64 {
-    let two_pi = 2.0 * PI;
     // `%`, computed exactly but faster than the library's fmod.
-    let mut r = fmod_pos(x + PI, two_pi);
+    floored(fmod_pos(x + PI, 2.0 * PI)) - PI
+}
+
+/// Python's floored `x % 2pi` from C's `fmod(x, 2pi)` remainder `r`: the
+/// sign of 2pi, and +0.0 for a zero remainder.
+#[inline(always)]
+pub(crate) fn floored(r: f64) -> f64 {
     if r < 0.0 {
-        r += two_pi;
+        r + 2.0 * PI
     } else if r == 0.0 {
-        r = 0.0; // Python gives +0.0 for a zero remainder
+        0.0
+    } else {
+        r
     }
-    r - PI
 }
 
 /// `np.clip(x, lo, hi)`: NaN stays NaN.

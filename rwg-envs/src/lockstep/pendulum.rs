@@ -7,9 +7,9 @@ use super::{
     check_lens, finish_flags, gather_continuous1, limited_spec, pow2_lanes, Clocks, LockstepEnv,
 };
 use crate::pendulum::{
-    angle_normalize, clip, Pendulum, Version, DT, G, L, M, MAX_SPEED, MAX_TORQUE,
+    angle_normalize, clip, floored, Pendulum, Version, DT, G, L, M, MAX_SPEED, MAX_TORQUE,
 };
-use rwg_env::float::{f32r, pow2_f32};
+use rwg_env::float::{f32r, fmod_rem, pow2_f32, split_divisor, FMOD_FAST_QUOTIENT};
 use rwg_env::lanes_math::{sin_lanes, sincos_lanes};
 use rwg_env::many::ManyEnv;
 use rwg_env::mt19937::{first_outputs_lanes, uniform_res53};
@@ -170,19 +170,16 @@ impl<const N: usize> PendulumLanes<N> {
 #[inline(always)]
 fn angle_normalize_lanes<const N: usize>(x: &[f64; N]) -> [f64; N] {
     const TWO_PI: f64 = 2.0 * PI;
-    // fmod_pos's split of the divisor: 26 high bits (q * D_HI is exact).
-    const D_HI: f64 = f64::from_bits(TWO_PI.to_bits() & !((1u64 << 27) - 1));
-    const D_LO: f64 = TWO_PI - D_HI;
-    const FAST: f64 = TWO_PI * 1048576.0;
+    let split = split_divisor(TWO_PI);
     let mut out = [0.0; N];
     let mut slow = [false; N];
     for i in 0..N {
         let y = x[i] + PI;
         let ay = y.abs();
         let q = (ay / TWO_PI).trunc();
-        let r0 = (ay - q * D_HI) - q * D_LO;
-        let rm = (ay - (q - 1.0) * D_HI) - (q - 1.0) * D_LO;
-        let rp = (ay - (q + 1.0) * D_HI) - (q + 1.0) * D_LO;
+        let r0 = fmod_rem(ay, q, split);
+        let rm = fmod_rem(ay, q - 1.0, split);
+        let rp = fmod_rem(ay, q + 1.0, split);
         let r = if r0 < 0.0 {
             rm
         } else if r0 >= TWO_PI {
@@ -190,17 +187,10 @@ fn angle_normalize_lanes<const N: usize>(x: &[f64; N]) -> [f64; N] {
         } else {
             r0
         };
-        // fmod_pos(y, 2π), then Python's floored `%` and its +0.0.
-        let r = if ay < TWO_PI { y } else { r.copysign(y) };
-        let r = if r < 0.0 {
-            r + TWO_PI
-        } else if r == 0.0 {
-            0.0
-        } else {
-            r
-        };
+        // fmod_pos(y, 2π), then Python's floored `%`.
+        let r = floored(if ay < TWO_PI { y } else { r.copysign(y) });
         out[i] = r - PI;
-        slow[i] = (ay >= FAST) | ay.is_nan();
+        slow[i] = (ay >= TWO_PI * FMOD_FAST_QUOTIENT) | ay.is_nan();
     }
     for i in 0..N {
         if slow[i] {
