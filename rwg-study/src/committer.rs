@@ -1,15 +1,16 @@
 //! Block commits off the sampling path.
 //!
-//! Committing a block (formatting its rows, writing, syncing and renaming its
-//! file: [`write_blocks`]) is mostly waiting for the disk. Done on the thread
-//! that collects the blocks, it stalls every worker after each wave (on a
-//! busy disk, longer than a CartPole cell's sampling). A [`Committer`] hands
-//! the blocks to a few I/O threads instead, which commit them while the
-//! workers compute the next ones; several syncs in flight also let the
-//! filesystem group them. What is on disk, and when a block counts as
-//! committed (its file renamed into place after the sync, then listed in the
-//! cell's block index), is unchanged; a run killed by a signal loses at most
-//! the blocks not yet committed, which a resumed run computes again. A process
+//! Committing a block (formatting its rows, writing and renaming its file,
+//! appending its index line: [`write_blocks`]) is file-system work: creating a
+//! file costs more than a CartPole block's sampling on some disks. Done on the
+//! thread that collects the blocks, it would stall every worker after each
+//! wave. A [`Committer`] hands the blocks to a few I/O threads instead, which
+//! commit them while the workers compute the next ones. A block counts as
+//! committed once its file is renamed into place and listed in the cell's
+//! block index; a run killed by a signal loses at most the blocks not yet
+//! committed, which a resumed run computes again (as it does blocks that a
+//! crash of the machine kept from the disk: nothing is synced, see
+//! [`write_blocks`]). A process
 //! that ends early on purpose (a plugin called `exit()`, a plugin call hangs)
 //! first waits for the blocks already handed over ([`wait_for_commits`]). The I/O
 //! threads append to the block index concurrently: each entry is one

@@ -17,13 +17,13 @@ use crate::recorder::{spawn_cell_end, Record, Recorded, Recorder};
 use crate::rundir::blocks::{
     block_samples, cell_complete, n_blocks, tidy_complete_cell, BlockIndex,
 };
-use crate::rundir::checksum::verify_cell;
+use crate::rundir::checksum::{verify_cell, SUMS};
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::lock::RunLock;
 use crate::rundir::meta::{
     read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta, RUN_FORMAT,
 };
-use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
+use crate::rundir::{cell_dir, BLOCKS, CELLS, MANIFEST, RUN_JSON};
 use crate::timing::{CellTiming, RunTiming};
 use crate::StudyError;
 use rwg_core::many::run_blocks_many;
@@ -57,6 +57,9 @@ pub trait Progress: Send {
     fn start(&mut self, networks: u64);
     /// A cell starts (`label`: "cell i/n (k done): dir").
     fn cell(&mut self, label: &str);
+    /// Something the user should know that does not stop the run (say,
+    /// blocks that must be computed again).
+    fn note(&mut self, _message: &str) {}
     /// A block of `networks` networks with `env_steps` steps was committed.
     fn block(&mut self, label: &str, networks: u64, env_steps: u64);
     /// The run stopped (done or failed): remove the progress display.
@@ -118,9 +121,11 @@ pub fn run_study(
     let lock = RunLock::acquire(out)?;
     let previous = prepare_dir(out, m, opts.shard, opts.force_new)?;
     if previous.as_ref().is_some_and(|p| p.end_time.is_some()) {
-        // Complete only if everything in it still verifies.
+        // Complete only if everything in it still verifies. Blocks that do
+        // not (a shard's, say, after a crash of the machine) are computed
+        // again below, as in any resume.
         let check = crate::rundir::verify::verify_run(out);
-        if !check.problems.is_empty() {
+        if check.problems.len() > check.block_problems {
             return Err(StudyError::Refused(format!(
                 "{} holds this study, finished, but its files do not verify:\n  {}\n\
                  delete the damaged cell directories and run again to recompute them",
@@ -128,7 +133,9 @@ pub fn run_study(
                 check.problems.join("\n  ")
             )));
         }
-        return Ok(RunOutcome::AlreadyComplete(lock));
+        if check.block_problems == 0 {
+            return Ok(RunOutcome::AlreadyComplete(lock));
+        }
     }
     let manifest_path = out.join(MANIFEST);
     write_atomic(&manifest_path, m.to_toml().as_bytes()).map_err(StudyError::io(format!(
@@ -145,10 +152,23 @@ pub fn run_study(
     let mut indexes = Vec::with_capacity(cells.len());
     for c in &cells {
         let dir = cell_dir(out, &c.id.dir);
-        indexes.push(BlockIndex::load(&dir).map_err(|source| StudyError::RunDir {
-            context: format!("cannot read the block index of cell {}", c.id.dir),
-            source,
-        })?);
+        let (index, dropped) =
+            BlockIndex::load_checked(&dir).map_err(|source| StudyError::RunDir {
+                context: format!("cannot read the block index of cell {}", c.id.dir),
+                source,
+            })?;
+        if !dropped.is_empty() {
+            progress.note(&format!(
+                "{} committed block(s) of cell {} do not match {} \
+                 (missing, changed, or not written to disk before a crash of the machine): \
+                 computing them again ({})",
+                dropped.len(),
+                c.id.dir,
+                dir.join(BLOCKS).join(SUMS).display(),
+                dropped.join(", ")
+            ));
+        }
+        indexes.push(index);
     }
     let todo: u64 = cells
         .iter()

@@ -343,6 +343,12 @@ impl Progress for WithChecks<'_> {
         self.display.start(networks);
     }
 
+    fn note(&mut self, message: &str) {
+        // Before `start`: no progress display to interleave with; shown
+        // with --quiet too.
+        eprintln!("note: {message}");
+    }
+
     fn cell(&mut self, label: &str) {
         self.display.cell(label);
     }

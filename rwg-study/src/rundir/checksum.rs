@@ -177,6 +177,17 @@ pub fn append_sum(path: &Path, name: &str, digest: &Digest) -> Result<(), RunDir
 
 /// [`append_sum`] for several entries: one write of all their lines, one sync.
 pub fn append_sums(path: &Path, entries: &[(&str, Digest)]) -> Result<(), RunDirError> {
+    append_lines(path, entries, true)
+}
+
+/// [`append_sums`] without the sync: the lines survive the process being
+/// killed, not necessarily a crash of the machine (after which the file may
+/// end early or hold zeros, which [`read_sums`] skips unless `strict`).
+pub fn append_sums_unsynced(path: &Path, entries: &[(&str, Digest)]) -> Result<(), RunDirError> {
+    append_lines(path, entries, false)
+}
+
+fn append_lines(path: &Path, entries: &[(&str, Digest)], sync: bool) -> Result<(), RunDirError> {
     // The run's block committers append from several threads: one at a time,
     // so that the repair of a crash's partial last line below (read the last
     // byte, then write) cannot interleave with another append.
@@ -202,7 +213,10 @@ pub fn append_sums(path: &Path, entries: &[(&str, Digest)]) -> Result<(), RunDir
     }
     text.push_str(&sums_text(entries));
     f.write_all(text.as_bytes()).map_err(io_err(path))?;
-    f.sync_all().map_err(io_err(path))
+    if sync {
+        f.sync_all().map_err(io_err(path))?;
+    }
+    Ok(())
 }
 
 /// The text of a `SHA256SUMS` file listing `entries` in the given order.

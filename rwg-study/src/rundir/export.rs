@@ -81,9 +81,25 @@ impl AtomicFile {
     /// file's contents are durable, its new name is not until the caller
     /// syncs the directory (once for several files).
     pub fn commit_hashed_keep_dir(self) -> io::Result<Digest> {
+        self.finish(true)
+    }
+
+    /// Flushes and renames the file into place without syncing anything:
+    /// the file survives the process being killed (its contents are in the
+    /// kernel's page cache), not necessarily a crash of the machine, after
+    /// which it may be empty or hold zeros. For files whose digest is
+    /// recorded and checked before they are trusted (a cell's blocks: see
+    /// [`crate::rundir::blocks::write_blocks`]).
+    pub fn commit_hashed_unsynced(self) -> io::Result<Digest> {
+        self.finish(false)
+    }
+
+    fn finish(self, sync: bool) -> io::Result<Digest> {
         let (mut out, digest) = self.out.finish();
         out.flush()?;
-        out.get_ref().sync_all()?;
+        if sync {
+            out.get_ref().sync_all()?;
+        }
         std::fs::rename(&self.tmp, &self.path)?;
         Ok(digest)
     }

@@ -15,6 +15,9 @@ pub struct VerifyReport {
     pub problems: Vec<String>,
     /// Files whose checksums were checked.
     pub files: usize,
+    /// How many of `problems` are committed blocks of unfinished cells
+    /// (which a resumed run checks and computes again).
+    pub block_problems: usize,
 }
 
 /// Checks every committed file of the run (or shard) directory `dir`:
@@ -110,7 +113,10 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
                     what.push(format!("{uncommitted} uncommitted (to be computed again)"));
                 }
             }
-            Err(problems) => r.problems.extend(problems),
+            Err(problems) => {
+                r.block_problems += problems.len();
+                r.problems.extend(problems)
+            }
         }
         if r.problems.len() == before {
             r.ok.push(format!(
