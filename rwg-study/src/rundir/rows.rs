@@ -142,12 +142,29 @@ pub fn push_score_rows(out: &mut Vec<u8>, block: &BlockResult, episodes: u32) {
             out.push(b',');
             push_u64(out, ep as u64);
             out.push(b',');
-            // Writing into a Vec cannot fail.
-            let _ = write!(out, "{:?}", r.score);
+            push_f64(out, r.score);
             out.push(b',');
             push_u64(out, u64::from(r.steps));
             out.push(b'\n');
         }
+    }
+}
+
+/// Appends `x` as `{x:?}` formats it (shortest round trip). Integral
+/// scores below 2^53 in magnitude (every episode of an env with integer
+/// rewards: CartPole, Acrobot, MountainCar) are written by hand, `{x:?}`'s
+/// `-12.0`; the rest through `{:?}`.
+fn push_f64(out: &mut Vec<u8>, x: f64) {
+    const EXACT: f64 = 9007199254740992.0; // 2^53 < 1e16, where {:?} turns to 1e16
+    if x.fract() == 0.0 && x.abs() < EXACT {
+        if x.is_sign_negative() {
+            out.push(b'-');
+        }
+        push_u64(out, x.abs() as u64);
+        out.extend_from_slice(b".0");
+    } else {
+        // Writing into a Vec cannot fail.
+        let _ = write!(out, "{x:?}");
     }
 }
 
@@ -169,6 +186,49 @@ fn push_u64(out: &mut Vec<u8>, mut v: u64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn scores_are_written_as_debug_writes_them() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            200.0,
+            -500.0,
+            0.5,
+            -0.1,
+            1e-7,
+            1e15,
+            9007199254740991.0,
+            -9007199254740991.0,
+            9007199254740992.0,
+            -9007199254740992.0,
+            1e16,
+            1e300,
+            f64::MIN_POSITIVE,
+            f64::MAX,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+        ];
+        let mut s: u64 = 3;
+        for _ in 0..200_000 {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let bits = s >> 1;
+            let u = (s >> 11) as f64 / (1u64 << 53) as f64;
+            values.push(f64::from_bits(bits));
+            values.push(((u - 0.5) * 2f64.powi((s % 60) as i32)).round());
+            values.push((u - 0.5) * 1000.0);
+        }
+        for x in values {
+            let mut out = vec![];
+            push_f64(&mut out, x);
+            assert_eq!(String::from_utf8(out).unwrap(), format!("{x:?}"), "{x:e}");
+        }
+    }
     use crate::rundir::export::csv_reader;
 
     /// The records and line numbers of the `csv` crate's reader as rwg
