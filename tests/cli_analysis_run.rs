@@ -31,6 +31,31 @@ fn analysis_of_a_real_run() {
     let run = dir.join("run");
     let r = run.to_str().unwrap();
     let console = rwg_ok(&["run", m.to_str().unwrap(), "--out", r, "--threads", "1"]);
+    // `rwg run` analyses the cells from the episodes it kept in memory; the
+    // commands below read them back from disk and write the same files.
+    let analysis = |run: &std::path::Path| -> Vec<(String, Vec<u8>)> {
+        let mut files = vec![];
+        for sub in ["", "figures"] {
+            let mut names: Vec<_> = std::fs::read_dir(run.join(sub))
+                .unwrap()
+                .map(|e| e.unwrap().path())
+                .filter(|p| {
+                    p.is_file() && p.extension().is_some_and(|e| e != "toml" && e != "lock")
+                })
+                .filter(|p| p.file_name().is_some_and(|n| n != "run.json"))
+                .collect();
+            names.sort();
+            files.extend(names.into_iter().map(|p| {
+                let name = p.strip_prefix(run).unwrap().display().to_string();
+                (name, std::fs::read(&p).unwrap())
+            }));
+        }
+        files
+    };
+    let from_run = analysis(&run);
+    let names: Vec<&str> = from_run.iter().map(|(n, _)| n.as_str()).collect();
+    // stats.json, stats.csv, report.html; per cell 3 figures, 2 overviews, the bias histograms
+    assert_eq!(from_run.len(), 3 + 8 * 3 + 3, "{names:?}");
 
     let stats: Value = serde_json::from_str(&rwg_ok(&["stats", r, "--format", "json"])).unwrap();
     let cells = stats["cells"].as_array().unwrap();
@@ -94,6 +119,14 @@ fn analysis_of_a_real_run() {
     let figs = rwg_ok(&["plot", r]);
     assert_eq!(figs.lines().count(), 3 + 8 * 3);
     rwg_ok(&["report", r]);
+    let from_disk = analysis(&run);
+    for ((name, a), (name_b, b)) in from_run.iter().zip(&from_disk) {
+        assert_eq!(name, name_b);
+        assert!(
+            a == b,
+            "{name} differs between rwg run and the analysis commands"
+        );
+    }
     let html = std::fs::read_to_string(run.join("report.html")).unwrap();
     assert!(html.contains("seed = 5"), "the manifest is in the report");
     let cmp = rwg_ok(&["compare", r, r]);

@@ -19,7 +19,7 @@ pub mod table;
 pub mod tables;
 
 use plot::{ImageFormat, PlotError};
-use rwg_study::rundir::data::{write_stats, CellData, Run, RunReadError, RunStats};
+use rwg_study::rundir::data::{write_stats, CellData, KeptEpisodes, Run, RunReadError, RunStats};
 use rwg_study::stats::CellSummary;
 use std::path::{Path, PathBuf};
 
@@ -67,11 +67,26 @@ fn write_file(path: PathBuf, bytes: &[u8]) -> Result<PathBuf, AnalysisError> {
 ///
 /// All cells are held in memory at once (12 bytes per episode).
 pub fn load_cells(run: &Run) -> Result<Vec<(CellData, CellSummary)>, RunReadError> {
+    load_cells_with(run, KeptEpisodes::new())
+}
+
+/// [`load_cells`], taking the cells whose episodes `kept` holds from there
+/// (as the run that just finalised them kept them: the rows of their
+/// `scores.csv`) instead of reading their files back.
+pub fn load_cells_with(
+    run: &Run,
+    mut kept: KeptEpisodes,
+) -> Result<Vec<(CellData, CellSummary)>, RunReadError> {
     run.meta
         .cells
         .iter()
         .map(|c| {
-            let data = run.load_cell(c)?;
+            let data = match kept.remove(&c.id.dir) {
+                Some((scores, steps)) => {
+                    CellData::new(c.clone(), c.episodes as usize, scores, steps)
+                }
+                None => run.load_cell(c)?,
+            };
             let summary = data.summary();
             Ok((data, summary))
         })
@@ -89,11 +104,16 @@ pub fn run_stats(run: &Run, cells: &[(CellData, CellSummary)]) -> RunStats {
 /// Writes the whole analysis of a finished run into its directory:
 /// `stats.json`, `stats.csv`, `figures/*.svg` (plus `figures/*.png` with
 /// `png`), and `report.html`. Returns the files written. This is what
-/// `rwg run` calls at the end.
-pub fn write_analysis(run_dir: &Path, png: bool) -> Result<Vec<PathBuf>, AnalysisError> {
+/// `rwg run` calls at the end, with the episodes of the cells it finalised
+/// (`kept`, see [`load_cells_with`]; the other cells are read from disk).
+pub fn write_analysis(
+    run_dir: &Path,
+    png: bool,
+    kept: KeptEpisodes,
+) -> Result<Vec<PathBuf>, AnalysisError> {
     let run = Run::open(run_dir)?;
     let _lock = rwg_study::rundir::lock::RunLock::acquire(run_dir)?;
-    let cells = load_cells(&run)?;
+    let cells = load_cells_with(&run, kept)?;
     let stats = run_stats(&run, &cells);
     write_stats(run_dir, &stats).map_err(|source| AnalysisError::Write {
         path: run_dir.to_path_buf(),
@@ -144,7 +164,7 @@ mod tests {
             },
         )
         .unwrap();
-        let files = write_analysis(&dir, true).unwrap();
+        let files = write_analysis(&dir, true, KeptEpisodes::new()).unwrap();
         let names: Vec<String> = files
             .iter()
             .map(|p| p.strip_prefix(&dir).unwrap().display().to_string())
@@ -166,7 +186,7 @@ mod tests {
             ]
         );
         assert!(files.iter().all(|f| f.is_file()));
-        let e = write_analysis(&dir.join("missing"), false).unwrap_err();
+        let e = write_analysis(&dir.join("missing"), false, KeptEpisodes::new()).unwrap_err();
         assert!(matches!(e, AnalysisError::Load(_)), "{e}");
     }
 }

@@ -342,16 +342,18 @@ impl Cell {
         }
     }
 
-    /// Finalises the cell in `out` (all blocks present) and returns its metadata.
+    /// Finalises the cell in `out` (all blocks present) and returns its
+    /// metadata and totals (with every episode's score and length if `keep`).
     pub fn finalize(
         &self,
         m: &Manifest,
         out: &Path,
         wall_s: f64,
+        keep: bool,
     ) -> Result<(CellMeta, CellTotals), StudyError> {
         let dir = cell_dir(out, &self.id.dir);
         let mut meta = None;
-        let totals = finalize_cell(&dir, m.samples, m.episodes, |t| {
+        let totals = finalize_cell(&dir, m.samples, m.episodes, keep, |t| {
             let cm = self.meta(m, t.env_steps, wall_s);
             let json = serde_json::to_string_pretty(&cm).expect("serialisable");
             meta = Some(cm);

@@ -2,7 +2,7 @@
 //! finalisation and `run.json`, while the next cell samples.
 //!
 //! When a cell's workers are done, its last blocks are still being committed
-//! by the I/O threads ([`crate::committer`]: write, `fsync`, rename), and the
+//! by the I/O threads ([`crate::committer`]: write, rename, index line), and the
 //! cell is still to be finalised (`scores.csv`, statistics, `samples.csv`,
 //! `cell.json`) and recorded in `run.json` (a synced write). Done by the
 //! runner's thread, all of it would keep the workers waiting; on a short
@@ -13,7 +13,7 @@
 //! `run.json`; meanwhile the next cell samples.
 //!
 //! What is on disk, and when, keeps its guarantees: a block counts as
-//! committed once its synced file is renamed into place (the I/O threads
+//! committed once its file is renamed into place and indexed (the I/O threads
 //! do that, as before); a cell is finalised only once all its blocks are
 //! committed; `run.json` lists cells in cell order, and a cell only once
 //! its files are finalised. A failure of a cell's end (a commit or the
@@ -25,6 +25,7 @@ use crate::committer::CommitThreads;
 use crate::error::CellError;
 use crate::manifest::Manifest;
 use crate::rundir::blocks::CellTotals;
+use crate::rundir::data::KeptEpisodes;
 use crate::rundir::meta::{write_run_meta, CellMeta, RunMeta};
 use crate::timing::CellTiming;
 use crate::StudyError;
@@ -78,6 +79,9 @@ pub(crate) struct Recorded {
     /// The sampled cells' timing, in cell order (sampling and the phases of
     /// their ends; the runner adds its own serial time).
     pub cells: Vec<CellTiming>,
+    /// The episodes of each cell finalised in this session, when kept
+    /// ([`crate::runner::RunOptions::keep_episodes`]).
+    pub episodes: KeptEpisodes,
 }
 
 /// The recorder's thread, joined by [`Recorder::finish`].
@@ -103,6 +107,7 @@ impl<'scope, 'c: 'scope> Recorder<'scope, 'c> {
                 meta,
                 lines: vec![],
                 cells: vec![],
+                episodes: KeptEpisodes::new(),
             };
             let result = record_loop(&rx, &mut rec, out, t0);
             if result.is_err() {
@@ -157,9 +162,13 @@ fn record_loop(
         timing.commit_end = end.commit_end;
         timing.finalize = end.finalize;
         match end.finalized {
-            Some((cm, totals)) => {
+            Some((cm, mut totals)) => {
                 rec.lines
                     .push(cell.summary_line(&totals.means, Some(cm.steps_per_s)));
+                if !totals.episodes.0.is_empty() {
+                    let episodes = std::mem::take(&mut totals.episodes);
+                    rec.episodes.insert(cell.id.dir.clone(), episodes);
+                }
                 rec.meta.env_steps += cm.env_steps;
                 rec.meta.cells.push(cm);
             }
@@ -177,7 +186,8 @@ fn record_loop(
 /// Starts, in `scope`, the end of a sampled cell: waits for `commits` (the
 /// cell's I/O threads, their committer dropped), then, unless `shard`,
 /// finalises the cell on `pool` (its `wall_s` runs from `t_cell` to the last
-/// commit, as it did when the runner waited for the commits itself).
+/// commit, as it did when the runner waited for the commits itself), keeping
+/// its episodes in memory if `keep`.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn spawn_cell_end<'scope>(
     scope: &'scope Scope<'scope, '_>,
@@ -188,6 +198,7 @@ pub(crate) fn spawn_cell_end<'scope>(
     commits: CommitThreads<'scope>,
     t_cell: Instant,
     shard: bool,
+    keep: bool,
 ) -> ScopedJoinHandle<'scope, Result<CellEnd, StudyError>> {
     scope.spawn(move || {
         let t = Instant::now();
@@ -200,7 +211,7 @@ pub(crate) fn spawn_cell_end<'scope>(
         let finalized = if shard {
             None
         } else {
-            Some(pool.install(|| cell.finalize(m, out, wall))?)
+            Some(pool.install(|| cell.finalize(m, out, wall, keep))?)
         };
         Ok(CellEnd {
             commit_io,

@@ -18,6 +18,7 @@ use crate::rundir::blocks::{
     block_samples, cell_complete, n_blocks, tidy_complete_cell, BlockIndex,
 };
 use crate::rundir::checksum::{verify_cell, SUMS};
+use crate::rundir::data::KeptEpisodes;
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::lock::RunLock;
 use crate::rundir::meta::{
@@ -46,6 +47,10 @@ pub struct RunOptions<'a> {
     /// Set to stop after the blocks in flight (e.g. by a Ctrl-C handler);
     /// the run then ends with [`StudyError::Interrupted`], resumable.
     pub stop: &'a AtomicBool,
+    /// Keep the episodes of every cell finalised in this session in memory
+    /// ([`RunReport::episodes`], 12 bytes per episode), for an analysis of
+    /// the run that follows it (which then need not read `scores.csv` back).
+    pub keep_episodes: bool,
 }
 
 /// What a run reports while it works.
@@ -92,6 +97,9 @@ pub struct RunReport {
     pub threads: usize,
     /// Where the wall time went, phase by phase.
     pub timing: RunTiming,
+    /// With [`RunOptions::keep_episodes`]: the episodes of each cell
+    /// finalised in this session, by cell directory name.
+    pub episodes: KeptEpisodes,
     /// The run directory's lock, still held (drop it when done writing).
     pub lock: RunLock,
 }
@@ -297,6 +305,7 @@ pub fn run_study(
                 io_threads,
                 t_cell,
                 opts.shard.is_some(),
+                opts.keep_episodes,
             );
             let handed = recorder.send(Record::Sampled {
                 cell,
@@ -328,6 +337,7 @@ pub fn run_study(
         mut meta,
         lines,
         cells: mut cell_timing,
+        episodes,
     } = recorded;
     for (ct, serial) in cell_timing.iter_mut().zip(main_serial) {
         ct.serial = serial;
@@ -347,6 +357,7 @@ pub fn run_study(
         env_steps: steps_now,
         threads,
         timing,
+        episodes,
         lock,
     })))
 }

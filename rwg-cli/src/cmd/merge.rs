@@ -48,7 +48,7 @@ pub fn run(args: Args) -> Result<()> {
             out.display()
         );
         if !args.no_report && !out.join(rwg_study::rundir::REPORT_HTML).exists() {
-            write_report(out)?;
+            write_report(out, Default::default())?;
         }
         return Ok(());
     }
@@ -65,7 +65,7 @@ pub fn run(args: Args) -> Result<()> {
         out.display()
     );
     if !args.no_report {
-        write_report(out)?;
+        write_report(out, Default::default())?;
     }
     Ok(())
 }

@@ -8,6 +8,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rwg_study::cells::Cell;
 use rwg_study::env_source::EnvSource;
 use rwg_study::manifest::Manifest;
+use rwg_study::rundir::data::KeptEpisodes;
 use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::rundir::REPORT_HTML;
 use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome};
@@ -104,8 +105,8 @@ pub struct Args {
 }
 
 /// Writes stats, figures and report.html into a finished run directory.
-pub(crate) fn write_report(out: &Path) -> Result<()> {
-    let written = rwg_analysis::write_analysis(out, false)
+pub(crate) fn write_report(out: &Path, kept: KeptEpisodes) -> Result<()> {
+    let written = rwg_analysis::write_analysis(out, false, kept)
         .with_context(|| format!("cannot analyse {}", out.display()))?;
     let figures = written
         .iter()
@@ -184,6 +185,7 @@ pub fn run(args: Args) -> Result<()> {
         shard: args.shard,
         force_new: args.force_new,
         stop: fault_guard::interrupt_flag(),
+        keep_episodes: args.shard.is_none() && !args.no_report,
     };
     let (mut bar, mut lines, mut silent) = (Bar::default(), Lines::new(), Silent);
     let display: &mut dyn Progress = if args.quiet {
@@ -211,14 +213,14 @@ pub fn run(args: Args) -> Result<()> {
     {
         eprintln!("warning: {w}");
     }
-    let report = match outcome {
+    let mut report = match outcome {
         Ok(RunOutcome::AlreadyComplete(_lock)) => {
             crate::outln!(
                 "{} already holds this study, complete; nothing to do.",
                 out.display()
             );
             if args.shard.is_none() && !args.no_report && !out.join(REPORT_HTML).exists() {
-                write_report(&out)?;
+                write_report(&out, KeptEpisodes::new())?;
             }
             return Ok(());
         }
@@ -281,7 +283,7 @@ pub fn run(args: Args) -> Result<()> {
             );
             if !args.no_report {
                 let t = Instant::now();
-                write_report(&out)?;
+                write_report(&out, std::mem::take(&mut report.episodes))?;
                 report_time = Some(t.elapsed());
             }
         }

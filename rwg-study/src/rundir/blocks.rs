@@ -278,6 +278,10 @@ pub struct CellTotals {
     pub env_steps: u64,
     /// Mean score of every sample, in sample order.
     pub means: Vec<f64>,
+    /// With `keep` ([`finalize_cell`]): every episode's score and length,
+    /// row-major `samples × episodes`, as `scores.csv` holds them (for the
+    /// analysis of a run that just finalised the cell); else empty.
+    pub episodes: (Vec<f64>, Vec<u32>),
 }
 
 /// Parses one `sample,episode,score,steps` row, checking it is the expected one.
@@ -307,6 +311,7 @@ pub fn finalize_cell(
     cell_dir: &Path,
     samples: u64,
     episodes: u32,
+    keep: bool,
     cell_json: impl FnOnce(&CellTotals) -> Option<String>,
 ) -> Result<CellTotals, RunDirError> {
     let index = BlockIndex::load(cell_dir)?;
@@ -324,6 +329,13 @@ pub fn finalize_cell(
     let mut summaries = Vec::with_capacity(samples as usize);
     let mut env_steps = 0u64;
     let mut buf = Vec::with_capacity(episodes as usize);
+    let kept = if keep {
+        samples as usize * episodes as usize
+    } else {
+        0
+    };
+    let (mut all_scores, mut all_steps): (Vec<f64>, Vec<u32>) =
+        (Vec::with_capacity(kept), Vec::with_capacity(kept));
     for b in 0..n_blocks(samples) {
         // A block is small (32 networks' rows): read whole, checked row by
         // row, then copied as it is (rwg wrote it, in the form scores.csv
@@ -358,6 +370,12 @@ pub fn finalize_cell(
                 let (score, steps) = parse_row(row, sample, episode).map_err(corrupt)?;
                 buf.push(score);
                 env_steps += steps;
+                if keep {
+                    all_scores.push(score);
+                    let steps = u32::try_from(steps)
+                        .map_err(|_| corrupt(format!("{steps} steps: more than 2^32")))?;
+                    all_steps.push(steps);
+                }
             }
             summaries.push(sample_stats(&buf));
         }
@@ -381,7 +399,11 @@ pub fn finalize_cell(
         scores.commit_hashed().map_err(io_err(&scores_path))?,
     )];
     let means: Vec<f64> = summaries.iter().map(|s| s.mean).collect();
-    let totals = CellTotals { env_steps, means };
+    let totals = CellTotals {
+        env_steps,
+        means,
+        episodes: (all_scores, all_steps),
+    };
     if let Some(json) = cell_json(&totals) {
         let p = cell_dir.join(CELL_JSON);
         sums.push((
@@ -436,14 +458,27 @@ mod tests {
         for b in [2, 0] {
             write_block(&dir, &block(b, samples, 2), 2).unwrap();
         }
-        let err = finalize_cell(&dir, samples, 2, |_| None).unwrap_err();
+        let err = finalize_cell(&dir, samples, 2, false, |_| None).unwrap_err();
         assert!(
             matches!(err, RunDirError::MissingBlock { block: 1, .. }),
             "{err}"
         );
         write_block(&dir, &block(1, samples, 2), 2).unwrap();
-        let totals = finalize_cell(&dir, samples, 2, |t| Some(format!("{}", t.env_steps))).unwrap();
+        let totals =
+            finalize_cell(&dir, samples, 2, true, |t| Some(format!("{}", t.env_steps))).unwrap();
         assert_eq!(totals.means.len(), samples as usize);
+        // What the analysis gets: the rows of scores.csv.
+        let (scores, steps) = &totals.episodes;
+        assert_eq!(
+            (scores.len(), steps.len()),
+            (2 * samples as usize, 2 * samples as usize)
+        );
+        // sample 33 is block 1's second: its first episode is the block's third
+        assert_eq!((scores[2 * 33], steps[2 * 33]), (33.0, 12));
+        assert_eq!(
+            steps.iter().map(|&s| u64::from(s)).sum::<u64>(),
+            totals.env_steps
+        );
         let scores = std::fs::read_to_string(dir.join("scores.csv")).unwrap();
         assert_eq!(scores.lines().count(), 1 + 2 * samples as usize);
         assert!(scores.lines().nth(1 + 2 * 33).unwrap().starts_with("33,0,"));
@@ -500,7 +535,9 @@ mod tests {
         let p = block_path(&dir, 0);
         let text = std::fs::read_to_string(&p).unwrap().replace("1,1,", "1,7,");
         std::fs::write(&p, text).unwrap();
-        let err = finalize_cell(&dir, 3, 2, |_| None).unwrap_err().to_string();
+        let err = finalize_cell(&dir, 3, 2, false, |_| None)
+            .unwrap_err()
+            .to_string();
         assert!(
             err.contains("b0000000.csv:4: expected sample 1, episode 1"),
             "{err}"
@@ -516,7 +553,9 @@ mod tests {
             + 1;
         bytes[third + 2] = 0xff;
         std::fs::write(&p, bytes).unwrap();
-        let err = finalize_cell(&dir, 3, 2, |_| None).unwrap_err().to_string();
+        let err = finalize_cell(&dir, 3, 2, false, |_| None)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("b0000000.csv:3: not UTF-8 text"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }
@@ -533,13 +572,15 @@ mod tests {
             .unwrap()
             .replacen(",10", ",11", 1);
         std::fs::write(&p, text).unwrap();
-        let err = finalize_cell(&dir, 3, 2, |_| None).unwrap_err().to_string();
+        let err = finalize_cell(&dir, 3, 2, false, |_| None)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("b0000000.csv: checksum mismatch"), "{err}");
         assert!(!cell_complete(&dir));
         // A block file the index does not list is not committed.
         std::fs::remove_file(dir.join("blocks").join(SUMS)).unwrap();
         assert!(!block_done(&dir, 0));
-        let err = finalize_cell(&dir, 3, 2, |_| None).unwrap_err();
+        let err = finalize_cell(&dir, 3, 2, false, |_| None).unwrap_err();
         assert!(
             matches!(err, RunDirError::MissingBlock { block: 0, .. }),
             "{err}"
@@ -576,11 +617,14 @@ mod tests {
         write_blocks(&dir, &blocks[1..3], 2).unwrap();
         let (index, dropped) = BlockIndex::load_checked(&dir).unwrap();
         assert!(dropped.is_empty() && (0..5).all(|b| index.done(b)));
-        let totals = finalize_cell(&dir, samples, 2, |_| None).unwrap();
+        let totals = finalize_cell(&dir, samples, 2, false, |_| None).unwrap();
         let clean = dir.with_extension("clean");
         let _ = std::fs::remove_dir_all(&clean);
         write_blocks(&clean, &blocks, 2).unwrap();
-        assert_eq!(finalize_cell(&clean, samples, 2, |_| None).unwrap(), totals);
+        assert_eq!(
+            finalize_cell(&clean, samples, 2, false, |_| None).unwrap(),
+            totals
+        );
         for f in [SCORES_CSV, SAMPLES_CSV] {
             assert_eq!(
                 std::fs::read(dir.join(f)).unwrap(),

@@ -197,6 +197,11 @@ pub struct Run {
     pub verified: bool,
 }
 
+/// Cells' episodes already in memory, by cell directory name: every
+/// episode's score and length, row-major `samples × episodes`, as the cell's
+/// `scores.csv` holds them ([`crate::runner::RunReport::episodes`]).
+pub type KeptEpisodes = std::collections::BTreeMap<String, (Vec<f64>, Vec<u32>)>;
+
 /// One cell's scores with the per-sample statistics derived from them.
 #[derive(Debug, Clone)]
 pub struct CellData {
