@@ -52,8 +52,10 @@ pub enum RunDirError {
     /// A file does not have the checksum its index records.
     #[error(
         "{path}: checksum mismatch: the run's index records sha256 {recorded}, the file has \
-         {found}; it was changed, truncated or damaged after rwg wrote it. Delete the cell's \
-         directory (or the block) and run the study again to recompute it"
+         {found}; it was changed, truncated or damaged after rwg wrote it (a block: or it did \
+         not reach the disk before a crash of the machine). Running the study (or shard) again \
+         computes a damaged block again; for a finished cell's file, delete the cell's \
+         directory first"
     )]
     Checksum {
         /// The file.
