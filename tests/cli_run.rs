@@ -266,11 +266,12 @@ fn timing_shows_every_cell_and_its_serial_share_and_records_every_cell_in_order(
 }
 
 #[test]
-fn a_commit_failing_after_the_cells_sampling_fails_the_run_naming_the_cell_and_resumes() {
-    // One block per cell: its commit fails on the I/O thread after the
-    // sampling, so the failure is found by the cell's end (the recorder), not
-    // while sampling. A non-empty directory where the block file goes makes
-    // the commit's rename fail.
+fn a_cell_end_failing_after_the_sampling_fails_the_run_naming_the_cell_and_resumes() {
+    // One block per cell, computed within the committer's linger: kept back
+    // from the disk for the cell's end, which finalises from it. A non-empty
+    // directory where scores.csv goes makes the finalisation's rename fail:
+    // the failure is found by the cell's end (the recorder), not while
+    // sampling, and the kept-back block is committed before the run stops.
     let dir = temp_dir("end-fails");
     let m = manifest(
         &dir,
@@ -278,17 +279,21 @@ fn a_commit_failing_after_the_cells_sampling_fails_the_run_naming_the_cell_and_r
         &(CARTPOLE.replace("samples = 40", "samples = 20") + "[[envs]]\nid = \"MountainCar-v0\"\n"),
     );
     let run = dir.join("run");
-    let obstacle = run.join("cells/CartPole-v0__1HL__nobias/blocks/b0000000.csv");
+    let cell = run.join("cells/CartPole-v0__1HL__nobias");
+    let obstacle = cell.join("scores.csv");
     std::fs::create_dir_all(obstacle.join("x")).unwrap();
     let err = rwg_err(&["run", &m, "-q", "--out", run.to_str().unwrap()]);
     assert!(
-        err.contains("cell CartPole-v0__1HL__nobias failed"),
+        err.contains("cannot finalise cell CartPole-v0__1HL__nobias"),
         "{err}"
     );
-    assert!(err.contains("b0000000.csv"), "{err}");
+    assert!(err.contains("scores.csv"), "{err}");
     let meta: serde_json::Value = serde_json::from_str(&read(run.join("run.json"))).unwrap();
     assert_eq!(meta["cells"].as_array().unwrap().len(), 0, "{meta}");
     assert!(meta["end_time"].is_null(), "{meta}");
+    let index = read(cell.join("blocks/SHA256SUMS"));
+    assert!(index.ends_with("  b0000000.csv\n"), "{index}");
+    assert!(cell.join("blocks/b0000000.csv").is_file());
     // Fixed, the run resumes to the bytes of a clean run.
     std::fs::remove_dir_all(&obstacle).unwrap();
     rwg_ok(&["run", &m, "-q", "--out", run.to_str().unwrap()]);
@@ -300,4 +305,22 @@ fn a_commit_failing_after_the_cells_sampling_fails_the_run_naming_the_cell_and_r
             assert_eq!(read(run.join(&p)), read(clean.join(&p)), "{p}");
         }
     }
+    // A shard commits every block (it finalises nothing): a commit failing on
+    // an I/O thread after the sampling is found by the cell's end too.
+    let shard = dir.join("shard");
+    let obstacle = shard.join("cells/CartPole-v0__1HL__nobias/blocks/b0000000.csv");
+    std::fs::create_dir_all(obstacle.join("x")).unwrap();
+    let err = rwg_err(&[
+        "run",
+        &m,
+        "-q",
+        "--shard",
+        "0/1",
+        "--out",
+        shard.to_str().unwrap(),
+    ]);
+    assert!(
+        err.contains("cell CartPole-v0__1HL__nobias failed") && err.contains("b0000000.csv"),
+        "{err}"
+    );
 }

@@ -10,6 +10,7 @@ use crate::rundir::names::check_distinct;
 use crate::stats;
 use crate::StudyError;
 use rwg_core::policy::{Architecture, NetShape};
+use rwg_core::sampler::BlockResult;
 use rwg_core::sampler::CellPlan;
 use rwg_env::{ActionDtype, EnvSpec, Environment};
 use rwg_envs::{visit, EnvOptions, EnvVisitor};
@@ -343,17 +344,19 @@ impl Cell {
     }
 
     /// Finalises the cell in `out` (all blocks present) and returns its
-    /// metadata and totals (with every episode's score and length if `keep`).
+    /// metadata and totals (with every episode's score and length if `keep`);
+    /// `pending`: its blocks not committed to files ([`finalize_cell`]).
     pub fn finalize(
         &self,
         m: &Manifest,
         out: &Path,
         wall_s: f64,
         keep: bool,
+        pending: &[BlockResult],
     ) -> Result<(CellMeta, CellTotals), StudyError> {
         let dir = cell_dir(out, &self.id.dir);
         let mut meta = None;
-        let totals = finalize_cell(&dir, m.samples, m.episodes, keep, |t| {
+        let totals = finalize_cell(&dir, m.samples, m.episodes, keep, pending, |t| {
             let cm = self.meta(m, t.env_steps, wall_s);
             let json = serde_json::to_string_pretty(&cm).expect("serialisable");
             meta = Some(cm);

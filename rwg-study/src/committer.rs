@@ -5,23 +5,32 @@
 //! file costs more than a CartPole block's sampling on some disks. Done on the
 //! thread that collects the blocks, it would stall every worker after each
 //! wave. A [`Committer`] hands the blocks to a few I/O threads instead, which
-//! commit them while the workers compute the next ones. A block counts as
-//! committed once its file is renamed into place and listed in the cell's
-//! block index; a run killed by a signal loses at most the blocks not yet
-//! committed, which a resumed run computes again (as it does blocks that a
-//! crash of the machine kept from the disk: nothing is synced, see
-//! [`write_blocks`]). A process
-//! that ends early on purpose (a plugin called `exit()`, a plugin call hangs)
-//! first waits for the blocks already handed over ([`wait_for_commits`]). The I/O
-//! threads append to the block index concurrently: each entry is one
-//! `O_APPEND` write of a whole line, and the index is keyed by block name,
-//! so its line order does not matter.
+//! commit them while the workers compute the next ones, in groups: a thread
+//! gathers the blocks that arrive within [`LINGER`] (2 s) of a group's first.
+//! A block counts as committed once its file is renamed into place and listed
+//! in the cell's block index; a run killed by a signal loses at most the
+//! blocks not yet committed (about the last [`LINGER`] of work), which a
+//! resumed run computes again (as it does blocks that a crash of the machine
+//! kept from the disk: nothing is synced, see [`write_blocks`]).
+//!
+//! When a cell has been sampled to its end, the blocks still gathering are
+//! not written at all: [`Committer::close`] keeps them back and the cell's end
+//! finalises from them ([`crate::rundir::blocks::finalize_cell`]'s `pending`),
+//! so a cell computed within [`LINGER`] creates no block file (on a CartPole
+//! cell, creating, reading back and deleting its block files cost about a
+//! fifth of the whole run). An interrupted or failed cell, and a shard, commit
+//! every block. A process that ends early on purpose (a plugin called
+//! `exit()`, a plugin call hangs) first waits for the blocks already handed
+//! over ([`wait_for_commits`], which stops the lingering). The I/O threads
+//! append to the block index concurrently: each entry is one `O_APPEND` write
+//! of a whole line, and the index is keyed by block name, so its line order
+//! does not matter.
 
-use crate::rundir::blocks::{write_blocks, RunDirError};
+use crate::rundir::blocks::{write_blocks, RunDirError, BLOCK_SAMPLES};
 use rwg_core::sampler::BlockResult;
 use std::path::Path;
-use std::sync::atomic::{AtomicUsize, Ordering::SeqCst};
-use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering::SeqCst};
+use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender};
 use std::sync::{Arc, Mutex};
 use std::thread::{Scope, ScopedJoinHandle};
 use std::time::{Duration, Instant};
@@ -31,18 +40,29 @@ pub const COMMIT_THREADS: usize = 4;
 /// Blocks waiting for an I/O thread before [`Committer::submit`] blocks
 /// (bounds the memory held by finished, uncommitted blocks).
 const QUEUE: usize = 64;
-/// Most blocks one I/O thread commits as one group.
-const GROUP: usize = 16;
+/// Most blocks one I/O thread gathers into one group.
+const GROUP: usize = 256;
+/// Most episodes in one group (bounds its memory: 12 bytes each).
+const GROUP_EPISODES: usize = 1 << 20;
+/// How long an I/O thread waits for more blocks to join a group after its
+/// first: a block is committed at most this long after it was computed.
+pub const LINGER: Duration = Duration::from_secs(2);
+/// How often a lingering I/O thread looks at [`FLUSH`].
+const POLL: Duration = Duration::from_millis(10);
 
 /// Blocks handed to an I/O thread (of any committer of this process) and not
 /// yet through [`write_blocks`].
 static IN_FLIGHT: AtomicUsize = AtomicUsize::new(0);
+/// Set by [`wait_for_commits`]: commit every block at once, without
+/// lingering or keeping any back.
+static FLUSH: AtomicBool = AtomicBool::new(false);
 
 /// Waits, at most `limit`, until every block handed to a committer has been
 /// committed (or has failed); true if none is left. For a process about to
 /// end early (a plugin called `exit()`, a plugin call hangs), so that blocks
 /// computed before are not lost on their way to the disk.
 pub fn wait_for_commits(limit: Duration) -> bool {
+    FLUSH.store(true, SeqCst);
     let t0 = Instant::now();
     while IN_FLIGHT.load(SeqCst) > 0 {
         if t0.elapsed() >= limit {
@@ -56,16 +76,29 @@ pub fn wait_for_commits(limit: Duration) -> bool {
 /// The first commit error, shared by the I/O threads.
 type FirstError = Arc<Mutex<Option<RunDirError>>>;
 
+/// What the I/O threads of one committer share.
+struct Shared {
+    rx: Mutex<Receiver<BlockResult>>,
+    /// The first commit error.
+    failed: FirstError,
+    /// Set by [`Committer::close`]: the blocks still gathering when the
+    /// channel closes go to `tail` instead of being written.
+    keep_tail: AtomicBool,
+    tail: Mutex<Vec<BlockResult>>,
+    /// Most blocks per group (from [`GROUP`] and [`GROUP_EPISODES`]).
+    group: usize,
+}
+
 /// Hands finished blocks of one cell to I/O threads that commit them.
 pub struct Committer {
     tx: SyncSender<BlockResult>,
-    failed: FirstError,
+    shared: Arc<Shared>,
 }
 
 /// The I/O threads of a [`Committer`], joined by [`CommitThreads::finish`].
 pub struct CommitThreads<'scope> {
     handles: Vec<ScopedJoinHandle<'scope, Duration>>,
-    failed: FirstError,
+    shared: Arc<Shared>,
 }
 
 impl Committer {
@@ -80,29 +113,44 @@ impl Committer {
     ) -> (Committer, CommitThreads<'scope>) {
         let cell_dir: Arc<Path> = Arc::from(cell_dir);
         let (tx, rx) = sync_channel::<BlockResult>(QUEUE);
-        let rx = Arc::new(Mutex::new(rx));
-        let failed: FirstError = Arc::default();
+        let per_block = BLOCK_SAMPLES as usize * (episodes as usize).max(1);
+        let shared = Arc::new(Shared {
+            rx: Mutex::new(rx),
+            failed: FirstError::default(),
+            keep_tail: AtomicBool::new(false),
+            tail: Mutex::default(),
+            group: (GROUP_EPISODES / per_block).clamp(1, GROUP),
+        });
         let handles = (0..COMMIT_THREADS)
             .map(|_| {
-                let rx = Arc::clone(&rx);
-                let failed = Arc::clone(&failed);
+                let shared = Arc::clone(&shared);
                 let cell_dir = Arc::clone(&cell_dir);
-                scope.spawn(move || commit_loop(&rx, &failed, &cell_dir, episodes))
+                scope.spawn(move || commit_loop(&shared, &cell_dir, episodes))
             })
             .collect();
         (
             Committer {
                 tx,
-                failed: Arc::clone(&failed),
+                shared: Arc::clone(&shared),
             },
-            CommitThreads { handles, failed },
+            CommitThreads { handles, shared },
         )
+    }
+
+    /// No more blocks. With `keep_tail` (the cell's every block is computed
+    /// and the cell will be finalised by this process), the blocks the I/O
+    /// threads are still gathering are not written but handed back by
+    /// [`CommitThreads::finish`]; otherwise (an interrupted or failed cell, a
+    /// shard) every block is committed. Dropping a committer closes it
+    /// without `keep_tail`.
+    pub fn close(self, keep_tail: bool) {
+        self.shared.keep_tail.store(keep_tail, SeqCst);
     }
 
     /// Queues a finished block for its commit (waits while the queue is
     /// full). Fails with the first commit error, once one happened.
     pub fn submit(&self, block: BlockResult) -> Result<(), RunDirError> {
-        if let Some(e) = lock(&self.failed).take() {
+        if let Some(e) = lock(&self.shared.failed).take() {
             return Err(e);
         }
         // The receivers live until the sender is dropped (they only stop on
@@ -116,10 +164,12 @@ impl Committer {
 }
 
 impl CommitThreads<'_> {
-    /// Waits until every queued block is committed (the [`Committer`] must
-    /// have been dropped). Returns the I/O threads' total busy time, or the
-    /// first commit error not yet returned by [`Committer::submit`].
-    pub fn finish(self) -> Result<Duration, RunDirError> {
+    /// Waits until every queued block is committed, or kept back (the
+    /// [`Committer`] must have been closed or dropped). Returns the I/O
+    /// threads' total busy time and the blocks kept back
+    /// ([`Committer::close`]), in block order, or the first commit error not
+    /// yet returned by [`Committer::submit`].
+    pub fn finish(self) -> Result<(Duration, Vec<BlockResult>), RunDirError> {
         let mut busy = Duration::ZERO;
         for h in self.handles {
             match h.join() {
@@ -127,45 +177,64 @@ impl CommitThreads<'_> {
                 Err(panic) => std::panic::resume_unwind(panic),
             }
         }
-        match lock(&self.failed).take() {
-            Some(e) => Err(e),
-            None => Ok(busy),
+        if let Some(e) = lock(&self.shared.failed).take() {
+            return Err(e);
         }
+        let mut tail = std::mem::take(&mut *lock(&self.shared.tail));
+        tail.sort_by_key(|b| b.samples.start);
+        Ok((busy, tail))
     }
 }
 
 /// One I/O thread: commits blocks until the channel closes; after an error,
-/// only drains the queue. Takes every block waiting (up to [`GROUP`]) and
-/// commits them as one group ([`write_blocks`]): when the workers produce
-/// blocks faster than the disk syncs them, fewer syncs per block. Returns
-/// its busy time.
-fn commit_loop(
-    rx: &Mutex<Receiver<BlockResult>>,
-    failed: &Mutex<Option<RunDirError>>,
-    cell_dir: &Path,
-    episodes: u32,
-) -> Duration {
+/// only drains the queue. Gathers every block that arrives within [`LINGER`]
+/// of a group's first (up to the group's size) and commits them as one
+/// group ([`write_blocks`]): fewer, larger commits, and a cell computed
+/// within [`LINGER`] writes no block file at all when its blocks are kept
+/// back ([`Committer::close`]). Returns its busy time.
+fn commit_loop(shared: &Shared, cell_dir: &Path, episodes: u32) -> Duration {
     let mut busy = Duration::ZERO;
-    let mut group = Vec::with_capacity(GROUP);
+    let mut group = Vec::with_capacity(shared.group);
     loop {
+        let mut closed = false;
         {
             // The guard is dropped at the end of this block: the other
             // threads wait only for the hand-over, not for the commit.
-            let rx = lock(rx);
+            let rx = lock(&shared.rx);
             let Ok(block) = rx.recv() else { return busy };
             group.push(block);
-            while group.len() < GROUP {
-                match rx.try_recv() {
+            let t0 = Instant::now();
+            while group.len() < shared.group {
+                let left = LINGER.saturating_sub(t0.elapsed());
+                let wait = if FLUSH.load(SeqCst) {
+                    Duration::ZERO
+                } else {
+                    left.min(POLL)
+                };
+                match rx.recv_timeout(wait) {
                     Ok(block) => group.push(block),
-                    Err(_) => break,
+                    Err(RecvTimeoutError::Timeout) => {
+                        if wait.is_zero() || t0.elapsed() >= LINGER {
+                            break;
+                        }
+                    }
+                    Err(RecvTimeoutError::Disconnected) => {
+                        closed = true;
+                        break;
+                    }
                 }
             }
         }
+        if closed && shared.keep_tail.load(SeqCst) && !FLUSH.load(SeqCst) {
+            IN_FLIGHT.fetch_sub(group.len(), SeqCst);
+            lock(&shared.tail).append(&mut group);
+            return busy;
+        }
         let t = Instant::now();
-        let stopped = lock(failed).is_some();
+        let stopped = lock(&shared.failed).is_some();
         if !stopped {
             if let Err(e) = write_blocks(cell_dir, &group, episodes) {
-                lock(failed).get_or_insert(e);
+                lock(&shared.failed).get_or_insert(e);
             }
         }
         IN_FLIGHT.fetch_sub(group.len(), SeqCst);
@@ -215,7 +284,9 @@ mod tests {
                 c.submit(block(i, samples)).unwrap();
             }
             drop(c);
-            threads.finish().unwrap()
+            let (busy, tail) = threads.finish().unwrap();
+            assert!(tail.is_empty());
+            busy
         });
         assert!(busy > Duration::ZERO);
         for i in 0..n_blocks(samples) {
@@ -225,6 +296,32 @@ mod tests {
                 std::fs::read(block_path(&b, i)).unwrap()
             );
         }
+        std::fs::remove_dir_all(&base).unwrap();
+    }
+
+    #[test]
+    fn blocks_gathering_at_the_close_are_kept_back_when_asked() {
+        let base = std::env::temp_dir().join(format!("rwg-committer-k-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&base);
+        let samples = 10 * 32;
+        let run = |dir: &Path, keep: bool| {
+            std::thread::scope(|s| {
+                let (c, threads) = Committer::start(s, dir, 1);
+                for i in 0..n_blocks(samples) {
+                    c.submit(block(i, samples)).unwrap();
+                }
+                c.close(keep);
+                threads.finish().unwrap().1
+            })
+        };
+        // Submitted within LINGER: all kept back, in block order, no file.
+        let tail = run(&base.join("keep"), true);
+        let order: Vec<u64> = tail.iter().map(|b| b.samples.start / 32).collect();
+        assert_eq!(order, (0..n_blocks(samples)).collect::<Vec<_>>());
+        assert!(!base.join("keep").join("blocks").exists());
+        // Without keep_tail every block is committed.
+        assert!(run(&base.join("all"), false).is_empty());
+        assert!((0..n_blocks(samples)).all(|i| block_done(&base.join("all"), i)));
         std::fs::remove_dir_all(&base).unwrap();
     }
 

@@ -218,7 +218,7 @@ pub fn merge_shards(
                 source,
             })?;
         }
-        let (cm, totals) = cell.finalize(m, out, 0.0, false)?;
+        let (cm, totals) = cell.finalize(m, out, 0.0, false, &[])?;
         on_cell(Some(&cell.summary_line(&totals.means, None)));
         meta.env_steps += cm.env_steps;
         meta.cells.push(cm);

@@ -2,7 +2,8 @@
 //! finalisation and `run.json`, while the next cell samples.
 //!
 //! When a cell's workers are done, its last blocks are still being committed
-//! by the I/O threads ([`crate::committer`]: write, rename, index line), and the
+//! by the I/O threads ([`crate::committer`]: write, rename, index line; the
+//! group still gathering is kept back and finalised from memory), and the
 //! cell is still to be finalised (`scores.csv`, statistics, `samples.csv`,
 //! `cell.json`) and recorded in `run.json` (a synced write). Done by the
 //! runner's thread, all of it would keep the workers waiting; on a short
@@ -24,7 +25,8 @@ use crate::cells::{Cell, SummaryLine};
 use crate::committer::CommitThreads;
 use crate::error::CellError;
 use crate::manifest::Manifest;
-use crate::rundir::blocks::CellTotals;
+use crate::rundir::blocks::{write_blocks, CellTotals};
+use crate::rundir::cell_dir;
 use crate::rundir::data::KeptEpisodes;
 use crate::rundir::meta::{write_run_meta, CellMeta, RunMeta};
 use crate::timing::CellTiming;
@@ -202,7 +204,7 @@ pub(crate) fn spawn_cell_end<'scope>(
 ) -> ScopedJoinHandle<'scope, Result<CellEnd, StudyError>> {
     scope.spawn(move || {
         let t = Instant::now();
-        let commit_io = commits
+        let (commit_io, tail) = commits
             .finish()
             .map_err(|e| cell.failure(out, CellError::from(e)))?;
         let commit_end = t.elapsed();
@@ -211,7 +213,13 @@ pub(crate) fn spawn_cell_end<'scope>(
         let finalized = if shard {
             None
         } else {
-            Some(pool.install(|| cell.finalize(m, out, wall, keep))?)
+            let finalized = pool.install(|| cell.finalize(m, out, wall, keep, &tail));
+            if finalized.is_err() && !tail.is_empty() {
+                // Kept back for the finalisation, which failed: committed
+                // now, so that a rerun resumes after them.
+                let _ = write_blocks(&cell_dir(out, &cell.id.dir), &tail, m.episodes);
+            }
+            Some(finalized?)
         };
         Ok(CellEnd {
             commit_io,

@@ -281,7 +281,9 @@ pub fn run_study(
                 })
             });
             let sampling = t_sampling.elapsed();
-            drop(committer);
+            // A cell sampled to its end is finalised from the blocks still
+            // gathering for a commit, without writing them.
+            committer.close(sampled.is_ok() && opts.shard.is_none());
             if let Err(e) = sampled {
                 // The blocks computed before are committed before the run
                 // ends (a rerun resumes after them).

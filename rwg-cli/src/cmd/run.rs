@@ -29,7 +29,9 @@ Writes a run directory:
   cells/<env>__<arch>__<bias|nobias>/samples.csv  sample,mean,variance,std,min,max,rank
   cells/<env>__<arch>__<bias|nobias>/cell.json    the cell's metadata
 
-Work is committed in blocks of 32 networks. Running the same manifest on a
+Work is committed in blocks of 32 networks, at most 2 s after they are
+computed (a cell computed within that time writes its results directly).
+Running the same manifest on a
 directory that holds an unfinished run resumes it; the result is byte-identical to
 an uninterrupted run. Ctrl-C stops after the blocks in flight.
 

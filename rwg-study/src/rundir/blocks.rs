@@ -306,18 +306,35 @@ fn parse_row(line: &str, sample: u64, episode: u32) -> Result<(f64, u64), String
 
 /// Streams the cell's blocks into `scores.csv`, writes `samples.csv` (and,
 /// before it, `cell.json` = `cell_json` if given), then removes the blocks.
-/// Memory: one block file (at most 32 × [`crate::limits::MAX_EPISODES`] rows,
-/// ~8 MB), one
-/// sample's scores and the per-sample summaries.
+/// The blocks are the committed block files, except those in `pending`:
+/// blocks of this process not committed to files (the last ones a run
+/// computed, [`crate::committer::CommitThreads::finish`]), whose rows are
+/// formatted as [`write_blocks`] would write them. Memory: one block file (at
+/// most 32 × [`crate::limits::MAX_EPISODES`] rows, ~8 MB), one sample's
+/// scores and the per-sample summaries (with `keep`, every episode's score
+/// and length too).
 pub fn finalize_cell(
     cell_dir: &Path,
     samples: u64,
     episodes: u32,
     keep: bool,
+    pending: &[BlockResult],
     cell_json: impl FnOnce(&CellTotals) -> Option<String>,
 ) -> Result<CellTotals, RunDirError> {
     let index = BlockIndex::load(cell_dir)?;
+    let pending: BTreeMap<u64, &BlockResult> = pending
+        .iter()
+        .map(|b| (b.samples.start / BLOCK_SAMPLES, b))
+        .collect();
     for b in 0..n_blocks(samples) {
+        if let Some(p) = pending.get(&b) {
+            assert_eq!(p.samples, block_samples(b, samples), "pending block {b}");
+            assert_eq!(
+                p.episodes.len(),
+                p.samples.clone().count() * episodes as usize
+            );
+            continue;
+        }
         if !index.done(b) {
             return Err(RunDirError::MissingBlock {
                 path: block_path(cell_dir, b),
@@ -325,6 +342,8 @@ pub fn finalize_cell(
             });
         }
     }
+    // A cell whose blocks are all pending has no directory yet.
+    std::fs::create_dir_all(cell_dir).map_err(io_err(cell_dir))?;
     let scores_path = cell_dir.join(SCORES_CSV);
     let mut scores = AtomicFile::create(&scores_path).map_err(io_err(&scores_path))?;
     writeln!(scores, "{SCORES_HEADER}").map_err(io_err(&scores_path))?;
@@ -338,7 +357,27 @@ pub fn finalize_cell(
     };
     let (mut all_scores, mut all_steps): (Vec<f64>, Vec<u32>) =
         (Vec::with_capacity(kept), Vec::with_capacity(kept));
+    let mut text = vec![];
     for b in 0..n_blocks(samples) {
+        if let Some(block) = pending.get(&b) {
+            // This process's own results: no file to read or check.
+            for sample in block.episodes.chunks(episodes as usize) {
+                buf.clear();
+                for r in sample {
+                    buf.push(r.score);
+                    env_steps += u64::from(r.steps);
+                    if keep {
+                        all_scores.push(r.score);
+                        all_steps.push(r.steps);
+                    }
+                }
+                summaries.push(sample_stats(&buf));
+            }
+            text.clear();
+            rows::push_score_rows(&mut text, block, episodes);
+            scores.write_all(&text).map_err(io_err(&scores_path))?;
+            continue;
+        }
         // A block is small (32 networks' rows): read whole, checked row by
         // row, then copied as it is (rwg wrote it, in the form scores.csv
         // takes) and checked against its digest.
@@ -425,8 +464,10 @@ pub fn finalize_cell(
     let sums_path = cell_dir.join(SUMS);
     write_atomic_hashed(&sums_path, sums_text(&sums).as_bytes()).map_err(io_err(&sums_path))?;
     let blocks = cell_dir.join(BLOCKS);
-    std::fs::remove_dir_all(&blocks).map_err(io_err(&blocks))?;
-    sync_dir(&blocks).map_err(io_err(cell_dir))?;
+    if blocks.exists() {
+        std::fs::remove_dir_all(&blocks).map_err(io_err(&blocks))?;
+        sync_dir(&blocks).map_err(io_err(cell_dir))?;
+    }
     Ok(totals)
 }
 
@@ -460,14 +501,16 @@ mod tests {
         for b in [2, 0] {
             write_block(&dir, &block(b, samples, 2), 2).unwrap();
         }
-        let err = finalize_cell(&dir, samples, 2, false, |_| None).unwrap_err();
+        let err = finalize_cell(&dir, samples, 2, false, &[], |_| None).unwrap_err();
         assert!(
             matches!(err, RunDirError::MissingBlock { block: 1, .. }),
             "{err}"
         );
         write_block(&dir, &block(1, samples, 2), 2).unwrap();
-        let totals =
-            finalize_cell(&dir, samples, 2, true, |t| Some(format!("{}", t.env_steps))).unwrap();
+        let totals = finalize_cell(&dir, samples, 2, true, &[], |t| {
+            Some(format!("{}", t.env_steps))
+        })
+        .unwrap();
         assert_eq!(totals.means.len(), samples as usize);
         // What the analysis gets: the rows of scores.csv.
         let (scores, steps) = &totals.episodes;
@@ -537,7 +580,7 @@ mod tests {
         let p = block_path(&dir, 0);
         let text = std::fs::read_to_string(&p).unwrap().replace("1,1,", "1,7,");
         std::fs::write(&p, text).unwrap();
-        let err = finalize_cell(&dir, 3, 2, false, |_| None)
+        let err = finalize_cell(&dir, 3, 2, false, &[], |_| None)
             .unwrap_err()
             .to_string();
         assert!(
@@ -555,7 +598,7 @@ mod tests {
             + 1;
         bytes[third + 2] = 0xff;
         std::fs::write(&p, bytes).unwrap();
-        let err = finalize_cell(&dir, 3, 2, false, |_| None)
+        let err = finalize_cell(&dir, 3, 2, false, &[], |_| None)
             .unwrap_err()
             .to_string();
         assert!(err.contains("b0000000.csv:3: not UTF-8 text"), "{err}");
@@ -574,7 +617,7 @@ mod tests {
             .unwrap()
             .replacen(",10", ",11", 1);
         std::fs::write(&p, text).unwrap();
-        let err = finalize_cell(&dir, 3, 2, false, |_| None)
+        let err = finalize_cell(&dir, 3, 2, false, &[], |_| None)
             .unwrap_err()
             .to_string();
         assert!(err.contains("b0000000.csv: checksum mismatch"), "{err}");
@@ -582,7 +625,7 @@ mod tests {
         // A block file the index does not list is not committed.
         std::fs::remove_file(dir.join("blocks").join(SUMS)).unwrap();
         assert!(!block_done(&dir, 0));
-        let err = finalize_cell(&dir, 3, 2, false, |_| None).unwrap_err();
+        let err = finalize_cell(&dir, 3, 2, false, &[], |_| None).unwrap_err();
         assert!(
             matches!(err, RunDirError::MissingBlock { block: 0, .. }),
             "{err}"
@@ -619,12 +662,12 @@ mod tests {
         write_blocks(&dir, &blocks[1..3], 2).unwrap();
         let (index, dropped) = BlockIndex::load_checked(&dir).unwrap();
         assert!(dropped.is_empty() && (0..5).all(|b| index.done(b)));
-        let totals = finalize_cell(&dir, samples, 2, false, |_| None).unwrap();
+        let totals = finalize_cell(&dir, samples, 2, false, &[], |_| None).unwrap();
         let clean = dir.with_extension("clean");
         let _ = std::fs::remove_dir_all(&clean);
         write_blocks(&clean, &blocks, 2).unwrap();
         assert_eq!(
-            finalize_cell(&clean, samples, 2, false, |_| None).unwrap(),
+            finalize_cell(&clean, samples, 2, false, &[], |_| None).unwrap(),
             totals
         );
         for f in [SCORES_CSV, SAMPLES_CSV] {
@@ -635,5 +678,39 @@ mod tests {
         }
         std::fs::remove_dir_all(&dir).unwrap();
         std::fs::remove_dir_all(&clean).unwrap();
+    }
+
+    #[test]
+    fn pending_blocks_finalise_as_committed_ones() {
+        let base = std::env::temp_dir().join(format!("rwg-rundir-pend-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&base);
+        let samples = 4 * BLOCK_SAMPLES + 9;
+        let blocks: Vec<_> = (0..5).map(|b| block(b, samples, 3)).collect();
+        let (files, mixed, memory) = (base.join("f"), base.join("m"), base.join("p"));
+        write_blocks(&files, &blocks, 3).unwrap();
+        let want = finalize_cell(&files, samples, 3, true, &[], |_| None).unwrap();
+        write_blocks(&mixed, &[blocks[1].clone(), blocks[3].clone()], 3).unwrap();
+        let pending = [blocks[0].clone(), blocks[2].clone(), blocks[4].clone()];
+        let got = finalize_cell(&mixed, samples, 3, true, &pending, |_| None).unwrap();
+        assert_eq!(got, want);
+        let got = finalize_cell(&memory, samples, 3, true, &blocks, |_| None).unwrap();
+        assert_eq!(got, want);
+        for dir in [&mixed, &memory] {
+            for f in [SCORES_CSV, SAMPLES_CSV, SUMS] {
+                assert_eq!(
+                    std::fs::read(dir.join(f)).unwrap(),
+                    std::fs::read(files.join(f)).unwrap(),
+                    "{f}"
+                );
+            }
+            assert!(!dir.join(BLOCKS).exists());
+        }
+        // A block neither committed nor pending is missing.
+        let err = finalize_cell(&base.join("none"), samples, 3, false, &pending, |_| None);
+        assert!(
+            matches!(err, Err(RunDirError::MissingBlock { block: 1, .. })),
+            "{err:?}"
+        );
+        std::fs::remove_dir_all(&base).unwrap();
     }
 }
