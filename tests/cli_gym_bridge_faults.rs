@@ -232,10 +232,13 @@ fn sigkill_resume_and_shards_merge_give_identical_bytes() {
     // SIGKILL once some blocks are committed, then resume
     let run = dir.join("killed");
     let blocks = run.join("cells/gymnasium=CartPole-v1__1HL__nobias/blocks");
+    // Blocks committed one by one (not gathered for 2 s): the kill lands
+    // between commits, before the run's end.
     let mut child = rwg_cmd(
         &py,
         &["run", &m, "--out", run.to_str().unwrap(), "--no-report"],
     )
+    .env("RWG_COMMIT_LINGER", "0")
     .stdout(Stdio::null())
     .stderr(Stdio::null())
     .spawn()

@@ -324,3 +324,32 @@ fn a_cell_end_failing_after_the_sampling_fails_the_run_naming_the_cell_and_resum
         "{err}"
     );
 }
+
+#[test]
+fn a_bad_commit_linger_is_refused_naming_the_variable() {
+    let dir = temp_dir("linger");
+    let m = manifest(&dir, "m.toml", CARTPOLE);
+    let out = dir.join("run");
+    let o = rwg_env(
+        &["run", &m, "-q", "--out", out.to_str().unwrap()],
+        &[("RWG_COMMIT_LINGER", std::ffi::OsStr::new("soon"))],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("RWG_COMMIT_LINGER=soon: expected seconds from 0 to 3600"),
+        "{err}"
+    );
+    // 0: every block committed at once, the same results.
+    let o = rwg_env(
+        &["run", &m, "-q", "--out", out.to_str().unwrap()],
+        &[("RWG_COMMIT_LINGER", std::ffi::OsStr::new("0"))],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let clean = dir.join("clean");
+    rwg_ok(&["run", &m, "-q", "--out", clean.to_str().unwrap()]);
+    for f in ["scores.csv", "samples.csv"] {
+        let p = format!("cells/CartPole-v0__1HL__nobias/{f}");
+        assert_eq!(read(out.join(&p)), read(clean.join(&p)), "{p}");
+    }
+}

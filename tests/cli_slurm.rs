@@ -97,12 +97,16 @@ fn job_ids(dir: &Path, kind: &str) -> Vec<String> {
         .collect()
 }
 
-/// Runs `rwg` in `cwd` against the cluster.
+/// Runs `rwg` in `cwd` against the cluster. Its jobs inherit the
+/// environment (sbatch's default `--export=ALL`): blocks are committed one
+/// by one (`RWG_COMMIT_LINGER=0`), so that a job killed or requeued once it
+/// has committed a block is still running.
 fn rwg_in(cluster: &Cluster, cwd: &Path, args: &[&str]) -> String {
     let o = Command::new(rwg_bin())
         .args(args)
         .current_dir(cwd)
         .env("SLURM_CONF", &cluster.conf)
+        .env("RWG_COMMIT_LINGER", "0")
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&o.stdout).into_owned();

@@ -44,8 +44,10 @@ const QUEUE: usize = 64;
 const GROUP: usize = 256;
 /// Most episodes in one group (bounds its memory: 12 bytes each).
 const GROUP_EPISODES: usize = 1 << 20;
-/// How long an I/O thread waits for more blocks to join a group after its
-/// first: a block is committed at most this long after it was computed.
+/// How long an I/O thread waits, by default, for more blocks to join a group
+/// after its first: a block is committed at most this long after it was
+/// computed ([`Committer::start`]'s `linger`; `rwg run` reads
+/// `RWG_COMMIT_LINGER`).
 pub const LINGER: Duration = Duration::from_secs(2);
 /// How often a lingering I/O thread looks at [`FLUSH`].
 const POLL: Duration = Duration::from_millis(10);
@@ -87,6 +89,8 @@ struct Shared {
     tail: Mutex<Vec<BlockResult>>,
     /// Most blocks per group (from [`GROUP`] and [`GROUP_EPISODES`]).
     group: usize,
+    /// How long a group gathers after its first block.
+    linger: Duration,
 }
 
 /// Hands finished blocks of one cell to I/O threads that commit them.
@@ -110,6 +114,7 @@ impl Committer {
         scope: &'scope Scope<'scope, '_>,
         cell_dir: &Path,
         episodes: u32,
+        linger: Duration,
     ) -> (Committer, CommitThreads<'scope>) {
         let cell_dir: Arc<Path> = Arc::from(cell_dir);
         let (tx, rx) = sync_channel::<BlockResult>(QUEUE);
@@ -120,6 +125,7 @@ impl Committer {
             keep_tail: AtomicBool::new(false),
             tail: Mutex::default(),
             group: (GROUP_EPISODES / per_block).clamp(1, GROUP),
+            linger,
         });
         let handles = (0..COMMIT_THREADS)
             .map(|_| {
@@ -205,7 +211,7 @@ fn commit_loop(shared: &Shared, cell_dir: &Path, episodes: u32) -> Duration {
             group.push(block);
             let t0 = Instant::now();
             while group.len() < shared.group {
-                let left = LINGER.saturating_sub(t0.elapsed());
+                let left = shared.linger.saturating_sub(t0.elapsed());
                 let wait = if FLUSH.load(SeqCst) {
                     Duration::ZERO
                 } else {
@@ -214,7 +220,7 @@ fn commit_loop(shared: &Shared, cell_dir: &Path, episodes: u32) -> Duration {
                 match rx.recv_timeout(wait) {
                     Ok(block) => group.push(block),
                     Err(RecvTimeoutError::Timeout) => {
-                        if wait.is_zero() || t0.elapsed() >= LINGER {
+                        if wait.is_zero() || t0.elapsed() >= shared.linger {
                             break;
                         }
                     }
@@ -279,7 +285,7 @@ mod tests {
             write_block(&a, &block(i, samples), 1).unwrap();
         }
         let busy = std::thread::scope(|s| {
-            let (c, threads) = Committer::start(s, &b, 1);
+            let (c, threads) = Committer::start(s, &b, 1, LINGER);
             for i in (0..n_blocks(samples)).rev() {
                 c.submit(block(i, samples)).unwrap();
             }
@@ -306,7 +312,7 @@ mod tests {
         let samples = 10 * 32;
         let run = |dir: &Path, keep: bool| {
             std::thread::scope(|s| {
-                let (c, threads) = Committer::start(s, dir, 1);
+                let (c, threads) = Committer::start(s, dir, 1, LINGER);
                 for i in 0..n_blocks(samples) {
                     c.submit(block(i, samples)).unwrap();
                 }
@@ -334,7 +340,7 @@ mod tests {
         let cell = base.join("cell");
         std::fs::write(&cell, "not a directory").unwrap();
         let err = std::thread::scope(|s| {
-            let (c, threads) = Committer::start(s, &cell, 1);
+            let (c, threads) = Committer::start(s, &cell, 1, LINGER);
             let mut first = None;
             for i in 0..8 {
                 if let Err(e) = c.submit(block(i, 8 * 32)) {

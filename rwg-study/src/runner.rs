@@ -33,7 +33,7 @@ use rwg_env::Environment;
 use rwg_envs::{visit, visit_lockstep, EnvVisitor, LockstepEnv, LockstepVisitor};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::{Instant, SystemTime};
+use std::time::{Duration, Instant, SystemTime};
 
 /// How to run a study.
 #[derive(Debug, Clone)]
@@ -51,6 +51,9 @@ pub struct RunOptions<'a> {
     /// ([`RunReport::episodes`], 12 bytes per episode), for an analysis of
     /// the run that follows it (which then need not read `scores.csv` back).
     pub keep_episodes: bool,
+    /// How long finished blocks gather before they are committed as a group
+    /// ([`crate::committer::LINGER`] by default; zero commits each at once).
+    pub commit_linger: Duration,
 }
 
 /// What a run reports while it works.
@@ -269,7 +272,8 @@ pub fn run_study(
             let mut cell_steps = 0u64;
             // Blocks are committed by I/O threads while the workers compute
             // the next ones; the cell's end waits for the last commits.
-            let (committer, io_threads) = Committer::start(fin, &dir, m.episodes);
+            let (committer, io_threads) =
+                Committer::start(fin, &dir, m.episodes, opts.commit_linger);
             let t_sampling = Instant::now();
             let stop = [opts.stop, &abort];
             let sampled = pool.install(|| {

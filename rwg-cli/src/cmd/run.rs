@@ -30,7 +30,8 @@ Writes a run directory:
   cells/<env>__<arch>__<bias|nobias>/cell.json    the cell's metadata
 
 Work is committed in blocks of 32 networks, at most 2 s after they are
-computed (a cell computed within that time writes its results directly).
+computed (RWG_COMMIT_LINGER=SECONDS changes that; a cell computed within
+that time writes its results directly, without block files).
 Running the same manifest on a
 directory that holds an unfinished run resumes it; the result is byte-identical to
 an uninterrupted run. Ctrl-C stops after the blocks in flight.
@@ -188,6 +189,7 @@ pub fn run(args: Args) -> Result<()> {
         force_new: args.force_new,
         stop: fault_guard::interrupt_flag(),
         keep_episodes: args.shard.is_none() && !args.no_report,
+        commit_linger: commit_linger()?,
     };
     let (mut bar, mut lines, mut silent) = (Bar::default(), Lines::new(), Silent);
     let display: &mut dyn Progress = if args.quiet {
@@ -303,6 +305,26 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// How long finished blocks gather before a commit: `RWG_COMMIT_LINGER`
+/// (seconds, may be fractional; 0 commits every block at once), else
+/// [`rwg_study::committer::LINGER`].
+fn commit_linger() -> Result<std::time::Duration> {
+    let Ok(v) = std::env::var("RWG_COMMIT_LINGER") else {
+        return Ok(rwg_study::committer::LINGER);
+    };
+    v.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|s| (0.0..=3600.0).contains(s))
+        .map(std::time::Duration::from_secs_f64)
+        .ok_or_else(|| {
+            anyhow::anyhow!(
+                "RWG_COMMIT_LINGER={v}: expected seconds from 0 to 3600 (how long finished \
+                 blocks gather before they are committed; 0 commits each block at once)"
+            )
+        })
 }
 
 fn shard_flag(s: Option<ShardMeta>) -> String {
