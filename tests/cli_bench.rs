@@ -218,9 +218,16 @@ fn bench_peers_measures_both_sides_and_their_ratio() {
     // (the peer itself runs in that directory: the path must not be resolved twice).
     let peers = peers.canonicalize().unwrap();
     let (parent, name) = (peers.parent().unwrap(), peers.file_name().unwrap());
+    // The interpreter relative to that directory too, as the README's default
+    // `--venv target/peers-venv` is: rwg must not look it up from the peer's
+    // own working directory.
+    let python = relative_to(&python_path(&python), parent);
+    assert!(python.is_relative(), "{}", python.display());
     let out = std::process::Command::new(rwg_bin())
         .current_dir(parent)
-        .args(["bench", "peers", "--python", &python, "--peers"])
+        .args(["bench", "peers", "--python"])
+        .arg(&python)
+        .arg("--peers")
         .arg(name)
         .args(["--work-dir", work.to_str().unwrap()])
         .args([
@@ -328,4 +335,28 @@ fn bench_libm_checks_every_range_and_times_both() {
             );
         }
     }
+}
+
+/// `python` with its directory canonical and its file name kept (a
+/// virtualenv's interpreter is a symlink out of the venv, which must not be
+/// followed).
+fn python_path(python: &str) -> std::path::PathBuf {
+    let p = std::path::Path::new(python);
+    let dir = p.parent().unwrap().canonicalize().unwrap();
+    dir.join(p.file_name().unwrap())
+}
+
+/// `path` relative to the directory `base` (both absolute and canonical but
+/// for `path`'s last component), with `..` where it lies outside `base`.
+fn relative_to(path: &std::path::Path, base: &std::path::Path) -> std::path::PathBuf {
+    let (p, b): (Vec<_>, Vec<_>) = (path.components().collect(), base.components().collect());
+    let common = p.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let mut out = std::path::PathBuf::new();
+    for _ in common..b.len() {
+        out.push("..");
+    }
+    for c in &p[common..] {
+        out.push(c);
+    }
+    out
 }

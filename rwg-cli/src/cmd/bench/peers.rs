@@ -312,15 +312,21 @@ fn pin_to(cpu: usize) -> Result<()> {
 
 /// The peer's Python: --python, else the venv's (created if asked).
 fn peer_python(args: &PeersArgs) -> Result<PathBuf> {
+    // The peer runs in the scripts' directory, so a relative interpreter
+    // path would be looked up there: make it absolute first (not canonical,
+    // which would follow the venv's symlink out of the venv).
+    let absolute = |p: &Path| {
+        std::path::absolute(p).with_context(|| format!("cannot resolve {}", p.display()))
+    };
     if let Some(p) = &args.python {
         if !p.exists() {
             bail!("--python / RWG_PEER_PYTHON {} does not exist", p.display());
         }
-        return Ok(p.clone());
+        return absolute(p);
     }
     let py = args.venv.join("bin").join("python");
     if py.exists() {
-        return Ok(py);
+        return absolute(&py);
     }
     if !args.create_venv {
         bail!(
@@ -351,7 +357,7 @@ fn peer_python(args: &PeersArgs) -> Result<PathBuf> {
             args.venv.display()
         );
     }
-    Ok(py)
+    absolute(&py)
 }
 
 /// Reads `env_steps` of a finished run directory's run.json.
