@@ -14,3 +14,5 @@ pub mod many;
 pub mod policy;
 pub mod sampler;
 pub mod tanh;
+#[cfg(test)]
+mod test_envs;

@@ -1,0 +1,68 @@
+//! Test helpers shared by the sampler loops' unit tests (`batch`, `many`).
+
+use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
+
+/// A toy env: episodes of 1 + (seed % 7) steps; fails at step 2 of
+/// episodes whose seed is a multiple of `fail_every`, and at reset when
+/// it is also odd.
+#[derive(Clone)]
+pub(crate) struct Toy {
+    spec: EnvSpec,
+    seed: u64,
+    t: u64,
+    fail_every: u64,
+}
+
+impl Toy {
+    pub(crate) fn new(fail_every: u64, continuous: bool) -> Self {
+        Toy {
+            spec: EnvSpec {
+                id: "Toy-v0".into(),
+                observation_space: Space::Box(BoxSpace::symmetric(&[1e9, 1e9])),
+                action_space: if continuous {
+                    Space::Box(BoxSpace::symmetric(&[2.0]))
+                } else {
+                    Space::Discrete { n: 3 }
+                },
+                max_episode_steps: None,
+                reward_threshold: None,
+            },
+            seed: 0,
+            t: 0,
+            fail_every,
+        }
+    }
+}
+
+impl Environment for Toy {
+    fn spec(&self) -> &EnvSpec {
+        &self.spec
+    }
+    fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+        if seed % self.fail_every == 0 && seed % 2 == 1 {
+            return Err(EnvError::Other(format!("reset {seed}")));
+        }
+        self.seed = seed;
+        self.t = 0;
+        obs[0] = (seed % 1000) as f64 / 1000.0;
+        obs[1] = -obs[0];
+        Ok(())
+    }
+    fn step(&mut self, a: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+        let a = match a {
+            Action::Discrete(a) => a as f64,
+            Action::Continuous(v) => v[0],
+        };
+        self.t += 1;
+        if self.seed % self.fail_every == 0 && self.t == 2 {
+            return Err(EnvError::Other(format!("step {}", self.seed)));
+        }
+        obs[0] = obs[0] * 0.5 + a;
+        obs[1] = obs[1] * 0.25 - a;
+        Ok(Step {
+            reward: obs[0] - obs[1],
+            terminated: self.t > self.seed % 7,
+            truncated: false,
+        })
+    }
+}
