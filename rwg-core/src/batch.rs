@@ -11,10 +11,9 @@
 //! results are identical to running the same environment one episode after
 //! the other.
 
+use crate::block::{draw_block_weights, make_failed, record_failure, BlockRun};
 use crate::policy::{NetShape, PolicyLanes};
-use crate::sampler::{
-    draw_weights, reset_seed, weight_rng, BlockResult, CellPlan, EpisodeResult, SampleError, LANES,
-};
+use crate::sampler::{BlockResult, CellPlan, EpisodeResult, SampleError, LANES};
 use rayon::prelude::*;
 use rwg_env::Action;
 use rwg_env::{EnvError, EnvSpec, Step};
@@ -191,15 +190,6 @@ struct Group {
     in_flight: bool,
 }
 
-/// The block being run: what the lanes of all groups share.
-struct BlockRun<'a> {
-    plan: &'a CellPlan,
-    samples: Range<u64>,
-    next: usize,
-    total: usize,
-    failure: Option<(usize, u32, EnvError)>,
-}
-
 /// [`crate::sampler::LaneWorker`] for a [`BatchEnv`]: [`LANES`] episodes side
 /// by side in each of the env's groups, one exchange per group and batch
 /// step. A lane whose episode ends is reset in its group's next exchange
@@ -277,27 +267,8 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
         let n = (samples.end - samples.start) as usize;
         assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
         let nw = self.n_weights;
-        self.block_weights.resize(n * nw, 0.0);
-        for k in 0..n {
-            let mut rng = weight_rng(
-                plan.seed,
-                &plan.env_id,
-                &plan.arch,
-                samples.start + k as u64,
-            );
-            draw_weights(
-                &mut rng,
-                plan.dist,
-                &mut self.block_weights[k * nw..(k + 1) * nw],
-            );
-        }
-        let mut run = BlockRun {
-            plan,
-            samples: samples.clone(),
-            next: 0,
-            total: n * e,
-            failure: None,
-        };
+        draw_block_weights(plan, &samples, nw, &mut self.block_weights);
+        let mut run = BlockRun::new(plan, samples);
         for g in 0..self.groups.len() {
             let group = &mut self.groups[g];
             for (i, lane) in group.lanes.iter_mut().enumerate() {
@@ -338,16 +309,7 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
                 self.send(g, &mut run);
             }
         }
-        match run.failure {
-            None => Ok(()),
-            Some((item, step, error)) => Err(SampleError {
-                env: plan.env_id.clone(),
-                sample: samples.start + (item / e) as u64,
-                episode: (item % e) as u32,
-                step,
-                error,
-            }),
-        }
+        run.into_result()
     }
 
     /// Sends group `g`'s next exchange, if any of its lanes is busy.
@@ -459,37 +421,15 @@ fn start_next(
     i: usize,
     lane: &mut Lane,
 ) {
-    if run.next >= run.total {
+    let Some(ep) = run.next_episode() else {
         return;
+    };
+    if lane.weights_of != ep.k {
+        policy.set_weights(i, &block_weights[ep.k * nw..(ep.k + 1) * nw]);
+        lane.weights_of = ep.k;
     }
-    let item = run.next;
-    run.next += 1;
-    let e = run.plan.episodes as usize;
-    let (k, episode) = (item / e, item % e);
-    if lane.weights_of != k {
-        policy.set_weights(i, &block_weights[k * nw..(k + 1) * nw]);
-        lane.weights_of = k;
-    }
-    let r = reset_seed(
-        run.plan.seed,
-        &run.plan.env_id,
-        run.samples.start + k as u64,
-        episode as u32,
-    );
-    lane.item = item;
-    lane.state = LaneState::Resetting(r);
-}
-
-/// Keeps the failure of the earliest episode.
-fn record_failure(
-    failure: &mut Option<(usize, u32, EnvError)>,
-    item: usize,
-    step: u32,
-    err: EnvError,
-) {
-    if failure.as_ref().is_none_or(|(first, _, _)| item < *first) {
-        *failure = Some((item, step, err));
-    }
+    lane.item = ep.item;
+    lane.state = LaneState::Resetting(ep.seed);
 }
 
 /// A worker on loan from a [`BatchPool`], given back when dropped (unless its
@@ -542,13 +482,9 @@ where
                     })
                 },
                 |lease, range| {
-                    let lease = lease.as_mut().map_err(|err| SampleError {
-                        env: plan.env_id.clone(),
-                        sample: range.start,
-                        episode: 0,
-                        step: 0,
-                        error: err.clone(),
-                    })?;
+                    let lease = lease
+                        .as_mut()
+                        .map_err(|err| make_failed(plan, range, err))?;
                     let worker = lease.worker.as_mut().expect("a leased worker");
                     BlockResult::compute(range.clone(), e, |out| {
                         worker.run_block(plan, range.clone(), out)

@@ -10,6 +10,7 @@
 //! statistics) is `rwg-study`.
 
 pub mod batch;
+mod block;
 pub mod many;
 pub mod policy;
 pub mod sampler;

@@ -10,27 +10,13 @@
 //! can be in flight), the call is synchronous and the buffers are the
 //! worker's own, so nothing is copied or wrapped per lane.
 
+use crate::block::{draw_block_weights, make_failed, record_failure, BlockRun};
 use crate::policy::{NetShape, PolicyLanes};
-use crate::sampler::{
-    draw_weights, record_failure, reset_seed, weight_rng, BlockResult, CellPlan, EpisodeResult,
-    SampleError, LANES,
-};
+use crate::sampler::{BlockResult, CellPlan, EpisodeResult, Lane, SampleError, LANES};
 use rayon::prelude::*;
 pub use rwg_env::many::ManyEnv;
 use rwg_env::{Action, EnvError, Space};
 use std::ops::Range;
-
-/// What one lane of a [`ManyLaneWorker`] is doing.
-#[derive(Debug, Clone, Copy)]
-struct Lane {
-    active: bool,
-    /// The episode: `sample_in_block * episodes + episode`.
-    item: usize,
-    /// Which sample of the block the lane's weights belong to.
-    weights_of: usize,
-    score: f64,
-    steps: u32,
-}
 
 /// [`crate::sampler::LaneWorker`] over a [`ManyEnv`] of [`LANES`] lanes:
 /// one `step_many` per step of all running episodes, one `reset_many` per
@@ -48,15 +34,6 @@ pub struct ManyLaneWorker<M> {
     terminated: [u8; LANES],
     truncated: [u8; LANES],
     block_weights: Vec<f64>,
-}
-
-/// The block being run.
-struct BlockRun<'a> {
-    plan: &'a CellPlan,
-    samples: Range<u64>,
-    next: usize,
-    total: usize,
-    failure: Option<(usize, u32, EnvError)>,
 }
 
 impl<M: ManyEnv> ManyLaneWorker<M> {
@@ -103,35 +80,9 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
         let n = (samples.end - samples.start) as usize;
         assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
         let nw = self.policy.shape().n_weights();
-        self.block_weights.resize(n * nw, 0.0);
-        for k in 0..n {
-            let mut rng = weight_rng(
-                plan.seed,
-                &plan.env_id,
-                &plan.arch,
-                samples.start + k as u64,
-            );
-            draw_weights(
-                &mut rng,
-                plan.dist,
-                &mut self.block_weights[k * nw..(k + 1) * nw],
-            );
-        }
-        let idle = Lane {
-            active: false,
-            item: 0,
-            weights_of: usize::MAX,
-            score: 0.0,
-            steps: 0,
-        };
-        let mut lanes = [idle; LANES];
-        let mut run = BlockRun {
-            plan,
-            samples: samples.clone(),
-            next: 0,
-            total: n * e,
-            failure: None,
-        };
+        draw_block_weights(plan, &samples, nw, &mut self.block_weights);
+        let mut lanes = [Lane::IDLE; LANES];
+        let mut run = BlockRun::new(plan, samples);
         for (i, lane) in lanes.iter_mut().enumerate() {
             self.start_next(&mut run, i, lane);
         }
@@ -193,43 +144,28 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
                 }
             }
         }
-        match run.failure {
-            None => Ok(()),
-            Some((item, step, error)) => Err(SampleError {
-                env: plan.env_id.clone(),
-                sample: samples.start + (item / e) as u64,
-                episode: (item % e) as u32,
-                step,
-                error,
-            }),
-        }
+        run.into_result()
     }
 
     /// Gives lane `i` the next episode of the block (its network's weights,
     /// its reset seed, marked for the next `reset_many`), unless all have
     /// started or one failed.
     fn start_next(&mut self, run: &mut BlockRun<'_>, i: usize, lane: &mut Lane) {
-        if run.failure.is_some() || run.next >= run.total {
+        if run.failure.is_some() {
             return;
         }
-        let item = run.next;
-        run.next += 1;
-        let e = run.plan.episodes as usize;
-        let (k, episode) = (item / e, item % e);
-        if lane.weights_of != k {
+        let Some(ep) = run.next_episode() else {
+            return;
+        };
+        if lane.weights_of != ep.k {
             let nw = self.policy.shape().n_weights();
             self.policy
-                .set_weights(i, &self.block_weights[k * nw..(k + 1) * nw]);
-            lane.weights_of = k;
+                .set_weights(i, &self.block_weights[ep.k * nw..(ep.k + 1) * nw]);
+            lane.weights_of = ep.k;
         }
-        self.seeds[i] = reset_seed(
-            run.plan.seed,
-            &run.plan.env_id,
-            run.samples.start + k as u64,
-            episode as u32,
-        );
+        self.seeds[i] = ep.seed;
         self.reset_mask[i] = 1;
-        lane.item = item;
+        lane.item = ep.item;
     }
 
     /// Resets the lanes [`Self::start_next`] marked, in one call.
@@ -285,13 +221,9 @@ where
             .map_init(
                 || make().map(|env| ManyLaneWorker::new(env, plan)),
                 |worker, range| {
-                    let worker = worker.as_mut().map_err(|err| SampleError {
-                        env: plan.env_id.clone(),
-                        sample: range.start,
-                        episode: 0,
-                        step: 0,
-                        error: err.clone(),
-                    })?;
+                    let worker = worker
+                        .as_mut()
+                        .map_err(|err| make_failed(plan, range, err))?;
                     BlockResult::compute(range.clone(), e, |out| {
                         worker.run_block(plan, range.clone(), out)
                     })

@@ -15,6 +15,7 @@
 //! architecture meets the same initial conditions (a paired comparison), and a
 //! user can replay any episode in Gymnasium with `env.reset(seed=r)`.
 
+use crate::block::{draw_block_weights, record_failure, BlockRun};
 use crate::policy::{Architecture, NetShape, Policy, PolicyLanes};
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
@@ -254,15 +255,28 @@ pub const LANES: usize = 16;
 
 /// What one lane of a [`LaneWorker`] is doing.
 #[derive(Debug, Clone, Copy)]
-struct Lane {
+pub(crate) struct Lane {
     /// Whether the lane is running an episode.
-    active: bool,
+    pub active: bool,
     /// The episode: `sample_in_block * episodes + episode`.
-    item: usize,
+    pub item: usize,
     /// Which sample of the block the lane's weights belong to.
-    weights_of: usize,
-    score: f64,
-    steps: u32,
+    pub weights_of: usize,
+    /// The episode's score so far.
+    pub score: f64,
+    /// The episode's steps so far.
+    pub steps: u32,
+}
+
+impl Lane {
+    /// A lane with no episode and no network's weights.
+    pub const IDLE: Lane = Lane {
+        active: false,
+        item: 0,
+        weights_of: usize::MAX,
+        score: 0.0,
+        steps: 0,
+    };
 }
 
 /// A worker that runs `K` episodes side by side, each on its own environment
@@ -320,36 +334,13 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
         let e = plan.episodes as usize;
         let n = (samples.end - samples.start) as usize;
         assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
-        let total = n * e;
         let nw = self.policy.shape().n_weights();
-        self.block_weights.resize(n * nw, 0.0);
-        for k in 0..n {
-            let mut rng = weight_rng(
-                plan.seed,
-                &plan.env_id,
-                &plan.arch,
-                samples.start + k as u64,
-            );
-            draw_weights(
-                &mut rng,
-                plan.dist,
-                &mut self.block_weights[k * nw..(k + 1) * nw],
-            );
-        }
-        let idle = Lane {
-            active: false,
-            item: 0,
-            weights_of: usize::MAX,
-            score: 0.0,
-            steps: 0,
-        };
-        let mut lanes = [idle; K];
-        let mut next = 0;
-        // The first failure in episode order: (item, step, error).
-        let mut failure: Option<(usize, u32, EnvError)> = None;
+        draw_block_weights(plan, &samples, nw, &mut self.block_weights);
+        let mut lanes = [Lane::IDLE; K];
+        let mut run = BlockRun::new(plan, samples);
         let d = self.obs_dim;
         for (i, lane) in lanes.iter_mut().enumerate() {
-            self.start_next(plan, &samples, i, lane, &mut next, total, &mut failure);
+            self.start_next(&mut run, i, lane);
         }
         while lanes.iter().any(|l| l.active) {
             self.policy.forward(&self.obs);
@@ -368,101 +359,51 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
                                 steps: lane.steps,
                             };
                             lane.active = false;
-                            self.start_next(
-                                plan,
-                                &samples,
-                                i,
-                                lane,
-                                &mut next,
-                                total,
-                                &mut failure,
-                            );
+                            self.start_next(&mut run, i, lane);
                         }
                     }
                     Err(err) => {
                         lane.active = false;
-                        record_failure(&mut failure, lane.item, lane.steps + 1, err);
+                        record_failure(&mut run.failure, lane.item, lane.steps + 1, err);
                     }
                 }
             }
-            if let Some((first, _, _)) = &failure {
+            if let Some((first, _, _)) = &run.failure {
                 // Episodes after the failing one do not matter any more.
                 for lane in lanes.iter_mut().filter(|l| l.item > *first) {
                     lane.active = false;
                 }
             }
         }
-        match failure {
-            None => Ok(()),
-            Some((item, step, error)) => Err(SampleError {
-                env: plan.env_id.clone(),
-                sample: samples.start + (item / e) as u64,
-                episode: (item % e) as u32,
-                step,
-                error,
-            }),
-        }
+        run.into_result()
     }
 
     /// Starts the next episode of the block on lane `i` (resetting its env,
     /// loading its network's weights), unless all have started or one failed.
-    #[allow(clippy::too_many_arguments)]
-    fn start_next(
-        &mut self,
-        plan: &CellPlan,
-        samples: &Range<u64>,
-        i: usize,
-        lane: &mut Lane,
-        next: &mut usize,
-        total: usize,
-        failure: &mut Option<(usize, u32, EnvError)>,
-    ) {
-        if failure.is_some() || *next >= total {
+    fn start_next(&mut self, run: &mut BlockRun<'_>, i: usize, lane: &mut Lane) {
+        if run.failure.is_some() {
             return;
         }
-        let item = *next;
-        *next += 1;
-        let e = plan.episodes as usize;
-        let (k, episode) = (item / e, item % e);
-        if lane.weights_of != k {
+        let Some(ep) = run.next_episode() else {
+            return;
+        };
+        if lane.weights_of != ep.k {
             let nw = self.policy.shape().n_weights();
             self.policy
-                .set_weights(i, &self.block_weights[k * nw..(k + 1) * nw]);
-            lane.weights_of = k;
+                .set_weights(i, &self.block_weights[ep.k * nw..(ep.k + 1) * nw]);
+            lane.weights_of = ep.k;
         }
-        let r = reset_seed(
-            plan.seed,
-            &plan.env_id,
-            samples.start + k as u64,
-            episode as u32,
-        );
         let d = self.obs_dim;
-        STARTING.with(|c| c.set((samples.start + k as u64, episode as u32)));
-        match self.envs[i].reset(r, &mut self.obs[i * d..(i + 1) * d]) {
+        STARTING.with(|c| c.set((run.samples.start + ep.k as u64, ep.episode)));
+        match self.envs[i].reset(ep.seed, &mut self.obs[i * d..(i + 1) * d]) {
             Ok(()) => {
                 lane.active = true;
-                lane.item = item;
+                lane.item = ep.item;
                 lane.score = 0.0;
                 lane.steps = 0;
             }
-            Err(err) => record_failure(failure, item, 0, err),
+            Err(err) => record_failure(&mut run.failure, ep.item, 0, err),
         }
-    }
-}
-
-/// Keeps the failure of the earliest episode.
-pub(crate) fn record_failure(
-    failure: &mut Option<(usize, u32, EnvError)>,
-    item: usize,
-    step: u32,
-    err: EnvError,
-) {
-    let earlier = match failure {
-        Some((first, _, _)) => item < *first,
-        None => true,
-    };
-    if earlier {
-        *failure = Some((item, step, err));
     }
 }
 
