@@ -112,7 +112,7 @@ fn bench_sampler_json_counts_every_step() {
 }
 
 #[test]
-fn bench_plugin_compares_builtin_single_and_batched_on_the_same_episodes() {
+fn bench_plugin_compares_builtin_lockstep_single_and_batched_on_the_same_episodes() {
     let lib = classic_control_plugin();
     let out = rwg_ok(&[
         "bench",
@@ -133,14 +133,22 @@ fn bench_plugin_compares_builtin_single_and_batched_on_the_same_episodes() {
     ]);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     let rows = v.as_array().unwrap();
-    // Two envs x the paper's three architectures; the three variants ran the
-    // same episodes (the command fails otherwise).
+    // Two envs x the paper's three architectures; the four variants (the
+    // built-in per lane and in lockstep, the plugin's single and batched
+    // calls) ran the same episodes (the command fails otherwise).
     assert_eq!(rows.len(), 6, "{out}");
     assert_eq!(rows[0]["env"], "CartPole-v0");
     assert_eq!(rows[5]["env"], "Pendulum-v1");
     assert_eq!(rows[5]["env_steps"], 40 * 2 * 200);
     for r in rows {
-        for k in ["builtin_ns", "single_ns", "batched_ns", "batched_ratio"] {
+        for k in [
+            "builtin_ns",
+            "single_ns",
+            "batched_ns",
+            "lockstep_ns",
+            "batched_ratio",
+            "batched_lockstep_ratio",
+        ] {
             assert!(r[k]["median"].as_f64().unwrap() > 0.0, "{k} in {r}");
         }
     }

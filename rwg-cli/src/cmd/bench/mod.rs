@@ -122,12 +122,14 @@ Example:
 For each built-in env the plugin re-exports as NAMESPACE/ID and each of the paper's \
 architectures (0HL, [4], [4,4]; no bias), ROUNDS interleaved rounds (the order rotating) of \
 the RWG workload (SAMPLES networks x EPISODES episodes, seeded with the built-in id so all \
-three run the same episodes, checked) on one sampler thread in this process: (1) the \
-built-in env; (2) the plugin through its single calls, as `rwg run` with \
-RWG_PLUGIN_BATCH=0; (3) the plugin through ABI 1.1's batched calls, as `rwg run` by default. \
---only and --arch run one variant and architecture alone (e.g. under callgrind). \
-Reported: process CPU ns per env step, median [min-max], and the per-round ratios to the \
-built-in. Build with --release for meaningful figures.
+four run the same episodes, checked) on one sampler thread in this process: (1) the \
+built-in env, one instance per lane, as `rwg run` with RWG_LOCKSTEP=0; (2) the plugin \
+through its single calls, as `rwg run` with RWG_PLUGIN_BATCH=0; (3) the plugin through ABI \
+1.1's batched calls, as `rwg run` by default; (4) the built-in env in lockstep, as `rwg run` \
+by default. --only and --arch run one variant and architecture alone (e.g. under \
+callgrind). Reported: process CPU ns per env step, median [min-max], the per-round ratios \
+to the built-in (1), and the batched plugin's to the lockstep built-in (3 / 4). Build with \
+--release for meaningful figures.
 
 Example:
   rwg bench plugin --plugin target/release/librwg_plugin_classic_control.so")]

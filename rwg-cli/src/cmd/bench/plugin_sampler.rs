@@ -1,14 +1,17 @@
 //! `rwg bench plugin`: the RWG workload through the sampler on a plugin's
 //! re-exported classic envs, side by side with their built-in twins: the
-//! built-in env, the plugin through its single calls, and the plugin through
-//! ABI 1.1's batched calls, interleaved, in this process, on one thread.
+//! built-in env (one instance per lane, and in lockstep, `rwg run`'s default
+//! for built-in envs), the plugin through its single calls, and the plugin
+//! through ABI 1.1's batched calls, interleaved, in this process, on one
+//! thread.
 
 use super::{group, print_row, Clock};
 use anyhow::{bail, Context, Result};
+use rwg_core::many::run_blocks_many;
 use rwg_core::policy::Architecture;
-use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError, WeightDist};
+use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError, WeightDist, LANES};
 use rwg_env::Environment;
-use rwg_envs::{visit, EnvOptions, EnvVisitor};
+use rwg_envs::{visit, visit_lockstep, EnvOptions, EnvVisitor, LockstepEnv, LockstepVisitor};
 use rwg_study::env_source::PluginSource;
 use rwg_study::fault_context::Watched;
 use serde::Serialize;
@@ -33,32 +36,40 @@ pub(super) struct PluginArgs {
     /// Episodes per network.
     #[arg(long, value_name = "E", default_value_t = 5)]
     episodes: u32,
-    /// Interleaved rounds (each runs the three variants once).
+    /// Interleaved rounds (each runs the four variants once).
     #[arg(long, value_name = "R", default_value_t = 5)]
     rounds: usize,
     /// Print a JSON array instead of a table.
     #[arg(long)]
     json: bool,
     /// Run only this variant (for instruction counts under a profiler such
-    /// as callgrind, where the three must run in separate processes; the
+    /// as callgrind, where the four must run in separate processes; the
     /// other columns are then empty).
     #[arg(long, value_enum, value_name = "VARIANT")]
     only: Option<Variant>,
 }
 
-/// One of the three ways `rwg bench plugin` runs a workload.
+/// One of the four ways `rwg bench plugin` runs a workload.
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Variant {
-    /// The built-in env.
+    /// The built-in env, one instance per lane.
     Builtin,
     /// The plugin through its single calls.
     Single,
     /// The plugin through ABI 1.1's batched calls.
     Batched,
+    /// The built-in env in lockstep (all lanes in one call), as `rwg run`
+    /// steps built-in envs unless RWG_LOCKSTEP=0.
+    Lockstep,
 }
 
 impl Variant {
-    const ALL: [Variant; 3] = [Variant::Builtin, Variant::Single, Variant::Batched];
+    const ALL: [Variant; 4] = [
+        Variant::Builtin,
+        Variant::Single,
+        Variant::Batched,
+        Variant::Lockstep,
+    ];
 }
 
 /// The architectures measured: the paper's three.
@@ -121,9 +132,12 @@ struct Row {
     builtin_ns: Spread,
     single_ns: Spread,
     batched_ns: Spread,
+    lockstep_ns: Spread,
     /// Per-round ratios to the built-in of the same round.
     single_ratio: Spread,
     batched_ratio: Spread,
+    /// Per-round ratio of the batched plugin to the lockstep built-in.
+    batched_lockstep_ratio: Spread,
 }
 
 /// (env steps, score sum as bits, CPU seconds) of one run.
@@ -159,6 +173,30 @@ impl EnvVisitor for Builtin<'_> {
             BLOCK,
             2,
             || env.clone(),
+            |b| {
+                on_block(b);
+                Ok::<(), SampleError>(())
+            },
+        )
+    }
+}
+
+/// The built-in env in lockstep ([`Variant::Lockstep`]).
+struct Lockstep<'a> {
+    plan: &'a CellPlan,
+    blocks: &'a [std::ops::Range<u64>],
+    on_block: &'a mut dyn FnMut(BlockResult),
+}
+
+impl LockstepVisitor for Lockstep<'_> {
+    type Output = Result<(), SampleError>;
+    fn visit<M: LockstepEnv + Clone + Send + Sync + 'static>(self, env: M) -> Self::Output {
+        let on_block = self.on_block;
+        run_blocks_many(
+            self.plan,
+            self.blocks,
+            2,
+            || Ok(env.clone()),
             |b| {
                 on_block(b);
                 Ok::<(), SampleError>(())
@@ -236,12 +274,12 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                 max_episode_steps: None,
                 isolated: None,
             };
-            let mut times: [Vec<f64>; 3] = Default::default();
+            let mut times: [Vec<f64>; 4] = Default::default();
             let mut seen: Option<(u64, u64)> = None;
             for round in 0..args.rounds {
-                let mut round_ns = [0.0; 3];
-                for k in 0..3 {
-                    let v = (k + round) % 3; // rotate who goes first
+                let mut round_ns = [0.0; 4];
+                for k in 0..4 {
+                    let v = (k + round) % 4; // rotate who goes first
                     if args.only.is_some_and(|o| o != Variant::ALL[v]) {
                         continue;
                     }
@@ -266,6 +304,18 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                                     Ok::<(), SampleError>(())
                                 })
                                 .expect("the plugin env does not fail")
+                            }),
+                            3 => measure(|on_block| {
+                                let l = Lockstep {
+                                    plan: &plan,
+                                    blocks: &blocks,
+                                    on_block,
+                                };
+                                match visit_lockstep::<LANES, _>(builtin, &EnvOptions::default(), l)
+                                {
+                                    Ok(r) => r.expect("built-in envs do not fail"),
+                                    Err(_) => panic!("{builtin} has no lockstep version"),
+                                }
                             }),
                             _ => measure(|on_block| {
                                 rwg_study::plugin_batch::run_blocks(
@@ -295,23 +345,33 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                     }
                     round_ns[v] = cpu * 1e9 / steps as f64;
                 }
-                for v in 0..3 {
+                for v in 0..4 {
                     if args.only.is_none_or(|o| o == Variant::ALL[v]) {
                         times[v].push(round_ns[v]);
                     }
                 }
             }
-            let ratio =
-                |v: usize| Spread::of(times[v].iter().zip(&times[0]).map(|(p, b)| p / b).collect());
+            let ratio_to = |v: usize, to: usize| {
+                Spread::of(
+                    times[v]
+                        .iter()
+                        .zip(&times[to])
+                        .map(|(p, b)| p / b)
+                        .collect(),
+                )
+            };
+            let ratio = |v: usize| ratio_to(v, 0);
             let row = Row {
                 env: builtin.clone(),
                 hidden: hidden.to_vec(),
                 env_steps: seen.map_or(0, |s| s.0),
                 single_ratio: ratio(1),
                 batched_ratio: ratio(2),
+                batched_lockstep_ratio: ratio_to(2, 3),
                 builtin_ns: Spread::of(times[0].clone()),
                 single_ns: Spread::of(times[1].clone()),
                 batched_ns: Spread::of(times[2].clone()),
+                lockstep_ns: Spread::of(times[3].clone()),
             };
             if !args.json {
                 if rows.is_empty() {
@@ -329,18 +389,20 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
 }
 
 /// Columns of `rwg bench plugin`: header and width (negative: left-aligned).
-const COLUMNS: [(&str, i32); 8] = [
+const COLUMNS: [(&str, i32); 10] = [
     ("env", -24),
     ("hidden", -6),
     ("env steps", 11),
     ("built-in ns/step", 19),
     ("single ns/step", 19),
     ("batched ns/step", 19),
+    ("lockstep ns/step", 19),
     ("single x", 17),
     ("batched x", 17),
+    ("batched x lockstep", 18),
 ];
 
-fn cells(r: &Row, arch: &str) -> [String; 8] {
+fn cells(r: &Row, arch: &str) -> [String; 10] {
     [
         r.env.clone(),
         arch.to_string(),
@@ -348,7 +410,9 @@ fn cells(r: &Row, arch: &str) -> [String; 8] {
         r.builtin_ns.show(1),
         r.single_ns.show(1),
         r.batched_ns.show(1),
+        r.lockstep_ns.show(1),
         r.single_ratio.show(2),
         r.batched_ratio.show(2),
+        r.batched_lockstep_ratio.show(2),
     ]
 }
