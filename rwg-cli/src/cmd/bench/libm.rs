@@ -2,7 +2,7 @@
 //! this machine's libm, bit for bit over many arguments (`--check N`), and
 //! the cost per element of both on 16-lane slices, side by side.
 
-use super::Clock;
+use super::{spread, Clock};
 use anyhow::{bail, Result};
 use rwg_analysis::table::{Align, TextColumns};
 use rwg_env::lanes_math::{self, scalar, Vector};
@@ -286,18 +286,6 @@ impl Buffers {
 /// sin, cos or sincos of a slice into one or two output slices.
 type Lanes = dyn Fn(&[f64], &mut [f64], &mut [f64]);
 
-/// Median, min and max.
-fn spread(mut v: Vec<f64>) -> (f64, f64, f64) {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    let med = if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        (v[n / 2 - 1] + v[n / 2]) / 2.0
-    };
-    (med, v[0], v[n - 1])
-}
-
 /// CPU (else wall) nanoseconds per element of `f` over `x` in slices of 16,
 /// repeated for at least ~20 ms.
 fn per_element(x: &[f64], out: &mut [f64], out2: &mut [f64], f: &Lanes) -> f64 {
@@ -384,9 +372,9 @@ fn time(v: Vector, rounds: usize, seed: u64) {
                 cols.line(&[
                     r.name.to_string(),
                     name.to_string(),
-                    show(spread(s), 2),
-                    show(spread(vv), 2),
-                    show(spread(ratio), 2),
+                    show(spread(&s), 2),
+                    show(spread(&vv), 2),
+                    show(spread(&ratio), 2),
                 ])
             );
         }

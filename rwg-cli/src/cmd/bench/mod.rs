@@ -218,6 +218,26 @@ fn process_cpu_seconds() -> Option<f64> {
 }
 
 // ---------------------------------------------------------------------------
+// statistics of repeated measurements
+
+/// Median, min and max of `v` (`(NaN, NaN, NaN)` for no values): what every
+/// bench reports of its rounds.
+pub(super) fn spread(v: &[f64]) -> (f64, f64, f64) {
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    let median = if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        (s[n / 2 - 1] + s[n / 2]) / 2.0
+    };
+    (median, s[0], s[n - 1])
+}
+
+// ---------------------------------------------------------------------------
 // table output
 
 /// Prints one table line: each cell padded to its column's width (a negative
@@ -250,6 +270,13 @@ pub(super) fn group(n: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn spread_is_median_min_max() {
+        assert_eq!(spread(&[3.0, 1.0, 2.0]), (2.0, 1.0, 3.0));
+        assert_eq!(spread(&[4.0, 1.0, 2.0, 3.0]), (2.5, 1.0, 4.0));
+        assert!(spread(&[]).0.is_nan());
+    }
 
     #[test]
     fn digit_grouping() {

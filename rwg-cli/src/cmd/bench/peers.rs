@@ -16,6 +16,7 @@
 //! Env steps on both sides are the transitions inside episodes (every step of
 //! every episode, up to and including the terminal or truncating one).
 
+use super::spread;
 use anyhow::{bail, Context, Result};
 use rwg_analysis::table::{Align, TextColumns};
 use serde::Serialize;
@@ -219,22 +220,6 @@ fn parse_peer_output(stdout: &str) -> Result<PeerRun> {
         bail!("the peer reports no work ({line}); use more samples");
     }
     Ok(run)
-}
-
-/// Median, min and max (`(NaN, NaN, NaN)` for no values).
-fn spread(v: &[f64]) -> (f64, f64, f64) {
-    if v.is_empty() {
-        return (f64::NAN, f64::NAN, f64::NAN);
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    let median = if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        (s[n / 2 - 1] + s[n / 2]) / 2.0
-    };
-    (median, s[0], s[n - 1])
 }
 
 /// `[]` -> `0HL`, `[4, 4]` -> `[4,4]`.
@@ -684,13 +669,6 @@ mod tests {
         assert!(format!("{e:#}").contains("`cpu_s`"), "{e:#}");
         assert!(parse_peer_output("Traceback ...").is_err());
         assert!(parse_peer_output("").is_err());
-    }
-
-    #[test]
-    fn spread_is_median_min_max() {
-        assert_eq!(spread(&[3.0, 1.0, 2.0]), (2.0, 1.0, 3.0));
-        assert_eq!(spread(&[4.0, 1.0, 2.0, 3.0]), (2.5, 1.0, 4.0));
-        assert!(spread(&[]).0.is_nan());
     }
 
     #[test]

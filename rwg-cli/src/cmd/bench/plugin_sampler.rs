@@ -87,26 +87,9 @@ struct Spread {
 
 impl Spread {
     /// NaN (shown as "-", null in JSON) for a variant not run (`--only`).
-    fn of(mut v: Vec<f64>) -> Spread {
-        v.sort_by(f64::total_cmp);
-        let n = v.len();
-        if n == 0 {
-            return Spread {
-                median: f64::NAN,
-                min: f64::NAN,
-                max: f64::NAN,
-            };
-        }
-        let median = if n % 2 == 1 {
-            v[n / 2]
-        } else {
-            (v[n / 2 - 1] + v[n / 2]) / 2.0
-        };
-        Spread {
-            median,
-            min: v[0],
-            max: v[n - 1],
-        }
+    fn of(v: Vec<f64>) -> Spread {
+        let (median, min, max) = super::spread(&v);
+        Spread { median, min, max }
     }
 
     fn show(&self, digits: usize) -> String {
