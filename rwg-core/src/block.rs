@@ -5,7 +5,7 @@
 //! What differs between the loops is how they step their lanes; what is
 //! here is why their results are the same.
 
-use crate::sampler::{draw_weights, reset_seed, weight_rng, CellPlan, SampleError};
+use crate::plan::{draw_weights, reset_seed, weight_rng, CellPlan, SampleError};
 use rwg_env::EnvError;
 use std::ops::Range;
 
@@ -133,8 +133,8 @@ pub(crate) fn make_failed(plan: &CellPlan, range: &Range<u64>, err: &EnvError) -
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plan::WeightDist;
     use crate::policy::Architecture;
-    use crate::sampler::WeightDist;
 
     fn plan() -> CellPlan {
         CellPlan {

@@ -12,6 +12,7 @@
 pub mod batch;
 mod block;
 pub mod many;
+mod plan;
 pub mod policy;
 pub mod sampler;
 pub mod tanh;

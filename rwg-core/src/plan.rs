@@ -1,0 +1,238 @@
+//! What a cell computes and where its randomness comes from: the
+//! [`CellPlan`], the weights of network `n` and the reset seed of its
+//! episode `e`, and what an episode or a failure reports. The loops that
+//! run the plan are [`crate::sampler`], [`crate::many`] and [`crate::batch`]
+//! (which re-export these names from [`crate::sampler`]).
+//!
+//! # Seeds
+//! Nothing depends on scheduling, thread count or on which other cells a
+//! manifest contains:
+//! - the weights of network `n` of a cell come from
+//!   `PCG64(SeedSequence([seed, 1, env_key, bias, len(hidden), *hidden, n]))`,
+//!   drawn layer by layer, row-major, bias weight last in each row;
+//! - episode `e` of network `n` starts with `env.reset(seed=r)` where
+//!   `r = SeedSequence([seed, 2, env_key, n, e]).generate_state(1, np.uint64)[0]`.
+//!
+//! `env_key = int.from_bytes(env_id.encode(), "little")` and `bias` is 0 or 1,
+//! all as in numpy (`SeedSequence` takes a list of non-negative integers). The
+//! reset seeds do not depend on the architecture, so network `n` of every
+//! architecture meets the same initial conditions (a paired comparison), and a
+//! user can replay any episode in Gymnasium with `env.reset(seed=r)`.
+
+use crate::policy::{Architecture, NetShape, Policy};
+use rand_distr::{Distribution, StandardNormal};
+use rwg_env::env::EnvError;
+use rwg_env::seeding::{Pcg64, SeedSequence};
+use thiserror::Error;
+
+/// Distribution of every weight.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum WeightDist {
+    /// Normal(0, std).
+    Normal {
+        /// Standard deviation (the paper: 1).
+        std: f64,
+    },
+    /// Uniform(-a, a), drawn as numpy's `uniform(-a, a)`.
+    Uniform {
+        /// Half-width.
+        a: f64,
+    },
+}
+
+impl WeightDist {
+    /// `normal` or `uniform`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            WeightDist::Normal { .. } => "normal",
+            WeightDist::Uniform { .. } => "uniform",
+        }
+    }
+
+    /// The scale parameter (std or a).
+    pub fn scale(&self) -> f64 {
+        match *self {
+            WeightDist::Normal { std } => std,
+            WeightDist::Uniform { a } => a,
+        }
+    }
+}
+
+/// Seed stream tag of network weights.
+const STREAM_WEIGHTS: u64 = 1;
+/// Seed stream tag of episode reset seeds.
+const STREAM_RESETS: u64 = 2;
+
+/// The 32-bit words of `int.from_bytes(id.encode(), "little")`, i.e. numpy's
+/// entropy words for that integer (at least one word).
+pub(crate) fn env_key_words(env_id: &str, out: &mut Vec<u32>) {
+    let bytes = env_id.as_bytes();
+    let mut len = bytes.len();
+    while len > 0 && bytes[len - 1] == 0 {
+        len -= 1; // a big integer has no leading zero bytes
+    }
+    if len == 0 {
+        out.push(0);
+        return;
+    }
+    for chunk in bytes[..len].chunks(4) {
+        let mut w = [0u8; 4];
+        w[..chunk.len()].copy_from_slice(chunk);
+        out.push(u32::from_le_bytes(w));
+    }
+}
+
+fn push_int(n: u64, out: &mut Vec<u32>) {
+    rwg_env::seeding::int_to_words(n, out);
+}
+
+/// The reset seed of episode `episode` of network `sample` (see the module docs).
+pub fn reset_seed(seed: u64, env_id: &str, sample: u64, episode: u32) -> u64 {
+    let mut w = Vec::with_capacity(16);
+    push_int(seed, &mut w);
+    push_int(STREAM_RESETS, &mut w);
+    env_key_words(env_id, &mut w);
+    push_int(sample, &mut w);
+    push_int(episode as u64, &mut w);
+    let [r] = SeedSequence::from_words(&w).generate_u64::<1>();
+    r
+}
+
+/// The random generator of network `sample`'s weights (see the module docs).
+pub fn weight_rng(seed: u64, env_id: &str, arch: &Architecture, sample: u64) -> Pcg64 {
+    let mut w = Vec::with_capacity(24);
+    push_int(seed, &mut w);
+    push_int(STREAM_WEIGHTS, &mut w);
+    env_key_words(env_id, &mut w);
+    push_int(arch.bias as u64, &mut w);
+    push_int(arch.hidden.len() as u64, &mut w);
+    for &h in &arch.hidden {
+        push_int(h as u64, &mut w);
+    }
+    push_int(sample, &mut w);
+    Pcg64::from_seed_sequence(&SeedSequence::from_words(&w))
+}
+
+/// Fills `weights` with draws from `dist` using `rng`.
+pub fn draw_weights(rng: &mut Pcg64, dist: WeightDist, weights: &mut [f64]) {
+    for w in weights {
+        *w = match dist {
+            WeightDist::Normal { std } => {
+                let z: f64 = StandardNormal.sample(rng);
+                z * std
+            }
+            WeightDist::Uniform { a } => rng.uniform(-a, a),
+        };
+    }
+}
+
+/// What one cell of the study runs: an environment with one architecture.
+#[derive(Debug, Clone)]
+pub struct CellPlan {
+    /// Manifest seed.
+    pub seed: u64,
+    /// Environment id (part of every seed).
+    pub env_id: String,
+    /// Architecture and bias.
+    pub arch: Architecture,
+    /// Episodes per network.
+    pub episodes: u32,
+    /// Weight distribution.
+    pub dist: WeightDist,
+}
+
+impl CellPlan {
+    /// Network `sample` of this cell for an env with `spec`: the same weights
+    /// the sampler draws (for replay and export).
+    pub fn policy(&self, spec: &rwg_env::EnvSpec, sample: u64) -> Policy {
+        let shape = NetShape::new(
+            spec.obs_dim(),
+            &self.arch,
+            NetShape::outputs_for(&spec.action_space),
+        );
+        let mut policy = Policy::new(shape, &spec.action_space);
+        let mut rng = weight_rng(self.seed, &self.env_id, &self.arch, sample);
+        draw_weights(&mut rng, self.dist, policy.weights_mut());
+        policy
+    }
+}
+
+/// Score and length of one episode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EpisodeResult {
+    /// Undiscounted total reward.
+    pub score: f64,
+    /// Number of steps.
+    pub steps: u32,
+}
+
+/// An environment failure while sampling, with where it happened. The
+/// message includes the environment's error (which is therefore not also
+/// given as the error's `source()`, so error chains print it once).
+#[derive(Debug, Error, Clone, PartialEq)]
+#[error("{env}: sample {sample}, episode {episode}, step {step}: {error}")]
+pub struct SampleError {
+    /// Environment id.
+    pub env: String,
+    /// Network index.
+    pub sample: u64,
+    /// Episode index.
+    pub episode: u32,
+    /// Step (0 = reset).
+    pub step: u32,
+    /// What the environment reported.
+    pub error: EnvError,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn env_key_is_int_from_bytes_little() {
+        // int.from_bytes(b"CartPole-v0", "little") split into 32-bit words
+        let mut w = vec![];
+        env_key_words("CartPole-v0", &mut w);
+        assert_eq!(
+            w,
+            [
+                u32::from_le_bytes(*b"Cart"),
+                u32::from_le_bytes(*b"Pole"),
+                0x0030_762d
+            ]
+        );
+    }
+
+    // Values from numpy:
+    //   k = int.from_bytes(b"CartPole-v0", "little")
+    //   np.random.SeedSequence([7, 2, k, 3, 5]).generate_state(1, np.uint64)[0]
+    #[test]
+    fn reset_seed_matches_numpy() {
+        assert_eq!(reset_seed(7, "CartPole-v0", 3, 5), RESET_SEED_7_3_5);
+    }
+    const RESET_SEED_7_3_5: u64 = 17368565813789276978;
+
+    #[test]
+    fn weights_depend_on_arch_and_sample_only() {
+        let a = Architecture {
+            hidden: vec![4],
+            bias: false,
+        };
+        let b = Architecture {
+            hidden: vec![4],
+            bias: true,
+        };
+        let draw = |arch: &Architecture, n| {
+            let mut w = [0.0; 5];
+            draw_weights(
+                &mut weight_rng(0, "CartPole-v0", arch, n),
+                WeightDist::Normal { std: 1.0 },
+                &mut w,
+            );
+            w
+        };
+        assert_eq!(draw(&a, 3), draw(&a, 3));
+        assert_ne!(draw(&a, 3), draw(&a, 4));
+        assert_ne!(draw(&a, 3), draw(&b, 3));
+    }
+}
