@@ -109,6 +109,30 @@ fn bench_sampler_json_counts_every_step() {
     // Pendulum never terminates: every episode lasts its 200-step limit.
     let pendulum = rows.iter().find(|r| r["env"] == "Pendulum-v1").unwrap();
     assert_eq!(pendulum["env_steps"], 4 * 2 * 200);
+    // Stepped as `rwg run` steps built-in envs: in lockstep, or one instance
+    // per lane with RWG_LOCKSTEP=0; the same episodes either way.
+    let out = rwg_env(
+        &[
+            "bench",
+            "sampler",
+            "--samples",
+            "4",
+            "--episodes",
+            "2",
+            "--threads",
+            "2",
+            "--json",
+        ],
+        &[("RWG_LOCKSTEP", std::ffi::OsStr::new("0"))],
+    );
+    assert!(out.status.success(), "{out:?}");
+    let v0: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for (r, r0) in rows.iter().zip(v0.as_array().unwrap()) {
+        assert_eq!(r["path"], "lockstep", "{r}");
+        assert_eq!(r0["path"], "per-lane", "{r0}");
+        assert_eq!(r["env_steps"], r0["env_steps"], "{r} {r0}");
+        assert_eq!(r["mean_score"], r0["mean_score"], "{r} {r0}");
+    }
 }
 
 #[test]

@@ -74,8 +74,10 @@ time, env steps/s in total and per thread, and env steps per CPU-second of the p
 (steadier than wall time on a busy machine). The sampler alone is not the whole `rwg \
 run` command: compare with other implementations with `rwg bench peers`, which \
 measures both sides in one invocation. Each thread runs several episodes side by side \
-(the JSON's `lanes`); the results are those of running them one by one (`mean_score` \
-does not depend on the build, the thread count or the lanes).
+(the JSON's `lanes`), stepped as `rwg run` steps built-in envs: all lanes in one call \
+(lockstep; RWG_LOCKSTEP=0 for one env instance per lane; the JSON's `path`); the results \
+are those of running them one by one (`mean_score` does not depend on the build, the \
+thread count, the lanes or the path).
 
 Configurations (the peers' workload): CartPole-v0 0HL, CartPole-v0 [4,4], Acrobot-v1 \
 0HL, MountainCarContinuous-v0 [4,4], Pendulum-v1 [4].")]

@@ -4,10 +4,11 @@
 use super::peers::PEER_WORKLOADS;
 use super::{check_ids, group, print_row, Clock};
 use anyhow::{bail, Context, Result};
+use rwg_core::many::run_blocks_many;
 use rwg_core::policy::Architecture;
-use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError, WeightDist};
+use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError, WeightDist, LANES};
 use rwg_env::Environment;
-use rwg_envs::{visit, EnvOptions, EnvVisitor};
+use rwg_envs::{visit, visit_lockstep, EnvOptions, EnvVisitor, LockstepEnv, LockstepVisitor};
 use serde::Serialize;
 
 /// Arguments of `rwg bench sampler`.
@@ -54,6 +55,10 @@ struct SamplerRow {
     mean_score: f64,
     /// Episodes each worker runs side by side (`rwg_core::sampler::LANES`).
     lanes: usize,
+    /// How the lanes' envs are stepped: `"lockstep"` (all lanes in one call,
+    /// `rwg run`'s default for built-in envs) or `"per-lane"` (one instance
+    /// per lane; `RWG_LOCKSTEP=0`, as for `rwg run`).
+    path: &'static str,
     /// Instruction set of the policy's forward pass on this CPU.
     forward_isa: &'static str,
 }
@@ -82,6 +87,38 @@ impl EnvVisitor for SamplerBench<'_> {
                 BLOCK,
                 2 * threads, // blocks per wave: as in `rwg run`
                 || env.clone(),
+                |b: BlockResult| -> Result<(), SampleError> {
+                    for e in &b.episodes {
+                        steps += e.steps as u64;
+                        score += e.score;
+                    }
+                    Ok(())
+                },
+            )
+        })?;
+        let (seconds, cpu_s) = clock.stop();
+        Ok((steps, score, seconds, cpu_s))
+    }
+}
+
+/// The same workload with the env in lockstep ([`SamplerRow::path`]).
+impl LockstepVisitor for SamplerBench<'_> {
+    type Output = Result<(u64, f64, f64, Option<f64>), SampleError>;
+    fn visit<M: LockstepEnv + Clone + Send + Sync + 'static>(self, env: M) -> Self::Output {
+        let threads = self.pool.current_num_threads();
+        let blocks: Vec<std::ops::Range<u64>> = (0..self.samples)
+            .step_by(BLOCK as usize)
+            .map(|s| s..(s + BLOCK).min(self.samples))
+            .collect();
+        let mut steps = 0u64;
+        let mut score = 0.0;
+        let clock = Clock::start();
+        self.pool.install(|| {
+            run_blocks_many(
+                &self.plan,
+                &blocks,
+                2 * threads, // blocks per wave: as in `rwg run`
+                || Ok(env.clone()),
                 |b: BlockResult| -> Result<(), SampleError> {
                     for e in &b.episodes {
                         steps += e.steps as u64;
@@ -142,7 +179,18 @@ pub(super) fn run(args: SamplerArgs) -> Result<()> {
             samples: args.samples,
             pool: &pool,
         };
-        let (env_steps, score, seconds, cpu_s) = visit(env, &EnvOptions::default(), bench)??;
+        // As `rwg run`: in lockstep unless RWG_LOCKSTEP=0 (every peer
+        // workload's env has a lockstep version).
+        let opts = EnvOptions::default();
+        let (path, measured) = if rwg_study::runner::use_lockstep() {
+            match visit_lockstep::<LANES, _>(env, &opts, bench) {
+                Ok(r) => ("lockstep", r),
+                Err(bench) => ("per-lane", visit(env, &opts, bench)?),
+            }
+        } else {
+            ("per-lane", visit(env, &opts, bench)?)
+        };
+        let (env_steps, score, seconds, cpu_s) = measured?;
         let steps_per_s = env_steps as f64 / seconds;
         let per_thread = steps_per_s / threads as f64;
         let row = SamplerRow {
@@ -159,7 +207,8 @@ pub(super) fn run(args: SamplerArgs) -> Result<()> {
             cpu_s,
             steps_per_cpu_s: cpu_s.map(|c| env_steps as f64 / c),
             mean_score: score / (args.samples * args.episodes as u64) as f64,
-            lanes: rwg_core::sampler::LANES,
+            lanes: LANES,
+            path,
             forward_isa: rwg_core::policy::lanes_isa(),
         };
         if !args.json {
