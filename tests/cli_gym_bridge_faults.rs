@@ -310,7 +310,6 @@ fn sigkill_resume_and_shards_merge_give_identical_bytes() {
 #[cfg(unix)]
 #[test]
 fn ctrl_c_stops_a_bridge_run_like_a_builtin_one() {
-    use std::os::unix::process::CommandExt;
     let Some(py) = python() else { return };
     let dir = temp_dir("gym-ctrlc");
     let m = write(
@@ -319,33 +318,11 @@ fn ctrl_c_stops_a_bridge_run_like_a_builtin_one() {
         &LONG.replace("samples = 320", "samples = 100000"),
     );
     let out = dir.join("run");
-    let child = rwg_cmd(&py, &["run", &m, "--out", out.to_str().unwrap(), "-q"])
-        .args(["--threads", "2", "--no-report"])
-        .process_group(0)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    // Until the workers run (their first blocks committed).
+    let mut cmd = rwg_cmd(&py, &["run", &m, "--out", out.to_str().unwrap(), "-q"]);
+    cmd.args(["--threads", "2", "--no-report"]);
+    // Once the workers run (their first block committed).
     let blocks = out.join("cells/gymnasium=CartPole-v1__1HL__nobias/blocks");
-    let t0 = Instant::now();
-    while !blocks.join("b0000000.csv").exists() && t0.elapsed() < Duration::from_secs(60) {
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    let group = format!("-{}", child.id());
-    let kill = Command::new("kill")
-        .args(["-INT", "--", &group])
-        .status()
-        .unwrap();
-    assert!(kill.success());
-    let res = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&res.stderr);
-    assert_eq!(res.status.code(), Some(130), "{err}");
-    assert!(
-        err.contains("stopped; every finished block is saved in"),
-        "{err}"
-    );
+    let err = ctrl_c_after_first_block(cmd, &blocks);
     assert!(!err.contains("worker"), "{err}");
-    assert!(blocks.join("b0000000.csv").is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }

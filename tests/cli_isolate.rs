@@ -461,8 +461,6 @@ fn the_isolate_key_is_validated_and_a_no_op_for_builtins() {
 #[cfg(unix)]
 #[test]
 fn ctrl_c_stops_an_isolated_run_like_an_in_process_one() {
-    use std::os::unix::process::CommandExt;
-    use std::process::{Command, Stdio};
     let dir = temp_dir("isolate-ctrlc");
     let m = write(
         &dir,
@@ -474,34 +472,12 @@ fn ctrl_c_stops_an_isolated_run_like_an_in_process_one() {
         ),
     );
     let out = dir.join("run");
-    let child = Command::new(rwg_bin())
-        .args(["run", &m, "--out", out.to_str().unwrap(), "--isolate", "-q"])
-        .args(["--threads", "2", "--no-report"])
-        .process_group(0)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    // Until the workers run (their first blocks committed).
+    let mut cmd = std::process::Command::new(rwg_bin());
+    cmd.args(["run", &m, "--out", out.to_str().unwrap(), "--isolate", "-q"])
+        .args(["--threads", "2", "--no-report"]);
+    // Once the workers run (their first block committed).
     let blocks = out.join("cells/classic_control+CartPole-v1__1HL__nobias/blocks");
-    let t0 = Instant::now();
-    while !blocks.join("b0000000.csv").exists() && t0.elapsed() < Duration::from_secs(60) {
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    let group = format!("-{}", child.id());
-    let kill = Command::new("kill")
-        .args(["-INT", "--", &group])
-        .status()
-        .unwrap();
-    assert!(kill.success());
-    let res = child.wait_with_output().unwrap();
-    let err = text(&res.stderr);
-    assert_eq!(res.status.code(), Some(130), "{err}");
-    assert!(
-        err.contains("stopped; every finished block is saved in"),
-        "{err}"
-    );
+    let err = ctrl_c_after_first_block(cmd, &blocks);
     assert!(!err.contains("worker process"), "{err}");
-    assert!(blocks.join("b0000000.csv").is_file());
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -287,3 +287,42 @@ pub fn check_page_in_browser(
     );
     dom
 }
+
+/// Ctrl-C on a terminal, after the run's first block: starts `cmd` (an `rwg
+/// run`) in a process group of its own with piped output, waits (up to 60 s)
+/// until `blocks/b0000000.csv` exists, sends SIGINT to the whole group (rwg
+/// and any worker processes, as a terminal does), and checks what every
+/// interrupted run must show: exit status 130, the message that the finished
+/// blocks are saved, and the first block still there. Returns rwg's stderr.
+#[cfg(unix)]
+pub fn ctrl_c_after_first_block(mut cmd: Command, blocks: &Path) -> String {
+    use std::os::unix::process::CommandExt;
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    let child = cmd
+        .process_group(0)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let first = blocks.join("b0000000.csv");
+    let t0 = Instant::now();
+    while !first.exists() && t0.elapsed() < Duration::from_secs(60) {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let group = format!("-{}", child.id());
+    let kill = Command::new("kill")
+        .args(["-INT", "--", &group])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let res = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&res.stderr).into_owned();
+    assert_eq!(res.status.code(), Some(130), "{err}");
+    assert!(
+        err.contains("stopped; every finished block is saved in"),
+        "{err}"
+    );
+    assert!(first.is_file(), "{err}");
+    err
+}
