@@ -155,6 +155,9 @@ impl Cluster {
         let cpus = std::thread::available_parallelism().map_or(1, |n| n.get());
         let (ctld_port, d_port) = (free_port(), free_port());
         let d = dir.display();
+        // NoInAddrAny and NoCtldInAddrAny: slurmd and slurmctld listen on
+        // 127.0.0.1 (their NodeAddr and SlurmctldHost address), not on every
+        // interface of the machine.
         let conf = format!(
             "ClusterName=rwgtest\n\
              SlurmctldHost={host}(127.0.0.1)\n\
@@ -180,6 +183,7 @@ impl Cluster {
              SlurmctldLogFile={d}/log/slurmctld.log\n\
              SlurmdLogFile={d}/log/slurmd.log\n\
              ReturnToService=2\n\
+             CommunicationParameters=NoInAddrAny,NoCtldInAddrAny\n\
              MinJobAge=600\n\
              NodeName={host} NodeAddr=127.0.0.1 CPUs={cpus} State=UNKNOWN\n\
              PartitionName=rwgtest Nodes={host} Default=YES MaxTime=INFINITE State=UP\n",
