@@ -79,19 +79,22 @@ fn bench_sampler_reports_every_config() {
     }
 }
 
+/// `rwg bench sampler` on tiny counts, as JSON.
+const SAMPLER_JSON: [&str; 9] = [
+    "bench",
+    "sampler",
+    "--samples",
+    "4",
+    "--episodes",
+    "2",
+    "--threads",
+    "2",
+    "--json",
+];
+
 #[test]
 fn bench_sampler_json_counts_every_step() {
-    let out = rwg_ok(&[
-        "bench",
-        "sampler",
-        "--samples",
-        "4",
-        "--episodes",
-        "2",
-        "--threads",
-        "2",
-        "--json",
-    ]);
+    let out = rwg_ok(&SAMPLER_JSON);
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     let rows = v.as_array().unwrap();
     assert_eq!(rows.len(), CONFIGS.len());
@@ -112,17 +115,7 @@ fn bench_sampler_json_counts_every_step() {
     // Stepped as `rwg run` steps built-in envs: in lockstep, or one instance
     // per lane with RWG_LOCKSTEP=0; the same episodes either way.
     let out = rwg_env(
-        &[
-            "bench",
-            "sampler",
-            "--samples",
-            "4",
-            "--episodes",
-            "2",
-            "--threads",
-            "2",
-            "--json",
-        ],
+        &SAMPLER_JSON,
         &[("RWG_LOCKSTEP", std::ffi::OsStr::new("0"))],
     );
     assert!(out.status.success(), "{out:?}");

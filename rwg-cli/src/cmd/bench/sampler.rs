@@ -72,64 +72,65 @@ struct SamplerBench<'p> {
     pool: &'p rayon::ThreadPool,
 }
 
-impl EnvVisitor for SamplerBench<'_> {
-    /// (env steps, score sum, wall seconds, CPU seconds).
-    type Output = Result<(u64, f64, f64, Option<f64>), SampleError>;
-    fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
-        let threads = self.pool.current_num_threads();
-        let mut steps = 0u64;
-        let mut score = 0.0;
+/// (env steps, score sum, wall seconds, CPU seconds) of one measurement.
+type Measured = Result<(u64, f64, f64, Option<f64>), SampleError>;
+
+impl SamplerBench<'_> {
+    /// Times `run` on the bench's pool, handing it the block sink that
+    /// counts env steps and sums scores, and the blocks' wave size (as in
+    /// `rwg run`: two blocks per thread).
+    fn measure(
+        &self,
+        run: impl FnOnce(
+                usize,
+                &mut dyn FnMut(BlockResult) -> Result<(), SampleError>,
+            ) -> Result<(), SampleError>
+            + Send,
+    ) -> Measured {
+        let wave = 2 * self.pool.current_num_threads();
+        let (mut steps, mut score) = (0u64, 0.0);
         let clock = Clock::start();
         self.pool.install(|| {
-            run_cell(
-                &self.plan,
-                0..self.samples,
-                BLOCK,
-                2 * threads, // blocks per wave: as in `rwg run`
-                || env.clone(),
-                |b: BlockResult| -> Result<(), SampleError> {
-                    for e in &b.episodes {
-                        steps += e.steps as u64;
-                        score += e.score;
-                    }
-                    Ok(())
-                },
-            )
+            run(wave, &mut |b: BlockResult| {
+                for e in &b.episodes {
+                    steps += e.steps as u64;
+                    score += e.score;
+                }
+                Ok(())
+            })
         })?;
         let (seconds, cpu_s) = clock.stop();
         Ok((steps, score, seconds, cpu_s))
     }
 }
 
+impl EnvVisitor for SamplerBench<'_> {
+    type Output = Measured;
+    fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Measured {
+        self.measure(|wave, on_block| {
+            run_cell(
+                &self.plan,
+                0..self.samples,
+                BLOCK,
+                wave,
+                || env.clone(),
+                on_block,
+            )
+        })
+    }
+}
+
 /// The same workload with the env in lockstep ([`SamplerRow::path`]).
 impl LockstepVisitor for SamplerBench<'_> {
-    type Output = Result<(u64, f64, f64, Option<f64>), SampleError>;
-    fn visit<M: LockstepEnv + Clone + Send + Sync + 'static>(self, env: M) -> Self::Output {
-        let threads = self.pool.current_num_threads();
+    type Output = Measured;
+    fn visit<M: LockstepEnv + Clone + Send + Sync + 'static>(self, env: M) -> Measured {
         let blocks: Vec<std::ops::Range<u64>> = (0..self.samples)
             .step_by(BLOCK as usize)
             .map(|s| s..(s + BLOCK).min(self.samples))
             .collect();
-        let mut steps = 0u64;
-        let mut score = 0.0;
-        let clock = Clock::start();
-        self.pool.install(|| {
-            run_blocks_many(
-                &self.plan,
-                &blocks,
-                2 * threads, // blocks per wave: as in `rwg run`
-                || Ok(env.clone()),
-                |b: BlockResult| -> Result<(), SampleError> {
-                    for e in &b.episodes {
-                        steps += e.steps as u64;
-                        score += e.score;
-                    }
-                    Ok(())
-                },
-            )
-        })?;
-        let (seconds, cpu_s) = clock.stop();
-        Ok((steps, score, seconds, cpu_s))
+        self.measure(|wave, on_block| {
+            run_blocks_many(&self.plan, &blocks, wave, || Ok(env.clone()), on_block)
+        })
     }
 }
 
