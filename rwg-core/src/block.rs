@@ -1,7 +1,8 @@
 //! A block's episodes, as the three lane loops hand them out
 //! ([`crate::sampler::LaneWorker`], [`crate::many::ManyLaneWorker`],
 //! [`crate::batch::BatchLaneWorker`]): the block's weights, the next episode
-//! (its network and reset seed), and the first failure in episode order.
+//! (its network and reset seed), the first failure in episode order, and
+//! (for the first two) what a lane is doing.
 //! What differs between the loops is how they step their lanes; what is
 //! here is why their results are the same.
 
@@ -28,6 +29,33 @@ pub(crate) fn draw_block_weights(
         );
         draw_weights(&mut rng, plan.dist, &mut w[..nw]);
     }
+}
+
+/// What one lane of a [`crate::sampler::LaneWorker`] or a
+/// [`crate::many::ManyLaneWorker`] is doing.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Lane {
+    /// Whether the lane is running an episode.
+    pub active: bool,
+    /// The episode: `sample_in_block * episodes + episode`.
+    pub item: usize,
+    /// Which sample of the block the lane's weights belong to.
+    pub weights_of: usize,
+    /// The episode's score so far.
+    pub score: f64,
+    /// The episode's steps so far.
+    pub steps: u32,
+}
+
+impl Lane {
+    /// A lane with no episode and no network's weights.
+    pub const IDLE: Lane = Lane {
+        active: false,
+        item: 0,
+        weights_of: usize::MAX,
+        score: 0.0,
+        steps: 0,
+    };
 }
 
 /// One episode of the block, as [`BlockRun::next_episode`] hands it out.

@@ -10,9 +10,9 @@
 //! can be in flight), the call is synchronous and the buffers are the
 //! worker's own, so nothing is copied or wrapped per lane.
 
-use crate::block::{draw_block_weights, make_failed, record_failure, BlockRun};
+use crate::block::{draw_block_weights, make_failed, record_failure, BlockRun, Lane};
 use crate::policy::{NetShape, PolicyLanes};
-use crate::sampler::{BlockResult, CellPlan, EpisodeResult, Lane, SampleError, LANES};
+use crate::sampler::{BlockResult, CellPlan, EpisodeResult, SampleError, LANES};
 use rayon::prelude::*;
 pub use rwg_env::many::ManyEnv;
 use rwg_env::{Action, EnvError, Space};

@@ -6,7 +6,7 @@
 //! over rayon ([`run_blocks`], [`run_cell`]). Nothing depends on
 //! scheduling, thread count or on which other cells a manifest contains.
 
-use crate::block::{draw_block_weights, record_failure, BlockRun};
+use crate::block::{draw_block_weights, record_failure, BlockRun, Lane};
 pub use crate::plan::{
     draw_weights, reset_seed, weight_rng, CellPlan, EpisodeResult, SampleError, WeightDist,
 };
@@ -84,32 +84,6 @@ pub fn starting_episode() -> (u64, u32) {
 /// Number of episodes [`run_blocks`] runs side by side in each worker
 /// ([`LaneWorker`]).
 pub const LANES: usize = 16;
-
-/// What one lane of a [`LaneWorker`] is doing.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Lane {
-    /// Whether the lane is running an episode.
-    pub active: bool,
-    /// The episode: `sample_in_block * episodes + episode`.
-    pub item: usize,
-    /// Which sample of the block the lane's weights belong to.
-    pub weights_of: usize,
-    /// The episode's score so far.
-    pub score: f64,
-    /// The episode's steps so far.
-    pub steps: u32,
-}
-
-impl Lane {
-    /// A lane with no episode and no network's weights.
-    pub const IDLE: Lane = Lane {
-        active: false,
-        item: 0,
-        weights_of: usize::MAX,
-        score: 0.0,
-        steps: 0,
-    };
-}
 
 /// A worker that runs `K` episodes side by side, each on its own environment
 /// instance, with one [`PolicyLanes`] for their networks.
@@ -312,12 +286,17 @@ where
     G: FnMut(BlockResult) -> Result<(), X>,
     X: From<SampleError> + Send,
 {
+    run_blocks(plan, &blocks(samples, block_size), wave, make_env, on_block)
+}
+
+/// `samples` cut into consecutive blocks of `block_size` samples (at least
+/// 1), the last one shorter if need be: the blocks [`run_cell`] runs.
+pub fn blocks(samples: Range<u64>, block_size: u64) -> Vec<Range<u64>> {
     let block_size = block_size.max(1);
-    let blocks: Vec<Range<u64>> = (samples.start..samples.end)
+    (samples.start..samples.end)
         .step_by(block_size as usize)
         .map(|s| s..(s + block_size).min(samples.end))
-        .collect();
-    run_blocks(plan, &blocks, wave, make_env, on_block)
+        .collect()
 }
 
 /// Runs the given blocks of samples of a cell in parallel (on the current
@@ -502,5 +481,12 @@ mod tests {
             oks > 0 && step_errs > 0 && reset_errs > 0,
             "{oks} {step_errs} {reset_errs}"
         );
+    }
+
+    #[test]
+    fn blocks_cut_samples_in_order() {
+        assert_eq!(blocks(0..70, 32), [0..32, 32..64, 64..70]);
+        assert_eq!(blocks(10..12, 0), [10..11, 11..12]);
+        assert!(blocks(5..5, 32).is_empty());
     }
 }

@@ -119,10 +119,7 @@ fn bridge_run(
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
-    let blocks: Vec<_> = (0..samples)
-        .step_by(32)
-        .map(|s| s..(s + 32).min(samples))
-        .collect();
+    let blocks = rwg_core::sampler::blocks(0..samples, 32);
     let mut steps = 0u64;
     let t = Instant::now();
     pool.install(|| {

@@ -230,10 +230,7 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
         .num_threads(1)
         .build()
         .context("cannot start the thread pool")?;
-    let blocks: Vec<std::ops::Range<u64>> = (0..args.samples)
-        .step_by(BLOCK as usize)
-        .map(|s| s..(s + BLOCK).min(args.samples))
-        .collect();
+    let blocks = rwg_core::sampler::blocks(0..args.samples, BLOCK);
     let mut rows = Vec::new();
     for (builtin, ty) in &twins {
         for (name, hidden) in ARCHS {

@@ -6,7 +6,7 @@ use super::{check_ids, group, print_row, Clock};
 use anyhow::{bail, Context, Result};
 use rwg_core::many::run_blocks_many;
 use rwg_core::policy::Architecture;
-use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError, WeightDist, LANES};
+use rwg_core::sampler::{blocks, run_cell, BlockResult, CellPlan, SampleError, WeightDist, LANES};
 use rwg_env::Environment;
 use rwg_envs::{visit, visit_lockstep, EnvOptions, EnvVisitor, LockstepEnv, LockstepVisitor};
 use serde::Serialize;
@@ -124,10 +124,7 @@ impl EnvVisitor for SamplerBench<'_> {
 impl LockstepVisitor for SamplerBench<'_> {
     type Output = Measured;
     fn visit<M: LockstepEnv + Clone + Send + Sync + 'static>(self, env: M) -> Measured {
-        let blocks: Vec<std::ops::Range<u64>> = (0..self.samples)
-            .step_by(BLOCK as usize)
-            .map(|s| s..(s + BLOCK).min(self.samples))
-            .collect();
+        let blocks = blocks(0..self.samples, BLOCK);
         self.measure(|wave, on_block| {
             run_blocks_many(&self.plan, &blocks, wave, || Ok(env.clone()), on_block)
         })
