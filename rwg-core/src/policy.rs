@@ -191,6 +191,28 @@ impl Policy {
     }
 }
 
+/// One value per lane, aligned to a cache line, so the forward pass's
+/// vector loads and stores never straddle two lines, whatever address the
+/// allocator hands out.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct Lanes<const K: usize>([f64; K]);
+
+impl<const K: usize> std::ops::Deref for Lanes<K> {
+    type Target = [f64; K];
+    #[inline(always)]
+    fn deref(&self) -> &[f64; K] {
+        &self.0
+    }
+}
+
+impl<const K: usize> std::ops::DerefMut for Lanes<K> {
+    #[inline(always)]
+    fn deref_mut(&mut self) -> &mut [f64; K] {
+        &mut self.0
+    }
+}
+
 /// `K` networks of one shape evaluated side by side ("lanes"), each with its
 /// own weights.
 ///
@@ -206,11 +228,11 @@ pub struct PolicyLanes<const K: usize> {
     shape: NetShape,
     map: ActionMap,
     /// The weights in [`Policy::weights`] order, lane `l`'s at index `l`.
-    weights: Vec<[f64; K]>,
+    weights: Vec<Lanes<K>>,
     /// The observations, transposed (obs_dim entries).
-    x: Vec<[f64; K]>,
-    a: Vec<[f64; K]>,
-    b: Vec<[f64; K]>,
+    x: Vec<Lanes<K>>,
+    a: Vec<Lanes<K>>,
+    b: Vec<Lanes<K>>,
     /// One lane's network outputs (argmax scratch).
     z: Vec<f64>,
     /// Continuous actions of all lanes, lane-major.
@@ -277,10 +299,10 @@ impl<const K: usize> PolicyLanes<K> {
             .first()
             .map_or(0, |l| l.1 - usize::from(shape.bias));
         PolicyLanes {
-            weights: vec![[0.0; K]; shape.n_weights()],
-            x: vec![[0.0; K]; n_obs],
-            a: vec![[0.0; K]; w],
-            b: vec![[0.0; K]; w],
+            weights: vec![Lanes([0.0; K]); shape.n_weights()],
+            x: vec![Lanes([0.0; K]); n_obs],
+            a: vec![Lanes([0.0; K]); w],
+            b: vec![Lanes([0.0; K]); w],
             z: vec![0.0; n_out],
             action: vec![0.0; K * n_out],
             argmax: [0; K],
@@ -349,7 +371,7 @@ impl<const K: usize> PolicyLanes<K> {
         let bias = self.shape.bias;
         let n_layers = self.shape.layers.len();
         let mut w = &self.weights[..];
-        let mut input: &[[f64; K]] = &self.x;
+        let mut input: &[Lanes<K>] = &self.x;
         let (mut cur, mut next) = (&mut self.a, &mut self.b);
         for (li, &(n_out, n_in)) in self.shape.layers.iter().enumerate() {
             let (lw, rest) = w.split_at(n_out * n_in);
@@ -369,7 +391,7 @@ impl<const K: usize> PolicyLanes<K> {
                         s[l] += row[n_x][l];
                     }
                 }
-                *o = if last { s } else { tanh_lanes(s) };
+                **o = if last { s } else { tanh_lanes(s) };
             }
             std::mem::swap(&mut cur, &mut next);
             input = &next[..n_out];
@@ -403,7 +425,7 @@ impl<const K: usize> PolicyLanes<K> {
             }
             ActionMap::Symmetric(high) => {
                 for (d, (h, y)) in high.iter().zip(input).enumerate() {
-                    let t = tanh_lanes(*y);
+                    let t = tanh_lanes(**y);
                     for (l, tl) in t.iter().enumerate() {
                         self.action[l * n_out + d] = h * tl;
                     }
@@ -411,7 +433,7 @@ impl<const K: usize> PolicyLanes<K> {
             }
             ActionMap::Affine(low, high) => {
                 for (d, ((lo, h), y)) in low.iter().zip(high).zip(input).enumerate() {
-                    let t = tanh_lanes(*y);
+                    let t = tanh_lanes(**y);
                     for (l, tl) in t.iter().enumerate() {
                         self.action[l * n_out + d] = lo + (tl + 1.0) / 2.0 * (h - lo);
                     }

@@ -117,7 +117,7 @@ fn discrete_of(v: f64) -> Result<i64, EnvError> {
 /// `Discrete(n)` space (written to `out`). The others' errors go to
 /// `on_fail` in lane order, with the scalar env's texts (the reset check
 /// first, as `TimeLimit` does it before the env sees the action).
-#[inline]
+#[inline(always)]
 pub(crate) fn gather_discrete<const N: usize>(
     clocks: &Clocks<N>,
     mask: &[u8],
