@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # What the plugin ABI costs: `rwg run` on the built-in CartPole-v0 and on the
 # same code through the reference plugin (classic_control/CartPole-v0), one
-# worker thread, for three architectures; the plugin both through its single
-# calls (RWG_PLUGIN_BATCH=0, "single") and through ABI 1.1's batched calls
-# (rwg run's default for a plugin that has them; RWG_PLUGIN_BATCH=1 here,
-# "batched"). Runs alternate (built-in, single, batched, built-in, ...)
+# worker thread, for three architectures; the plugin through its single
+# calls (RWG_PLUGIN_BATCH=0, "single"), through ABI 1.1's batched calls
+# (RWG_PLUGIN_VEC=0, "batched") and through ABI 1.2's vector env (rwg run's
+# default for a plugin that has one, "vec"). Runs alternate (built-in, single,
+# batched, vec, built-in, ...)
 # and the medians of RUNS runs are reported: user CPU time per environment step
 # (robust on a busy machine) and wall time of the whole `rwg run` (what you
 # wait for, results written included; a plugin run also loads the plugin and
@@ -37,7 +38,7 @@ printf '%-8s  %-9s  %12s  %10s  %8s  %10s\n' arch env "env steps" "ns/step" "CPU
 for arch in "0HL:" "1HL-4:4" "2HL-4-4:4, 4"; do
     name=${arch%%:*}
     hidden=${arch#*:}
-    for env in builtin single batched; do
+    for env in builtin single batched vec; do
         if [ "$env" = builtin ]; then
             entry='id = "CartPole-v0"'
         else
@@ -47,15 +48,16 @@ for arch in "0HL:" "1HL-4:4" "2HL-4-4:4, 4"; do
             "$SAMPLES" "$EPISODES" "$name" "$hidden" "$entry" >"$tmp/$env.toml"
     done
     for _ in $(seq "$RUNS"); do
-        for env in builtin single batched; do
-            batch=1
+        for env in builtin single batched vec; do
+            batch=1 vec=1
             [ "$env" = single ] && batch=0
+            [ "$env" = batched ] && vec=0
             TIMEFORMAT="%U %R"
-            { time RWG_PLUGIN_BATCH=$batch "$RWG" run "$tmp/$env.toml" --threads 1 --no-report --out "$tmp/$env" --force-new >/dev/null 2>&1; } 2>>"$tmp/$env.times"
+            { time RWG_PLUGIN_BATCH=$batch RWG_PLUGIN_VEC=$vec "$RWG" run "$tmp/$env.toml" --threads 1 --no-report --out "$tmp/$env" --force-new >/dev/null 2>&1; } 2>>"$tmp/$env.times"
         done
     done
     base=
-    for env in builtin single batched; do
+    for env in builtin single batched vec; do
         steps=$(grep -m1 '"env_steps"' "$tmp/$env/run.json" | tr -dc '0-9')
         user=$(cut -d' ' -f1 "$tmp/$env.times" | median)
         wall=$(cut -d' ' -f2 "$tmp/$env.times" | median)

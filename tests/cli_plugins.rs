@@ -258,7 +258,7 @@ fn plugin_problems_are_manifest_errors_with_a_location() {
         (
             format!("id = \"handshake/Ok-v0\"\nplugin = {}", toml_str(&wrong_major)),
             "m.toml:11:10: envs[1].plugin: plugin ".to_string()
-                + &format!("{}: ABI version mismatch: the plugin was built for ABI 2.1", wrong_major.display()),
+                + &format!("{}: ABI version mismatch: the plugin was built for ABI 2.2", wrong_major.display()),
         ),
         (
             format!("id = \"classic_control/CartPol-v0\"\nplugin = {}", toml_str(&classic)),

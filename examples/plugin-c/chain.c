@@ -13,6 +13,7 @@
  * Build:  cc -std=c11 -O2 -shared -fPIC -fvisibility=hidden \
  *            -I../../rwg-env/include chain.c -o libchain.so
  */
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -230,6 +231,165 @@ static rwg_status_t chain_step_many(rwg_env_t *const *envs, size_t n, const uint
 }
 #endif
 
+/* ---- ABI 1.2: the vector env ----------------------------------------------
+ * Optional. Compiled against a 1.1 header or older this file has none, and
+ * rwg uses the batched calls. Here a vector env's lanes are an array of
+ * instances, each stepped by the single call's code, so the results are the
+ * single calls' bit for bit; an env with heavier arithmetic would keep its
+ * lanes' states as arrays and compute a step of all of them together (see
+ * the reference plugin). Unlike the batched calls, a lane that fails does not
+ * stop the others. */
+#if RWG_PLUGIN_ABI_MINOR >= 2
+struct rwg_vec_env {
+    size_t lanes;
+    rwg_env_t *envs; /* `lanes` instances */
+    char error[256]; /* the message of a call refused as a whole */
+};
+
+static rwg_status_t chain_vec_create(uint32_t env_index, const char *config, size_t lanes,
+                                     rwg_vec_env_t **out_vec, char *err_buf, size_t err_len) {
+    if (out_vec == NULL || lanes == 0 || lanes > SIZE_MAX / sizeof(rwg_env_t)) {
+        write_error(err_buf, err_len, "chain: out_vec is NULL or the lane count is 0 or too large");
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+    rwg_env_t *first = NULL; /* create checks the config and sets the defaults */
+    rwg_status_t s = chain_create(env_index, config, &first, err_buf, err_len);
+    if (s != RWG_OK) {
+        return s;
+    }
+    rwg_vec_env_t *vec = calloc(1, sizeof *vec);
+    rwg_env_t *envs = malloc(lanes * sizeof *envs);
+    if (vec == NULL || envs == NULL) {
+        free(first), free(vec), free(envs);
+        write_error(err_buf, err_len, "chain: out of memory");
+        return RWG_ERR_INTERNAL;
+    }
+    for (size_t i = 0; i < lanes; i++) {
+        envs[i] = *first;
+    }
+    free(first);
+    vec->lanes = lanes;
+    vec->envs = envs;
+    *out_vec = vec;
+    return RWG_OK;
+}
+
+static void chain_vec_destroy(rwg_vec_env_t *vec) {
+    if (vec != NULL) {
+        free(vec->envs);
+        free(vec);
+    }
+}
+
+/* A call refused as a whole: its status for every lane, its message. */
+static rwg_status_t vec_refuse(rwg_vec_env_t *vec, rwg_status_t *status, rwg_status_t s,
+                               const char *msg) {
+    snprintf(vec->error, sizeof vec->error, "%s", msg);
+    for (size_t i = 0; i < vec->lanes; i++) {
+        vec->envs[i].error[0] = '\0';
+        if (status != NULL) {
+            status[i] = s;
+        }
+    }
+    return s;
+}
+
+/* Whether the mask is NULL or holds only 0 and 1. */
+static int mask_ok(const rwg_vec_env_t *vec, const uint8_t *mask) {
+    for (size_t i = 0; mask != NULL && i < vec->lanes; i++) {
+        if (mask[i] > 1) {
+            return 0;
+        }
+    }
+    return 1;
+}
+
+/* Records lane i's status; the call's is the first lane's that failed. */
+static void vec_lane_done(rwg_vec_env_t *vec, size_t i, rwg_status_t s, rwg_status_t *status,
+                          rwg_status_t *first) {
+    if (status != NULL) {
+        status[i] = s;
+    }
+    if (*first == RWG_OK) {
+        *first = s;
+    }
+    (void)vec;
+}
+
+static rwg_status_t chain_vec_reset(rwg_vec_env_t *vec, const uint8_t *mask,
+                                    const uint64_t *seeds, double *obs, size_t obs_len,
+                                    rwg_status_t *status) {
+    if (vec == NULL) {
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+    vec->error[0] = '\0';
+    if (seeds == NULL || obs == NULL || !mask_ok(vec, mask)) {
+        return vec_refuse(vec, status, RWG_ERR_INVALID_ARGUMENT,
+                          "a NULL buffer or a mask value other than 0 or 1");
+    }
+    if (obs_len != 2) {
+        return vec_refuse(vec, status, RWG_ERR_BUFFER_SIZE, "the observation has 2 values");
+    }
+    rwg_status_t first = RWG_OK;
+    for (size_t i = 0; i < vec->lanes; i++) {
+        rwg_status_t s = RWG_OK;
+        if (mask == NULL || mask[i] == 1) {
+            s = chain_reset(&vec->envs[i], 1, seeds[i], obs + i * obs_len, obs_len);
+        } else {
+            vec->envs[i].error[0] = '\0';
+        }
+        vec_lane_done(vec, i, s, status, &first);
+    }
+    return first;
+}
+
+static rwg_status_t chain_vec_step(rwg_vec_env_t *vec, const uint8_t *mask,
+                                   const double *actions, size_t action_len, double *obs,
+                                   size_t obs_len, double *rewards, uint8_t *terminated,
+                                   uint8_t *truncated, rwg_status_t *status) {
+    if (vec == NULL) {
+        return RWG_ERR_INVALID_ARGUMENT;
+    }
+    vec->error[0] = '\0';
+    if (actions == NULL || obs == NULL || rewards == NULL || terminated == NULL ||
+        truncated == NULL || !mask_ok(vec, mask)) {
+        return vec_refuse(vec, status, RWG_ERR_INVALID_ARGUMENT,
+                          "a NULL buffer or a mask value other than 0 or 1");
+    }
+    if (action_len != 1) {
+        return vec_refuse(vec, status, RWG_ERR_INVALID_ARGUMENT,
+                          "a Discrete(2) action has length 1");
+    }
+    if (obs_len != 2) {
+        return vec_refuse(vec, status, RWG_ERR_BUFFER_SIZE, "the observation has 2 values");
+    }
+    rwg_status_t first = RWG_OK;
+    for (size_t i = 0; i < vec->lanes; i++) {
+        rwg_status_t s = RWG_OK;
+        if (mask == NULL || mask[i] == 1) {
+            rwg_step_out_t out;
+            s = chain_step(&vec->envs[i], actions + i, 1, obs + i * obs_len, obs_len, &out);
+            if (s == RWG_OK) {
+                rewards[i] = out.reward;
+                terminated[i] = out.terminated;
+                truncated[i] = out.truncated;
+            }
+        } else {
+            vec->envs[i].error[0] = '\0';
+        }
+        vec_lane_done(vec, i, s, status, &first);
+    }
+    return first;
+}
+
+static const char *chain_vec_last_error(const rwg_vec_env_t *vec, size_t lane) {
+    if (vec == NULL) {
+        return "vec is NULL";
+    }
+    return lane < vec->lanes ? vec->envs[lane].error : vec->error;
+}
+#endif
+
 /* ---- static tables ----------------------------------------------------- */
 
 static const double OBS_LOW[2] = {0.0, 0.0};
@@ -261,6 +421,13 @@ static const rwg_env_vtable_t CHAIN_VTABLE = {
 #if RWG_PLUGIN_ABI_MINOR >= 1
     .reset_many = chain_reset_many,
     .step_many = chain_step_many,
+#endif
+#if RWG_PLUGIN_ABI_MINOR >= 2
+    .vec_create = chain_vec_create,
+    .vec_destroy = chain_vec_destroy,
+    .vec_reset = chain_vec_reset,
+    .vec_step = chain_vec_step,
+    .vec_last_error = chain_vec_last_error,
 #endif
 };
 

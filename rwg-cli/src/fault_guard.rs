@@ -142,13 +142,18 @@ fn where_text(c: CallSnapshot, out: &mut Msg) {
         Phase::Step => b"in step: ",
         Phase::ResetMany => b"in reset_many (a batched reset): ",
         Phase::StepMany => b"in step_many (a batched step): ",
+        Phase::VecReset => b"in vec_reset (a vector env's reset): ",
+        Phase::VecStep => b"in vec_step (a vector env's step): ",
         Phase::Idle => b"outside any call rwg made into a plugin (a plugin's own thread?): ",
     });
     out.push(cell_label());
-    if matches!(phase, Phase::ResetMany | Phase::StepMany) {
+    if matches!(
+        phase,
+        Phase::ResetMany | Phase::StepMany | Phase::VecReset | Phase::VecStep
+    ) {
         out.push(b", one of ");
         out.num(episode);
-        out.push(b" lanes (batched call ");
+        out.push(b" lanes (call ");
         out.num(step);
         out.push(b" of the thread; rerun with RWG_PLUGIN_BATCH=0 to name the network and step)");
     }

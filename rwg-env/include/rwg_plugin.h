@@ -1,9 +1,14 @@
 /*
- * rwg_plugin.h -- the rwg environment plugin ABI, version 1.1.
+ * rwg_plugin.h -- the rwg environment plugin ABI, version 1.2.
  *
  * 1.1 (append-only over 1.0): the optional batched calls reset_many and
  * step_many at the end of rwg_env_vtable_t. A 1.0 plugin (a smaller
  * vtable struct_size) loads and runs unchanged on the single-step calls.
+ * 1.2 (append-only over 1.1): the optional vector env, one object holding
+ * many lanes of an environment (vec_create, vec_destroy, vec_reset,
+ * vec_step, vec_last_error at the end of rwg_env_vtable_t), so a plugin can
+ * keep its lanes' states as arrays and step them together. A 1.1 plugin
+ * loads and runs unchanged on its batched calls.
  *
  * This header is the normative definition of the ABI. The Rust mirror
  * (rwg-core/src/plugin/abi.rs) follows it; where the two disagree, this file
@@ -46,14 +51,15 @@
  *            freed across the boundary: an instance is freed only by its own
  *            table's destroy.
  * Threads.   The entry function, init, deinit, env_count, env_desc,
- *            env_vtable, get_extension and create are thread-safe: the host
+ *            env_vtable, get_extension, create and vec_create are thread-safe: the host
  *            may call them from any thread, concurrently (except that init
  *            and deinit are not called concurrently with anything else).
  *            Instance functions (reset, step, last_error, destroy, and 1.1's
  *            reset_many and step_many for each instance they are given) are
  *            called on one instance by one thread at a time, but an instance
  *            may move between threads between calls; different instances are
- *            used concurrently. A plugin keeps NO hidden global or thread-local
+ *            used concurrently (1.2's vector envs likewise: one thread at a
+ *            time per vector env). A plugin keeps NO hidden global or thread-local
  *            mutable state that affects results: an episode must depend only
  *            on its instance's config, seed and actions, never on which thread
  *            runs it or on what other instances do (`rwg check` tests this).
@@ -159,7 +165,7 @@ extern "C" {
  * only adds (fields at the end of growable structs, flags, status codes,
  * extensions); each side uses only what the other side's minor provides. */
 #define RWG_PLUGIN_ABI_MAJOR 1u
-#define RWG_PLUGIN_ABI_MINOR 1u
+#define RWG_PLUGIN_ABI_MINOR 2u
 
 /* rwg_plugin_entry_t.abi_tag must point to exactly this string. It guards
  * against a library that exports a function with the entry's name by chance. */
@@ -252,6 +258,10 @@ typedef struct rwg_env_desc {
 
 /* An environment instance; opaque to the host. */
 typedef struct rwg_env rwg_env_t;
+
+/* ABI 1.2: a vector env, many lanes of one environment in one object (see
+ * vec_create); opaque to the host. */
+typedef struct rwg_vec_env rwg_vec_env_t;
 
 /* What step returns besides the observation. Owned by the host. Frozen for
  * ABI v1. On RWG_OK the plugin writes all three fields. */
@@ -384,6 +394,72 @@ typedef struct rwg_env_vtable {
                               const double *actions, size_t action_len, double *obs,
                               size_t obs_len, double *rewards, uint8_t *terminated,
                               uint8_t *truncated, size_t *failed);
+
+    /* ---- ABI 1.2: the vector env. Optional: all five NULL, or all five set
+     * (the host refuses a table with some). A host reads them only when
+     * struct_size covers them (a 1.1 table ends at step_many).
+     *
+     * A vector env holds `lanes` instances ("lanes") of THIS table's
+     * environment with one config, in one object, so the plugin may keep
+     * their states as arrays and compute a step of all of them together
+     * (EnvPool's and Gymnasium's VectorEnv's shape). Lane i behaves exactly
+     * as an instance made by create with the same config: the same seed and
+     * actions give the same observations, rewards and flags, bit for bit
+     * (`rwg check` tests it), so a host may use either.
+     * Buffers, for a vector env of n lanes, all host-owned and used only
+     * during the call:
+     *   mask       n flags (0 or 1), or NULL = every lane. Only lanes with
+     *              mask[i] = 1 take part; the slots of the others, in every
+     *              buffer but `status`, are neither read nor written.
+     *   obs        n * obs_len doubles, lane i's at obs + i * obs_len;
+     *              obs_len is ONE lane's length (the observation space's n).
+     *   status     n rwg_status_t, or NULL. When the call returns other
+     *              than RWG_OK, the plugin has written every lane's status
+     *              there: RWG_OK for a lane done (or not masked), else the
+     *              lane's error, its message in vec_last_error(vec, i). On
+     *              RWG_OK it may have written them too (or not).
+     * Meaning: the single call on every masked lane. A lane that fails does
+     * not stop the others: they are done all the same. The call returns
+     * RWG_OK when every masked lane succeeded, else the status of the
+     * lowest lane that failed. A call refused as a whole (a NULL buffer, a
+     * mask value other than 0 or 1, a wrong obs_len or action_len) touches
+     * no lane and gives its status to every lane. A panic or
+     * exception caught in a call poisons the whole vector env: its masked
+     * lanes fail with RWG_ERR_PANIC, and every later call fails every
+     * masked lane with RWG_ERR_PANIC (only vec_destroy and vec_last_error
+     * still work).
+     * Threads: one thread at a time per vector env (it may move between
+     * threads between calls); different vector envs, and instances made by
+     * create, are used concurrently. */
+
+    /* Creates a vector env of `lanes` >= 1 lanes (the plugin may refuse a
+     * count it cannot hold with RWG_ERR_INVALID_ARGUMENT). env_index, config,
+     * err_buf and err_len as for create. Thread-safe. Every lane needs a
+     * vec_reset before it steps. */
+    rwg_status_t (*vec_create)(uint32_t env_index, const char *config, size_t lanes,
+                               rwg_vec_env_t **out_vec, char *err_buf, size_t err_len);
+
+    /* Frees a vector env. NULL-safe. Works on a poisoned one too. */
+    void (*vec_destroy)(rwg_vec_env_t *vec);
+
+    /* reset(lane i, 1, seeds[i], obs + i * obs_len, obs_len) for every
+     * masked lane (always seeded). seeds: n values. */
+    rwg_status_t (*vec_reset)(rwg_vec_env_t *vec, const uint8_t *mask, const uint64_t *seeds,
+                              double *obs, size_t obs_len, rwg_status_t *status);
+
+    /* step(lane i, actions + i * action_len, action_len, obs + i * obs_len,
+     * obs_len, &out_i) for every masked lane, out_i's fields going to
+     * rewards[i], terminated[i] and truncated[i]; action_len and the
+     * actions as for step_many. The host applies the time limit itself. */
+    rwg_status_t (*vec_step)(rwg_vec_env_t *vec, const uint8_t *mask, const double *actions,
+                             size_t action_len, double *obs, size_t obs_len, double *rewards,
+                             uint8_t *terminated, uint8_t *truncated, rwg_status_t *status);
+
+    /* Why lane `lane` failed in the most recent call on this vector env: a
+     * NUL-terminated UTF-8 message, "" (or NULL) if it did not fail; lane n
+     * (or more) gives the message of the call as a whole. Never fails. Valid
+     * until the next call on this vector env (including vec_destroy). */
+    const char *(*vec_last_error)(const rwg_vec_env_t *vec, size_t lane);
 } rwg_env_vtable_t;
 
 /* ------------------------------------------------------------------------- */
@@ -497,7 +573,9 @@ RWG_STATIC_ASSERT(offsetof(rwg_env_vtable_t, create) == 8, "rwg_env_vtable_t lay
 RWG_STATIC_ASSERT(offsetof(rwg_env_vtable_t, last_error) == 8 + 4 * RWG_P_, "rwg_env_vtable_t layout");
 RWG_STATIC_ASSERT(offsetof(rwg_env_vtable_t, reset_many) == 8 + 5 * RWG_P_, "rwg_env_vtable_t layout (1.1)");
 RWG_STATIC_ASSERT(offsetof(rwg_env_vtable_t, step_many) == 8 + 6 * RWG_P_, "rwg_env_vtable_t layout (1.1)");
-RWG_STATIC_ASSERT(sizeof(rwg_env_vtable_t) == 8 + 7 * RWG_P_, "rwg_env_vtable_t size (1.1; 1.0's ended at 8 + 5 * P)");
+RWG_STATIC_ASSERT(offsetof(rwg_env_vtable_t, vec_create) == 8 + 7 * RWG_P_, "rwg_env_vtable_t layout (1.2)");
+RWG_STATIC_ASSERT(offsetof(rwg_env_vtable_t, vec_last_error) == 8 + 11 * RWG_P_, "rwg_env_vtable_t layout (1.2)");
+RWG_STATIC_ASSERT(sizeof(rwg_env_vtable_t) == 8 + 12 * RWG_P_, "rwg_env_vtable_t size (1.2; 1.0's ended at 8 + 5 * P, 1.1's at 8 + 7 * P)");
 
 RWG_STATIC_ASSERT(offsetof(rwg_host_t, name) == 16, "rwg_host_t layout");
 RWG_STATIC_ASSERT(sizeof(rwg_host_t) == 16 + 2 * RWG_P_, "rwg_host_t size");

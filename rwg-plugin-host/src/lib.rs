@@ -20,9 +20,9 @@ pub use check::{
 };
 pub use loader::{
     find_plugin_files, library_file_name, load_plugin, load_plugin_path, load_plugin_path_from_env,
-    load_plugin_path_from_env_reserving, load_plugin_path_reserving, LaneFailure, Plugin,
-    PluginBatch, PluginEnv, PluginEnvType, PluginFiles, PluginInfo, PluginLoadError,
-    PluginLoadErrorKind, PluginScan, Rejected, PLUGIN_PATH_VAR,
+    load_plugin_path_from_env_reserving, load_plugin_path_reserving, LaneCalls, LaneFailure,
+    Plugin, PluginBatch, PluginEnv, PluginEnvType, PluginFiles, PluginInfo, PluginLanes,
+    PluginLoadError, PluginLoadErrorKind, PluginScan, PluginVecEnv, Rejected, PLUGIN_PATH_VAR,
 };
 
 #[cfg(test)]

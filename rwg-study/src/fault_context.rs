@@ -32,6 +32,12 @@ pub enum Phase {
     ResetMany = 4,
     /// ABI 1.1's `step_many` (a batched step; fields as for `ResetMany`).
     StepMany = 5,
+    /// ABI 1.2's `vec_reset` (a vector env's reset; fields as for
+    /// `ResetMany`).
+    VecReset = 6,
+    /// ABI 1.2's `vec_step` (a vector env's step; fields as for
+    /// `ResetMany`).
+    VecStep = 7,
 }
 
 /// One thread's plugin call in progress. Written only by its thread.
@@ -89,6 +95,8 @@ impl CallCtx {
             3 => Phase::Step,
             4 => Phase::ResetMany,
             5 => Phase::StepMany,
+            6 => Phase::VecReset,
+            7 => Phase::VecStep,
             _ => Phase::Idle,
         };
         CallSnapshot {
@@ -177,8 +185,9 @@ thread_local! {
     static BATCHED_CALLS: Cell<u64> = const { Cell::new(0) };
 }
 
-/// Runs `call`, recorded as a batched call (`phase` is [`Phase::ResetMany`]
-/// or [`Phase::StepMany`]) on `lanes` lanes. The plugin cannot say which of
+/// Runs `call`, recorded as a call on many lanes (`phase` is
+/// [`Phase::ResetMany`], [`Phase::StepMany`], [`Phase::VecReset`] or
+/// [`Phase::VecStep`]) on `lanes` lanes. The plugin cannot say which of
 /// the lanes it is working on, so a fault report names the batch, not the
 /// network and step.
 #[inline]

@@ -495,10 +495,14 @@ fn run_cell_blocks(
                 runner.on_block(b)
             })
         }
-        // ABI 1.1: one reset_many/step_many call for a worker's lanes.
-        EnvSource::Plugin(p) if crate::plugin_batch::use_batched_calls(p) => {
+        // ABI 1.2's vector env or 1.1's batched calls: one call steps a
+        // worker's lanes.
+        EnvSource::Plugin(p) if crate::plugin_batch::calls_for(p).is_some() => {
             let wave = rayon::current_num_threads() * 2;
-            crate::plugin_batch::run_blocks(p, &cell.plan, blocks, wave, |b| runner.on_block(b))
+            let calls = crate::plugin_batch::calls_for(p).expect("checked");
+            crate::plugin_batch::run_blocks(p, calls, &cell.plan, blocks, wave, |b| {
+                runner.on_block(b)
+            })
         }
         // Plugin calls are recorded for fault reports (see fault_context).
         EnvSource::Plugin(p) => runner.run(|| {

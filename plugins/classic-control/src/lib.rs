@@ -9,7 +9,10 @@
 //!
 //! Each env is exported with its concrete type (from [`rwg_envs::visit`]),
 //! so the exported `step` and `step_many` call the env's `step` directly,
-//! as the built-in sampler does, instead of through a trait object.
+//! as the built-in sampler does, instead of through a trait object. Envs
+//! with a lockstep version ([`rwg_envs::lockstep`]) also export it as ABI
+//! 1.2's vector env ([`VEC_WIDTH`] lanes stepped as arrays per chunk), the
+//! code `rwg run` steps the built-ins with.
 //!
 //! Config string: `""` (defaults) or `action_dtype=float32` /
 //! `action_dtype=float64`, the dtype of the continuous action array (see
@@ -21,10 +24,15 @@ use std::marker::PhantomData;
 
 use rwg_env::plugin::PluginBuilder;
 use rwg_env::{ActionDtype, EnvSpec, Environment};
-use rwg_envs::{visit, EnvOptions, EnvVisitor, Registration, REGISTRY};
+use rwg_envs::lockstep::{LockstepEnv, LockstepVisitor};
+use rwg_envs::{visit, visit_lockstep, EnvOptions, EnvVisitor, Registration, REGISTRY};
 
 /// The namespace of this plugin's ids.
 pub const NAMESPACE: &str = "classic_control";
+
+/// Lanes of each lockstep env behind a vector env (the built-in sampler's
+/// `rwg_core::sampler::LANES`).
+pub const VEC_WIDTH: usize = 16;
 
 /// Parses the config string into build options (with no time limit).
 fn options(config: &str) -> Result<EnvOptions, String> {
@@ -58,14 +66,46 @@ impl EnvVisitor for Export {
         let id = self.reg.id;
         let mut spec: EnvSpec = env.spec().clone();
         spec.id = format!("{NAMESPACE}/{id}");
-        self.builder.env(
+        let builder = self.builder.env(
             spec,
             self.reg.summary,
             move |config: &str| -> Result<E, String> {
                 let opts = options(config)?;
                 visit(id, &opts, Exact::<E>(PhantomData)).map_err(|e| e.to_string())?
             },
-        )
+        );
+        let opts = options("").expect("the default config parses");
+        visit_lockstep::<VEC_WIDTH, _>(id, &opts, ExportVec { builder, id })
+            .unwrap_or_else(|v| v.builder)
+    }
+}
+
+/// Gives the env just added its lockstep version as the vector env.
+struct ExportVec {
+    builder: PluginBuilder,
+    id: &'static str,
+}
+
+impl LockstepVisitor for ExportVec {
+    type Output = PluginBuilder;
+    fn visit<M: LockstepEnv + Clone + Send + Sync + 'static>(self, _env: M) -> PluginBuilder {
+        let id = self.id;
+        self.builder
+            .vec_env(move |config: &str| -> Result<M, String> {
+                let opts = options(config)?;
+                visit_lockstep::<VEC_WIDTH, _>(id, &opts, Exact::<M>(PhantomData))
+                    .map_err(|_| format!("{id} has no lockstep version (a bug in the plugin)"))?
+            })
+    }
+}
+
+impl<M: 'static> LockstepVisitor for Exact<M> {
+    type Output = Result<M, String>;
+    fn visit<F: LockstepEnv + Clone + Send + Sync + 'static>(self, env: F) -> Result<M, String> {
+        let any: Box<dyn Any> = Box::new(env);
+        any.downcast::<M>()
+            .map(|e| *e)
+            .map_err(|_| "the env's type changed with its options (a bug in the plugin)".into())
     }
 }
 

@@ -126,6 +126,10 @@ static rwg_status_t half_step_many(rwg_env_t *const *envs, size_t n, const uint8
 }
 #endif
 
+#ifdef BROKEN_PARTIAL_VEC
+static void partial_vec_destroy(rwg_vec_env_t *vec) { (void)vec; }
+#endif
+
 static const rwg_env_vtable_t VTABLE = {
     .struct_size = sizeof(rwg_env_vtable_t),
     .create = create,
@@ -137,6 +141,9 @@ static const rwg_env_vtable_t VTABLE = {
     .last_error = last_error,
 #ifdef BROKEN_HALF_BATCH
     .step_many = half_step_many,
+#endif
+#ifdef BROKEN_PARTIAL_VEC
+    .vec_destroy = partial_vec_destroy,
 #endif
 };
 

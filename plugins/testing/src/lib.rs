@@ -14,12 +14,18 @@
 //! | `broken/AbortInStep-v0` | calls `abort()` on step 5 of its 2nd episode |
 //! | `broken/PrintInReset-v0` | works, but prints a line to stdout on every reset |
 //!
+//! Every one also has ABI 1.2's vector env ([`EachLane`]: its lanes are
+//! instances stepped one after another), which misbehaves the same way, so
+//! the tests see each fault through the single calls, the batched calls
+//! (`RWG_PLUGIN_VEC=0`) and the vector env (`rwg run`'s default).
+//!
 //! Broken handshakes (wrong ABI version, bad descriptors, ...) are C
 //! variants of `c/handshake.c`, compiled by the tests.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use rwg_env::env::discrete_action;
+use rwg_env::many::ManyEnv;
 use rwg_env::plugin::PluginBuilder;
 use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
@@ -189,15 +195,95 @@ impl Environment for Broken {
     }
 }
 
-/// The plugin: one environment per [`Fault`].
+/// A vector env's chunk of [`EachLane::WIDTH`] lanes: [`Broken`]
+/// instances stepped one after another, so a lane misbehaves as the
+/// single instance does.
+pub struct EachLane {
+    envs: Vec<Broken>,
+}
+
+impl EachLane {
+    /// Lanes per chunk (a vector env of more lanes has several chunks).
+    pub const WIDTH: usize = 4;
+
+    /// [`Self::WIDTH`] instances of `fault`'s env with `config`.
+    pub fn with_config(fault: Fault, config: &str) -> Result<EachLane, String> {
+        let envs = (0..Self::WIDTH)
+            .map(|_| Broken::with_config(fault, config))
+            .collect::<Result<_, _>>()?;
+        Ok(EachLane { envs })
+    }
+}
+
+impl ManyEnv for EachLane {
+    fn spec(&self) -> &EnvSpec {
+        &self.envs[0].spec
+    }
+
+    fn lanes(&self) -> usize {
+        self.envs.len()
+    }
+
+    fn reset_many(
+        &mut self,
+        mask: &[u8],
+        seeds: &[u64],
+        obs: &mut [f64],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    ) {
+        for (i, env) in self.envs.iter_mut().enumerate() {
+            if mask[i] == 1 {
+                if let Err(e) = env.reset(seeds[i], &mut obs[i..i + 1]) {
+                    on_fail(i, e);
+                }
+            }
+        }
+    }
+
+    fn step_many(
+        &mut self,
+        mask: &[u8],
+        actions: &[f64],
+        obs: &mut [f64],
+        rewards: &mut [f64],
+        terminated: &mut [u8],
+        truncated: &mut [u8],
+        on_fail: &mut dyn FnMut(usize, EnvError),
+    ) {
+        for (i, env) in self.envs.iter_mut().enumerate() {
+            if mask[i] != 1 {
+                continue;
+            }
+            let a = actions[i];
+            let action = if a.fract() == 0.0 && (0.0..2.0).contains(&a) {
+                Action::Discrete(a as i64)
+            } else {
+                on_fail(i, EnvError::InvalidAction(format!("{a} is not 0 or 1")));
+                continue;
+            };
+            match env.step(action, &mut obs[i..i + 1]) {
+                Ok(s) => {
+                    rewards[i] = s.reward;
+                    terminated[i] = u8::from(s.terminated);
+                    truncated[i] = u8::from(s.truncated);
+                }
+                Err(e) => on_fail(i, e),
+            }
+        }
+    }
+}
+
+/// The plugin: one environment per [`Fault`], each with a vector env.
 pub fn plugin() -> PluginBuilder {
     let mut b = PluginBuilder::new("broken", env!("CARGO_PKG_VERSION"));
     for fault in Fault::ALL {
-        b = b.env(
-            Broken::spec(fault),
-            "deliberately broken",
-            move |config: &str| Broken::with_config(fault, config),
-        );
+        b = b
+            .env(
+                Broken::spec(fault),
+                "deliberately broken",
+                move |config: &str| Broken::with_config(fault, config),
+            )
+            .vec_env(move |config: &str| EachLane::with_config(fault, config));
     }
     b
 }

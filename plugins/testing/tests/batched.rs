@@ -23,7 +23,7 @@ fn a_plugin_built_against_the_1_0_header_has_no_batched_calls_and_runs_alike() {
     .unwrap();
     let new = load_plugin(compile_c(CHAIN, &dir, "chain11", &[])).unwrap();
     assert_eq!(old.info().abi, (1, 0));
-    assert_eq!(new.info().abi, (1, 1));
+    assert_eq!(new.info().abi, (1, 2));
     let (t10, t11) = (&old.envs()[0], &new.envs()[0]);
     assert!(!t10.has_batched_calls());
     assert!(t11.has_batched_calls());

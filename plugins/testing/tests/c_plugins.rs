@@ -107,7 +107,7 @@ fn wrong_abi_version_is_refused_with_both_versions() {
     let k = handshake("BROKEN_WRONG_MAJOR");
     assert_eq!(
         k.to_string(),
-        "ABI version mismatch: the plugin was built for ABI 2.1, this rwg speaks ABI 1.1 \
+        "ABI version mismatch: the plugin was built for ABI 2.2, this rwg speaks ABI 1.2 \
          (majors must match)"
     );
 }
@@ -166,6 +166,10 @@ fn broken_descriptors_give_clear_errors() {
     assert_eq!(
         text("BROKEN_HALF_BATCH"),
         "environment #0 'handshake/Ok-v0': env_vtable: step_many is set but reset_many is NULL (ABI 1.1 needs both or neither)"
+    );
+    assert_eq!(
+        text("BROKEN_PARTIAL_VEC"),
+        "environment #0 'handshake/Ok-v0': env_vtable: vec_destroy set but vec_create, vec_reset, vec_step, vec_last_error NULL (ABI 1.2 needs all five vector-env functions or none)"
     );
 }
 

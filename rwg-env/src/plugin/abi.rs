@@ -1,4 +1,4 @@
-//! `#[repr(C)]` mirrors of `rwg-env/include/rwg_plugin.h`, ABI v1.1.
+//! `#[repr(C)]` mirrors of `rwg-env/include/rwg_plugin.h`, ABI v1.2.
 //!
 //! The header is normative: read it for the ownership, lifetime and threading
 //! contract of every field and function. The const assertions at the end of
@@ -16,7 +16,7 @@ use std::mem::{offset_of, size_of};
 /// `RWG_PLUGIN_ABI_MAJOR`: hosts and plugins work together when majors match.
 pub const ABI_MAJOR: u32 = 1;
 /// `RWG_PLUGIN_ABI_MINOR`: additions within the major.
-pub const ABI_MINOR: u32 = 1;
+pub const ABI_MINOR: u32 = 2;
 /// `RWG_PLUGIN_ABI_TAG`, NUL-terminated.
 pub const ABI_TAG: &std::ffi::CStr = c"rwg-env-plugin";
 /// `RWG_PLUGIN_ENTRY_SYMBOL`, NUL-terminated, as `libloading` wants it.
@@ -109,6 +109,14 @@ pub struct RwgEnv {
     _marker: PhantomData<(*mut u8, PhantomPinned)>,
 }
 
+/// `rwg_vec_env_t` (ABI 1.2): many lanes of an environment in one object;
+/// opaque.
+#[repr(C)]
+pub struct RwgVecEnv {
+    _data: [u8; 0],
+    _marker: PhantomData<(*mut u8, PhantomPinned)>,
+}
+
 /// `rwg_step_out_t`: reward and flags of a step. Frozen for ABI v1.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -177,6 +185,42 @@ pub type StepManyFn = unsafe extern "C" fn(
     failed: *mut usize,
 ) -> Status;
 
+/// `vec_create` (ABI 1.2): a vector env of `lanes` lanes.
+pub type VecCreateFn = unsafe extern "C" fn(
+    env_index: u32,
+    config: *const c_char,
+    lanes: usize,
+    out_vec: *mut *mut RwgVecEnv,
+    err_buf: *mut c_char,
+    err_len: usize,
+) -> Status;
+/// `vec_destroy` (ABI 1.2).
+pub type VecDestroyFn = unsafe extern "C" fn(vec: *mut RwgVecEnv);
+/// `vec_reset` (ABI 1.2): seeded resets of the masked lanes.
+pub type VecResetFn = unsafe extern "C" fn(
+    vec: *mut RwgVecEnv,
+    mask: *const u8,
+    seeds: *const u64,
+    obs: *mut f64,
+    obs_len: usize,
+    status: *mut Status,
+) -> Status;
+/// `vec_step` (ABI 1.2): a step of the masked lanes.
+pub type VecStepFn = unsafe extern "C" fn(
+    vec: *mut RwgVecEnv,
+    mask: *const u8,
+    actions: *const f64,
+    action_len: usize,
+    obs: *mut f64,
+    obs_len: usize,
+    rewards: *mut f64,
+    terminated: *mut u8,
+    truncated: *mut u8,
+    status: *mut Status,
+) -> Status;
+/// `vec_last_error` (ABI 1.2): lane `lane`'s message (`lane >= n`: the call's).
+pub type VecLastErrorFn = unsafe extern "C" fn(vec: *const RwgVecEnv, lane: usize) -> *const c_char;
+
 /// `rwg_env_vtable_t`: the functions of one environment. Growable.
 #[repr(C)]
 #[derive(Debug, Clone, Copy)]
@@ -201,6 +245,17 @@ pub struct RwgEnvVtable {
     /// ABI 1.1, optional: steps many instances (read only when
     /// `struct_size` covers it).
     pub step_many: Option<StepManyFn>,
+    /// ABI 1.2, optional (all five vector-env functions or none): creates a
+    /// vector env (read only when `struct_size` covers it).
+    pub vec_create: Option<VecCreateFn>,
+    /// ABI 1.2: frees a vector env.
+    pub vec_destroy: Option<VecDestroyFn>,
+    /// ABI 1.2: resets lanes of a vector env.
+    pub vec_reset: Option<VecResetFn>,
+    /// ABI 1.2: steps lanes of a vector env.
+    pub vec_step: Option<VecStepFn>,
+    /// ABI 1.2: a lane's message after a failed vector call.
+    pub vec_last_error: Option<VecLastErrorFn>,
 }
 
 /// `rwg_host_t`: what the host tells the plugin in `init`. Growable.
@@ -301,7 +356,9 @@ const _: () = {
     assert!(offset_of!(RwgEnvVtable, last_error) == 8 + 4 * P);
     assert!(offset_of!(RwgEnvVtable, reset_many) == 8 + 5 * P);
     assert!(offset_of!(RwgEnvVtable, step_many) == 8 + 6 * P);
-    assert!(size_of::<RwgEnvVtable>() == 8 + 7 * P);
+    assert!(offset_of!(RwgEnvVtable, vec_create) == 8 + 7 * P);
+    assert!(offset_of!(RwgEnvVtable, vec_last_error) == 8 + 11 * P);
+    assert!(size_of::<RwgEnvVtable>() == 8 + 12 * P);
 
     assert!(offset_of!(RwgHost, name) == 16);
     assert!(size_of::<RwgHost>() == 16 + 2 * P);
@@ -320,7 +377,9 @@ pub const ENV_DESC_SIZE_V1_0: u32 = size_of::<RwgEnvDesc>() as u32;
 /// `sizeof(rwg_env_vtable_t)` in ABI 1.0 (up to `last_error`).
 pub const ENV_VTABLE_SIZE_V1_0: u32 = offset_of!(RwgEnvVtable, reset_many) as u32;
 /// `sizeof(rwg_env_vtable_t)` in ABI 1.1 (with the batched calls).
-pub const ENV_VTABLE_SIZE_V1_1: u32 = size_of::<RwgEnvVtable>() as u32;
+pub const ENV_VTABLE_SIZE_V1_1: u32 = offset_of!(RwgEnvVtable, vec_create) as u32;
+/// `sizeof(rwg_env_vtable_t)` at ABI 1.2 (the vector env's five functions).
+pub const ENV_VTABLE_SIZE_V1_2: u32 = size_of::<RwgEnvVtable>() as u32;
 /// `sizeof(rwg_host_t)` in ABI 1.0.
 pub const HOST_SIZE_V1_0: u32 = size_of::<RwgHost>() as u32;
 
@@ -352,7 +411,8 @@ mod tests {
             assert_eq!(size_of::<RwgSpace>(), 32);
             assert_eq!(size_of::<RwgEnvDesc>(), 104);
             assert_eq!(ENV_VTABLE_SIZE_V1_0, 48);
-            assert_eq!(size_of::<RwgEnvVtable>(), 64);
+            assert_eq!(ENV_VTABLE_SIZE_V1_1, 64);
+            assert_eq!(size_of::<RwgEnvVtable>(), 104);
             assert_eq!(size_of::<RwgPluginEntry>(), 88);
             assert_eq!(size_of::<RwgHost>(), 32);
         }

@@ -1,16 +1,21 @@
-//! The 'batched calls' check (ABI 1.1): `reset_many` / `step_many` give the
-//! single calls' results bit for bit, on random seeds, actions and masks,
-//! and leave the buffers of masked-out lanes alone.
+//! The 'batched calls' (ABI 1.1: `reset_many` / `step_many`) and 'vector
+//! env' (ABI 1.2: `vec_reset` / `vec_step`) checks: they give the single
+//! calls' results bit for bit, on random seeds, actions and masks, and leave
+//! the buffers of masked-out lanes alone.
 
 use super::env_checks::Outcome;
 use super::report::CheckStatus::{Failed, Passed};
 use super::trajectory::{sample, OwnedAction, Rng, ACTION_SALT, TRAJ_STEPS};
-use crate::loader::{PluginEnv, PluginEnvType};
+use crate::loader::{LaneCalls, PluginEnv, PluginEnvType};
 use rwg_env::env::{EnvError, Environment, Step};
 use rwg_env::time_limit::TimeLimit;
 
 /// Lanes of the batch under test.
 const LANES: usize = 8;
+/// Lane counts of the vector envs under test: one smaller and one larger
+/// than a plugin's natural width is likely to be (8 or 16), neither a
+/// multiple of it.
+const VEC_LANES: [usize; 2] = [7, 19];
 /// What masked-out lanes' buffers hold; a plugin writing there is caught.
 const SENTINEL: f64 = 1234.5;
 
@@ -21,17 +26,20 @@ fn bits(obs: &[f64]) -> Vec<u64> {
     obs.iter().map(|x| x.to_bits()).collect()
 }
 
+/// Whether two lanes' results agree: the same step bits and observation
+/// bits, or both an error (the texts differ: a vector env's name the lane).
 fn same(a: &LaneResult, b: &LaneResult) -> bool {
     let step_bits = |r: &Result<Option<Step>, String>| match r {
         Ok(Some(s)) => Ok(Some((s.reward.to_bits(), s.terminated, s.truncated))),
         Ok(None) => Ok(None),
-        Err(e) => Err(e.clone()),
+        Err(_) => Err(()),
     };
     step_bits(&a.0) == step_bits(&b.0) && (a.0.is_err() || a.1 == b.1)
 }
 
-/// The check: [`LANES`] single instances and a batch of as many, driven with
-/// the same seeds and actions for [`TRAJ_STEPS`] batched steps.
+/// The 'batched calls' check: [`LANES`] single instances and a batch of as
+/// many, driven with the same seeds and actions for [`TRAJ_STEPS`] batched
+/// steps.
 pub(super) fn batched_calls(ty: &PluginEnvType, config: &str) -> Outcome {
     if !ty.has_batched_calls() {
         return (
@@ -40,7 +48,7 @@ pub(super) fn batched_calls(ty: &PluginEnvType, config: &str) -> Outcome {
                 .into(),
         );
     }
-    match compare(ty, config) {
+    match compare(ty, config, LaneCalls::Batched, LANES) {
         Ok(n) => (
             Passed,
             format!(
@@ -51,53 +59,89 @@ pub(super) fn batched_calls(ty: &PluginEnvType, config: &str) -> Outcome {
     }
 }
 
-fn compare(ty: &PluginEnvType, config: &str) -> Result<usize, String> {
+/// The 'vector env' check: vector envs of each of [`VEC_LANES`] lanes
+/// against as many single instances, as [`batched_calls`] does.
+pub(super) fn vec_env(ty: &PluginEnvType, config: &str) -> Outcome {
+    if !ty.has_vec_env() {
+        return (
+            Passed,
+            "no vector env (a plugin before ABI 1.2, or none provided): rwg uses the batched or single calls"
+                .into(),
+        );
+    }
+    let mut steps = 0;
+    for lanes in VEC_LANES {
+        match compare(ty, config, LaneCalls::Vec, lanes) {
+            Ok(n) => steps += n,
+            Err(e) => return (Failed, format!("a vector env of {lanes} lanes: {e}")),
+        }
+    }
+    (
+        Passed,
+        format!(
+            "vec_reset/vec_step equal the single calls bit for bit ({steps} lane steps on vector envs of {} and {} lanes, random masks)",
+            VEC_LANES[0], VEC_LANES[1]
+        ),
+    )
+}
+
+/// Drives `n` lanes through `calls` and `n` single instances with the same
+/// seeds and actions; the lane steps compared, or the first difference.
+fn compare(ty: &PluginEnvType, config: &str, calls: LaneCalls, n: usize) -> Result<usize, String> {
     let no_limit = Some(u32::MAX);
     let mut batch = ty
-        .make_batch(config, LANES, no_limit)
-        .map_err(|e| format!("cannot create the batch: {e}"))?;
-    let mut singles: Vec<TimeLimit<PluginEnv>> = (0..LANES)
+        .make_lanes(calls, config, n, no_limit)
+        .map_err(|e| format!("cannot create the {}: {e}", calls.name()))?;
+    let (reset_call, step_call) = match calls {
+        LaneCalls::Batched => ("reset_many", "step_many"),
+        LaneCalls::Vec => ("vec_reset", "vec_step"),
+    };
+    let mut singles: Vec<TimeLimit<PluginEnv>> = (0..n)
         .map(|_| ty.make(config, no_limit))
         .collect::<Result<_, _>>()
         .map_err(|e| format!("cannot create an instance: {e}"))?;
     let spec = ty.spec().clone();
-    let (d, a) = (spec.obs_dim(), batch.action_len());
-    let mut rng = Rng(ACTION_SALT ^ 0xba7c);
-    let mut obs = vec![0.0; LANES * d];
+    let d = spec.obs_dim();
+    let a = match &spec.action_space {
+        rwg_env::space::Space::Discrete { .. } => 1,
+        rwg_env::space::Space::Box(b) => b.dim(),
+    };
+    let mut rng = Rng(ACTION_SALT ^ 0xba7c ^ n as u64);
+    let mut obs = vec![0.0; n * d];
     let mut single_obs = vec![0.0; d];
-    let (mut rewards, mut term, mut trunc) = ([0.0; LANES], [0u8; LANES], [0u8; LANES]);
-    let mut actions = vec![0.0; LANES * a];
-    let mut mask = [1u8; LANES];
-    let mut seeds = [0u64; LANES];
-    let mut alive = [true; LANES];
+    let (mut rewards, mut term, mut trunc) = (vec![0.0; n], vec![0u8; n], vec![0u8; n]);
+    let mut actions = vec![0.0; n * a];
+    let mut mask = vec![1u8; n];
+    let mut seeds = vec![0u64; n];
+    let mut alive = vec![true; n];
     let mut compared = 0;
     let mismatch = |what: &str, i: usize, k: usize, s: &LaneResult, b: &LaneResult| {
         format!(
-            "lane {i}, {what} {k}: the single call gave {:?} obs bits {:x?}, the batched call {:?} obs bits {:x?}",
-            s.0, s.1, b.0, b.1
+            "lane {i}, {what} {k}: the single call gave {:?} obs bits {:x?}, the {} {:?} obs bits {:x?}",
+            s.0, s.1, calls.name(), b.0, b.1
         )
     };
     for k in 0..=TRAJ_STEPS {
         // Reset every lane at first, then the ended ones and a few at random.
-        let resetting: Vec<bool> = (0..LANES)
+        let resetting: Vec<bool> = (0..n)
             .map(|i| alive[i] && (k == 0 || mask[i] == 2 || rng.next() % 64 == 0))
             .collect();
-        for i in 0..LANES {
+        for i in 0..n {
             mask[i] = u8::from(resetting[i]);
             seeds[i] = rng.next();
             if !resetting[i] {
                 obs[i * d..(i + 1) * d].fill(SENTINEL);
             }
         }
-        let mut failures: Vec<Option<String>> = vec![None; LANES];
+        let mut failures: Vec<Option<String>> = vec![None; n];
         batch.reset_many(&mask, &seeds, &mut obs, |f| {
             failures[f.lane] = Some(f.error.to_string())
         });
-        for i in 0..LANES {
+        for i in 0..n {
             if !resetting[i] {
                 if obs[i * d..(i + 1) * d].iter().any(|&x| x != SENTINEL) {
                     return Err(format!(
-                        "reset_many wrote lane {i}'s observation though its mask is 0"
+                        "{reset_call} wrote lane {i}'s observation though its mask is 0"
                     ));
                 }
                 continue;
@@ -120,11 +164,9 @@ fn compare(ty: &PluginEnvType, config: &str) -> Result<usize, String> {
             break;
         }
         // Step a random ~7/8 of the live lanes.
-        let stepping: Vec<bool> = (0..LANES)
-            .map(|i| alive[i] && rng.next() % 8 != 0)
-            .collect();
-        let mut owned = Vec::with_capacity(LANES);
-        for i in 0..LANES {
+        let stepping: Vec<bool> = (0..n).map(|i| alive[i] && rng.next() % 8 != 0).collect();
+        let mut owned = Vec::with_capacity(n);
+        for i in 0..n {
             mask[i] = u8::from(stepping[i]);
             let act = sample(&spec.action_space, &mut rng);
             match &act {
@@ -137,7 +179,7 @@ fn compare(ty: &PluginEnvType, config: &str) -> Result<usize, String> {
                 rewards[i] = SENTINEL;
             }
         }
-        let mut failures: Vec<Option<EnvError>> = vec![None; LANES];
+        let mut failures: Vec<Option<EnvError>> = vec![None; n];
         batch.step_many(
             &mask,
             &actions,
@@ -147,12 +189,12 @@ fn compare(ty: &PluginEnvType, config: &str) -> Result<usize, String> {
             &mut trunc,
             |f| failures[f.lane] = Some(f.error),
         );
-        for i in 0..LANES {
+        for i in 0..n {
             if !stepping[i] {
                 let lane = &obs[i * d..(i + 1) * d];
                 if lane.iter().any(|&x| x != SENTINEL) || rewards[i] != SENTINEL {
                     return Err(format!(
-                        "step_many wrote lane {i}'s buffers though its mask is 0"
+                        "{step_call} wrote lane {i}'s buffers though its mask is 0"
                     ));
                 }
                 continue;

@@ -131,6 +131,7 @@ pub fn check_plugin_env_observed(
         plugin_checks::unseeded_reset(ty, config)
     });
     r.run("batched calls", || batch_checks::batched_calls(ty, config));
+    r.run("vector env", || batch_checks::vec_env(ty, config));
     results.extend(r.results);
     results
 }

@@ -14,6 +14,7 @@ use rwg_env::plugin::abi::*;
 use rwg_env::space::Space;
 
 use super::batch_scan::{all_finite, all_ones, fill_sentinels, outputs_ok};
+use super::clock::LaneClock;
 use super::{PluginEnv, PluginEnvType};
 
 /// One lane's failure in a batched call.
@@ -38,16 +39,8 @@ pub struct PluginBatch {
     spec: EnvSpec,
     obs_dim: usize,
     action_len: usize,
-    max_steps: u32,
-    /// Steps of each lane's episode, kept as `clock - base[i]`: `clock`
-    /// counts `step_many` calls, and a lane that does not step in one has
-    /// its `base` moved up, so a call in which every lane steps updates one
-    /// counter, not one per lane.
-    clock: u64,
-    base: Vec<u64>,
-    /// At least the steps of every lane's episode: the lanes are compared
-    /// with the time limit only when this reaches it.
-    elapsed_bound: u64,
+    /// Each lane's step count and the time limit.
+    clock: LaneClock,
     has_reset: Vec<bool>,
     /// The lanes of the call in progress still to be done (a copy of the
     /// caller's mask; a lane is cleared when it fails).
@@ -110,11 +103,8 @@ impl PluginEnvType {
             step_many,
             obs_dim: spec.obs_dim(),
             action_len,
-            max_steps: spec.max_episode_steps.unwrap_or(u32::MAX),
+            clock: LaneClock::new(lanes, spec.max_episode_steps.unwrap_or(u32::MAX)),
             spec,
-            clock: 0,
-            base: vec![0; lanes],
-            elapsed_bound: 0,
             has_reset: vec![false; lanes],
             todo: vec![0; lanes],
             all_ready: false,
@@ -244,7 +234,7 @@ impl PluginBatch {
         );
         self.start(mask, false, &mut on_fail);
         for i in (0..n).filter(|&i| self.todo[i] == 1) {
-            self.base[i] = self.clock;
+            self.clock.start(i);
             obs[i * d..(i + 1) * d].fill(f64::NAN);
         }
         let reset_many = self.reset_many;
@@ -322,7 +312,6 @@ impl PluginBatch {
             // is, and the outputs are checked over whole buffers.
             let every = all_ones(mask);
             fill_sentinels(mask, every, d, obs, rewards, terminated, truncated);
-            self.clock += 1;
             let mut failed = usize::MAX;
             // SAFETY: buffers sized for n lanes (checked above); the handles
             // are live instances used by this thread only.
@@ -342,16 +331,7 @@ impl PluginBatch {
                 )
             };
             if status == RWG_OK && outputs_ok(obs, rewards, terminated, truncated) {
-                if !every {
-                    // The lanes not stepped keep their count.
-                    for (b, &m) in self.base.iter_mut().zip(mask) {
-                        *b += u64::from(m == 0);
-                    }
-                }
-                self.elapsed_bound += 1;
-                if self.elapsed_bound >= u64::from(self.max_steps) {
-                    self.time_limit(mask, truncated);
-                }
+                self.clock.stepped(mask, every, truncated);
                 return;
             }
             // Something to report: the lanes one by one, as below.
@@ -370,7 +350,6 @@ impl PluginBatch {
         self.start(mask, true, &mut on_fail);
         let every = all_ones(&self.todo);
         fill_sentinels(&self.todo, every, d, obs, rewards, terminated, truncated);
-        self.clock += 1;
         self.step_rest(
             None,
             actions,
@@ -380,24 +359,6 @@ impl PluginBatch {
             truncated,
             &mut on_fail,
         );
-    }
-
-    /// The host's time limit, after a call in which the lanes of `mask`
-    /// stepped (and the others did not): `truncated` set on those whose
-    /// episode reached it, and the bound recomputed.
-    #[cold]
-    #[inline(never)]
-    fn time_limit(&mut self, mask: &[u8], truncated: &mut [u8]) {
-        let max = u64::from(self.max_steps);
-        let mut bound = 0;
-        for ((&b, t), &m) in self.base.iter().zip(truncated).zip(mask) {
-            let elapsed = self.clock - b;
-            if m == 1 && elapsed >= max {
-                *t = 1;
-            }
-            bound = bound.max(elapsed);
-        }
-        self.elapsed_bound = bound;
     }
 
     /// `step_many` for the lanes of `todo` (sentinels filled): the batched
@@ -463,12 +424,6 @@ impl PluginBatch {
         }
         // The lanes that did not step (refused, failed, not masked) keep
         // their count; the others get the time limit.
-        for (b, &m) in self.base.iter_mut().zip(&self.todo) {
-            *b += u64::from(m != 1);
-        }
-        self.elapsed_bound += 1;
-        let todo = std::mem::take(&mut self.todo);
-        self.time_limit(&todo, truncated);
-        self.todo = todo;
+        self.clock.stepped(&self.todo, false, truncated);
     }
 }

@@ -7,7 +7,9 @@ use std::path::Path;
 use std::sync::Arc;
 
 use super::error::{PluginLoadError, PluginLoadErrorKind};
-use super::{Plugin, PluginEnvType, PluginInfo, VTable, ERR_BUF_LEN, MAX_BOX_DIM, MAX_ENVS};
+use super::{
+    Plugin, PluginEnvType, PluginInfo, VTable, VecVTable, ERR_BUF_LEN, MAX_BOX_DIM, MAX_ENVS,
+};
 use rwg_env::env::EnvSpec;
 use rwg_env::plugin::abi::*;
 use rwg_env::space::{BoxSpace, Space};
@@ -241,6 +243,49 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
                 ),
             ));
         }
+        let vec_fns = [
+            ("vec_create", v.vec_create.is_some()),
+            ("vec_destroy", v.vec_destroy.is_some()),
+            ("vec_reset", v.vec_reset.is_some()),
+            ("vec_step", v.vec_step.is_some()),
+            ("vec_last_error", v.vec_last_error.is_some()),
+        ];
+        let vec = match (
+            v.vec_create,
+            v.vec_destroy,
+            v.vec_reset,
+            v.vec_step,
+            v.vec_last_error,
+        ) {
+            (Some(create), Some(destroy), Some(reset), Some(step), Some(last_error)) => {
+                Some(VecVTable {
+                    create,
+                    destroy,
+                    reset,
+                    step,
+                    last_error,
+                })
+            }
+            (None, None, None, None, None) => None,
+            _ => {
+                let names = |set: bool| {
+                    vec_fns
+                        .iter()
+                        .filter(|f| f.1 == set)
+                        .map(|f| f.0)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                };
+                return Err(env_err(
+                    Some(&id),
+                    format!(
+                        "env_vtable: {} set but {} NULL (ABI 1.2 needs all five vector-env functions or none)",
+                        names(true),
+                        names(false)
+                    ),
+                ));
+            }
+        };
         let vt = VTable {
             create: v.create.ok_or_else(|| null("create"))?,
             destroy: v.destroy.ok_or_else(|| null("destroy"))?,
@@ -249,6 +294,7 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
             last_error: v.last_error.ok_or_else(|| null("last_error"))?,
             reset_many: v.reset_many,
             step_many: v.step_many,
+            vec,
         };
         envs.push(PluginEnvType {
             info: info.clone(),

@@ -169,22 +169,8 @@ impl PluginEnv {
                 CStr::from_ptr(p).to_string_lossy().into_owned()
             }
         };
-        let text = format!(
-            "{}: {what} failed with {} ({status}){}{msg}",
-            self.prefix,
-            status_name(status),
-            if msg.is_empty() { "" } else { ": " }
-        );
-        match status {
-            RWG_ERR_PANIC => {
-                self.poisoned = true;
-                EnvError::Other(text)
-            }
-            RWG_ERR_INVALID_ARGUMENT if what == "step" => EnvError::InvalidAction(text),
-            RWG_ERR_RESET_NEEDED => EnvError::ResetNeeded,
-            RWG_ERR_UNSUPPORTED => EnvError::Unsupported(text),
-            _ => EnvError::Other(text),
-        }
+        self.poisoned |= status == RWG_ERR_PANIC;
+        call_error(&self.prefix, what, status, &msg)
     }
 
     fn check_usable(&self, obs: &[f64]) -> Result<(), EnvError> {
@@ -206,13 +192,7 @@ impl PluginEnv {
     }
 
     pub(super) fn check_obs(&self, what: &str, obs: &[f64]) -> Result<(), EnvError> {
-        match obs.iter().position(|x| !x.is_finite()) {
-            None => Ok(()),
-            Some(i) => Err(EnvError::Other(format!(
-                "{}: {what} returned a non-finite observation: obs[{i}] = {}",
-                self.prefix, obs[i]
-            ))),
-        }
+        check_obs(&self.prefix, what, obs)
     }
 
     /// `reset` with the raw `has_seed` flag (rwg's own reset always passes 1).
@@ -287,24 +267,7 @@ impl PluginEnv {
         if status != RWG_OK {
             return self.fail("step", status);
         }
-        for (name, v) in [("terminated", out.terminated), ("truncated", out.truncated)] {
-            if v > 1 {
-                return EnvError::Other(format!(
-                    "{}: step returned {name} = {v} (must be 0 or 1)",
-                    self.prefix
-                ));
-            }
-        }
-        if !out.reward.is_finite() {
-            return EnvError::Other(format!(
-                "{}: step returned a non-finite reward: {}",
-                self.prefix, out.reward
-            ));
-        }
-        match self.check_obs("step", obs) {
-            Err(e) => e,
-            Ok(()) => EnvError::Other(format!("{}: step failed", self.prefix)),
-        }
+        output_error(&self.prefix, out, obs)
     }
 
     /// The error of [`PluginEnv::check_usable`], out of line.
@@ -349,5 +312,56 @@ impl Environment for PluginEnv {
                 self.prefix
             ))),
         }
+    }
+}
+
+/// The error of a call (`what`: "reset", "step") that returned `status`,
+/// with the plugin's message `msg`, for the instance or lane `prefix` names.
+pub(super) fn call_error(prefix: &str, what: &str, status: Status, msg: &str) -> EnvError {
+    let text = format!(
+        "{prefix}: {what} failed with {} ({status}){}{msg}",
+        status_name(status),
+        if msg.is_empty() { "" } else { ": " }
+    );
+    match status {
+        RWG_ERR_INVALID_ARGUMENT if what == "step" => EnvError::InvalidAction(text),
+        RWG_ERR_RESET_NEEDED => EnvError::ResetNeeded,
+        RWG_ERR_UNSUPPORTED => EnvError::Unsupported(text),
+        _ => EnvError::Other(text),
+    }
+}
+
+/// `Ok` if every value of the observation `what` returned is finite.
+pub(super) fn check_obs(prefix: &str, what: &str, obs: &[f64]) -> Result<(), EnvError> {
+    match obs.iter().position(|x| !x.is_finite()) {
+        None => Ok(()),
+        Some(i) => Err(EnvError::Other(format!(
+            "{prefix}: {what} returned a non-finite observation: obs[{i}] = {}",
+            obs[i]
+        ))),
+    }
+}
+
+/// The error of a step that returned `RWG_OK` with a bad flag, reward or
+/// observation, checked in that order.
+#[cold]
+#[inline(never)]
+pub(super) fn output_error(prefix: &str, out: &RwgStepOut, obs: &[f64]) -> EnvError {
+    for (name, v) in [("terminated", out.terminated), ("truncated", out.truncated)] {
+        if v > 1 {
+            return EnvError::Other(format!(
+                "{prefix}: step returned {name} = {v} (must be 0 or 1)"
+            ));
+        }
+    }
+    if !out.reward.is_finite() {
+        return EnvError::Other(format!(
+            "{prefix}: step returned a non-finite reward: {}",
+            out.reward
+        ));
+    }
+    match check_obs(prefix, "step", obs) {
+        Err(e) => e,
+        Ok(()) => EnvError::Other(format!("{prefix}: step failed")),
     }
 }

@@ -14,10 +14,13 @@
 
 mod batch;
 mod batch_scan;
+mod clock;
 mod error;
 mod handshake;
 mod instance;
+mod lanes;
 mod search;
+mod vec_env;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -29,11 +32,13 @@ pub use batch::{LaneFailure, PluginBatch};
 pub use error::{PluginLoadError, PluginLoadErrorKind};
 pub use handshake::{check_env_id, load_from_entry, load_plugin};
 pub use instance::PluginEnv;
+pub use lanes::{LaneCalls, PluginLanes};
 pub use search::{
     find_plugin_files, library_file_name, load_plugin_path, load_plugin_path_from_env,
     load_plugin_path_from_env_reserving, load_plugin_path_reserving, PluginFiles, PluginScan,
     Rejected,
 };
+pub use vec_env::PluginVecEnv;
 
 /// The environment variable listing plugin directories (`:`-separated on
 /// Unix, `;` on Windows, like `PATH`).
@@ -69,6 +74,18 @@ pub(crate) struct VTable {
     /// ABI 1.1's batched calls (both or neither).
     pub(crate) reset_many: Option<ResetManyFn>,
     pub(crate) step_many: Option<StepManyFn>,
+    /// ABI 1.2's vector env (all five functions or none).
+    pub(crate) vec: Option<VecVTable>,
+}
+
+/// ABI 1.2's vector-env functions of an environment.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct VecVTable {
+    pub(crate) create: VecCreateFn,
+    pub(crate) destroy: VecDestroyFn,
+    pub(crate) reset: VecResetFn,
+    pub(crate) step: VecStepFn,
+    pub(crate) last_error: VecLastErrorFn,
 }
 
 /// One environment a plugin exports: its spec and how to create instances.

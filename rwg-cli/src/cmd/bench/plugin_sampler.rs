@@ -1,9 +1,9 @@
 //! `rwg bench plugin`: the RWG workload through the sampler on a plugin's
 //! re-exported classic envs, side by side with their built-in twins: the
 //! built-in env (one instance per lane, and in lockstep, `rwg run`'s default
-//! for built-in envs), the plugin through its single calls, and the plugin
-//! through ABI 1.1's batched calls, interleaved, in this process, on one
-//! thread.
+//! for built-in envs), the plugin through its single calls, through ABI
+//! 1.1's batched calls and through 1.2's vector env (`rwg run`'s default
+//! for plugins that have one), interleaved, in this process, on one thread.
 
 use super::{group, print_row, Clock};
 use anyhow::{bail, Context, Result};
@@ -12,6 +12,7 @@ use rwg_core::policy::Architecture;
 use rwg_core::sampler::{run_cell, BlockResult, CellPlan, SampleError, WeightDist, LANES};
 use rwg_env::Environment;
 use rwg_envs::{visit, visit_lockstep, EnvOptions, EnvVisitor, LockstepEnv, LockstepVisitor};
+use rwg_plugin_host::LaneCalls;
 use rwg_study::env_source::PluginSource;
 use rwg_study::fault_context::Watched;
 use serde::Serialize;
@@ -36,20 +37,20 @@ pub(super) struct PluginArgs {
     /// Episodes per network.
     #[arg(long, value_name = "E", default_value_t = 5)]
     episodes: u32,
-    /// Interleaved rounds (each runs the four variants once).
+    /// Interleaved rounds (each runs the five variants once).
     #[arg(long, value_name = "R", default_value_t = 5)]
     rounds: usize,
     /// Print a JSON array instead of a table.
     #[arg(long)]
     json: bool,
     /// Run only this variant (for instruction counts under a profiler such
-    /// as callgrind, where the four must run in separate processes; the
+    /// as callgrind, where the five must run in separate processes; the
     /// other columns are then empty).
     #[arg(long, value_enum, value_name = "VARIANT")]
     only: Option<Variant>,
 }
 
-/// One of the four ways `rwg bench plugin` runs a workload.
+/// One of the five ways `rwg bench plugin` runs a workload.
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 enum Variant {
     /// The built-in env, one instance per lane.
@@ -61,14 +62,18 @@ enum Variant {
     /// The built-in env in lockstep (all lanes in one call), as `rwg run`
     /// steps built-in envs unless RWG_LOCKSTEP=0.
     Lockstep,
+    /// The plugin through ABI 1.2's vector env, as `rwg run` steps plugin
+    /// envs that have one (not measured for those that do not).
+    Vec,
 }
 
 impl Variant {
-    const ALL: [Variant; 4] = [
+    const ALL: [Variant; 5] = [
         Variant::Builtin,
         Variant::Single,
         Variant::Batched,
         Variant::Lockstep,
+        Variant::Vec,
     ];
 }
 
@@ -116,11 +121,16 @@ struct Row {
     single_ns: Spread,
     batched_ns: Spread,
     lockstep_ns: Spread,
+    vec_ns: Spread,
     /// Per-round ratios to the built-in of the same round.
     single_ratio: Spread,
     batched_ratio: Spread,
     /// Per-round ratio of the batched plugin to the lockstep built-in.
     batched_lockstep_ratio: Spread,
+    /// Per-round ratio of the plugin's vector env to the lockstep built-in:
+    /// the plugin against `rwg run`'s path for the built-in, both on `rwg
+    /// run`'s path.
+    vec_lockstep_ratio: Spread,
 }
 
 /// (env steps, score sum as bits, CPU seconds) of one run.
@@ -254,13 +264,17 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                 max_episode_steps: None,
                 isolated: None,
             };
-            let mut times: [Vec<f64>; 4] = Default::default();
+            let mut times: [Vec<f64>; 5] = Default::default();
             let mut seen: Option<(u64, u64)> = None;
+            let runs = |v: usize| {
+                args.only.is_none_or(|o| o == Variant::ALL[v])
+                    && (Variant::ALL[v] != Variant::Vec || ty.has_vec_env())
+            };
             for round in 0..args.rounds {
-                let mut round_ns = [0.0; 4];
-                for k in 0..4 {
-                    let v = (k + round) % 4; // rotate who goes first
-                    if args.only.is_some_and(|o| o != Variant::ALL[v]) {
+                let mut round_ns = [0.0; 5];
+                for k in 0..5 {
+                    let v = (k + round) % 5; // rotate who goes first
+                    if !runs(v) {
                         continue;
                     }
                     let m = pool.install(|| -> Result<Measured> {
@@ -298,8 +312,14 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                                 }
                             }),
                             _ => measure(|on_block| {
+                                let calls = if v == 2 {
+                                    LaneCalls::Batched
+                                } else {
+                                    LaneCalls::Vec
+                                };
                                 rwg_study::plugin_batch::run_blocks(
                                     &source,
+                                    calls,
                                     &plan,
                                     &blocks,
                                     2,
@@ -316,7 +336,7 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                     match seen {
                         None => seen = Some((steps, score)),
                         Some(s) if s != (steps, score) => bail!(
-                            "{builtin} {name}: the three variants ran different episodes \
+                            "{builtin} {name}: the variants ran different episodes \
                              ({} vs {} env steps): a bug",
                             s.0,
                             steps
@@ -325,8 +345,8 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                     }
                     round_ns[v] = cpu * 1e9 / steps as f64;
                 }
-                for v in 0..4 {
-                    if args.only.is_none_or(|o| o == Variant::ALL[v]) {
+                for v in 0..5 {
+                    if runs(v) {
                         times[v].push(round_ns[v]);
                     }
                 }
@@ -348,10 +368,12 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
                 single_ratio: ratio(1),
                 batched_ratio: ratio(2),
                 batched_lockstep_ratio: ratio_to(2, 3),
+                vec_lockstep_ratio: ratio_to(4, 3),
                 builtin_ns: Spread::of(times[0].clone()),
                 single_ns: Spread::of(times[1].clone()),
                 batched_ns: Spread::of(times[2].clone()),
                 lockstep_ns: Spread::of(times[3].clone()),
+                vec_ns: Spread::of(times[4].clone()),
             };
             if !args.json {
                 if rows.is_empty() {
@@ -369,7 +391,7 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
 }
 
 /// Columns of `rwg bench plugin`: header and width (negative: left-aligned).
-const COLUMNS: [(&str, i32); 10] = [
+const COLUMNS: [(&str, i32); 12] = [
     ("env", -24),
     ("hidden", -6),
     ("env steps", 11),
@@ -377,12 +399,14 @@ const COLUMNS: [(&str, i32); 10] = [
     ("single ns/step", 19),
     ("batched ns/step", 19),
     ("lockstep ns/step", 19),
+    ("vec ns/step", 19),
     ("single x", 17),
     ("batched x", 17),
     ("batched x lockstep", 18),
+    ("vec x lockstep", 17),
 ];
 
-fn cells(r: &Row, arch: &str) -> [String; 10] {
+fn cells(r: &Row, arch: &str) -> [String; 12] {
     [
         r.env.clone(),
         arch.to_string(),
@@ -391,8 +415,10 @@ fn cells(r: &Row, arch: &str) -> [String; 10] {
         r.single_ns.show(1),
         r.batched_ns.show(1),
         r.lockstep_ns.show(1),
+        r.vec_ns.show(1),
         r.single_ratio.show(2),
         r.batched_ratio.show(2),
         r.batched_lockstep_ratio.show(2),
+        r.vec_lockstep_ratio.show(2),
     ]
 }

@@ -11,7 +11,11 @@ use super::trampolines::{
     create, deinit, destroy, env_count, env_desc, env_vtable, get_extension, init, instantiate,
     last_error, reset, step,
 };
+use super::vec_env::{
+    instantiate_vec, vec_create, vec_destroy, vec_last_error, vec_reset, vec_step,
+};
 use crate::env::{EnvSpec, Environment};
+use crate::many::ManyEnv;
 use crate::plugin::abi::*;
 use crate::space::Space;
 
@@ -23,6 +27,24 @@ pub type DynEnv = Box<dyn Environment + Send>;
 /// shape; the error is the status and message `create` returns.
 pub(super) type Constructor =
     Box<dyn Fn(&str, usize, ActionKind) -> Result<*mut RwgEnv, (Status, String)> + Send + Sync>;
+
+/// Builds a vector env (`Box<VecInstance<M>>` as `rwg_vec_env_t *`) of
+/// the given lanes from the user's config, given the descriptor's
+/// observation dimension and action shape.
+pub(super) type VecConstructor = Box<
+    dyn Fn(&str, usize, usize, ActionKind) -> Result<*mut RwgVecEnv, (Status, String)>
+        + Send
+        + Sync,
+>;
+
+/// The vector env's functions that depend on its concrete `ManyEnv` type.
+#[derive(Clone, Copy)]
+struct VecFns {
+    destroy: VecDestroyFn,
+    reset: VecResetFn,
+    step: VecStepFn,
+    last_error: VecLastErrorFn,
+}
 
 /// The functions of an environment's table that depend on its concrete
 /// type: instantiated per environment type, so the env's `step` is a
@@ -55,6 +77,7 @@ struct EnvExport {
     summary: String,
     make: Constructor,
     fns: TypedFns,
+    vec: Option<(VecConstructor, VecFns)>,
 }
 
 /// Describes a plugin: its id, version and environments.
@@ -101,7 +124,42 @@ impl PluginBuilder {
                 instantiate(env, obs_dim, action)
             }),
             fns: TypedFns::of::<E>(),
+            vec: None,
         });
+        self
+    }
+
+    /// Gives the environment added last ABI 1.2's vector env: `make(config)`
+    /// builds a [`ManyEnv`] of some number of lanes (its width, e.g.
+    /// `rwg-envs`' lockstep envs over 16 lanes), and a vector env of `n`
+    /// lanes is `ceil(n / width)` of them. Its lanes must give the single
+    /// instances' results bit for bit (`rwg check` tests it) and check
+    /// actions as the single step does (a lane with an invalid action fails
+    /// through `on_fail`); like the single env, it has no time limit.
+    ///
+    /// # Panics
+    /// If no environment was added yet.
+    pub fn vec_env<M, Er, F>(mut self, make: F) -> Self
+    where
+        M: ManyEnv + Send + 'static,
+        Er: Display,
+        F: Fn(&str) -> Result<M, Er> + Send + Sync + 'static,
+    {
+        let e = self
+            .envs
+            .last_mut()
+            .expect("PluginBuilder::vec_env: add the environment (env) first");
+        let make = move |config: &str| make(config).map_err(|e| e.to_string());
+        let construct: VecConstructor = Box::new(move |config, lanes, obs_dim, action| {
+            instantiate_vec::<M>(&make, config, lanes, obs_dim, action)
+        });
+        let fns = VecFns {
+            destroy: vec_destroy::<M>,
+            reset: vec_reset::<M>,
+            step: vec_step::<M>,
+            last_error: vec_last_error::<M>,
+        };
+        e.vec = Some((construct, fns));
         self
     }
 
@@ -150,6 +208,7 @@ pub(super) struct ExportedEnv {
     pub(super) desc: RwgEnvDesc,
     pub(super) vtable: RwgEnvVtable,
     pub(super) make: Constructor,
+    pub(super) make_vec: Option<VecConstructor>,
     pub(super) obs_dim: usize,
     pub(super) action: ActionKind,
     // Storage the descriptor points into (heap buffers do not move).
@@ -263,8 +322,12 @@ impl ExportedPlugin {
                 reserved: 0,
                 reward_threshold: spec.reward_threshold.unwrap_or(f64::NAN),
             };
+            let (make_vec, vec_fns) = match e.vec {
+                Some((make, fns)) => (Some(make), Some(fns)),
+                None => (None, None),
+            };
             let vtable = RwgEnvVtable {
-                struct_size: ENV_VTABLE_SIZE_V1_1,
+                struct_size: ENV_VTABLE_SIZE_V1_2,
                 reserved: 0,
                 create: Some(create::<P>),
                 destroy: Some(e.fns.destroy),
@@ -273,11 +336,17 @@ impl ExportedPlugin {
                 last_error: Some(e.fns.last_error),
                 reset_many: Some(e.fns.reset_many),
                 step_many: Some(e.fns.step_many),
+                vec_create: vec_fns.map(|_| vec_create::<P> as VecCreateFn),
+                vec_destroy: vec_fns.map(|f| f.destroy),
+                vec_reset: vec_fns.map(|f| f.reset),
+                vec_step: vec_fns.map(|f| f.step),
+                vec_last_error: vec_fns.map(|f| f.last_error),
             };
             envs.push(ExportedEnv {
                 desc,
                 vtable,
                 make: e.make,
+                make_vec,
                 obs_dim,
                 action,
                 _id: env_id,

@@ -25,11 +25,14 @@
 //! `trampolines` (the `extern "C"` functions the host calls, which check
 //! their arguments, catch panics and forward to the Rust environments) and
 //! `batched` (ABI 1.1's `reset_many` / `step_many`, every exported env has
-//! them: a loop over the single calls' trampolines).
+//! them: a loop over the single calls' trampolines) and `vec_env` (ABI 1.2's
+//! vector env over a [`ManyEnv`](crate::many::ManyEnv), for envs given one
+//! with [`PluginBuilder::vec_env`]).
 
 mod batched;
 mod builder;
 mod trampolines;
+mod vec_env;
 
 pub use builder::{DynEnv, ExportedPlugin, PluginBuilder, PluginStatic};
 pub use trampolines::{entry_v1, status_of};

@@ -35,7 +35,7 @@ pub fn entry_v1<P: PluginStatic>(
     }
 }
 
-fn panic_message(payload: &(dyn Any + Send)) -> String {
+pub(super) fn panic_message(payload: &(dyn Any + Send)) -> String {
     if let Some(s) = payload.downcast_ref::<&str>() {
         (*s).to_string()
     } else if let Some(s) = payload.downcast_ref::<String>() {
@@ -45,7 +45,7 @@ fn panic_message(payload: &(dyn Any + Send)) -> String {
     }
 }
 
-fn plugin<P: PluginStatic>() -> Option<&'static ExportedPlugin> {
+pub(super) fn plugin<P: PluginStatic>() -> Option<&'static ExportedPlugin> {
     P::cell().get()
 }
 
@@ -138,7 +138,7 @@ impl<E> Instance<E> {
     }
 }
 
-fn same_shape(spec: &EnvSpec, obs_dim: usize, action: ActionKind) -> bool {
+pub(super) fn same_shape(spec: &EnvSpec, obs_dim: usize, action: ActionKind) -> bool {
     let obs_ok = matches!(&spec.observation_space, Space::Box(b) if b.dim() == obs_dim);
     let act_ok = match (&spec.action_space, action) {
         (Space::Discrete { n }, ActionKind::Discrete(m)) => *n as u64 == m,
