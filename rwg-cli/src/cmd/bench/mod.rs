@@ -18,8 +18,8 @@
 //!
 //! One file per benchmark: `envs` (built-in envs), `plugin` (a plugin's
 //! envs against the built-ins they re-export), `plugin_sampler` (`rwg bench
-//! plugin`: the RWG workload on a plugin's single and batched calls against
-//! the built-ins), `sampler` (the RWG workload), `peers` (the whole `rwg run` against gymnax-raw, side by
+//! plugin`: the RWG workload on a plugin's single calls, batched calls and
+//! vector env against the built-ins), `sampler` (the RWG workload), `peers` (the whole `rwg run` against gymnax-raw, side by
 //! side), `gym` (Gymnasium envs through the bridge against a pure-Python
 //! loop), `libm` (`rwg_env::lanes_math`'s vector sin/cos against libm, bits
 //! and speed); the timing and the table output are shared, here.
@@ -119,19 +119,21 @@ Reported: median [min-max] env steps/s, bridge / ceiling and 2 workers / 1 worke
 Example:
   rwg bench gym --env gymnasium:CartPole-v1 --peer ../shared/peers/ref_numpy.py")]
     Gym(gym::GymBenchArgs),
-    /// A plugin's re-exported classic envs in the sampler: built-in vs single vs batched calls.
+    /// A plugin's re-exported classic envs in the sampler: built-in vs the plugin's single calls, batched calls and vector env.
     #[command(after_help = "\
 For each built-in env the plugin re-exports as NAMESPACE/ID and each of the paper's \
 architectures (0HL, [4], [4,4]; no bias), ROUNDS interleaved rounds (the order rotating) of \
 the RWG workload (SAMPLES networks x EPISODES episodes, seeded with the built-in id so all \
-four run the same episodes, checked) on one sampler thread in this process: (1) the \
+five run the same episodes, checked) on one sampler thread in this process: (1) the \
 built-in env, one instance per lane, as `rwg run` with RWG_LOCKSTEP=0; (2) the plugin \
 through its single calls, as `rwg run` with RWG_PLUGIN_BATCH=0; (3) the plugin through ABI \
-1.1's batched calls, as `rwg run` by default; (4) the built-in env in lockstep, as `rwg run` \
-by default. --only and --arch run one variant and architecture alone (e.g. under \
-callgrind). Reported: process CPU ns per env step, median [min-max], the per-round ratios \
-to the built-in (1), and the batched plugin's to the lockstep built-in (3 / 4). Build with \
---release for meaningful figures.
+1.1's batched calls, as `rwg run` with RWG_PLUGIN_VEC=0; (4) the built-in env in lockstep, \
+as `rwg run` by default; (5) the plugin through ABI 1.2's vector env, as `rwg run` by \
+default (not run for an env without one). --only and --arch run one variant and \
+architecture alone (e.g. under callgrind). Reported: process CPU ns per env step, median \
+[min-max], the per-round ratios to the built-in (1), and the batched plugin's and the \
+vector env's to the lockstep built-in (3 / 4, 5 / 4). Build with --release for meaningful \
+figures.
 
 Example:
   rwg bench plugin --plugin target/release/librwg_plugin_classic_control.so")]
