@@ -7,7 +7,7 @@ use std::any::Any;
 use std::ffi::{c_char, CStr};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use super::builder::{ActionKind, ExportedPlugin, PluginStatic};
+use super::builder::{ActionKind, ExportedEnv, ExportedPlugin, PluginStatic};
 use crate::env::{Action, EnvError, EnvSpec, Environment, Step};
 use crate::plugin::abi::*;
 use crate::space::Space;
@@ -195,36 +195,58 @@ pub(super) unsafe extern "C" fn create<P: PluginStatic>(
     err_buf: *mut c_char,
     err_len: usize,
 ) -> Status {
-    let result = catch_unwind(AssertUnwindSafe(
-        || -> Result<*mut RwgEnv, (Status, String)> {
-            let invalid = |m: String| (RWG_ERR_INVALID_ARGUMENT, m);
-            if out_env.is_null() {
-                return Err(invalid("create: out_env is NULL".into()));
-            }
-            let Some(e) = plugin::<P>().and_then(|p| p.envs.get(env_index as usize)) else {
-                return Err(invalid(format!(
-                    "create: no environment with index {env_index}"
-                )));
-            };
-            let config = if config.is_null() {
-                ""
-            } else {
-                CStr::from_ptr(config)
-                    .to_str()
-                    .map_err(|_| invalid("create: config is not UTF-8".into()))?
-            };
-            (e.make)(config, e.obs_dim, e.action)
-        },
-    ));
+    creation::<P, RwgEnv>(
+        "create",
+        env_index,
+        config,
+        out_env,
+        err_buf,
+        err_len,
+        |e, c| (e.make)(c, e.obs_dim, e.action),
+    )
+}
+
+/// The body of `create` and `vec_create` (`what`): the arguments checked,
+/// `make` called with the environment's export and the config, panics
+/// caught, the object handed out through `out` or the failure's message
+/// written to `err_buf`.
+pub(super) unsafe fn creation<P: PluginStatic, T>(
+    what: &str,
+    env_index: u32,
+    config: *const c_char,
+    out: *mut *mut T,
+    err_buf: *mut c_char,
+    err_len: usize,
+    make: impl FnOnce(&ExportedEnv, &str) -> Result<*mut T, (Status, String)>,
+) -> Status {
+    let result = catch_unwind(AssertUnwindSafe(|| -> Result<*mut T, (Status, String)> {
+        let invalid = |m: String| (RWG_ERR_INVALID_ARGUMENT, m);
+        if out.is_null() {
+            return Err(invalid(format!("{what}: the out pointer is NULL")));
+        }
+        let Some(e) = plugin::<P>().and_then(|p| p.envs.get(env_index as usize)) else {
+            return Err(invalid(format!(
+                "{what}: no environment with index {env_index}"
+            )));
+        };
+        let config = if config.is_null() {
+            ""
+        } else {
+            CStr::from_ptr(config)
+                .to_str()
+                .map_err(|_| invalid(format!("{what}: config is not UTF-8")))?
+        };
+        make(e, config)
+    }));
     let (status, msg) = match result {
         Ok(Ok(ptr)) => {
-            *out_env = ptr;
+            *out = ptr;
             return RWG_OK;
         }
         Ok(Err(e)) => e,
         Err(p) => (
             RWG_ERR_PANIC,
-            format!("create panicked: {}", panic_message(&*p)),
+            format!("{what} panicked: {}", panic_message(&*p)),
         ),
     };
     write_c_message(err_buf, err_len, &msg);

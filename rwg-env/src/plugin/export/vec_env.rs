@@ -14,11 +14,11 @@
 //! lengths), catches panics (one poisons the whole vector env) and turns
 //! each failing lane's [`EnvError`] into its status and message.
 
-use std::ffi::{c_char, CStr};
+use std::ffi::c_char;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use super::builder::{ActionKind, PluginStatic};
-use super::trampolines::{panic_message, plugin, same_shape, status_of};
+use super::trampolines::{creation, panic_message, same_shape, status_of};
 use crate::env::EnvError;
 use crate::many::ManyEnv;
 use crate::plugin::abi::*;
@@ -274,46 +274,23 @@ pub(super) unsafe extern "C" fn vec_create<P: PluginStatic>(
     err_buf: *mut c_char,
     err_len: usize,
 ) -> Status {
-    let result = catch_unwind(AssertUnwindSafe(
-        || -> Result<*mut RwgVecEnv, (Status, String)> {
-            let invalid = |m: String| (RWG_ERR_INVALID_ARGUMENT, m);
-            if out_vec.is_null() {
-                return Err(invalid("vec_create: out_vec is NULL".into()));
-            }
-            let Some(e) = plugin::<P>().and_then(|p| p.envs.get(env_index as usize)) else {
-                return Err(invalid(format!(
-                    "vec_create: no environment with index {env_index}"
-                )));
-            };
+    creation::<P, RwgVecEnv>(
+        "vec_create",
+        env_index,
+        config,
+        out_vec,
+        err_buf,
+        err_len,
+        |e, c| {
             let Some(make) = &e.make_vec else {
                 return Err((
                     RWG_ERR_UNSUPPORTED,
                     "vec_create: this environment has no vector env".into(),
                 ));
             };
-            let config = if config.is_null() {
-                ""
-            } else {
-                CStr::from_ptr(config)
-                    .to_str()
-                    .map_err(|_| invalid("vec_create: config is not UTF-8".into()))?
-            };
-            make(config, lanes, e.obs_dim, e.action)
+            make(c, lanes, e.obs_dim, e.action)
         },
-    ));
-    let (status, msg) = match result {
-        Ok(Ok(ptr)) => {
-            *out_vec = ptr;
-            return RWG_OK;
-        }
-        Ok(Err(e)) => e,
-        Err(p) => (
-            RWG_ERR_PANIC,
-            format!("vec_create panicked: {}", panic_message(&*p)),
-        ),
-    };
-    write_c_message(err_buf, err_len, &msg);
-    status
+    )
 }
 
 pub(super) unsafe extern "C" fn vec_destroy<M>(vec: *mut RwgVecEnv) {
