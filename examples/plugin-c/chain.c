@@ -281,12 +281,13 @@ static void chain_vec_destroy(rwg_vec_env_t *vec) {
     }
 }
 
-/* A call refused as a whole: its status for every lane, its message. */
+/* A call refused as a whole: its status and message for every lane (and
+ * the message as the call's, lane n). */
 static rwg_status_t vec_refuse(rwg_vec_env_t *vec, rwg_status_t *status, rwg_status_t s,
                                const char *msg) {
     snprintf(vec->error, sizeof vec->error, "%s", msg);
     for (size_t i = 0; i < vec->lanes; i++) {
-        vec->envs[i].error[0] = '\0';
+        snprintf(vec->envs[i].error, sizeof vec->envs[i].error, "%s", msg);
         if (status != NULL) {
             status[i] = s;
         }

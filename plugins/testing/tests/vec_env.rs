@@ -209,3 +209,95 @@ fn non_finite_outputs_of_a_vector_env_fail_their_lanes() {
         "{failed:?}"
     );
 }
+
+#[test]
+fn the_c_example_refuses_malformed_vector_calls_as_a_whole_and_fails_lanes_alone() {
+    use rwg_env::plugin::abi::*;
+    use std::ffi::{c_char, CStr};
+    let dir = c_out_dir("vec-raw");
+    let path = compile_c(CHAIN, &dir, "chainraw", &[]);
+    // SAFETY: the C example, built above; its entry has the ABI's signature.
+    let lib = unsafe { libloading::Library::new(&path) }.unwrap();
+    let entry: libloading::Symbol<EntryFn> = unsafe { lib.get(ENTRY_SYMBOL) }.unwrap();
+    let e = unsafe { &*entry(ABI_MAJOR, ABI_MINOR) };
+    let vt = unsafe { &*(e.env_vtable.unwrap())(0) };
+    let msg = |vec: *const RwgVecEnv, lane: usize| {
+        let p: *const c_char = unsafe { (vt.vec_last_error.unwrap())(vec, lane) };
+        unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+    };
+    let mut vec = std::ptr::null_mut();
+    let st = unsafe {
+        (vt.vec_create.unwrap())(
+            0,
+            c"length=4".as_ptr(),
+            3,
+            &mut vec,
+            std::ptr::null_mut(),
+            0,
+        )
+    };
+    assert_eq!(st, RWG_OK);
+    let (mut obs, mut r, mut te, mut tr) = ([0.0; 6], [0.0; 3], [0u8; 3], [0u8; 3]);
+    let mut status = [-1; 3];
+    let st = unsafe {
+        (vt.vec_reset.unwrap())(
+            vec,
+            std::ptr::null(),
+            [1, 2, 3].as_ptr(),
+            obs.as_mut_ptr(),
+            2,
+            status.as_mut_ptr(),
+        )
+    };
+    assert_eq!(st, RWG_OK);
+    let before = obs;
+    let mut step =
+        |mask: &[u8; 3], actions: &[f64; 3], obs_len: usize, status: &mut [Status; 3]| unsafe {
+            (vt.vec_step.unwrap())(
+                vec,
+                mask.as_ptr(),
+                actions.as_ptr(),
+                1,
+                obs.as_mut_ptr(),
+                obs_len,
+                r.as_mut_ptr(),
+                te.as_mut_ptr(),
+                tr.as_mut_ptr(),
+                status.as_mut_ptr(),
+            )
+        };
+    // Refused as a whole: every lane gets the status and the message.
+    assert_eq!(
+        step(&[1, 2, 1], &[1.0; 3], 2, &mut status),
+        RWG_ERR_INVALID_ARGUMENT
+    );
+    assert_eq!(status, [RWG_ERR_INVALID_ARGUMENT; 3]);
+    for lane in 0..=3 {
+        assert!(
+            msg(vec, lane).contains("mask value"),
+            "lane {lane}: {}",
+            msg(vec, lane)
+        );
+    }
+    assert_eq!(
+        step(&[1, 1, 1], &[1.0; 3], 3, &mut status),
+        RWG_ERR_BUFFER_SIZE
+    );
+    assert_eq!(status, [RWG_ERR_BUFFER_SIZE; 3]);
+    // A lane that fails alone: the others step.
+    let mut status = [-1; 3];
+    assert_eq!(
+        step(&[1, 1, 0], &[1.0, 0.5, 1.0], 2, &mut status),
+        RWG_ERR_INVALID_ARGUMENT
+    );
+    assert_eq!(status, [RWG_OK, RWG_ERR_INVALID_ARGUMENT, RWG_OK]);
+    assert!(
+        msg(vec, 1).contains("must be 0 (left) or 1 (right)"),
+        "{}",
+        msg(vec, 1)
+    );
+    assert_eq!((msg(vec, 0), msg(vec, 2)), (String::new(), String::new()));
+    assert!(obs[0] != before[0] || obs[1] != before[1], "lane 0 stepped");
+    assert_eq!(obs[4..], before[4..], "lane 2 (masked out) untouched");
+    unsafe { (vt.vec_destroy.unwrap())(vec) };
+}
