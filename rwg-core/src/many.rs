@@ -15,7 +15,7 @@ use crate::policy::{NetShape, PolicyLanes};
 use crate::sampler::{BlockResult, CellPlan, EpisodeResult, SampleError, LANES};
 use rayon::prelude::*;
 pub use rwg_env::many::ManyEnv;
-use rwg_env::{Action, EnvError, Space};
+use rwg_env::{Action, EnvError};
 use std::ops::Range;
 
 /// [`crate::sampler::LaneWorker`] over a [`ManyEnv`] of [`LANES`] lanes:
@@ -47,10 +47,7 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
             &plan.arch,
             NetShape::outputs_for(&spec.action_space),
         );
-        let action_len = match &spec.action_space {
-            Space::Discrete { .. } => 1,
-            Space::Box(b) => b.dim(),
-        };
+        let action_len = spec.action_space.flat_dim();
         ManyLaneWorker {
             policy: PolicyLanes::new(shape, &spec.action_space),
             obs: vec![0.0; LANES * obs_dim],

@@ -2,6 +2,7 @@ use super::*;
 use crate::policy::Architecture;
 use crate::sampler::{run_blocks, WeightDist};
 use crate::test_envs::Toy;
+use rwg_env::Space;
 use rwg_env::{EnvSpec, Environment};
 
 /// [`LANES`] toys behind the [`ManyEnv`] interface, one call per batch.

@@ -102,10 +102,7 @@ fn compare(ty: &PluginEnvType, config: &str, calls: LaneCalls, n: usize) -> Resu
         .map_err(|e| format!("cannot create an instance: {e}"))?;
     let spec = ty.spec().clone();
     let d = spec.obs_dim();
-    let a = match &spec.action_space {
-        rwg_env::space::Space::Discrete { .. } => 1,
-        rwg_env::space::Space::Box(b) => b.dim(),
-    };
+    let a = spec.action_space.flat_dim();
     let mut rng = Rng(ACTION_SALT ^ 0xba7c ^ n as u64);
     let mut obs = vec![0.0; n * d];
     let mut single_obs = vec![0.0; d];

@@ -11,10 +11,10 @@
 
 use rwg_env::env::{EnvError, EnvSpec};
 use rwg_env::plugin::abi::*;
-use rwg_env::space::Space;
 
 use super::batch_scan::{all_finite, all_ones, fill_sentinels, outputs_ok};
 use super::clock::LaneClock;
+use super::instance::lane_output_error;
 use super::{PluginEnv, PluginEnvType};
 
 /// One lane's failure in a batched call.
@@ -92,10 +92,7 @@ impl PluginEnvType {
         if max_episode_steps.is_some() {
             spec.max_episode_steps = max_episode_steps;
         }
-        let action_len = match &spec.action_space {
-            Space::Discrete { .. } => 1,
-            Space::Box(b) => b.dim(),
-        };
+        let action_len = spec.action_space.flat_dim();
         Ok(PluginBatch {
             handles: envs.iter().map(|e| e.handle).collect(),
             envs,
@@ -407,17 +404,10 @@ impl PluginBatch {
                 continue;
             }
             let lane = &obs[i * d..(i + 1) * d];
-            if (terminated[i] | truncated[i]) > 1
-                || !rewards[i].is_finite()
-                || !lane.iter().all(|x| x.is_finite())
+            let prefix = &self.envs[i].prefix;
+            if let Some(error) =
+                lane_output_error(prefix, rewards[i], terminated[i], truncated[i], lane)
             {
-                let out = RwgStepOut {
-                    reward: rewards[i],
-                    terminated: terminated[i],
-                    truncated: truncated[i],
-                    reserved: [0; 6],
-                };
-                let error = self.envs[i].step_failure(RWG_OK, &out, lane);
                 on_fail(LaneFailure { lane: i, error });
                 self.todo[i] = 0;
             }

@@ -342,6 +342,29 @@ pub(super) fn check_obs(prefix: &str, what: &str, obs: &[f64]) -> Result<(), Env
     }
 }
 
+/// The error of one lane's step outputs (a call that returned `RWG_OK`),
+/// or `None` if its flags are 0 or 1 and its reward and observation finite:
+/// the lane-by-lane pass of the batched calls and the vector env.
+pub(super) fn lane_output_error(
+    prefix: &str,
+    reward: f64,
+    terminated: u8,
+    truncated: u8,
+    obs: &[f64],
+) -> Option<EnvError> {
+    let bad =
+        (terminated | truncated) > 1 || !reward.is_finite() || !obs.iter().all(|x| x.is_finite());
+    bad.then(|| {
+        let out = RwgStepOut {
+            reward,
+            terminated,
+            truncated,
+            reserved: [0; 6],
+        };
+        output_error(prefix, &out, obs)
+    })
+}
+
 /// The error of a step that returned `RWG_OK` with a bad flag, reward or
 /// observation, checked in that order.
 #[cold]

@@ -11,13 +11,12 @@
 
 use rwg_env::env::{EnvError, EnvSpec};
 use rwg_env::plugin::abi::*;
-use rwg_env::space::Space;
 use std::ffi::{CStr, CString};
 
 use super::batch::LaneFailure;
 use super::batch_scan::{all_finite, all_ones, fill_sentinels, outputs_ok};
 use super::clock::LaneClock;
-use super::instance::{call_error, check_obs, output_error};
+use super::instance::{call_error, check_obs, lane_output_error};
 use super::{PluginEnvType, VecVTable, ERR_BUF_LEN};
 
 /// A status the plugin cannot return: a lane's slot the plugin did not
@@ -125,10 +124,7 @@ impl PluginEnvType {
         if max_episode_steps.is_some() {
             spec.max_episode_steps = max_episode_steps;
         }
-        let action_len = match &spec.action_space {
-            Space::Discrete { .. } => 1,
-            Space::Box(b) => b.dim(),
-        };
+        let action_len = spec.action_space.flat_dim();
         Ok(PluginVecEnv {
             handle: out,
             vt,
@@ -168,13 +164,6 @@ impl PluginVecEnv {
         self.poisoned
     }
 
-    /// What errors start with: the plugin and env, as for an instance (the
-    /// lane is the [`LaneFailure`]'s), so a failure reads the same on every
-    /// path.
-    fn lane_prefix(&self, _lane: usize) -> String {
-        self.prefix.clone()
-    }
-
     /// Copies `mask` into `todo`, failing (and clearing) the lanes that must
     /// not be called: all of them once poisoned, and with `need_reset`
     /// those never reset.
@@ -187,7 +176,7 @@ impl PluginVecEnv {
                 let error = if self.poisoned {
                     EnvError::Other(format!(
                         "{}: the vector env is poisoned by an earlier panic in the plugin",
-                        self.lane_prefix(i)
+                        self.prefix
                     ))
                 } else {
                     EnvError::ResetNeeded
@@ -211,7 +200,7 @@ impl PluginVecEnv {
         if status == UNWRITTEN {
             return Some(EnvError::Other(format!(
                 "{}: vec_{what} returned {} ({call_status}) without writing this lane's status",
-                self.lane_prefix(i),
+                self.prefix,
                 status_name(call_status)
             )));
         }
@@ -225,7 +214,7 @@ impl PluginVecEnv {
             }
         };
         self.poisoned |= status == RWG_ERR_PANIC;
-        Some(call_error(&self.lane_prefix(i), what, status, &msg))
+        Some(call_error(&self.prefix, what, status, &msg))
     }
 
     fn update_ready(&mut self) {
@@ -275,7 +264,7 @@ impl PluginVecEnv {
                 }
                 let error = match self.lane_error("reset", status, i) {
                     Some(e) => Err(e),
-                    None => check_obs(&self.lane_prefix(i), "reset", &obs[i * d..(i + 1) * d]),
+                    None => check_obs(&self.prefix, "reset", &obs[i * d..(i + 1) * d]),
                 };
                 match error {
                     Ok(()) => self.has_reset[i] = true,
@@ -375,18 +364,7 @@ impl PluginVecEnv {
             }
             let lane = &obs[i * d..(i + 1) * d];
             let error = self.lane_error("step", status, i).or_else(|| {
-                let bad = (terminated[i] | truncated[i]) > 1
-                    || !rewards[i].is_finite()
-                    || !lane.iter().all(|x| x.is_finite());
-                bad.then(|| {
-                    let out = RwgStepOut {
-                        reward: rewards[i],
-                        terminated: terminated[i],
-                        truncated: truncated[i],
-                        reserved: [0; 6],
-                    };
-                    output_error(&self.lane_prefix(i), &out, lane)
-                })
+                lane_output_error(&self.prefix, rewards[i], terminated[i], truncated[i], lane)
             });
             if let Some(error) = error {
                 self.todo[i] = 0;
