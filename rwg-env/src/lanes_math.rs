@@ -1,9 +1,9 @@
-//! glibc's `sin` and `cos` over many arguments at once, for environments
-//! stepped in lockstep over lanes (structure of arrays).
+//! glibc's `sin`, `cos` and `pow(x, 2)` over many arguments at once, for
+//! environments stepped in lockstep over lanes (structure of arrays).
 //!
 //! Contract: every output is bit for bit what this process's libm `sin` /
-//! `cos` (glibc on Linux) returns for the same argument, whatever runs
-//! underneath. Gymnasium computes these with Python's `math.sin` /
+//! `cos` / `pow` (glibc on Linux) returns for the same argument, whatever
+//! runs underneath. Gymnasium computes these with Python's `math.sin` /
 //! `math.cos` (two separate glibc calls), so the envs' trajectories depend on
 //! exactly these bits. [`sincos_lanes`] returns the bits of `sin` and of
 //! `cos`, never those of glibc's `sincos`, which differs from `sin` at rare
@@ -21,8 +21,13 @@
 //!   and FMA, the condition under which glibc's ifunc selects those
 //!   variants, and (b) a one-time self-check on [`edge_arguments`] (every
 //!   path, every path boundary, the table's rounding points, the reduction's
-//!   hard cases: a few thousand arguments) gives this process's libm bits
-//!   for all of them. Another glibc version, another libm (musl, macOS) or
+//!   hard cases: a few thousand arguments) and [`pow2_edge_arguments`] gives
+//!   this process's libm bits for all of them.
+//!   [`pow2_lanes`] settles most squares with [`crate::float::pow2`]'s fast
+//!   path (`x*x` when the exact square is within 0.48 ulp of it) and
+//!   computes the rest (about 4 %) with a four-lane port of glibc 2.36's
+//!   `__pow_fma` for `y = 2` (module `pow_fma`, 2^-60 <= |x| <= 2^32);
+//!   other lanes call libm. Another glibc version, another libm (musl, macOS) or
 //!   a CPU without FMA fails (a) or (b) and gets the scalar loop, so the
 //!   contract holds everywhere; only the speed differs.
 //! - **Scalar**: one libm call per element. Forced with the environment
@@ -36,6 +41,13 @@
 
 #[cfg(target_arch = "x86_64")]
 mod fma;
+mod pow_edges;
+#[cfg(target_arch = "x86_64")]
+mod pow_fma;
+#[cfg(target_arch = "x86_64")]
+mod pow_table;
+#[cfg(test)]
+mod pow_tests;
 #[cfg(target_arch = "x86_64")]
 mod table;
 #[cfg(test)]
@@ -82,6 +94,14 @@ pub mod scalar {
         for ((s, c), &v) in sin.iter_mut().zip(cos.iter_mut()).zip(x) {
             *s = libm_sin(v);
             *c = libm_cos(v);
+        }
+    }
+
+    /// `out[i] = pow(x[i], 2)` by libm.
+    pub fn pow2_lanes(x: &[f64], out: &mut [f64]) {
+        assert_eq!(x.len(), out.len(), "pow2_lanes: arguments and results");
+        for (o, &v) in out.iter_mut().zip(x) {
+            *o = crate::float::pow2_libm(v);
         }
     }
 }
@@ -146,6 +166,52 @@ impl Vector {
         scalar::sincos_lanes(x, sin, cos)
     }
 
+    /// `out[i] = pow(x[i], 2)`: the fast path four lanes at a time, the
+    /// port of `__pow_fma` for the lanes it leaves.
+    pub fn pow2_lanes(self, x: &[f64], out: &mut [f64]) {
+        assert_eq!(x.len(), out.len(), "pow2_lanes: arguments and results");
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
+        unsafe {
+            pow_fma::pow2_lanes(x, out, crate::float::pow2)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        for (o, &v) in out.iter_mut().zip(x) {
+            *o = crate::float::pow2(v);
+        }
+    }
+
+    /// `out[i] = pow(x[i], 2)` by the port of `__pow_fma` alone, for every
+    /// lane in its range (2^-60 <= |x| <= 2^32, |x| != 1; libm elsewhere),
+    /// without [`Vector::pow2_lanes`]' fast path: the kernel that
+    /// `rwg bench libm --check` compares with libm on every argument.
+    pub fn pow2_port_lanes(self, x: &[f64], out: &mut [f64]) {
+        assert_eq!(x.len(), out.len(), "pow2_port_lanes: arguments and results");
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
+        unsafe {
+            pow_fma::pow2_port_lanes(x, out, crate::float::pow2_libm)
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        scalar::pow2_lanes(x, out)
+    }
+
+    /// The first argument of `x` where this implementation's `pow(x, 2)`
+    /// (through [`Vector::pow2_lanes`] or the port alone) differs from
+    /// libm's, if any.
+    pub fn first_pow2_mismatch(self, x: &[f64]) -> Option<f64> {
+        let n = x.len();
+        let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+        self.pow2_lanes(x, &mut a);
+        self.pow2_port_lanes(x, &mut b);
+        (0..n)
+            .find(|&i| {
+                let want = crate::float::pow2_libm(x[i]).to_bits();
+                a[i].to_bits() != want || b[i].to_bits() != want
+            })
+            .map(|i| x[i])
+    }
+
     /// The first argument of `x` where this implementation's `sin` or `cos`
     /// (alone or through `sincos_lanes`) differs from libm's, if any.
     pub fn first_mismatch(self, x: &[f64]) -> Option<f64> {
@@ -184,8 +250,9 @@ pub enum ScalarReason {
     /// Not an x86-64 CPU with AVX2 and FMA.
     NoCpuSupport,
     /// The self-check found an argument (this one) where the vector code's
-    /// bits differ from this process's libm (another glibc or libm).
-    SelfCheckFailed(f64),
+    /// bits for this function (`"sin/cos"` or `"pow"`) differ from this
+    /// process's libm (another glibc or libm).
+    SelfCheckFailed(&'static str, f64),
 }
 
 impl std::fmt::Display for Implementation {
@@ -198,9 +265,9 @@ impl std::fmt::Display for Implementation {
             Implementation::Scalar(ScalarReason::NoCpuSupport) => {
                 write!(f, "scalar (no x86-64 CPU with AVX2 and FMA)")
             }
-            Implementation::Scalar(ScalarReason::SelfCheckFailed(x)) => write!(
+            Implementation::Scalar(ScalarReason::SelfCheckFailed(function, x)) => write!(
                 f,
-                "scalar (the vector code differs from this libm at x = {x:e} = {:#018x})",
+                "scalar (the vector {function} differs from this libm at x = {x:e} = {:#018x})",
                 x.to_bits()
             ),
         }
@@ -217,11 +284,20 @@ pub fn implementation() -> Implementation {
         let Some(v) = Vector::detect() else {
             return Implementation::Scalar(ScalarReason::NoCpuSupport);
         };
-        match v.first_mismatch(&edge_arguments()) {
-            None => Implementation::Vector,
-            Some(x) => Implementation::Scalar(ScalarReason::SelfCheckFailed(x)),
-        }
+        self_check(v)
     })
+}
+
+/// The self-check: the vector code on [`edge_arguments`] and
+/// [`pow2_edge_arguments`] against libm.
+fn self_check(v: Vector) -> Implementation {
+    if let Some(x) = v.first_mismatch(&edge_arguments()) {
+        return Implementation::Scalar(ScalarReason::SelfCheckFailed("sin/cos", x));
+    }
+    if let Some(x) = v.first_pow2_mismatch(&pow2_edge_arguments()) {
+        return Implementation::Scalar(ScalarReason::SelfCheckFailed("pow", x));
+    }
+    Implementation::Vector
 }
 
 #[inline]
@@ -255,6 +331,30 @@ pub fn sincos_lanes(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
         Some(v) => v.sincos_lanes(x, sin, cos),
         None => scalar::sincos_lanes(x, sin, cos),
     }
+}
+
+/// `out[i] = pow(x[i], 2)` (Python's `x[i]**2`) for every `i`: libm's bits.
+/// Without the vector code, [`crate::float::pow2`] per element.
+pub fn pow2_lanes(x: &[f64], out: &mut [f64]) {
+    match vector() {
+        Some(v) => v.pow2_lanes(x, out),
+        None => {
+            assert_eq!(x.len(), out.len(), "pow2_lanes: arguments and results");
+            for (o, &v) in out.iter_mut().zip(x) {
+                *o = crate::float::pow2(v);
+            }
+        }
+    }
+}
+
+/// About fourteen thousand arguments for the self-check of `pow(x, 2)`: ±0,
+/// subnormals, huge, ±inf, NaN, 1 and the port's ends within a few ulps,
+/// powers of two, the edges of the log table's 128 subintervals at seven
+/// exponents, arguments where the exp table's index rounds, 1500 squares
+/// only `pow` settles (more than 0.48 ulp from `x*x`) and 1500 log-uniform
+/// over the port's range 2^-60 to 2^32; all with both signs.
+pub fn pow2_edge_arguments() -> Vec<f64> {
+    pow_edges::arguments()
 }
 
 /// A few thousand arguments that exercise every path of glibc's `sin` and

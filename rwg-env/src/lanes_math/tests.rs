@@ -83,9 +83,13 @@ fn dispatch_follows_cpu_and_self_check() {
     } else {
         match Vector::detect() {
             None => Implementation::Scalar(ScalarReason::NoCpuSupport),
-            Some(v) => match v.first_mismatch(&edge_arguments()) {
-                None => Implementation::Vector,
-                Some(x) => Implementation::Scalar(ScalarReason::SelfCheckFailed(x)),
+            Some(v) => match (
+                v.first_mismatch(&edge_arguments()),
+                v.first_pow2_mismatch(&pow2_edge_arguments()),
+            ) {
+                (None, None) => Implementation::Vector,
+                (Some(x), _) => Implementation::Scalar(ScalarReason::SelfCheckFailed("sin/cos", x)),
+                (None, Some(x)) => Implementation::Scalar(ScalarReason::SelfCheckFailed("pow", x)),
             },
         }
     };

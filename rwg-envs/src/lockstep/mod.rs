@@ -23,7 +23,6 @@
 
 use crate::EnvOptions;
 use rwg_env::env::{continuous_action, discrete_action};
-use rwg_env::float::{pow2_libm, square_error};
 use rwg_env::{Action, EnvError, EnvSpec, Environment};
 
 pub use rwg_env::many::ManyEnv;
@@ -201,37 +200,13 @@ pub(crate) fn check_lens(n: usize, mask: &[u8], obs: &[f64], obs_dim: usize) {
     assert_eq!(obs.len(), n * obs_dim, "observations of {n} lanes");
 }
 
-/// Smallest `|x|` of [`rwg_env::float::pow2`]'s 0.48-ulp fast path: `2^-60`.
-const TIGHT_MIN: f64 = 8.673617379884035e-19;
-/// Largest `|x|` of its 0.48-ulp fast path: `2^32`.
-const TIGHT_MAX: f64 = 4294967296.0;
-
 /// `out[i] = pow2(x[i])` ([`rwg_env::float::pow2`], Python's `x**2`) for
-/// every lane: its fast-path test for all lanes in one branch-free loop
-/// (which vectorises), then libm `pow` for the lanes the test refuses (about
-/// 4 % of squares), so the bits are `pow2`'s.
+/// every lane: [`rwg_env::lanes_math::pow2_lanes`] (the fast path's test
+/// four lanes at a time, the vector port of glibc's `pow` for the squares it
+/// leaves, about 4 %), so the bits are `pow2`'s.
 #[inline(always)]
 pub(crate) fn pow2_lanes<const N: usize>(x: &[f64; N], out: &mut [f64; N]) {
-    let mut slow = [false; N];
-    for i in 0..N {
-        let x = x[i];
-        let p = x * x;
-        let ax = x.abs();
-        let tight = (TIGHT_MIN..=TIGHT_MAX).contains(&ax);
-        let wide = (1e-270..1e300).contains(&p);
-        let limit = if tight { 0.48 } else { 0.4 };
-        // ulp of p where one of the paths applies (p is normal there).
-        let ulp = f64::from_bits((p.to_bits() & 0x7ff0_0000_0000_0000).wrapping_sub(52u64 << 52));
-        // `&` and `|`, not `&&` and `||`: no branch, so the loop vectorises.
-        let fast = (tight | wide) & (square_error(x, p).abs() <= limit * ulp);
-        out[i] = p;
-        slow[i] = !fast;
-    }
-    for i in 0..N {
-        if slow[i] {
-            out[i] = pow2_libm(x[i]);
-        }
-    }
+    rwg_env::lanes_math::pow2_lanes(x, out);
 }
 
 /// Receives a concrete lockstep environment type from
@@ -284,9 +259,9 @@ mod tests {
             1e-150,
             1e150,
             1e160,
-            TIGHT_MIN,
-            TIGHT_MAX,
-            -TIGHT_MAX,
+            8.673617379884035e-19, // 2^-60: the port's ends
+            4294967296.0,
+            -4294967296.0,
             4294967297.0,
             8.6e-19,
             f64::NAN,

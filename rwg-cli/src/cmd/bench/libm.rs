@@ -1,6 +1,7 @@
-//! `rwg bench libm`: the vector `sin`/`cos` of `rwg_env::lanes_math` against
-//! this machine's libm, bit for bit over many arguments (`--check N`), and
-//! the cost per element of both on 16-lane slices, side by side.
+//! `rwg bench libm`: the vector `sin`/`cos` and `pow(x, 2)` of
+//! `rwg_env::lanes_math` against this machine's libm, bit for bit over many
+//! arguments (`--check N`), and the cost per element of both on 16-lane
+//! slices, side by side.
 
 use super::{spread, Clock};
 use anyhow::{bail, Result};
@@ -16,6 +17,9 @@ pub struct LibmArgs {
     /// besides the fixed edge set; 0 checks the edge set only.
     #[arg(long, default_value_t = 1_000_000, value_name = "N")]
     check: u64,
+    /// Pseudo-random arguments of pow(x, 2) to check (default: --check's N).
+    #[arg(long, value_name = "N")]
+    pow_check: Option<u64>,
     /// Seed of the pseudo-random arguments.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -64,6 +68,38 @@ const RANGES: [Range; 5] = [
     },
 ];
 
+/// The ranges of `pow(x, 2)`'s arguments.
+const POW_RANGES: [Range; 3] = [
+    Range {
+        name: "envs",
+        what: "|x| <= 30 (Acrobot's velocities and d2, Pendulum's and MCC's squares)",
+        draw: |u| 30.0 * u,
+    },
+    Range {
+        name: "hard",
+        what: "log-uniform 2^-60..2^32, only squares > 0.48 ulp from x*x (all ported)",
+        draw: log_port_range,
+    },
+    Range {
+        name: "log-all",
+        what: "log-uniform 2^-60 <= |x| <= 2^32 (the port's whole range)",
+        draw: log_port_range,
+    },
+];
+
+/// Log-uniform over the port's range, 2^-60 to 2^32.
+fn log_port_range(u: f64) -> f64 {
+    (u * 92.0 - 60.0).exp2()
+}
+
+/// Whether `x*x` is more than 0.48 ulp from the exact square: the squares
+/// `lanes_math::pow2_lanes` leaves to the port.
+fn hard(x: f64) -> bool {
+    let p = x * x;
+    let ulp = f64::from_bits((p.to_bits() & 0x7ff0_0000_0000_0000).wrapping_sub(52u64 << 52));
+    rwg_env::float::square_error(x, p).abs() > 0.48 * ulp
+}
+
 /// xorshift64: reproducible arguments without a dependency.
 struct Rng(u64);
 
@@ -110,9 +146,10 @@ pub fn run(a: LibmArgs) -> Result<()> {
         );
         return Ok(());
     };
-    let bad = check(v, &a)?;
+    let bad = check(v, &a)? + check_pow(v, &a);
     if a.rounds > 0 {
         time(v, a.rounds, a.seed);
+        time_pow(v, a.rounds, a.seed);
     }
     if bad > 0 {
         bail!(
@@ -221,6 +258,126 @@ fn check(v: Vector, a: &LibmArgs) -> Result<u64> {
     Ok(total)
 }
 
+/// Counts of `n` split evenly over `ranges` (the remainder to the last).
+fn split(n: u64, ranges: usize) -> impl Iterator<Item = u64> {
+    let per = n / ranges as u64;
+    (0..ranges).map(move |i| {
+        if i + 1 == ranges {
+            n - per * (ranges as u64 - 1)
+        } else {
+            per
+        }
+    })
+}
+
+/// Compares the port of glibc's `pow` alone (every argument in its range)
+/// and `pow2_lanes` (fast path + port) with libm over the edge set and
+/// `--pow-check` random arguments; prints a table; returns the number of
+/// differing results.
+fn check_pow(v: Vector, a: &LibmArgs) -> u64 {
+    const CHUNK: usize = 1 << 16;
+    let n = a.pow_check.unwrap_or(a.check);
+    let cols = TextColumns::new(
+        &[
+            (8, Align::Left),
+            (14, Align::Right),
+            (9, Align::Right),
+            (9, Align::Right),
+            (0, Align::Left),
+        ],
+        "  ",
+    );
+    crate::outln!(
+        "\nBits of pow(x, 2), the port alone and pow2_lanes (fast path + port) vs one libm \
+         pow call per argument:"
+    );
+    crate::outln!(
+        "{}",
+        cols.line(&["range", "arguments", "port", "lanes", "what"])
+    );
+    let started = Instant::now();
+    let (mut shown, mut total, mut checked) = (0, 0, 0u64);
+    let (mut port, mut lanes, mut want) = (vec![0.0; CHUNK], vec![0.0; CHUNK], vec![0.0; CHUNK]);
+    let mut sets: Vec<(&str, &str, u64)> = vec![(
+        "edges",
+        "fixed: ends, powers of 2, table edges, hard squares",
+        0,
+    )];
+    for (r, k) in POW_RANGES.iter().zip(split(n, POW_RANGES.len())) {
+        sets.push((r.name, r.what, k));
+    }
+    for (si, &(name, what, k)) in sets.iter().enumerate() {
+        let mut rng = Rng::new(a.seed ^ (0x90 + si as u64) << 56);
+        let (mut done, mut d_port, mut d_lanes) = (0u64, 0u64, 0u64);
+        loop {
+            let x: Vec<f64> = if si == 0 {
+                if done > 0 {
+                    break;
+                }
+                lanes_math::pow2_edge_arguments()
+            } else {
+                if done >= k {
+                    break;
+                }
+                let m = (k - done).min(CHUNK as u64) as usize;
+                let r = &POW_RANGES[si - 1];
+                let only_hard = r.name == "hard";
+                let mut x = Vec::with_capacity(m);
+                while x.len() < m {
+                    let arg = rng.arg(r.draw);
+                    if !only_hard || hard(arg) {
+                        x.push(arg);
+                    }
+                }
+                x
+            };
+            let m = x.len();
+            done += m as u64;
+            v.pow2_port_lanes(&x, &mut port[..m]);
+            v.pow2_lanes(&x, &mut lanes[..m]);
+            scalar::pow2_lanes(&x, &mut want[..m]);
+            for i in 0..m {
+                let w = want[i].to_bits();
+                for (f, got, count) in [
+                    ("port", port[i].to_bits(), &mut d_port),
+                    ("pow2_lanes", lanes[i].to_bits(), &mut d_lanes),
+                ] {
+                    if got != w && !(want[i].is_nan() && f64::from_bits(got).is_nan()) {
+                        *count += 1;
+                        if shown < a.show {
+                            crate::outln!(
+                                "  MISMATCH {f}({:e} = {:#018x}): libm {w:#018x}, vector {got:#018x}",
+                                x[i],
+                                x[i].to_bits()
+                            );
+                        }
+                        shown += 1;
+                    }
+                }
+            }
+        }
+        checked += done;
+        total += d_port + d_lanes;
+        crate::outln!(
+            "{}",
+            cols.line(&[
+                name.to_string(),
+                super::group(done),
+                super::group(d_port),
+                super::group(d_lanes),
+                what.to_string(),
+            ])
+        );
+    }
+    crate::outln!(
+        "{} arguments checked in {:.1} s; {} differing results.",
+        super::group(checked),
+        started.elapsed().as_secs_f64(),
+        super::group(total)
+    );
+    total
+}
+
 /// Output buffers of one chunk.
 struct Buffers {
     s: Vec<f64>,
@@ -306,6 +463,65 @@ fn per_element(x: &[f64], out: &mut [f64], out2: &mut [f64], f: &Lanes) -> f64 {
     }
     let (w, cpu) = clock.stop();
     cpu.unwrap_or(w) * 1e9 / (reps as f64 * x.len() as f64)
+}
+
+/// Prints libm vs vector `pow(x, 2)` ns per element for each of
+/// [`POW_RANGES`], `rounds` interleaved rounds.
+fn time_pow(v: Vector, rounds: usize, seed: u64) {
+    const N: usize = 4096;
+    crate::outln!(
+        "\npow(x, 2): CPU ns per element on 16-lane slices ({N} arguments per range), libm \
+         per element vs pow2_lanes, {rounds} interleaved rounds: median [min-max]:"
+    );
+    let cols = TextColumns::new(
+        &[
+            (8, Align::Left),
+            (20, Align::Right),
+            (20, Align::Right),
+            (20, Align::Right),
+        ],
+        "  ",
+    );
+    crate::outln!(
+        "{}",
+        cols.line(&["range", "libm (scalar)", "vector", "speed-up"])
+    );
+    let sf: Box<Lanes> = Box::new(|x, o, _| scalar::pow2_lanes(x, o));
+    let vf: Box<Lanes> = Box::new(move |x, o, _| v.pow2_lanes(x, o));
+    let (mut out, mut out2) = (vec![0.0; N], vec![0.0; N]);
+    for (ri, r) in POW_RANGES.iter().enumerate() {
+        let mut rng = Rng::new(seed ^ 0x9abc ^ (ri as u64) << 48);
+        let mut x = Vec::with_capacity(N);
+        while x.len() < N {
+            let arg = rng.arg(r.draw);
+            if r.name != "hard" || hard(arg) {
+                x.push(arg);
+            }
+        }
+        let (mut s, mut vv, mut ratio) = (vec![], vec![], vec![]);
+        for round in 0..rounds {
+            let (a, b) = if round % 2 == 0 {
+                let a = per_element(&x, &mut out, &mut out2, sf.as_ref());
+                (a, per_element(&x, &mut out, &mut out2, vf.as_ref()))
+            } else {
+                let b = per_element(&x, &mut out, &mut out2, vf.as_ref());
+                (per_element(&x, &mut out, &mut out2, sf.as_ref()), b)
+            };
+            s.push(a);
+            vv.push(b);
+            ratio.push(a / b);
+        }
+        let show = |t: (f64, f64, f64)| format!("{:.2} [{:.2}-{:.2}]", t.0, t.1, t.2);
+        crate::outln!(
+            "{}",
+            cols.line(&[
+                r.name.to_string(),
+                show(spread(&s)),
+                show(spread(&vv)),
+                show(spread(&ratio)),
+            ])
+        );
+    }
 }
 
 /// Prints scalar vs vector ns per element for each range and function,

@@ -21,7 +21,7 @@
 //! plugin`: the RWG workload on a plugin's single calls, batched calls and
 //! vector env against the built-ins), `sampler` (the RWG workload), `peers` (the whole `rwg run` against gymnax-raw, side by
 //! side), `gym` (Gymnasium envs through the bridge against a pure-Python
-//! loop), `libm` (`rwg_env::lanes_math`'s vector sin/cos against libm, bits
+//! loop), `libm` (`rwg_env::lanes_math`'s vector sin/cos and pow against libm, bits
 //! and speed); the timing and the table output are shared, here.
 
 mod envs;
@@ -138,23 +138,30 @@ figures.
 Example:
   rwg bench plugin --plugin target/release/librwg_plugin_classic_control.so")]
     Plugin(plugin_sampler::PluginArgs),
-    /// The vector sin/cos of the lockstep envs against this machine's libm: bits and speed.
+    /// The vector sin/cos and pow(x, 2) of the lockstep envs against this machine's libm: bits
+    /// and speed.
     #[command(after_help = "\
 rwg_env::lanes_math computes sin and cos four lanes at a time with AVX2+FMA, a port of \
-glibc 2.36's __sin_fma/__cos_fma meant to return exactly libm's bits; it is used only \
-when a one-time self-check on a few thousand edge arguments passes. This command checks \
-it on many more: the fixed edge set plus N pseudo-random arguments split evenly over \
-CartPole's |x| < 0.3, MountainCarContinuous' |x| <= 3.6, Acrobot's |x| <= 20, \
-Pendulum's |x| <= 200 and a log-uniform sweep 2^-30 <= |x| < 105414350 (every path of \
-the vector code), comparing sin, cos and sincos (both halves) with one libm sin and \
-one libm cos call per argument. Differing results are printed (argument, libm's bits, \
-the vector's bits) and make the command fail. Then, for each range, the CPU time per \
-element of libm (one call per element) and of the vector code on 16-lane slices, ROUNDS \
-interleaved rounds: median [min-max]. Build with --release: a debug build checks the \
-same bits, slowly.
+glibc 2.36's __sin_fma/__cos_fma meant to return exactly libm's bits, and Python's x**2 \
+(libm pow(x, 2)) as x*x where the exact square is within 0.48 ulp of it, else by a port \
+of glibc 2.36's __pow_fma; both are used only when a one-time self-check on some \
+thousands of edge arguments passes. This command checks them on many more. sin/cos: the \
+fixed edge set plus N pseudo-random arguments split evenly over CartPole's |x| < 0.3, \
+MountainCarContinuous' |x| <= 3.6, Acrobot's |x| <= 20, Pendulum's |x| <= 200 and a \
+log-uniform sweep 2^-30 <= |x| < 105414350 (every path of the vector code), comparing \
+sin, cos and sincos (both halves) with one libm sin and one libm cos call per argument. \
+pow: its edge set plus N (or --pow-check's) arguments split evenly over the envs' \
+|x| <= 30, the hard squares only (the ones the port computes) and a log-uniform sweep of \
+the port's range 2^-60 <= |x| <= 2^32, comparing the port alone (on every argument) and \
+pow2_lanes with one libm pow call per argument. Differing results are printed \
+(argument, libm's bits, the vector's bits) and make the command fail. Then, for each \
+range, the CPU time per element of libm (one call per element) and of the vector code \
+on 16-lane slices, ROUNDS interleaved rounds: median [min-max]. Build with --release: a \
+debug build checks the same bits, slowly.
 
-Example:
-  rwg bench libm --check 1000000000 --rounds 0   # 10^9 arguments, a few minutes")]
+Examples:
+  rwg bench libm --check 1000000000 --rounds 0   # 10^9 arguments each, several minutes
+  rwg bench libm --check 0 --pow-check 1000000000 --rounds 0   # only pow, 10^9 arguments")]
     Libm(libm::LibmArgs),
 }
 
