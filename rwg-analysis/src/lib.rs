@@ -19,6 +19,7 @@ pub mod table;
 pub mod tables;
 
 use plot::{ImageFormat, PlotError};
+use rayon::prelude::*;
 use rwg_study::rundir::data::{write_stats, CellData, KeptEpisodes, Run, RunReadError, RunStats};
 use rwg_study::stats::CellSummary;
 use std::path::{Path, PathBuf};
@@ -77,11 +78,18 @@ pub fn load_cells_with(
     run: &Run,
     mut kept: KeptEpisodes,
 ) -> Result<Vec<(CellData, CellSummary)>, RunReadError> {
-    run.meta
+    let jobs: Vec<_> = run
+        .meta
         .cells
         .iter()
-        .map(|c| {
-            let data = match kept.remove(&c.id.dir) {
+        .map(|c| (c, kept.remove(&c.id.dir)))
+        .collect();
+    // Cells are read and summarised on the current rayon pool; the first
+    // error in the run's cell order is the one returned, whatever the pool.
+    let loaded: Vec<Result<(CellData, CellSummary), RunReadError>> = jobs
+        .into_par_iter()
+        .map(|(c, kept)| {
+            let data = match kept {
                 Some((scores, steps)) => {
                     CellData::new(c.clone(), c.episodes as usize, scores, steps)
                 }
@@ -90,7 +98,8 @@ pub fn load_cells_with(
             let summary = data.summary();
             Ok((data, summary))
         })
-        .collect()
+        .collect();
+    loaded.into_iter().collect()
 }
 
 /// The statistics of loaded cells.

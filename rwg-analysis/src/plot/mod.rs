@@ -29,6 +29,7 @@ use panels::{histogram_panel, scores_panel, variance_panel, HistSeries, PanelTex
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use raster::{base64, encode_png, Raster};
+use rayon::prelude::*;
 use rwg_study::rundir::data::CellData;
 use rwg_study::stats::CellSummary;
 
@@ -520,13 +521,27 @@ pub fn run_figures(
     cells: &[(CellData, CellSummary)],
     format: ImageFormat,
 ) -> Result<Vec<Figure>, PlotError> {
-    let mut out = Vec::new();
-    for bias in distinct(cells.iter().map(|(_, s)| s.id.bias)) {
-        out.extend(overview_figure(cells, bias, format)?);
-    }
-    out.extend(bias_figure(cells, format)?);
-    for (c, s) in cells {
-        out.extend(cell_figures(c, s, format)?);
+    // Drawn on the current rayon pool, returned in this order whatever the
+    // pool: the overviews, the bias figure, then each cell's figures.
+    let (run_level, per_cell) = rayon::join(
+        || -> Result<Vec<Figure>, PlotError> {
+            let mut out = Vec::new();
+            for bias in distinct(cells.iter().map(|(_, s)| s.id.bias)) {
+                out.extend(overview_figure(cells, bias, format)?);
+            }
+            out.extend(bias_figure(cells, format)?);
+            Ok(out)
+        },
+        || {
+            cells
+                .par_iter()
+                .map(|(c, s)| cell_figures(c, s, format))
+                .collect::<Vec<_>>()
+        },
+    );
+    let mut out = run_level?;
+    for figures in per_cell {
+        out.extend(figures?);
     }
     Ok(out)
 }

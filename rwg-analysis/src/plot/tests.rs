@@ -268,3 +268,43 @@ fn figure_bytes_unchanged() {
     ];
     assert_eq!(got, want, "figure bytes changed:\n{}", got.join("\n"));
 }
+
+#[test]
+fn figures_and_cells_do_not_depend_on_the_thread_count() {
+    let dir = std::env::temp_dir().join(format!("rwg-plot-{}-threads", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let cells: Vec<SyntheticCell> = (0..7)
+        .map(|i| SyntheticCell::cartpole(&format!("0HL-{}", i / 2), &[], i % 2 == 1))
+        .collect();
+    write_synthetic_run(
+        &dir,
+        &SyntheticRun {
+            samples: 40,
+            episodes: 3,
+            seed: 5,
+            cells,
+        },
+    )
+    .unwrap();
+    let run = Run::open(&dir).unwrap();
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| {
+                let cells = crate::load_cells(&run).unwrap();
+                let summaries: Vec<String> = cells.iter().map(|(_, s)| format!("{s:?}")).collect();
+                let figures: Vec<(String, Vec<u8>)> = run_figures(&cells, ImageFormat::Svg)
+                    .unwrap()
+                    .into_iter()
+                    .map(|f| (f.file_name(), f.bytes))
+                    .collect();
+                (summaries, figures)
+            })
+    };
+    let one = on(1);
+    assert_eq!(one.1.len(), 2 + 1 + 7 * 3);
+    assert_eq!(on(3), one);
+    let _ = std::fs::remove_dir_all(&dir);
+}

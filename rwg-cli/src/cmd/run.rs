@@ -107,7 +107,8 @@ pub struct Args {
     timing: bool,
 }
 
-/// Writes stats, figures and report.html into a finished run directory.
+/// Writes stats, figures and report.html into a finished run directory,
+/// reading and drawing the cells on the current rayon pool.
 pub(crate) fn write_report(out: &Path, kept: KeptEpisodes) -> Result<()> {
     let written = rwg_analysis::write_analysis(out, false, kept)
         .with_context(|| format!("cannot analyse {}", out.display()))?;
@@ -287,7 +288,13 @@ pub fn run(args: Args) -> Result<()> {
             );
             if !args.no_report {
                 let t = Instant::now();
-                write_report(&out, std::mem::take(&mut report.episodes))?;
+                // On as many threads as the sampling had.
+                let episodes = std::mem::take(&mut report.episodes);
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(report.threads)
+                    .build()
+                    .context("cannot start the report's threads")?
+                    .install(|| write_report(&out, episodes))?;
                 report_time = Some(t.elapsed());
             }
         }
