@@ -348,6 +348,39 @@ fn bench_libm_checks_every_range_and_times_both() {
     }
     assert!(out.contains("; 0 differing results."), "{out}");
     assert!(!out.contains("MISMATCH"), "{out}");
+    // pow(x, 2)'s table, after the sin/cos one: --check's N by default, the
+    // port alone and pow2_lanes, two zero counts per set.
+    let pow = out
+        .split_once("Bits of pow(x, 2)")
+        .unwrap_or_else(|| panic!("no pow table in:\n{out}"))
+        .1;
+    for (name, args) in [
+        ("edges", None),
+        ("envs", Some("16,666")),
+        ("hard", Some("16,666")),
+        ("log-all", Some("16,668")),
+    ] {
+        let cells: Vec<&str> = pow
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(name))
+            .unwrap_or_else(|| panic!("pow's {name} missing from:\n{out}"))
+            .split_whitespace()
+            .collect();
+        if let Some(args) = args {
+            assert_eq!(cells[1], args, "pow {name}: {out}");
+        }
+        assert_eq!(&cells[2..4], &["0", "0"], "pow {name}: {out}");
+    }
+    assert_eq!(out.matches("; 0 differing results.").count(), 2, "{out}");
+    for name in ["envs", "hard", "log-all"] {
+        assert!(
+            pow.lines().any(|l| {
+                let c: Vec<&str> = l.split_whitespace().collect();
+                c.len() == 7 && c[0] == name && c[1].parse::<f64>().is_ok()
+            }),
+            "pow's {name} timing missing from:\n{out}"
+        );
+    }
     // The timing table: every range and function, scalar and vector figures.
     for name in ["cartpole", "mcc", "acrobot", "pendulum", "log-all"] {
         for f in ["sin", "cos", "sincos"] {

@@ -16,7 +16,8 @@
 //!   `SAMPLES=32 EPISODES=2`, `rwg bench envs` with `--steps 20000`,
 //!   `rwg bench sampler` and `rwg bench gym` with `--samples 16 --episodes 2`
 //!   (and `--repeats 1`), `rwg bench plugin` with `--samples 16 --episodes 2
-//!   --rounds 1`, `rwg bench libm` with `--check 20000 --rounds 1`: the tests run a
+//!   --rounds 1`, `rwg bench libm` with `--check 20000 --rounds 1` (and
+//!   `--pow-check 20000` for a `--pow-check` it has): the tests run a
 //!   debug build, ten times slower than the release build the README uses,
 //!   and the full paper study alone would take an hour. With 32 networks
 //!   per cell, `rwg stats` and `rwg report` get `--at-n 8` for an `--at-n`
@@ -298,6 +299,9 @@ fn reduce_rwg(cmd: &str) -> String {
     if c.contains("rwg bench libm") {
         c = set_flag(&c, "--check", "20000");
         c = set_flag(&c, "--rounds", "1");
+        if c.contains(" --pow-check ") {
+            c = set_flag(&c, "--pow-check", "20000");
+        }
     }
     if c.contains("rwg slurm ") && !c.contains("--dry-run") {
         c.push_str(" --dry-run");

@@ -32,6 +32,9 @@ pub fn fmt_f64(x: f64) -> String {
 ///   (|x| from 2^-32 to 2^32), `pow` differed from `p` only for |e| > 0.4914.
 ///
 /// Only about 4 % of inputs (those with 0.48 < |e| <= 0.5 ulp) call `pow`.
+/// Over many lanes, [`crate::lanes_math::pow2_lanes`] applies the same test
+/// four lanes at a time and computes those 4 % with a vector port of glibc's
+/// `pow` instead.
 #[inline]
 pub fn pow2(x: f64) -> f64 {
     let p = x * x;
