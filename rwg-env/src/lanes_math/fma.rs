@@ -66,9 +66,10 @@ pub(super) const REDUCE: f64 = f64::from_bits(0x4199_21fb_0000_0000); // 1054143
 
 type V = __m256d;
 
+/// `v` in all four lanes.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn splat(v: f64) -> V {
+pub(super) unsafe fn splat(v: f64) -> V {
     _mm256_set1_pd(v)
 }
 

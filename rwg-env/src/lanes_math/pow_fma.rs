@@ -28,6 +28,7 @@
 //! (see `fma.rs`). Table reads are row loads (cheaper than gathers) at
 //! indices masked into the tables, whatever a lane holds.
 
+use super::fma::splat;
 use super::pow_table::{EXP_TAB, LOG_TAB};
 use std::arch::x86_64::*;
 
@@ -61,12 +62,6 @@ const C4: f64 = f64::from_bits(0x3fa5_5555_cf17_2b91);
 const C5: f64 = f64::from_bits(0x3f81_1111_67a4_d017);
 /// The exponent `y`.
 const Y: f64 = 2.0;
-
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn splat(v: f64) -> V {
-    _mm256_set1_pd(v)
-}
 
 #[inline]
 #[target_feature(enable = "avx2,fma")]

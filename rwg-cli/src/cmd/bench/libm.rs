@@ -100,6 +100,20 @@ fn hard(x: f64) -> bool {
     rwg_env::float::square_error(x, p).abs() > 0.48 * ulp
 }
 
+/// `n` arguments of pow range `r` (for "hard", only the squares the fast
+/// path leaves).
+fn pow_args(rng: &mut Rng, r: &Range, n: usize) -> Vec<f64> {
+    let only_hard = r.name == "hard";
+    let mut x = Vec::with_capacity(n);
+    while x.len() < n {
+        let arg = rng.arg(r.draw);
+        if !only_hard || hard(arg) {
+            x.push(arg);
+        }
+    }
+    x
+}
+
 /// xorshift64: reproducible arguments without a dependency.
 struct Rng(u64);
 
@@ -320,16 +334,7 @@ fn check_pow(v: Vector, a: &LibmArgs) -> u64 {
                     break;
                 }
                 let m = (k - done).min(CHUNK as u64) as usize;
-                let r = &POW_RANGES[si - 1];
-                let only_hard = r.name == "hard";
-                let mut x = Vec::with_capacity(m);
-                while x.len() < m {
-                    let arg = rng.arg(r.draw);
-                    if !only_hard || hard(arg) {
-                        x.push(arg);
-                    }
-                }
-                x
+                pow_args(&mut rng, &POW_RANGES[si - 1], m)
             };
             let m = x.len();
             done += m as u64;
@@ -465,6 +470,34 @@ fn per_element(x: &[f64], out: &mut [f64], out2: &mut [f64], f: &Lanes) -> f64 {
     cpu.unwrap_or(w) * 1e9 / (reps as f64 * x.len() as f64)
 }
 
+/// `rounds` interleaved rounds of scalar `sf` and vector `vf` over `x`
+/// (alternating which goes first): the scalar and vector ns per element and
+/// the per-round speed-up, each as "median [min-max]".
+fn interleaved(
+    x: &[f64],
+    out: &mut [f64],
+    out2: &mut [f64],
+    rounds: usize,
+    sf: &Lanes,
+    vf: &Lanes,
+) -> [String; 3] {
+    let (mut s, mut v, mut ratio) = (vec![], vec![], vec![]);
+    for round in 0..rounds {
+        let (a, b) = if round % 2 == 0 {
+            let a = per_element(x, out, out2, sf);
+            (a, per_element(x, out, out2, vf))
+        } else {
+            let b = per_element(x, out, out2, vf);
+            (per_element(x, out, out2, sf), b)
+        };
+        s.push(a);
+        v.push(b);
+        ratio.push(a / b);
+    }
+    let show = |t: (f64, f64, f64)| format!("{:.2} [{:.2}-{:.2}]", t.0, t.1, t.2);
+    [show(spread(&s)), show(spread(&v)), show(spread(&ratio))]
+}
+
 /// Prints libm vs vector `pow(x, 2)` ns per element for each of
 /// [`POW_RANGES`], `rounds` interleaved rounds.
 fn time_pow(v: Vector, rounds: usize, seed: u64) {
@@ -491,36 +524,9 @@ fn time_pow(v: Vector, rounds: usize, seed: u64) {
     let (mut out, mut out2) = (vec![0.0; N], vec![0.0; N]);
     for (ri, r) in POW_RANGES.iter().enumerate() {
         let mut rng = Rng::new(seed ^ 0x9abc ^ (ri as u64) << 48);
-        let mut x = Vec::with_capacity(N);
-        while x.len() < N {
-            let arg = rng.arg(r.draw);
-            if r.name != "hard" || hard(arg) {
-                x.push(arg);
-            }
-        }
-        let (mut s, mut vv, mut ratio) = (vec![], vec![], vec![]);
-        for round in 0..rounds {
-            let (a, b) = if round % 2 == 0 {
-                let a = per_element(&x, &mut out, &mut out2, sf.as_ref());
-                (a, per_element(&x, &mut out, &mut out2, vf.as_ref()))
-            } else {
-                let b = per_element(&x, &mut out, &mut out2, vf.as_ref());
-                (per_element(&x, &mut out, &mut out2, sf.as_ref()), b)
-            };
-            s.push(a);
-            vv.push(b);
-            ratio.push(a / b);
-        }
-        let show = |t: (f64, f64, f64)| format!("{:.2} [{:.2}-{:.2}]", t.0, t.1, t.2);
-        crate::outln!(
-            "{}",
-            cols.line(&[
-                r.name.to_string(),
-                show(spread(&s)),
-                show(spread(&vv)),
-                show(spread(&ratio)),
-            ])
-        );
+        let x = pow_args(&mut rng, r, N);
+        let [s, vv, ratio] = interleaved(&x, &mut out, &mut out2, rounds, &*sf, &*vf);
+        crate::outln!("{}", cols.line(&[r.name.to_string(), s, vv, ratio]));
     }
 }
 
@@ -568,30 +574,10 @@ fn time(v: Vector, rounds: usize, seed: u64) {
         let mut rng = Rng::new(seed ^ 0xabcd ^ (ri as u64) << 48);
         let x: Vec<f64> = (0..N).map(|_| rng.arg(r.draw)).collect();
         for (name, sf, vf) in &fns {
-            let (mut s, mut vv, mut ratio) = (vec![], vec![], vec![]);
-            for round in 0..rounds {
-                let (a, b) = if round % 2 == 0 {
-                    let a = per_element(&x, &mut out, &mut out2, sf.as_ref());
-                    (a, per_element(&x, &mut out, &mut out2, vf.as_ref()))
-                } else {
-                    let b = per_element(&x, &mut out, &mut out2, vf.as_ref());
-                    (per_element(&x, &mut out, &mut out2, sf.as_ref()), b)
-                };
-                s.push(a);
-                vv.push(b);
-                ratio.push(a / b);
-            }
-            let show =
-                |t: (f64, f64, f64), d: usize| format!("{:.d$} [{:.d$}-{:.d$}]", t.0, t.1, t.2);
+            let [s, vv, ratio] = interleaved(&x, &mut out, &mut out2, rounds, &**sf, &**vf);
             crate::outln!(
                 "{}",
-                cols.line(&[
-                    r.name.to_string(),
-                    name.to_string(),
-                    show(spread(&s), 2),
-                    show(spread(&vv), 2),
-                    show(spread(&ratio), 2),
-                ])
+                cols.line(&[r.name.to_string(), name.to_string(), s, vv, ratio])
             );
         }
     }
