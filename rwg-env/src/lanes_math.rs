@@ -21,20 +21,24 @@
 //!   and FMA, the condition under which glibc's ifunc selects those
 //!   variants, and (b) a one-time self-check on [`edge_arguments`] (every
 //!   path, every path boundary, the table's rounding points, the reduction's
-//!   hard cases: a few thousand arguments) and [`pow2_edge_arguments`] gives
-//!   this process's libm bits for all of them.
+//!   hard cases: a few thousand arguments) gives this process's libm bits
+//!   for all of them.
 //!   [`pow2_lanes`] settles most squares with [`crate::float::pow2`]'s fast
 //!   path (`x*x` when the exact square is within 0.48 ulp of it) and
 //!   computes the rest (about 4 %) with a four-lane port of glibc 2.36's
 //!   `__pow_fma` for `y = 2` (module `pow_fma`, 2^-60 <= |x| <= 2^32);
-//!   other lanes call libm. Another glibc version, another libm (musl, macOS) or
-//!   a CPU without FMA fails (a) or (b) and gets the scalar loop, so the
-//!   contract holds everywhere; only the speed differs.
-//! - **Scalar**: one libm call per element. Forced with the environment
-//!   variable `RWG_SCALAR_LIBM=1` (read once, e.g. for benchmarks).
+//!   other lanes call libm. It has its own condition (b), a self-check on
+//!   [`pow2_edge_arguments`], so either port can run without the other.
+//!   Another glibc version, another libm (musl, macOS) or a CPU without FMA
+//!   fails (a) or (b) and gets the scalar loop, so the contract holds
+//!   everywhere; only the speed differs.
+//! - **Scalar**: one libm call per element (for `pow`, [`crate::float::pow2`]
+//!   per element). Forced with the environment variable `RWG_SCALAR_LIBM=1`
+//!   (read once, e.g. for benchmarks).
 //!
-//! [`implementation`] says which one runs and why. `rwg bench libm --check
-//! N` compares the two over N arguments on the user's machine.
+//! [`implementation`] (sin/cos) and [`pow_implementation`] say which one
+//! runs and why. `rwg bench libm --check N` compares the two over N
+//! arguments on the user's machine.
 //!
 //! The vector code follows glibc's algorithm and constants (glibc's libm,
 //! originally IBM's Accurate Mathematical Library, is LGPL-2.1-or-later).
@@ -233,7 +237,8 @@ impl Vector {
     }
 }
 
-/// Which implementation [`sin_lanes`], [`cos_lanes`] and [`sincos_lanes`] use.
+/// Which implementation [`sin_lanes`], [`cos_lanes`] and [`sincos_lanes`]
+/// ([`implementation`]) or [`pow2_lanes`] ([`pow_implementation`]) use.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Implementation {
     /// The vector code: the CPU has AVX2 and FMA and the self-check passed.
@@ -274,35 +279,46 @@ impl std::fmt::Display for Implementation {
     }
 }
 
-/// The implementation in use, decided once per process.
+/// The implementation [`sin_lanes`], [`cos_lanes`] and [`sincos_lanes`] use,
+/// decided once per process (the self-check on [`edge_arguments`]).
 pub fn implementation() -> Implementation {
     static CHOICE: OnceLock<Implementation> = OnceLock::new();
+    *CHOICE.get_or_init(|| decide(|v| v.first_mismatch(&edge_arguments()).map(|x| ("sin/cos", x))))
+}
+
+/// The implementation [`pow2_lanes`] uses, decided once per process (the
+/// self-check on [`pow2_edge_arguments`]), apart from [`implementation`]:
+/// a libm whose `pow` the port does not match keeps the vector `sin`/`cos`
+/// if those match, and the other way round.
+pub fn pow_implementation() -> Implementation {
+    static CHOICE: OnceLock<Implementation> = OnceLock::new();
     *CHOICE.get_or_init(|| {
-        if std::env::var_os("RWG_SCALAR_LIBM").is_some_and(|v| v == "1") {
-            return Implementation::Scalar(ScalarReason::Forced);
-        }
-        let Some(v) = Vector::detect() else {
-            return Implementation::Scalar(ScalarReason::NoCpuSupport);
-        };
-        self_check(v)
+        decide(|v| {
+            v.first_pow2_mismatch(&pow2_edge_arguments())
+                .map(|x| ("pow", x))
+        })
     })
 }
 
-/// The self-check: the vector code on [`edge_arguments`] and
-/// [`pow2_edge_arguments`] against libm.
-fn self_check(v: Vector) -> Implementation {
-    if let Some(x) = v.first_mismatch(&edge_arguments()) {
-        return Implementation::Scalar(ScalarReason::SelfCheckFailed("sin/cos", x));
+/// `RWG_SCALAR_LIBM=1`, then the CPU, then `mismatch` (the self-check: the
+/// function and the first argument where the vector code is not libm).
+fn decide(mismatch: impl FnOnce(Vector) -> Option<(&'static str, f64)>) -> Implementation {
+    if std::env::var_os("RWG_SCALAR_LIBM").is_some_and(|v| v == "1") {
+        return Implementation::Scalar(ScalarReason::Forced);
     }
-    if let Some(x) = v.first_pow2_mismatch(&pow2_edge_arguments()) {
-        return Implementation::Scalar(ScalarReason::SelfCheckFailed("pow", x));
+    let Some(v) = Vector::detect() else {
+        return Implementation::Scalar(ScalarReason::NoCpuSupport);
+    };
+    match mismatch(v) {
+        None => Implementation::Vector,
+        Some((function, x)) => Implementation::Scalar(ScalarReason::SelfCheckFailed(function, x)),
     }
-    Implementation::Vector
 }
 
+/// The vector code for `choice`, if that is what runs.
 #[inline]
-fn vector() -> Option<Vector> {
-    match implementation() {
+fn vector(choice: Implementation) -> Option<Vector> {
+    match choice {
         Implementation::Vector => Vector::detect(),
         Implementation::Scalar(_) => None,
     }
@@ -310,7 +326,7 @@ fn vector() -> Option<Vector> {
 
 /// `out[i] = sin(x[i])` for every `i`.
 pub fn sin_lanes(x: &[f64], out: &mut [f64]) {
-    match vector() {
+    match vector(implementation()) {
         Some(v) => v.sin_lanes(x, out),
         None => scalar::sin_lanes(x, out),
     }
@@ -318,7 +334,7 @@ pub fn sin_lanes(x: &[f64], out: &mut [f64]) {
 
 /// `out[i] = cos(x[i])` for every `i`.
 pub fn cos_lanes(x: &[f64], out: &mut [f64]) {
-    match vector() {
+    match vector(implementation()) {
         Some(v) => v.cos_lanes(x, out),
         None => scalar::cos_lanes(x, out),
     }
@@ -327,7 +343,7 @@ pub fn cos_lanes(x: &[f64], out: &mut [f64]) {
 /// `sin[i] = sin(x[i])` and `cos[i] = cos(x[i])` for every `i`: the bits of
 /// libm's `sin` and `cos` (see the module docs on `sincos`).
 pub fn sincos_lanes(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
-    match vector() {
+    match vector(implementation()) {
         Some(v) => v.sincos_lanes(x, sin, cos),
         None => scalar::sincos_lanes(x, sin, cos),
     }
@@ -336,7 +352,7 @@ pub fn sincos_lanes(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
 /// `out[i] = pow(x[i], 2)` (Python's `x[i]**2`) for every `i`: libm's bits.
 /// Without the vector code, [`crate::float::pow2`] per element.
 pub fn pow2_lanes(x: &[f64], out: &mut [f64]) {
-    match vector() {
+    match vector(pow_implementation()) {
         Some(v) => v.pow2_lanes(x, out),
         None => {
             assert_eq!(x.len(), out.len(), "pow2_lanes: arguments and results");

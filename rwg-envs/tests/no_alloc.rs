@@ -160,9 +160,10 @@ impl LockstepVisitor for LockstepLoop {
         let mut step_mask = [1u8; N];
         let mut seeds = [0u64; N];
         let mut next_seed = 0;
-        // lanes_math chooses its implementation once per process (a
-        // self-check that allocates); that is not part of the step loop.
+        // lanes_math chooses its implementations once per process (self-checks
+        // that allocate); that is not part of the step loop.
         let _ = rwg_env::lanes_math::implementation();
+        let _ = rwg_env::lanes_math::pow_implementation();
         allocations(|| {
             for t in 0..2000 {
                 if reset_mask.contains(&1) {

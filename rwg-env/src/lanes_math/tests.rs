@@ -78,25 +78,46 @@ fn edge_arguments_give_libm_bits() {
 
 #[test]
 fn dispatch_follows_cpu_and_self_check() {
-    let expected = if std::env::var_os("RWG_SCALAR_LIBM").is_some_and(|v| v == "1") {
-        Implementation::Scalar(ScalarReason::Forced)
-    } else {
-        match Vector::detect() {
-            None => Implementation::Scalar(ScalarReason::NoCpuSupport),
-            Some(v) => match (
-                v.first_mismatch(&edge_arguments()),
-                v.first_pow2_mismatch(&pow2_edge_arguments()),
-            ) {
-                (None, None) => Implementation::Vector,
-                (Some(x), _) => Implementation::Scalar(ScalarReason::SelfCheckFailed("sin/cos", x)),
-                (None, Some(x)) => Implementation::Scalar(ScalarReason::SelfCheckFailed("pow", x)),
-            },
+    let expected = |mismatch: &dyn Fn(Vector) -> Option<(&'static str, f64)>| {
+        if std::env::var_os("RWG_SCALAR_LIBM").is_some_and(|v| v == "1") {
+            Implementation::Scalar(ScalarReason::Forced)
+        } else {
+            match Vector::detect() {
+                None => Implementation::Scalar(ScalarReason::NoCpuSupport),
+                Some(v) => match mismatch(v) {
+                    None => Implementation::Vector,
+                    Some((f, x)) => Implementation::Scalar(ScalarReason::SelfCheckFailed(f, x)),
+                },
+            }
         }
     };
-    let got = implementation();
-    // NaN != NaN: compare the printed form.
-    assert_eq!(format!("{got}"), format!("{expected}"));
-    eprintln!("lanes_math: {got}");
+    // Each decision has its own self-check. NaN != NaN: compare the printed
+    // form.
+    let sin_cos = implementation();
+    let want = expected(&|v| v.first_mismatch(&edge_arguments()).map(|x| ("sin/cos", x)));
+    assert_eq!(format!("{sin_cos}"), format!("{want}"));
+    let pow = pow_implementation();
+    let want = expected(&|v| {
+        v.first_pow2_mismatch(&pow2_edge_arguments())
+            .map(|x| ("pow", x))
+    });
+    assert_eq!(format!("{pow}"), format!("{want}"));
+    eprintln!("lanes_math: sin/cos {sin_cos}; pow {pow}");
+}
+
+/// A failing self-check turns off only the functions it checked: each
+/// decision runs its own check.
+#[test]
+fn a_failed_self_check_names_its_function() {
+    if std::env::var_os("RWG_SCALAR_LIBM").is_some_and(|v| v == "1") || Vector::detect().is_none() {
+        return; // decided before any self-check (dispatch_follows_cpu_and_self_check)
+    }
+    assert_eq!(
+        decide(|_| Some(("pow", 1.5))),
+        Implementation::Scalar(ScalarReason::SelfCheckFailed("pow", 1.5))
+    );
+    assert_eq!(decide(|_| None), Implementation::Vector);
+    assert!(format!("{}", decide(|_| Some(("pow", 1.5)))).contains("the vector pow differs"));
 }
 
 #[test]

@@ -152,7 +152,11 @@ struct Tally {
 
 /// Runs `rwg bench libm`.
 pub fn run(a: LibmArgs) -> Result<()> {
-    crate::outln!("lanes_math in use: {}", lanes_math::implementation());
+    crate::outln!(
+        "lanes_math in use: sin/cos {}; pow {}",
+        lanes_math::implementation(),
+        lanes_math::pow_implementation()
+    );
     let Some(v) = Vector::detect() else {
         crate::outln!(
             "The vector code needs an x86-64 CPU with AVX2 and FMA: nothing to check or time \
