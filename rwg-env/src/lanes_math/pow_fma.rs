@@ -78,18 +78,16 @@ unsafe fn lanes(v: I) -> [usize; 4] {
     k.map(|k| k as usize)
 }
 
-/// `[invc, logc, logctail]` of the log table's rows `i` (each < 128): four
-/// aligned row loads and a transpose.
+/// `[invc, logc, logctail]` of the log table's rows `i` (each taken mod
+/// 128): four aligned row loads and a transpose.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn log_rows(i: I) -> [V; 3] {
     let t = LOG_TAB.0.as_ptr();
-    // SAFETY (for the caller's unsafe block): the caller masks i to 0..128
-    // (debug builds assert it), so each row is inside the table.
-    let row = |k: usize| {
-        debug_assert!(k < 128);
-        _mm256_load_pd(t.add(k).cast())
-    };
+    // SAFETY (for the caller's unsafe block): `k & 127` is a row of the
+    // table (the caller's indices are in 0..128 already; the mask makes the
+    // reads safe whatever they are).
+    let row = |k: usize| _mm256_load_pd(t.add(k & 127).cast());
     let [a, b, c, d] = lanes(i);
     let (r0, r1, r2, r3) = (row(a), row(b), row(c), row(d));
     let t0 = _mm256_unpacklo_pd(r0, r1); // invc0 invc1 logctail0 logctail1
@@ -103,18 +101,15 @@ unsafe fn log_rows(i: I) -> [V; 3] {
     ]
 }
 
-/// `(tail, sbits)` of the exp table's pairs `k` (each < 128): four pair
-/// loads and an unpack.
+/// `(tail, sbits)` of the exp table's pairs `k` (each taken mod 128): four
+/// pair loads and an unpack.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn exp_pairs(k: I) -> (V, V) {
     let t = EXP_TAB.as_ptr();
-    // SAFETY (for the caller's unsafe block): the caller masks k to 0..128,
-    // so 2k + 1 < 256.
-    let pair = |k: usize| {
-        debug_assert!(k < 128);
-        _mm_loadu_pd(t.add(2 * k).cast())
-    };
+    // SAFETY (for the caller's unsafe block): with `k & 127`, 2k + 1 < 256
+    // (as for `log_rows`, the mask only guards the reads).
+    let pair = |k: usize| _mm_loadu_pd(t.add(2 * (k & 127)).cast());
     let [a, b, c, d] = lanes(k);
     let lo = _mm256_set_m128d(pair(c), pair(a)); // tail_a sbits_a tail_c sbits_c
     let hi = _mm256_set_m128d(pair(d), pair(b));
