@@ -322,14 +322,27 @@ mod tests {
 /// off `sin`'s at rare arguments, e.g. `0x1.ad1fb54442d18p+0`).
 #[inline]
 pub fn sin(x: f64) -> f64 {
-    crate::lanes_math::libm_sin(x)
+    libm_sin(x)
 }
 
 /// Python's `math.cos(x)`: libm's `cos`, never merged into `sincos` (see
 /// [`sin`]).
 #[inline]
 pub fn cos(x: f64) -> f64 {
-    crate::lanes_math::libm_cos(x)
+    libm_cos(x)
+}
+
+/// libm's `sin`, as a call LLVM cannot merge with a `cos` into `sincos`
+/// (also the scalar reference of [`crate::lanes_math`]).
+#[inline(never)]
+pub(crate) fn libm_sin(x: f64) -> f64 {
+    x.sin()
+}
+
+/// libm's `cos`, as a call LLVM cannot merge with a `sin` into `sincos`.
+#[inline(never)]
+pub(crate) fn libm_cos(x: f64) -> f64 {
+    x.cos()
 }
 
 /// `(math.sin(x), math.cos(x))`: two libm calls, never glibc's `sincos`

@@ -57,19 +57,8 @@ mod table;
 #[cfg(test)]
 mod tests;
 
+use crate::float::{libm_cos, libm_sin};
 use std::sync::OnceLock;
-
-/// libm's `sin`, as a call LLVM cannot merge with a `cos` into `sincos`.
-#[inline(never)]
-pub(crate) fn libm_sin(x: f64) -> f64 {
-    x.sin()
-}
-
-/// libm's `cos`, as a call LLVM cannot merge with a `sin` into `sincos`.
-#[inline(never)]
-pub(crate) fn libm_cos(x: f64) -> f64 {
-    x.cos()
-}
 
 /// One libm call per element: the reference the vector code must match.
 pub mod scalar {
