@@ -47,18 +47,32 @@ pub fn pow2(x: f64) -> f64 {
         // Zero, tiny, huge or non-finite: no fast path (NaN lands here too).
         return pow2_libm(x);
     };
-    // ulp of p: 2^(exponent - 52) (p >= 2^-897 here, so this is normal).
-    let ulp = f64::from_bits((p.to_bits() & 0x7ff0_0000_0000_0000) - (52u64 << 52));
-    if square_error(x, p).abs() <= limit * ulp {
+    // p >= 2^-897 here, so its ulp is normal.
+    if square_error(x, p).abs() <= limit * ulp(p) {
         return p;
     }
     pow2_libm(x)
 }
 
 /// Smallest `|x|` of [`pow2`]'s 0.48-ulp fast path: `2^-60`.
-const TIGHT_MIN: f64 = 8.673617379884035e-19;
+pub(crate) const TIGHT_MIN: f64 = 8.673617379884035e-19;
 /// Largest `|x|` of [`pow2`]'s 0.48-ulp fast path: `2^32`.
-const TIGHT_MAX: f64 = 4294967296.0;
+pub(crate) const TIGHT_MAX: f64 = 4294967296.0;
+
+/// The ulp of a normal `p > 0`: 2^(exponent - 52).
+#[inline(always)]
+fn ulp(p: f64) -> f64 {
+    f64::from_bits((p.to_bits() & 0x7ff0_0000_0000_0000).wrapping_sub(52u64 << 52))
+}
+
+/// Whether `x*x` lies more than 0.48 ulp from the exact square (for a
+/// normal `x*x`): the squares [`pow2`]'s fast path leaves to `pow` for
+/// 2^-60 <= |x| <= 2^32, and [`crate::lanes_math::pow2_lanes`] to its port
+/// of glibc's `pow`. About 4 % of arguments.
+pub fn hard_square(x: f64) -> bool {
+    let p = x * x;
+    square_error(x, p).abs() > 0.48 * ulp(p)
+}
 
 /// The rounding error of `p = x*x`: `x*x - p` exactly, provided
 /// `2^-900 <= x*x <= 2^1000` (no partial product overflows or underflows).

@@ -169,9 +169,7 @@ impl Vector {
             pow_fma::pow2_lanes(x, out, crate::float::pow2)
         }
         #[cfg(not(target_arch = "x86_64"))]
-        for (o, &v) in out.iter_mut().zip(x) {
-            *o = crate::float::pow2(v);
-        }
+        pow2_each(x, out)
     }
 
     /// `out[i] = pow(x[i], 2)` by the port of `__pow_fma` alone, for every
@@ -345,10 +343,16 @@ pub fn pow2_lanes(x: &[f64], out: &mut [f64]) {
         Some(v) => v.pow2_lanes(x, out),
         None => {
             assert_eq!(x.len(), out.len(), "pow2_lanes: arguments and results");
-            for (o, &v) in out.iter_mut().zip(x) {
-                *o = crate::float::pow2(v);
-            }
+            pow2_each(x, out)
         }
+    }
+}
+
+/// [`crate::float::pow2`] (its fast path, else libm) per element: `pow2_lanes`
+/// without the vector code.
+fn pow2_each(x: &[f64], out: &mut [f64]) {
+    for (o, &v) in out.iter_mut().zip(x) {
+        *o = crate::float::pow2(v);
     }
 }
 

@@ -24,14 +24,6 @@ impl Unit {
     }
 }
 
-/// Whether `x*x`'s rounding error exceeds 0.48 ulp: the squares whose bits
-/// only `pow` itself (or the port) can give.
-fn hard(x: f64) -> bool {
-    let p = x * x;
-    let ulp = f64::from_bits((p.to_bits() & 0x7ff0_0000_0000_0000) - (52u64 << 52));
-    crate::float::square_error(x, p).abs() > 0.48 * ulp
-}
-
 /// See [`super::pow2_edge_arguments`].
 pub(super) fn arguments() -> Vec<f64> {
     let mut v: Vec<f64> = vec![
@@ -73,7 +65,7 @@ pub(super) fn arguments() -> Vec<f64> {
     let mut band = 0;
     while band < 1500 {
         let x = u.log_uniform();
-        if hard(x) {
+        if crate::float::hard_square(x) {
             v.push(x);
             band += 1;
         }

@@ -35,10 +35,10 @@ use std::arch::x86_64::*;
 type V = __m256d;
 type I = __m256i;
 
-/// Smallest |x| of the port: 2^-60.
-pub(super) const MIN: f64 = 8.673617379884035e-19;
+/// Smallest |x| of the port: 2^-60, the bound of `pow2`'s 0.48-ulp fast path.
+const MIN: f64 = crate::float::TIGHT_MIN;
 /// Largest |x| of the port: 2^32.
-pub(super) const MAX: f64 = 4294967296.0;
+const MAX: f64 = crate::float::TIGHT_MAX;
 
 // log: x = 2^k z, z in [OFF, 2 OFF).
 const OFF: i64 = 0x3fe6_9555_0000_0000;

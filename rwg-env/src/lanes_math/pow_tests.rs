@@ -1,7 +1,7 @@
 //! The lanes' `pow(x, 2)` against libm's, one call per argument.
 
 use super::*;
-use crate::float::{pow2_libm, square_error};
+use crate::float::{hard_square, pow2_libm};
 
 /// Checks the dispatched, the scalar and (where the CPU has it) the vector
 /// `pow2_lanes` and the port alone on `x` against one libm call per
@@ -44,13 +44,6 @@ impl Rng {
     }
 }
 
-/// Whether `x*x` is more than 0.48 ulp from the exact square.
-fn hard(x: f64) -> bool {
-    let p = x * x;
-    let ulp = f64::from_bits((p.to_bits() & 0x7ff0_0000_0000_0000) - (52u64 << 52));
-    square_error(x, p).abs() > 0.48 * ulp
-}
-
 #[test]
 fn edge_arguments_give_libm_bits() {
     let x = pow2_edge_arguments();
@@ -78,7 +71,7 @@ fn hard_squares_give_libm_bits() {
                 r.unit() * range
             };
             let v = if r.unit() < 0.5 { -m } else { m };
-            if hard(v) {
+            if hard_square(v) {
                 x.push(v);
             }
         }

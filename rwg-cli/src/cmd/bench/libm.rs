@@ -92,14 +92,6 @@ fn log_port_range(u: f64) -> f64 {
     (u * 92.0 - 60.0).exp2()
 }
 
-/// Whether `x*x` is more than 0.48 ulp from the exact square: the squares
-/// `lanes_math::pow2_lanes` leaves to the port.
-fn hard(x: f64) -> bool {
-    let p = x * x;
-    let ulp = f64::from_bits((p.to_bits() & 0x7ff0_0000_0000_0000).wrapping_sub(52u64 << 52));
-    rwg_env::float::square_error(x, p).abs() > 0.48 * ulp
-}
-
 /// `n` arguments of pow range `r` (for "hard", only the squares the fast
 /// path leaves).
 fn pow_args(rng: &mut Rng, r: &Range, n: usize) -> Vec<f64> {
@@ -107,7 +99,7 @@ fn pow_args(rng: &mut Rng, r: &Range, n: usize) -> Vec<f64> {
     let mut x = Vec::with_capacity(n);
     while x.len() < n {
         let arg = rng.arg(r.draw);
-        if !only_hard || hard(arg) {
+        if !only_hard || rwg_env::float::hard_square(arg) {
             x.push(arg);
         }
     }
@@ -212,16 +204,9 @@ fn check(v: Vector, a: &LibmArgs) -> Result<u64> {
     let mut total = 0;
     let mut buf = Buffers::new(CHUNK);
     let edges = lanes_math::edge_arguments();
-    let per_range = a.check / RANGES.len() as u64;
     let mut sets: Vec<(&str, &str, u64)> =
         vec![("edges", "fixed: every path limit, table point, n pi/2", 0)];
-    for (i, r) in RANGES.iter().enumerate() {
-        // The remainder goes to the last range.
-        let n = if i + 1 == RANGES.len() {
-            a.check - per_range * (RANGES.len() as u64 - 1)
-        } else {
-            per_range
-        };
+    for (r, n) in RANGES.iter().zip(split(a.check, RANGES.len())) {
         sets.push((r.name, r.what, n));
     }
     for (si, &(name, what, n)) in sets.iter().enumerate() {
