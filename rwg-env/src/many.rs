@@ -15,6 +15,13 @@ use crate::env::{EnvError, EnvSpec};
 /// `mask[i] == 1` take part; the others' slots are left alone. A lane that
 /// fails goes to `on_fail` (the others are done all the same); a failed
 /// lane is not used again.
+///
+/// An implementation with a fixed number of lanes `N` is best written over
+/// arrays: convert the per-lane slices once (`<&mut [f64; N]>::try_from`)
+/// and index those. Behind a plugin's vector env the buffers are the host's,
+/// of a length known at run time only, and a loop indexing the slices pays
+/// a bounds check per lane (`rwg-envs`' lockstep envs do this in
+/// `lockstep::lane_arrays`).
 pub trait ManyEnv {
     /// The environment's description (with its time limit).
     fn spec(&self) -> &EnvSpec;

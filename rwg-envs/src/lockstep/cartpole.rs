@@ -104,12 +104,12 @@ impl<const N: usize> CartPoleLanes<N> {
     #[allow(clippy::too_many_arguments)]
     fn step_body(
         &mut self,
-        mask: &[u8],
-        actions: &[f64],
+        mask: &[u8; N],
+        actions: &[f64; N],
         obs: &mut [f64],
-        rewards: &mut [f64],
-        terminated: &mut [u8],
-        truncated: &mut [u8],
+        rewards: &mut [f64; N],
+        terminated: &mut [u8; N],
+        truncated: &mut [u8; N],
         on_fail: &mut dyn FnMut(usize, EnvError),
     ) {
         check_lens(N, mask, obs, 4);

@@ -28,7 +28,8 @@ pub(crate) fn avx2() -> bool {
 }
 
 /// For a lockstep env type `$ty<N>` with an inherent, `#[inline(always)]`
-/// `step_body` (the arguments of [`rwg_env::many::ManyEnv::step_many`]),
+/// `step_body` (the arguments of [`rwg_env::many::ManyEnv::step_many`], the
+/// per-lane ones as arrays of `N`: [`crate::lockstep::lane_arrays`]),
 /// defines `step_dispatch`, which runs `step_body` compiled for AVX2 when
 /// [`avx2`] says so and the baseline build otherwise. The env's
 /// `step_many` is [`step_many_dispatched`]'s, which calls it.
@@ -49,6 +50,10 @@ macro_rules! wide_step {
                 truncated: &mut [u8],
                 on_fail: &mut dyn FnMut(usize, EnvError),
             ) {
+                let (mask, actions, rewards, terminated, truncated) =
+                    $crate::lockstep::lane_arrays::<N>(
+                        mask, actions, rewards, terminated, truncated,
+                    );
                 #[cfg(target_arch = "x86_64")]
                 if $crate::lockstep::wide::avx2() {
                     // SAFETY: the CPU has AVX2 (checked at run time).
@@ -67,12 +72,12 @@ macro_rules! wide_step {
             #[allow(clippy::too_many_arguments)]
             unsafe fn step_avx2(
                 &mut self,
-                mask: &[u8],
-                actions: &[f64],
+                mask: &[u8; N],
+                actions: &[f64; N],
                 obs: &mut [f64],
-                rewards: &mut [f64],
-                terminated: &mut [u8],
-                truncated: &mut [u8],
+                rewards: &mut [f64; N],
+                terminated: &mut [u8; N],
+                truncated: &mut [u8; N],
                 on_fail: &mut dyn FnMut(usize, EnvError),
             ) {
                 self.step_body(mask, actions, obs, rewards, terminated, truncated, on_fail)
