@@ -15,7 +15,7 @@ use crate::policy::{NetShape, PolicyLanes};
 use crate::sampler::{BlockResult, CellPlan, EpisodeResult, SampleError, LANES};
 use rayon::prelude::*;
 pub use rwg_env::many::ManyEnv;
-use rwg_env::{Action, EnvError};
+use rwg_env::EnvError;
 use std::ops::Range;
 
 /// [`crate::sampler::LaneWorker`] over a [`ManyEnv`] of [`LANES`] lanes:
@@ -24,7 +24,6 @@ use std::ops::Range;
 pub struct ManyLaneWorker<M> {
     env: M,
     policy: PolicyLanes<LANES>,
-    action_len: usize,
     obs: Vec<f64>,
     actions: Vec<f64>,
     step_mask: [u8; LANES],
@@ -52,7 +51,6 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
             policy: PolicyLanes::new(shape, &spec.action_space),
             obs: vec![0.0; LANES * obs_dim],
             actions: vec![0.0; LANES * action_len],
-            action_len,
             step_mask: [0; LANES],
             reset_mask: [0; LANES],
             seeds: [0; LANES],
@@ -84,22 +82,12 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
             self.start_next(&mut run, i, lane);
         }
         self.reset_pending(&mut run, &mut lanes);
-        let a = self.action_len;
         while lanes.iter().any(|l| l.active) {
             self.policy.forward(&self.obs);
-            for (i, lane) in lanes.iter().enumerate() {
-                self.step_mask[i] = u8::from(lane.active);
-                if lane.active {
-                    match self.policy.action(i) {
-                        Action::Discrete(x) => self.actions[i] = x as f64,
-                        // One value without a call to memmove.
-                        Action::Continuous(&[v]) => self.actions[i] = v,
-                        Action::Continuous(v) => {
-                            self.actions[i * a..(i + 1) * a].copy_from_slice(v)
-                        }
-                    }
-                }
+            for (m, lane) in self.step_mask.iter_mut().zip(&lanes) {
+                *m = u8::from(lane.active);
             }
+            self.policy.actions_into(&self.step_mask, &mut self.actions);
             let mut failed = [false; LANES];
             let failure = &mut run.failure;
             self.env.step_many(

@@ -1,5 +1,5 @@
 //! The step loop allocates nothing: `Environment::step` of every built-in
-//! env, `Policy::act`, `PolicyLanes::forward` / `action`, and `reset`
+//! env, `Policy::act`, `PolicyLanes::forward` / `action` / `actions_into`, and `reset`
 //! (counted with a global allocator that counts the calls of this thread),
 //! and the lockstep envs' `reset_many` / `step_many`.
 
@@ -128,7 +128,8 @@ fn step_loop_allocates_nothing() {
     }
 }
 
-/// 2000 lockstep steps of 16 lanes (a `PolicyLanes` choosing the actions,
+/// 2000 lockstep steps of 16 lanes (a `PolicyLanes` choosing the actions
+/// with `actions_into`,
 /// finished lanes reset, every third lane masked out now and then): the
 /// allocations of `reset_many` and `step_many`.
 struct LockstepLoop;
@@ -179,11 +180,9 @@ impl LockstepVisitor for LockstepLoop {
                 lanes.forward(&obs);
                 for (i, m) in step_mask.iter_mut().enumerate() {
                     *m = u8::from(!(i % 3 == 0 && t % 5 == 0));
-                    actions[i] = match lanes.action(i) {
-                        Action::Discrete(a) => a as f64,
-                        Action::Continuous(v) => v[0],
-                    };
                 }
+                // As the sampler's lockstep loop (rwg_core::many) chooses them.
+                lanes.actions_into(&step_mask, &mut actions);
                 env.step_many(
                     &step_mask,
                     &actions,

@@ -3,7 +3,7 @@ use crate::policy::Architecture;
 use crate::sampler::{run_blocks, WeightDist};
 use crate::test_envs::Toy;
 use rwg_env::Space;
-use rwg_env::{EnvSpec, Environment};
+use rwg_env::{Action, EnvSpec, Environment};
 
 /// [`LANES`] toys behind the [`ManyEnv`] interface, one call per batch.
 struct Many {
