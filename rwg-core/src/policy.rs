@@ -466,9 +466,7 @@ impl<const K: usize> PolicyLanes<K> {
             _ => Action::Continuous(&self.action[lane * n_out..(lane + 1) * n_out]),
         }
     }
-}
 
-impl<const K: usize> PolicyLanes<K> {
     /// [`PolicyLanes::action`] of every lane `i` with `mask[i] == 1`, in the
     /// layout of a [`rwg_env::many::ManyEnv`]'s action buffer: lane `i`'s at
     /// `out[i * len..(i + 1) * len]`, `len` being 1 for a discrete action

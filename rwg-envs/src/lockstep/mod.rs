@@ -216,30 +216,30 @@ pub(crate) fn lane_arrays<'a, const N: usize>(
     &'a mut [u8; N],
     &'a mut [u8; N],
 ) {
-    let lanes = |what: &str, len: usize| -> ! { panic!("{what} of {N} lanes, not {len}") };
     (
-        mask.try_into()
-            .unwrap_or_else(|_| lanes("mask", mask.len())),
-        actions
-            .try_into()
-            .unwrap_or_else(|_| lanes("actions", actions.len())),
-        {
-            let len = rewards.len();
-            rewards.try_into().unwrap_or_else(|_| lanes("rewards", len))
-        },
-        {
-            let len = terminated.len();
-            terminated
-                .try_into()
-                .unwrap_or_else(|_| lanes("terminated flags", len))
-        },
-        {
-            let len = truncated.len();
-            truncated
-                .try_into()
-                .unwrap_or_else(|_| lanes("truncated flags", len))
-        },
+        lanes(mask, "mask"),
+        lanes(actions, "actions"),
+        lanes_mut(rewards, "rewards"),
+        lanes_mut(terminated, "terminated flags"),
+        lanes_mut(truncated, "truncated flags"),
     )
+}
+
+/// `values` as an array of `N` lanes; a wrong length panics naming `what`.
+#[inline(always)]
+fn lanes<'a, T, const N: usize>(values: &'a [T], what: &str) -> &'a [T; N] {
+    values
+        .try_into()
+        .unwrap_or_else(|_| panic!("{what} of {N} lanes, not {}", values.len()))
+}
+
+/// [`lanes`] for a buffer the step writes.
+#[inline(always)]
+fn lanes_mut<'a, T, const N: usize>(values: &'a mut [T], what: &str) -> &'a mut [T; N] {
+    let len = values.len();
+    values
+        .try_into()
+        .unwrap_or_else(|_| panic!("{what} of {N} lanes, not {len}"))
 }
 
 /// Checks the buffer lengths of a call over `n` lanes (a wrong length is a
