@@ -34,7 +34,10 @@ use std::time::{Duration, Instant};
 /// (leaked when replaced: a few per run).
 struct Text(Box<[u8]>);
 
+/// What to do after a plugin's fault (fix the plugin, then resume).
 static RESUME: AtomicPtr<Text> = AtomicPtr::new(std::ptr::null_mut());
+/// What to do after an interrupted run (resume), whatever its envs are.
+static RESUME_STOPPED: AtomicPtr<Text> = AtomicPtr::new(std::ptr::null_mut());
 /// A run is in progress: an exit now is not rwg's own.
 static ARMED: AtomicBool = AtomicBool::new(false);
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
@@ -70,8 +73,9 @@ pub fn interrupt_flag() -> &'static AtomicBool {
     &INTERRUPTED
 }
 
-/// While alive, a run is in progress: faults are reported with `resume`
-/// (what to do next, e.g. the command that resumes the run).
+/// While alive, a run is in progress: a plugin's faults are reported with
+/// `resume` (what to do next, e.g. fix the plugin and resume), an
+/// interruption that does not stop in time with `resume_stopped`.
 pub struct Armed(());
 
 impl Drop for Armed {
@@ -82,8 +86,9 @@ impl Drop for Armed {
 
 /// Arms the handlers for a run (installed once per process) and starts the
 /// watchdog. `step_timeout_s` 0: no limit on a plugin call.
-pub fn arm(resume: String, step_timeout_s: u64) -> Armed {
+pub fn arm(resume: String, resume_stopped: String, step_timeout_s: u64) -> Armed {
     set_text(&RESUME, resume);
+    set_text(&RESUME_STOPPED, resume_stopped);
     STEP_TIMEOUT_S.store(step_timeout_s, SeqCst);
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
@@ -244,8 +249,11 @@ impl Msg {
         self.push(&d[i..]);
     }
     fn resume(&mut self) {
+        self.resume_with(&RESUME);
+    }
+    fn resume_with(&mut self, what: &AtomicPtr<Text>) {
         self.push(b". ");
-        self.push(text(&RESUME));
+        self.push(text(what));
         self.push(b"\n");
     }
     /// Writes the message to stderr with `write(2)` only.
@@ -442,7 +450,7 @@ fn watchdog() {
                 m.push(b"\ninterrupted: the blocks in flight did not finish within ");
                 m.num(INTERRUPT_GRACE.as_secs());
                 m.push(b" s; quitting without them");
-                m.resume();
+                m.resume_with(&RESUME_STOPPED);
                 m.emit();
             }
             disarm_and_exit(130);

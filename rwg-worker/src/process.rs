@@ -32,15 +32,14 @@ impl Worker {
         program: &str,
         dump_signal: Option<i32>,
     ) -> Result<Worker, ProcError> {
-        let mut child = command
+        command
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .map_err(|source| ProcError::Spawn {
-                program: program.to_string(),
-                source,
-            })?;
+            .stderr(Stdio::piped());
+        let mut child = spawn_in_family(command).map_err(|source| ProcError::Spawn {
+            program: program.to_string(),
+            source,
+        })?;
         let stdin = child.stdin.take().expect("piped");
         let stdout = child.stdout.take().expect("piped");
         let mut err = child.stderr.take().expect("piped");
@@ -230,6 +229,72 @@ impl Worker {
     }
 }
 
+/// Starts `command` as a member of rwg's family of workers: on Linux the
+/// child is killed (SIGKILL) as soon as rwg ends, however it ends (a signal,
+/// SIGKILL included, `_exit`, a crash), so that a worker hung in its
+/// environment is never left running on its own. The kernel ties this
+/// (`PR_SET_PDEATHSIG`) to the thread that forked the child, so every worker
+/// is forked by one thread that lives as long as the process.
+fn spawn_in_family(command: Command) -> std::io::Result<Child> {
+    #[cfg(target_os = "linux")]
+    {
+        use std::sync::mpsc::{channel, Sender};
+        type Request = (Command, Sender<std::io::Result<Child>>);
+        static SPAWNER: Mutex<Option<Sender<Request>>> = Mutex::new(None);
+        let (tx, rx) = channel();
+        let mut spawner = SPAWNER.lock().unwrap_or_else(|p| p.into_inner());
+        let sender = match spawner.as_ref() {
+            Some(s) => s.clone(),
+            None => {
+                let (req_tx, req_rx) = channel::<Request>();
+                std::thread::Builder::new()
+                    .name("rwg-worker-spawner".into())
+                    .spawn(move || {
+                        for (command, reply) in req_rx {
+                            let _ = reply.send(spawn_with_death_signal(command));
+                        }
+                    })?;
+                spawner.insert(req_tx).clone()
+            }
+        };
+        drop(spawner);
+        sender
+            .send((command, tx))
+            .map_err(|_| std::io::Error::other("the worker spawner thread is gone"))?;
+        rx.recv()
+            .map_err(|_| std::io::Error::other("the worker spawner thread is gone"))?
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let mut command = command;
+        command.spawn()
+    }
+}
+
+/// Forks and execs `command` with `PR_SET_PDEATHSIG` = SIGKILL set in the
+/// child (on the spawner thread of [`spawn_in_family`]).
+#[cfg(target_os = "linux")]
+fn spawn_with_death_signal(mut command: Command) -> std::io::Result<Child> {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: getpid has no preconditions.
+    let parent = unsafe { libc::getpid() };
+    // SAFETY: the closure runs in the forked child before exec and calls
+    // only async-signal-safe functions (prctl, getppid, raise).
+    unsafe {
+        command.pre_exec(move || {
+            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL, 0, 0, 0) != 0 {
+                return Err(std::io::Error::last_os_error());
+            }
+            // rwg ended between the fork and the prctl: no signal will come.
+            if libc::getppid() != parent {
+                libc::raise(libc::SIGKILL);
+            }
+            Ok(())
+        })
+    };
+    command.spawn()
+}
+
 impl Drop for Worker {
     fn drop(&mut self) {
         self.kill();
@@ -260,5 +325,30 @@ pub fn describe_status(s: std::process::ExitStatus) -> String {
     match s.code() {
         Some(c) => format!("exited with status {c}"),
         None => "ended".into(),
+    }
+}
+
+#[cfg(all(test, target_os = "linux"))]
+mod tests {
+    use super::*;
+
+    /// The kernel's death signal follows the thread that forked a child:
+    /// a worker started from a thread that ends (a rayon thread, a
+    /// scoped thread) must live on.
+    #[test]
+    fn a_worker_outlives_the_thread_that_started_it() {
+        let mut w = std::thread::spawn(|| {
+            let mut c = Command::new("sleep");
+            c.arg("30");
+            Worker::spawn(c, "sleep", None).unwrap()
+        })
+        .join()
+        .unwrap();
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(
+            w.child.try_wait().unwrap().is_none(),
+            "ended with its thread"
+        );
+        w.kill();
     }
 }

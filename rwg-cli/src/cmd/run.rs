@@ -169,14 +169,21 @@ pub fn run(args: Args) -> Result<()> {
             PathBuf::from("runs").join(stem)
         }
     };
+    let resume = format!(
+        "rwg run {} --out {}{}",
+        args.manifest.display(),
+        out.display(),
+        shard_flag(args.shard)
+    );
     let _armed = fault_guard::arm(
         format!(
             "Every committed block is kept in {}; once the plugin is fixed (or its env \
-             removed from the manifest), resume with: rwg run {} --out {}{}",
+             removed from the manifest), resume with: {resume}",
             out.display(),
-            args.manifest.display(),
+        ),
+        format!(
+            "Every committed block is kept in {}; resume with: {resume}",
             out.display(),
-            shard_flag(args.shard)
         ),
         args.step_timeout,
     );
