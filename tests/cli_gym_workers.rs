@@ -1,6 +1,8 @@
 //! Worker processes as one family, end to end with the real `rwg` binary:
-//! the workers (Gymnasium's and isolated plugins') die with rwg on SIGTERM,
-//! SIGINT, SIGHUP and SIGKILL.
+//! every Gymnasium worker of an env hashes strings alike and reports the
+//! spaces of the first; start-up honours the timeouts and names the right
+//! knob; and the workers (Gymnasium's and isolated plugins') die with rwg on
+//! SIGTERM, SIGINT, SIGHUP and SIGKILL.
 //!
 //! Needs `RWG_TEST_PYTHON` (see `cli_gym_bridge_faults.rs`) for the
 //! Gymnasium cases; the test envs are `tests/python/rwg_family_envs`.
@@ -9,6 +11,7 @@ mod common;
 mod gym_bridge_common;
 use common::*;
 use gym_bridge_common::*;
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 /// A study of `env` (a `rwg_family_envs` id) with `kwargs`, 0HL, `samples`
@@ -18,6 +21,124 @@ fn manifest(env: &str, kwargs: &str, samples: u32) -> String {
         "samples = {samples}\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
          [[envs]]\nid = \"gymnasium:rwg_family_envs:{env}\"\nkwargs = {{ {kwargs} }}\n"
     )
+}
+
+fn cell_dir(run: &Path, env: &str) -> std::path::PathBuf {
+    run.join(format!(
+        "cells/gymnasium=rwg_family_envs={env}__0HL__nobias"
+    ))
+}
+
+/// An env whose reset uses Python's `hash(str)`: the same bytes for 1 and 2
+/// threads and for a second run (each worker process would otherwise draw
+/// its own hash seed).
+#[test]
+fn string_hashes_do_not_change_results_between_workers_or_runs() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-family-hash");
+    let m = write(&dir, "m.toml", &manifest("HashReset-v0", "", 96));
+    let mut scores = vec![];
+    for (name, threads) in [("t1", "1"), ("t2", "2"), ("t2-again", "2")] {
+        let run = dir.join(name);
+        run_ok(
+            &py,
+            &[
+                "run",
+                &m,
+                "--out",
+                run.to_str().unwrap(),
+                "--threads",
+                threads,
+                "--no-report",
+            ],
+        );
+        scores.push(read(cell_dir(&run, "HashReset-v0").join("scores.csv")));
+    }
+    assert!(scores[0] == scores[1], "1 vs 2 threads differ");
+    assert!(scores[1] == scores[2], "two runs differ");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Workers of one env that report other spaces than the first worker are
+/// refused, naming the difference, before their blocks count.
+#[test]
+fn workers_with_other_spaces_than_the_first_are_refused() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-family-split");
+    for (what, says) in [
+        ("bounds", "action space"),
+        ("obs", "observation space"),
+        ("discrete", "action space: Discrete(2)"),
+    ] {
+        let marker = dir.join(format!("{what}.first"));
+        let kwargs = format!("marker = {:?}, what = \"{what}\"", marker.to_str().unwrap());
+        let m = write(
+            &dir,
+            &format!("{what}.toml"),
+            &manifest("Split-v0", &kwargs, 192),
+        );
+        let run = dir.join(what);
+        let out = rwg_cmd(
+            &py,
+            &["run", &m, "--out", run.to_str().unwrap(), "--threads", "2"],
+        )
+        .output()
+        .unwrap();
+        let err = run_err(out);
+        assert!(err.contains("another worker process"), "{what}: {err}");
+        assert!(err.contains(says), "{what}: {err}");
+        assert!(!run.join("stats.csv").exists(), "{what}: the run finished");
+    }
+    // the time limit, read when the env's module registers it
+    let marker = dir.join("limit.first");
+    let m = write(&dir, "limit.toml", &manifest("SplitLimit-v0", "", 192));
+    let run = dir.join("limit");
+    let out = rwg_cmd(
+        &py,
+        &["run", &m, "--out", run.to_str().unwrap(), "--threads", "2"],
+    )
+    .env("RWG_TEST_SPLIT_MARKER", &marker)
+    .output()
+    .unwrap();
+    let err = run_err(out);
+    assert!(err.contains("time limit: 60 steps"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A worker that hangs in the steps rwg takes when it starts is killed
+/// after RWG_GYM_TIMEOUT, and one that hangs before it is ready after
+/// RWG_GYM_START_TIMEOUT; each message names its own variable.
+#[test]
+fn start_up_honours_the_timeouts_and_names_the_right_variable() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-family-start");
+    for (where_, var, says) in [
+        ("probe", "RWG_GYM_TIMEOUT", "in a reset or step"),
+        ("make", "RWG_GYM_START_TIMEOUT", "did not start within 3 s"),
+    ] {
+        let marker = dir.join(where_);
+        std::fs::create_dir_all(&marker).unwrap();
+        let kwargs = format!(
+            "marker = {:?}, where = \"{where_}\"",
+            marker.to_str().unwrap()
+        );
+        let m = write(&dir, "m.toml", &manifest("Stall-v0", &kwargs, 32));
+        let t0 = Instant::now();
+        let out = rwg_cmd(&py, &["run", &m, "--out", dir.join("r").to_str().unwrap()])
+            .env(var, "3")
+            .output()
+            .unwrap();
+        let err = run_err(out);
+        assert!(t0.elapsed() < Duration::from_secs(60), "{where_}: {err}");
+        assert!(err.contains(says), "{where_}: {err}");
+        assert!(err.contains(&format!("set {var}")), "{where_}: {err}");
+        // faulthandler's traceback names where it hung
+        assert!(
+            err.contains("rwg_family_envs/__init__.py"),
+            "{where_}: {err}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The process ids of `pid`'s children.

@@ -31,7 +31,7 @@ use rwg_core::batch::{
 };
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError, LANES};
 use rwg_env::{ActionDtype, BoxSpace, EnvError, EnvSpec, Space};
-use rwg_worker::host::{handshake, Describe, PipeBatch};
+use rwg_worker::host::{Describe, PipeBatch};
 use rwg_worker::lane_file::LaneFile;
 use rwg_worker::{ProcError, Worker};
 use serde::Deserialize;
@@ -54,6 +54,21 @@ pub const DEFAULT_TIMEOUT_S: f64 = 60.0;
 
 /// The environment variable overriding [`DEFAULT_TIMEOUT_S`] (seconds).
 pub const TIMEOUT_VAR: &str = "RWG_GYM_TIMEOUT";
+
+/// Default time a worker may take to start (import the env's module and
+/// make its instances) before it counts as hung.
+pub const DEFAULT_START_TIMEOUT_S: f64 = 300.0;
+
+/// The environment variable overriding [`DEFAULT_START_TIMEOUT_S`] (seconds).
+pub const START_TIMEOUT_VAR: &str = "RWG_GYM_START_TIMEOUT";
+
+/// Python's variable fixing the seed of `hash()` of strings and bytes
+/// (random per process when unset).
+pub const HASH_SEED_VAR: &str = "PYTHONHASHSEED";
+
+/// The [`HASH_SEED_VAR`] workers get unless the user set it: every worker
+/// process of a study then hashes strings alike.
+pub const DEFAULT_HASH_SEED: &str = "0";
 
 /// Groups of [`LANES`] env instances per worker: while the worker steps one
 /// group, rwg computes the next actions of the other, so neither waits.
@@ -84,8 +99,13 @@ pub struct GymConfig {
     pub max_episode_steps: Option<u32>,
     /// dtype of the continuous action arrays handed to `step()`.
     pub action_dtype: ActionDtype,
-    /// How long one batch step may take.
+    /// How long one batch step may take (and one reset or step of the
+    /// checks made when a worker starts).
     pub timeout: Duration,
+    /// How long a worker may take to import the env and make its instances.
+    pub start_timeout: Duration,
+    /// The workers' `PYTHONHASHSEED` ([`HASH_SEED_VAR`]).
+    pub hash_seed: String,
     /// Whether every episode gets a fresh `gym.make` instance; `None`: the
     /// worker finds out (it runs an episode on a used and on a fresh
     /// instance and compares them).
@@ -104,6 +124,8 @@ impl GymConfig {
             max_episode_steps: None,
             action_dtype: ActionDtype::F64,
             timeout: default_timeout(),
+            start_timeout: default_start_timeout(),
+            hash_seed: default_hash_seed(),
             fresh_per_episode: None,
         }
     }
@@ -130,6 +152,25 @@ pub fn default_timeout() -> Duration {
         .filter(|s| *s > 0.0 && s.is_finite())
         .unwrap_or(DEFAULT_TIMEOUT_S);
     Duration::from_secs_f64(s)
+}
+
+/// [`START_TIMEOUT_VAR`] if set to a positive number of seconds, else
+/// [`DEFAULT_START_TIMEOUT_S`].
+pub fn default_start_timeout() -> Duration {
+    let s = std::env::var(START_TIMEOUT_VAR)
+        .ok()
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .filter(|s| *s > 0.0 && *s <= 604_800.0)
+        .unwrap_or(DEFAULT_START_TIMEOUT_S);
+    Duration::from_secs_f64(s)
+}
+
+/// The user's [`HASH_SEED_VAR`] if set, else [`DEFAULT_HASH_SEED`].
+pub fn default_hash_seed() -> String {
+    std::env::var(HASH_SEED_VAR)
+        .ok()
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| DEFAULT_HASH_SEED.into())
 }
 
 /// What can go wrong with a Gymnasium environment.
@@ -171,6 +212,38 @@ pub enum GymError {
         secs: f64,
         /// The end of its stderr (with the traceback of where it hung).
         stderr: String,
+    },
+    /// The worker did not finish starting in time.
+    #[error("the Python worker did not start within {secs} s (importing the env's module and \
+             making its instances with gym.make) and was killed; set {START_TIMEOUT_VAR} \
+             (seconds) to allow more{}", tail(.stderr))]
+    StartTimeout {
+        /// The limit.
+        secs: f64,
+        /// The end of its stderr (with the traceback of where it hung).
+        stderr: String,
+    },
+    /// A reset or step of the checks made when a worker starts did not
+    /// return in time.
+    #[error("the Python worker did not answer within {secs} s in a reset or step of the checks \
+             rwg makes when a worker starts (the environment hangs in reset or step?) and was \
+             killed; set {TIMEOUT_VAR} (seconds) to allow more{}", tail(.stderr))]
+    CheckTimeout {
+        /// The limit.
+        secs: f64,
+        /// The end of its stderr (with the traceback of where it hung).
+        stderr: String,
+    },
+    /// A worker describes the env otherwise than the first worker did.
+    #[error("another worker process of the env (pid {pid}) reports other spaces than the first \
+             one did: {}; rwg runs every episode of a cell under one set of spaces, so they must \
+             not depend on the process (on environment variables, files or random numbers the \
+             env reads when it is made)", .differences.join("; "))]
+    OtherSpaces {
+        /// The worker's process id.
+        pid: u32,
+        /// What differs, one entry each: `what: first's, this one's`.
+        differences: Vec<String>,
     },
     /// The worker said something unexpected.
     #[error("bridge protocol error: {0}")]
@@ -315,6 +388,87 @@ fn parse_ready(cfg: &GymConfig, r: Ready) -> Result<GymInfo, GymError> {
     })
 }
 
+/// Sends the hello message and reads the answer (tag, payload): the
+/// worker's start-up (imports, gym.make) within `cfg.start_timeout`, each
+/// reset or step of its checks (announced by progress messages) within
+/// `cfg.timeout`; a timeout names the variable that sets it.
+fn start(
+    worker: &mut Worker,
+    hello: &serde_json::Value,
+    cfg: &GymConfig,
+) -> Result<(u8, Vec<u8>), GymError> {
+    worker.send(&message(TAG_HELLO, hello.to_string().as_bytes()))?;
+    let mut buf = Vec::new();
+    let mut calling = false;
+    loop {
+        let timeout = if calling {
+            cfg.timeout
+        } else {
+            cfg.start_timeout
+        };
+        match worker.recv_message(&mut buf, timeout) {
+            Ok(TAG_PROGRESS) => calling = buf.get(5) == Some(&b'c'),
+            Ok(tag) => return Ok((tag, buf.split_off(5))),
+            Err(ProcError::Timeout { secs, stderr }) if calling => {
+                return Err(GymError::CheckTimeout { secs, stderr })
+            }
+            Err(ProcError::Timeout { secs, stderr }) => {
+                return Err(GymError::StartTimeout { secs, stderr })
+            }
+            Err(e) => return Err(e.into()),
+        }
+    }
+}
+
+/// What differs between the env as the first worker described it and as
+/// `other` does: `what: first's, other's`, one entry each (empty: the same).
+pub fn info_differences(first: &GymInfo, other: &GymInfo) -> Vec<String> {
+    let mut out = vec![];
+    let mut differ = |what: &str, a: String, b: String| {
+        if a != b {
+            out.push(format!("{what}: {a} in the first, {b} in this one"));
+        }
+    };
+    differ(
+        "observation space",
+        first.observation_space.clone(),
+        other.observation_space.clone(),
+    );
+    differ(
+        "action space",
+        first.action_space.clone(),
+        other.action_space.clone(),
+    );
+    let (a, b) = (&first.spec, &other.spec);
+    if first.observation_space == other.observation_space {
+        differ(
+            "flat observation bounds",
+            format!("{:?}", a.observation_space),
+            format!("{:?}", b.observation_space),
+        );
+    }
+    if first.action_space == other.action_space {
+        differ(
+            "action bounds",
+            format!("{:?}", a.action_space),
+            format!("{:?}", b.action_space),
+        );
+    }
+    let steps = |s: Option<u32>| s.map_or("none".into(), |s| format!("{s} steps"));
+    differ(
+        "time limit",
+        steps(a.max_episode_steps),
+        steps(b.max_episode_steps),
+    );
+    let threshold = |t: Option<f64>| t.map_or("none".into(), |t| t.to_string());
+    differ(
+        "reward threshold",
+        threshold(a.reward_threshold),
+        threshold(b.reward_threshold),
+    );
+    out
+}
+
 /// A worker process hosting `lanes` instances of one Gymnasium env.
 pub struct GymBatch {
     pipe: PipeBatch,
@@ -332,6 +486,7 @@ impl GymBatch {
     ) -> Result<GymBatch, GymError> {
         let mut command = std::process::Command::new(&cfg.python);
         command.arg("-c").arg(WORKER_PY);
+        command.env(HASH_SEED_VAR, &cfg.hash_seed);
         #[cfg(unix)]
         let dump = Some(libc::SIGUSR1);
         #[cfg(not(unix))]
@@ -352,9 +507,7 @@ impl GymBatch {
             "probe_history": cfg.fresh_per_episode.is_none(),
             "fresh_per_episode": cfg.fresh_per_episode.unwrap_or(false),
         });
-        // Starting takes imports and `lanes` gym.make calls: allow more time.
-        let start_timeout = cfg.timeout.max(Duration::from_secs(300));
-        let (tag, payload) = handshake(&mut worker, &hello, start_timeout)?;
+        let (tag, payload) = start(&mut worker, &hello, cfg)?;
         let ready: Ready = match tag {
             TAG_READY => serde_json::from_slice(&payload)
                 .map_err(|e| GymError::Protocol(format!("ready message: {e}")))?,
@@ -384,6 +537,20 @@ impl GymBatch {
     /// The environment as the worker described it.
     pub fn info(&self) -> &GymInfo {
         &self.info
+    }
+
+    /// This worker, if it describes the env as `first` does; else an error
+    /// naming what differs.
+    fn same_as(self, first: &GymInfo) -> Result<GymBatch, GymError> {
+        let differences = info_differences(first, &self.info);
+        if differences.is_empty() {
+            Ok(self)
+        } else {
+            Err(GymError::OtherSpaces {
+                pid: self.pipe.worker().id(),
+                differences,
+            })
+        }
     }
 }
 
@@ -476,7 +643,11 @@ impl GymSource {
             blocks,
             wave,
             &self.pool,
-            || GymBatch::spawn(&self.config, LANES, GROUPS, false).map_err(EnvError::from),
+            || {
+                GymBatch::spawn(&self.config, LANES, GROUPS, false)
+                    .and_then(|w| w.same_as(&self.info))
+                    .map_err(EnvError::from)
+            },
             on_block,
         )
     }
@@ -497,7 +668,8 @@ impl GymSource {
     /// checks and replays), in a worker of its own.
     pub fn make_single(&self) -> Result<SingleLane<GymBatch>, GymError> {
         // (the config carries the probe's verdict on fresh instances)
-        Ok(SingleLane::new(GymBatch::spawn(&self.config, 1, 1, false)?))
+        let worker = GymBatch::spawn(&self.config, 1, 1, false)?.same_as(&self.info)?;
+        Ok(SingleLane::new(worker))
     }
 }
 

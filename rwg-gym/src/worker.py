@@ -72,6 +72,19 @@ def send_json(tag, obj):
     write_msg(tag, json.dumps(obj, allow_nan=False).encode())
 
 
+def progress(kind):
+    """While starting: tells rwg what comes next, b"c" a call into the env (a
+    reset or step, given rwg's step timeout), b"m" gym.make (its start-up
+    timeout)."""
+    write_msg(ord("P"), kind)
+
+
+def checked(call, *args, **kwargs):
+    """A reset or step of the start-up checks, announced to rwg first."""
+    progress(b"c")
+    return call(*args, **kwargs)
+
+
 def fail(kind, message, tb=None):
     send_json(ord("E"), {"kind": kind, "message": message, "traceback": tb or ""})
     sys.exit(0)
@@ -213,9 +226,9 @@ def main():
     if hello.get("check_reset"):
         s = int(hello["check_reset"])
         try:
-            first = np.array(flat_obs(env0.reset(seed=s)[0]), dtype=np.float64)
-            second = np.array(flat_obs(envs[-1].reset(seed=s)[0]), dtype=np.float64)
-            third = np.array(flat_obs(env0.reset(seed=s)[0]), dtype=np.float64)
+            first = np.array(flat_obs(checked(env0.reset, seed=s)[0]), dtype=np.float64)
+            second = np.array(flat_obs(checked(envs[-1].reset, seed=s)[0]), dtype=np.float64)
+            third = np.array(flat_obs(checked(env0.reset, seed=s)[0]), dtype=np.float64)
         except BaseException as e:  # noqa: BLE001
             fail("reset", f"reset(seed={s}) raised {type(e).__name__}: {e}", traceback.format_exc())
         for other, how in ((second, "another instance"), (third, "the same instance again")):
@@ -231,13 +244,13 @@ def main():
     # worker ran which episodes before.
     def probe(env, seed, steps=200):
         rng = np.random.default_rng(seed)
-        out = [np.array(flat_obs(env.reset(seed=seed)[0]), dtype=np.float64)]
+        out = [np.array(flat_obs(checked(env.reset, seed=seed)[0]), dtype=np.float64)]
         for _ in range(steps):
             if act_dim:
                 a = rng.uniform(low, high).astype(act_dtype).reshape(act_shape)
             else:
                 a = start + int(rng.integers(action["n"]))
-            o, r, term, trunc, _ = env.step(a)
+            o, r, term, trunc, _ = checked(env.step, a)
             out.append(np.append(np.array(flat_obs(o), dtype=np.float64), float(r)))
             if term or trunc:
                 break
@@ -246,6 +259,7 @@ def main():
     fresh = bool(hello.get("fresh_per_episode"))
     if hello.get("probe_history"):
         try:
+            progress(b"m")
             other = gym.make(name, **kwargs)
             want = probe(other, CHECK_SEED_2)
             other.close()
@@ -261,6 +275,7 @@ def main():
     # The checks used instances 0 and N-1: replace them, so that every lane
     # starts as gym.make left it (no reset yet).
     if hello.get("check_reset") or hello.get("probe_history"):
+        progress(b"m")
         for idx in {0, len(envs) - 1}:
             envs[idx].close()
             envs[idx] = gym.make(name, **kwargs)

@@ -12,6 +12,11 @@ pub const PROTOCOL: u32 = 1;
 pub const TAG_HELLO: u8 = b'H';
 /// Worker -> host: ready (JSON: spaces, spec).
 pub const TAG_READY: u8 = b'R';
+/// Worker -> host, while starting (before its ready message): what comes
+/// next, one byte: `c` a call into the env (a reset or step of the checks a
+/// worker makes when it starts), within the step timeout; `m` making
+/// instances, within the start-up timeout. A worker need not send any.
+pub const TAG_PROGRESS: u8 = b'P';
 /// Worker -> host: a fatal error (JSON: kind, message, traceback); the worker exits.
 pub const TAG_ERROR: u8 = b'E';
 /// Host -> worker: one batch step.
