@@ -356,7 +356,9 @@ impl Cell {
     ) -> Result<(CellMeta, CellTotals), StudyError> {
         let dir = cell_dir(out, &self.id.dir);
         let mut meta = None;
-        let totals = finalize_cell(&dir, m.samples, m.episodes, keep, pending, |t| {
+        // (Cells without a time limit are refused when planned.)
+        let limit = self.spec.max_episode_steps.unwrap_or(u32::MAX);
+        let totals = finalize_cell(&dir, m.samples, m.episodes, limit, keep, pending, |t| {
             let cm = self.meta(m, t.env_steps, wall_s);
             let json = serde_json::to_string_pretty(&cm).expect("serialisable");
             meta = Some(cm);
