@@ -186,3 +186,111 @@ fn oversized_manifest_files_are_refused_unread() {
         ),
     );
 }
+
+#[test]
+fn seeds_past_the_largest_toml_integer_are_refused_by_name() {
+    let dir = temp_dir("limits-seed");
+    for seed in ["9223372036854775808", "18446744073709551615"] {
+        refused(
+            &dir,
+            STUDY,
+            &["--seed", seed],
+            &format!("--seed: at most 9223372036854775807 (rwg's limit), got {seed}"),
+        );
+    }
+    refused(
+        &dir,
+        &format!("seed = 18446744073709551615\n{STUDY}"),
+        &[],
+        "m.toml:1:8: seed: number too large to fit in target type: a TOML integer is from \
+         -9223372036854775808 to 9223372036854775807",
+    );
+    // the largest one runs
+    let m = manifest(&dir, STUDY);
+    let out = dir.join("max");
+    rwg_ok(&[
+        "run",
+        &m,
+        "--out",
+        out.to_str().unwrap(),
+        "--seed",
+        "9223372036854775807",
+        "--no-report",
+        "-q",
+    ]);
+    let resolved = std::fs::read_to_string(out.join("manifest.toml")).unwrap();
+    assert!(
+        resolved.contains("seed = 9223372036854775807"),
+        "{resolved}"
+    );
+}
+
+#[test]
+fn every_rwg_variable_is_checked_before_anything_is_created() {
+    let dir = temp_dir("limits-vars");
+    let m = manifest(&dir, STUDY);
+    let out = dir.join("run");
+    let bad = [
+        ("RWG_PROGRESS_INTERVAL", "1e30", "seconds from 0 to 86400"),
+        ("RWG_PROGRESS_INTERVAL", "-1", "seconds from 0 to 86400"),
+        ("RWG_PROGRESS_INTERVAL", "nan", "seconds from 0 to 86400"),
+        ("RWG_PROGRESS_INTERVAL", "abc", "seconds from 0 to 86400"),
+        ("RWG_GYM_TIMEOUT", "1e30", "seconds from 0.001 to 604800"),
+        ("RWG_GYM_TIMEOUT", "0", "seconds from 0.001 to 604800"),
+        ("RWG_GYM_TIMEOUT", "-1", "seconds from 0.001 to 604800"),
+        ("RWG_GYM_TIMEOUT", "nan", "seconds from 0.001 to 604800"),
+        ("RWG_GYM_TIMEOUT", "abc", "seconds from 0.001 to 604800"),
+        (
+            "RWG_GYM_START_TIMEOUT",
+            "1e30",
+            "seconds from 0.001 to 604800",
+        ),
+        ("RWG_GYM_START_TIMEOUT", "0", "seconds from 0.001 to 604800"),
+        ("RWG_COMMIT_LINGER", "inf", "seconds from 0 to 3600"),
+        ("RWG_LOCKSTEP", "no", "0 or 1"),
+        ("RWG_LOCKSTEP_AVX2", "off", "0 or 1"),
+        ("RWG_PLUGIN_BATCH", "false", "0 or 1"),
+        ("RWG_PLUGIN_VEC", "2", "0 or 1"),
+        ("RWG_SCALAR_LIBM", "yes", "0 or 1"),
+    ];
+    for (var, value, expected) in bad {
+        let o = rwg_env(
+            &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
+            &[(var, std::ffi::OsStr::new(value))],
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{var}={value}: {err}");
+        assert!(
+            err.starts_with(&format!("error: {var}={value}: expected {expected} (")),
+            "{var}={value}: {err}"
+        );
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(!out.exists(), "{var}={value}: nothing may be created");
+    }
+    // not UTF-8
+    use std::os::unix::ffi::OsStrExt;
+    let o = rwg_env(
+        &["envs"],
+        &[("RWG_PYTHON", std::ffi::OsStr::from_bytes(b"py\xFFthon"))],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.starts_with("error: RWG_PYTHON=py\u{FFFD}thon: expected text in UTF-8"),
+        "{err}"
+    );
+    // good values, and empty ones (unset), run
+    let o = rwg_env(
+        &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
+        &[
+            ("RWG_PROGRESS_INTERVAL", std::ffi::OsStr::new("0.5")),
+            ("RWG_GYM_TIMEOUT", std::ffi::OsStr::new("2.5")),
+            ("RWG_COMMIT_LINGER", std::ffi::OsStr::new("")),
+            ("RWG_LOCKSTEP", std::ffi::OsStr::new("1")),
+            ("RWG_LOCKSTEP_AVX2", std::ffi::OsStr::new("0")),
+            ("RWG_PLUGIN_BATCH", std::ffi::OsStr::new("1")),
+            ("RWG_SCALAR_LIBM", std::ffi::OsStr::new("0")),
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

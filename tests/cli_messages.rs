@@ -312,3 +312,105 @@ fn check_fails_an_id_that_shadows_a_built_in() {
         "{shadow}"
     );
 }
+
+/// A pipe whose reading end is already closed: writing to the other end
+/// fails with EPIPE (rwg ignores SIGPIPE, as Rust programs do).
+fn closed_pipe() -> std::process::Stdio {
+    use std::os::fd::FromRawFd;
+    let mut fds = [0; 2];
+    // SAFETY: a plain pipe(2); both descriptors are ours.
+    assert_eq!(unsafe { libc::pipe(fds.as_mut_ptr()) }, 0);
+    unsafe {
+        libc::close(fds[0]);
+        std::process::Stdio::from(std::os::fd::OwnedFd::from_raw_fd(fds[1]))
+    }
+}
+
+/// Runs `rwg` with stdout (and, with `both`, stderr) a closed pipe; its
+/// exit code and stderr (empty with `both`).
+fn rwg_into_closed_pipe(args: &[&str], both: bool) -> (Option<i32>, String) {
+    let mut cmd = Command::new(rwg_bin());
+    cmd.args(args).stdout(closed_pipe());
+    if both {
+        cmd.stderr(closed_pipe());
+    }
+    let out = cmd.output().expect("cannot run rwg");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+#[test]
+fn a_closed_pipe_is_exit_141_or_the_commands_own_failure() {
+    let run = synthetic_run("msg-pipe", 64, 2);
+    let damaged = synthetic_run("msg-pipe-damaged", 64, 2);
+    let scores = std::fs::read_dir(damaged.join("cells"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path()
+        .join("scores.csv");
+    let mut text = std::fs::read_to_string(&scores).unwrap();
+    text.push_str("63,1,1.0,1\n");
+    std::fs::write(&scores, text).unwrap();
+    let d = damaged.to_str().unwrap();
+    // `rwg verify DAMAGED | true`: the mismatch is still exit 1, told on stderr
+    let (code, err) = rwg_into_closed_pipe(&["verify", d], false);
+    assert_eq!(code, Some(1), "{err}");
+    assert!(
+        err.starts_with("error: ") && err.contains("problem(s)"),
+        "{err}"
+    );
+    assert!(!err.contains("internal error"), "{err}");
+    // `rwg verify DAMAGED 2>&1 | head -1`: no abort, still exit 1
+    assert_eq!(rwg_into_closed_pipe(&["verify", d], true).0, Some(1));
+    // a command that succeeds but whose output is lost: 141, as SIGPIPE
+    let r = run.to_str().unwrap();
+    for args in [
+        &["verify", r][..],
+        &["envs"],
+        &["stats", r],
+        &["top", r],
+        &["--help"],
+        &["--version"],
+        &["rollout", "CartPole-v0", "--actions", "0,1,0"],
+    ] {
+        let (code, err) = rwg_into_closed_pipe(args, false);
+        assert_eq!(code, Some(141), "{args:?}: {err}");
+        assert!(err.is_empty(), "{args:?}: {err}");
+        assert_eq!(rwg_into_closed_pipe(args, true).0, Some(141), "{args:?}");
+    }
+    // a usage error keeps clap's status 2
+    assert_eq!(rwg_into_closed_pipe(&["verify"], true).0, Some(2));
+}
+
+#[test]
+fn a_full_stdout_is_an_error_naming_it() {
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+        return;
+    };
+    for args in [&["envs"][..], &["--version"]] {
+        let out = Command::new(rwg_bin())
+            .args(args)
+            .stdout(full.try_clone().unwrap())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        if args == ["--version"] {
+            // clap's own output: its status, never a panic
+            assert!(
+                !err.contains("panicked") && !err.contains("internal error"),
+                "{err}"
+            );
+            continue;
+        }
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert_eq!(
+            err.trim_end(),
+            "error: cannot write to standard output: No space left on device (os error 28)",
+            "{args:?}"
+        );
+    }
+}

@@ -97,7 +97,7 @@ pub fn arm(resume: String, resume_stopped: String, step_timeout_s: u64) -> Armed
             if INTERRUPTED.swap(true, SeqCst) {
                 disarm_and_exit(130);
             }
-            eprintln!(
+            crate::errln!(
                 "\ninterrupted: finishing the blocks in flight (Ctrl-C again to quit at once)"
             );
             *INTERRUPT_AT.lock().unwrap_or_else(|e| e.into_inner()) = Some(Instant::now());
@@ -271,7 +271,7 @@ impl Msg {
             }
         }
         #[cfg(not(unix))]
-        eprint!("{}", String::from_utf8_lossy(&self.buf[..self.len]));
+        crate::stdio::write_err(&String::from_utf8_lossy(&self.buf[..self.len]));
     }
 }
 

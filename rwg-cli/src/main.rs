@@ -2,10 +2,12 @@
 
 // rwg's own output goes through `outln!`/`stdio::stdout()`: fd 1 carries what
 // plugins print (see `stdio::protect`), so a plain `println!` would land on stderr.
+// Its messages go through `errln!`: `eprintln!` panics when stderr is closed.
 #![deny(clippy::print_stdout)]
 
 mod cluster;
 mod cmd;
+mod env_vars;
 mod errors;
 mod fault_guard;
 mod gym;
@@ -100,15 +102,35 @@ fn install_panic_hook() {
             .location()
             .map(|l| format!(" at {}:{}", l.file(), l.line()))
             .unwrap_or_default();
-        eprintln!("error: internal error (a bug in rwg, please report it){at}: {msg}");
+        // never a panic here: a second one would abort
+        stdio::write_err(&format!(
+            "error: internal error (a bug in rwg, please report it){at}: {msg}\n"
+        ));
     }));
 }
 
 fn main() {
     install_panic_hook();
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // --help, --version or a usage error, printed by clap; a closed
+            // pipe is told as for any other output
+            let status = e.exit_code();
+            match e.print() {
+                Err(io) if io.kind() == std::io::ErrorKind::BrokenPipe && status == 0 => {
+                    std::process::exit(stdio::CLOSED_PIPE_STATUS)
+                }
+                _ => std::process::exit(status),
+            }
+        }
+    };
     // From here on, what a plugin prints goes to stderr, never into rwg's output.
     stdio::protect();
+    if let Err(e) = env_vars::check_all() {
+        errln!("error: {e}");
+        std::process::exit(1);
+    }
     let result: Result<()> = match cli.command {
         Command::Envs(a) => cmd::envs::run(a),
         Command::Rollout(a) => cmd::rollout::run(a),
@@ -128,20 +150,26 @@ fn main() {
         Command::PluginWorker => cmd::plugin_worker::run(),
         Command::Bench(a) => cmd::bench::run(a),
     };
-    if let Err(e) = result {
-        // `rwg ... | head` closes the pipe early: not an error.
-        let broken_pipe = e.chain().any(|c| {
-            c.downcast_ref::<std::io::Error>()
-                .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
-        });
-        if broken_pipe {
-            std::process::exit(0);
+    let status = match result {
+        Ok(()) => 0,
+        // a command's output to a closed pipe (`rwg ... | head`) ends it as
+        // SIGPIPE would, without a message
+        Err(e) if stdio::stdout_closed() && stdio::is_closed_pipe(&e) => stdio::CLOSED_PIPE_STATUS,
+        Err(e) => {
+            let text = match stdio::stdout_error() {
+                // a bare I/O error passed up from a write to stdout
+                Some(out) if e.chain().count() == 1 && e.is::<std::io::Error>() => {
+                    format!("cannot write to standard output: {out}")
+                }
+                _ => error_text(&e),
+            };
+            errln!("error: {text}");
+            let args: Vec<String> = std::env::args().skip(2).collect();
+            if let Some(h) = errors::hint(&e, &args) {
+                errln!("hint: {h}");
+            }
+            1
         }
-        eprintln!("error: {}", error_text(&e));
-        let args: Vec<String> = std::env::args().skip(2).collect();
-        if let Some(h) = errors::hint(&e, &args) {
-            eprintln!("hint: {h}");
-        }
-        std::process::exit(1);
-    }
+    };
+    std::process::exit(stdio::exit_status(status));
 }

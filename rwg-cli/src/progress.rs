@@ -7,12 +7,11 @@
 //! 0 for a line per block) overrides it.
 
 use rwg_study::runner::Progress;
-use std::io::Write;
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
-/// Default seconds between two progress lines.
-const DEFAULT_INTERVAL_S: f64 = 5.0;
+// the default seconds between two progress lines
+use crate::env_vars::DEFAULT_PROGRESS_INTERVAL_S as DEFAULT_INTERVAL_S;
 
 /// `h:mm:ss`.
 pub fn hms(secs: f64) -> String {
@@ -83,20 +82,18 @@ impl State {
 
 fn emit(s: &str) {
     // a closed stderr is no reason to stop the study
-    let _ = writeln!(std::io::stderr(), "{s}");
+    crate::errln!("{s}");
 }
 
 impl Lines {
     /// Lines every [`DEFAULT_INTERVAL_S`] seconds, or `RWG_PROGRESS_INTERVAL`.
     pub fn new() -> Self {
-        let secs = std::env::var("RWG_PROGRESS_INTERVAL")
-            .ok()
-            .and_then(|v| v.parse::<f64>().ok())
-            .filter(|s| s.is_finite() && *s >= 0.0)
-            .unwrap_or(DEFAULT_INTERVAL_S);
+        // checked before the command ran (`env_vars::check_all`)
+        let interval = crate::env_vars::progress_interval()
+            .unwrap_or(Duration::from_secs_f64(DEFAULT_INTERVAL_S));
         let now = Instant::now();
         let state = State {
-            interval: Duration::from_secs_f64(secs),
+            interval,
             t0: now,
             last: now,
             total: 0,

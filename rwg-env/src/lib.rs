@@ -26,3 +26,4 @@ pub mod time_limit;
 pub use env::{Action, ActionDtype, EnvError, EnvSpec, Environment, Step};
 pub use space::{BoxSpace, Space};
 pub use time_limit::TimeLimit;
+pub mod vars;

@@ -136,33 +136,58 @@ impl GymConfig {
     }
 }
 
-/// `RWG_PYTHON` if set, else `python3`.
+/// The environment variable naming the default Python interpreter.
+pub const PYTHON_VAR: &str = "RWG_PYTHON";
+
+/// The largest [`TIMEOUT_VAR`] accepted, in seconds (a week).
+pub const MAX_TIMEOUT_S: f64 = 604_800.0;
+
+/// `RWG_PYTHON` if set, else `python3`; an error if it is not UTF-8.
+pub fn python_setting() -> Result<String, rwg_env::vars::VarError> {
+    Ok(rwg_env::vars::text(PYTHON_VAR)?.unwrap_or_else(|| "python3".into()))
+}
+
+/// [`python_setting`], or `python3` if that is an error (the `rwg` binary
+/// checks the variable before it runs a command).
 pub fn default_python() -> String {
-    std::env::var("RWG_PYTHON")
-        .ok()
-        .filter(|s| !s.is_empty())
-        .unwrap_or_else(|| "python3".into())
+    python_setting().unwrap_or_else(|_| "python3".into())
 }
 
-/// [`TIMEOUT_VAR`] if set to a positive number of seconds, else [`DEFAULT_TIMEOUT_S`].
+/// [`TIMEOUT_VAR`] (seconds from 0.001 to [`MAX_TIMEOUT_S`]) if set, else
+/// [`DEFAULT_TIMEOUT_S`]; an error naming the variable for any other value.
+pub fn timeout_setting() -> Result<Duration, rwg_env::vars::VarError> {
+    rwg_env::vars::seconds(
+        TIMEOUT_VAR,
+        0.001,
+        MAX_TIMEOUT_S,
+        Duration::from_secs_f64(DEFAULT_TIMEOUT_S),
+        "how long a Gymnasium worker may take to answer",
+    )
+}
+
+/// [`timeout_setting`], or [`DEFAULT_TIMEOUT_S`] if that is an error (the
+/// `rwg` binary checks the variable before it runs a command).
 pub fn default_timeout() -> Duration {
-    let s = std::env::var(TIMEOUT_VAR)
-        .ok()
-        .and_then(|v| v.parse::<f64>().ok())
-        .filter(|s| *s > 0.0 && s.is_finite())
-        .unwrap_or(DEFAULT_TIMEOUT_S);
-    Duration::from_secs_f64(s)
+    timeout_setting().unwrap_or(Duration::from_secs_f64(DEFAULT_TIMEOUT_S))
 }
 
-/// [`START_TIMEOUT_VAR`] if set to a positive number of seconds, else
-/// [`DEFAULT_START_TIMEOUT_S`].
+/// [`start_timeout_setting`], or [`DEFAULT_START_TIMEOUT_S`] if that is an
+/// error (the `rwg` binary checks the variable before it runs a command).
 pub fn default_start_timeout() -> Duration {
-    let s = std::env::var(START_TIMEOUT_VAR)
-        .ok()
-        .and_then(|v| v.trim().parse::<f64>().ok())
-        .filter(|s| *s > 0.0 && *s <= 604_800.0)
-        .unwrap_or(DEFAULT_START_TIMEOUT_S);
-    Duration::from_secs_f64(s)
+    start_timeout_setting().unwrap_or(Duration::from_secs_f64(DEFAULT_START_TIMEOUT_S))
+}
+
+/// [`START_TIMEOUT_VAR`] (seconds from 0.001 to [`MAX_TIMEOUT_S`]) if set,
+/// else [`DEFAULT_START_TIMEOUT_S`]; an error naming the variable for any
+/// other value.
+pub fn start_timeout_setting() -> Result<Duration, rwg_env::vars::VarError> {
+    rwg_env::vars::seconds(
+        START_TIMEOUT_VAR,
+        0.001,
+        MAX_TIMEOUT_S,
+        Duration::from_secs_f64(DEFAULT_START_TIMEOUT_S),
+        "how long a Gymnasium worker may take to import the env and make its instances",
+    )
 }
 
 /// The user's [`HASH_SEED_VAR`] if set, else [`DEFAULT_HASH_SEED`].

@@ -317,23 +317,6 @@ impl Cell {
         })
     }
 
-    /// The env as this cell runs it, for the cell's `env.json`
-    /// ([`crate::rundir::env_record`]).
-    pub fn env_record(&self) -> crate::rundir::env_record::EnvRecord {
-        use crate::rundir::env_record::{EnvRecord, GymRecord};
-        let gymnasium = match &self.source {
-            EnvSource::Gym(g) => Some(GymRecord {
-                observation_space: g.info().observation_space.clone(),
-                action_space: g.info().action_space.clone(),
-                python_hash_seed: g.config().hash_seed.clone(),
-                gymnasium_version: g.info().gymnasium.clone(),
-                python_version: g.info().python.clone(),
-            }),
-            _ => None,
-        };
-        EnvRecord::new(&self.spec, gymnasium)
-    }
-
     /// The cell's metadata for `run.json` / `cell.json`.
     pub fn meta(&self, m: &Manifest, env_steps: u64, wall_s: f64) -> CellMeta {
         let shape = NetShape::new(

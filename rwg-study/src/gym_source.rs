@@ -5,6 +5,7 @@
 
 use crate::manifest::{EnvEntry, Manifest, ManifestError};
 use rwg_gym::{GymConfig, GymError, GymSource};
+use std::io::Write;
 
 /// Whether `id` names a Gymnasium env (`gymnasium:...`).
 pub fn is_gym(id: &str) -> bool {
@@ -54,7 +55,9 @@ pub fn open_entry(m: &Manifest, i: usize) -> Result<GymSource, ManifestError> {
         m.error_at(at, format!("{key}: {}: {err}", e.id))
     })?;
     if src.info().fresh_per_episode {
-        eprintln!(
+        // a closed stderr is no reason to fail (eprintln! would panic)
+        let _ = writeln!(
+            std::io::stderr(),
             "note: {}: an episode depends on the episodes an instance ran before, so every \
              episode runs on a fresh gym.make instance (slower, but the results do not depend \
              on scheduling)",

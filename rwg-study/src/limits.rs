@@ -42,6 +42,9 @@ pub const MAX_MANIFEST_BYTES: u64 = 1 << 20;
 pub const MAX_BENCH_STEPS: u64 = 10_000_000_000;
 /// Seconds of `rwg run --step-timeout` (a week).
 pub const MAX_STEP_TIMEOUT_S: u64 = 604_800;
+/// The master seed (`seed`, `--seed`): the largest TOML integer, as the run
+/// directory's `manifest.toml` holds it.
+pub const MAX_SEED: u64 = i64::MAX as u64;
 /// Shards of a study (`--shard K/N`: N).
 pub const MAX_SHARDS: u64 = 100_000;
 

@@ -75,6 +75,11 @@ pub fn from_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T, (Range
         let path = key_path(e.path());
         let inner = e.into_inner();
         let span = inner.span().unwrap_or(0..0);
+        // TOML's own errors (a value it cannot read) come without a path
+        let path = match path.is_empty() {
+            true => key_at(text, span.start).unwrap_or_default(),
+            false => path,
+        };
         let message = plain_message(inner.message().trim_end());
         let message = if path.is_empty() {
             message
@@ -104,6 +109,49 @@ fn key_path(path: &serde_path_to_error::Path) -> String {
         }
     }
     out
+}
+
+/// The key path (`seed`, `envs[1].max_episode_steps`, `weights.scale`) of
+/// the value starting at byte `offset` of `text`: the key before the `=`
+/// on its line, under the last table header above it. `None` if no value
+/// of a `key = value` line starts there.
+pub fn key_at(text: &str, offset: usize) -> Option<String> {
+    let offset = (0..=offset.min(text.len()))
+        .rev()
+        .find(|&o| text.is_char_boundary(o))?;
+    let line_start = text[..offset].rfind('\n').map_or(0, |p| p + 1);
+    let (left, between) = text[line_start..offset].rsplit_once('=')?;
+    if !between.trim().is_empty() {
+        return None;
+    }
+    // the last key of the line: after an inline table's `{` or `,`
+    let key = left
+        .rsplit(['{', ','])
+        .next()
+        .unwrap_or(left)
+        .trim()
+        .trim_matches('"');
+    let bare = |c: char| c.is_ascii_alphanumeric() || "_-.".contains(c);
+    if key.is_empty() || !key.chars().all(bare) {
+        return None;
+    }
+    // the table it is in: the last header above, `[[envs]]` counted
+    let mut table = String::new();
+    let mut counts: std::collections::HashMap<&str, usize> = Default::default();
+    for l in text[..line_start].lines().map(str::trim) {
+        if let Some(name) = l.strip_prefix("[[").and_then(|r| r.split_once("]]")) {
+            let n = counts.entry(name.0.trim()).or_insert(0);
+            table = format!("{}[{}]", name.0.trim(), *n);
+            *n += 1;
+        } else if let Some(name) = l.strip_prefix('[').and_then(|r| r.split_once(']')) {
+            table = name.0.trim().to_string();
+        }
+    }
+    Some(if table.is_empty() {
+        key.to_string()
+    } else {
+        format!("{table}.{key}")
+    })
 }
 
 /// serde's wording of a type (`i64`, `a sequence`, ...) as a manifest user
@@ -162,6 +210,9 @@ fn plain_message(msg: &str) -> String {
             );
         }
     }
+    if msg.starts_with("number too large") || msg.starts_with("number too small") {
+        return format!("{msg}: a TOML integer is from {} to {}", i64::MIN, i64::MAX);
+    }
     if let Some(field) = msg.strip_prefix("missing field ") {
         return format!("missing key {field}");
     }
@@ -205,6 +256,33 @@ mod tests {
     fn line_col_counts_characters() {
         assert_eq!(line_col("a\nbé c", 5), (2, 3));
         assert_eq!(line_col("abc", 99), (1, 4));
+    }
+
+    #[test]
+    fn keys_of_values_toml_cannot_read() {
+        let text = "seed = 18446744073709551615\n[weights]\nscale = x\n\n\
+                    [[envs]]\nid = \"a\"\n[[envs]]\nid = \"b\"\nmax_episode_steps = 1e\n\
+                    kwargs = { a = 1, big = 99999999999999999999 }\n";
+        let at = |s: &str| key_at(text, text.find(s).unwrap());
+        assert_eq!(at("18446744073709551615").as_deref(), Some("seed"));
+        assert_eq!(at("x\n").as_deref(), Some("weights.scale"));
+        assert_eq!(at("1e\n").as_deref(), Some("envs[1].max_episode_steps"));
+        assert_eq!(at("9999").as_deref(), Some("envs[1].big"));
+        // not a value
+        assert_eq!(at("seed"), None);
+        assert_eq!(at("[weights]"), None);
+        #[derive(serde::Deserialize, Debug)]
+        struct Seed {
+            #[allow(dead_code)]
+            seed: i64,
+        }
+        let (span, msg) = from_toml::<Seed>("seed = 18446744073709551615").unwrap_err();
+        assert_eq!(span.start, 7);
+        assert!(msg.starts_with("seed: number too large"), "{msg}");
+        assert!(
+            msg.ends_with("from -9223372036854775808 to 9223372036854775807"),
+            "{msg}"
+        );
     }
 
     #[test]

@@ -32,15 +32,29 @@ pub const BATCH_VAR: &str = "RWG_PLUGIN_BATCH";
 /// batched calls), for comparison.
 pub const VEC_VAR: &str = "RWG_PLUGIN_VEC";
 
+/// Whether [`BATCH_VAR`] and [`VEC_VAR`] allow the batched calls and the
+/// vector env (`1` or unset: yes, `0`: no); an error naming the variable
+/// for any other value.
+pub fn calls_settings() -> Result<(bool, bool), rwg_env::vars::VarError> {
+    Ok((
+        rwg_env::vars::switch(
+            BATCH_VAR,
+            true,
+            "0: a plugin's single calls, no batched calls or vector env",
+        )?,
+        rwg_env::vars::switch(VEC_VAR, true, "0: a plugin's batched calls, no vector env")?,
+    ))
+}
+
 /// The calls `rwg run` uses for `source`: the vector env if the plugin has
 /// one and `RWG_PLUGIN_VEC` is not `0`, else the batched calls if it has
 /// them; `None` (the single calls, one instance per lane) if it has neither
 /// or `RWG_PLUGIN_BATCH` is `0`.
 pub fn calls_for(source: &PluginSource) -> Option<LaneCalls> {
-    let off = |var| std::env::var(var).as_deref() == Ok("0");
-    if off(BATCH_VAR) {
+    let (batch, vec) = calls_settings().unwrap_or((true, true));
+    if !batch {
         None
-    } else if source.ty.has_vec_env() && !off(VEC_VAR) {
+    } else if source.ty.has_vec_env() && vec {
         Some(LaneCalls::Vec)
     } else if source.ty.has_batched_calls() {
         Some(LaneCalls::Batched)

@@ -19,7 +19,6 @@ use crate::rundir::blocks::{
 };
 use crate::rundir::checksum::{verify_cell, SUMS};
 use crate::rundir::data::KeptEpisodes;
-use crate::rundir::env_record::{check_record, write_record};
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::lock::RunLock;
 use crate::rundir::meta::{
@@ -196,20 +195,6 @@ pub fn run_study(
                 .sum()
         })
         .sum();
-    // Every block of a cell is computed under the env its first block was:
-    // the env as the cells start is recorded, and a resume under another
-    // env is refused before anything runs.
-    for (ci, c) in cells.iter().enumerate() {
-        let dir = cell_dir(out, &c.id.dir);
-        let works = !(opts.shard.is_none() && cell_complete(&dir))
-            && (0..nb).any(|b| owned(ci, b) && !indexes[ci].done(b));
-        if works {
-            let now = c.env_record();
-            if !check_record(&dir, &now, RESUME_REFUSED)? {
-                write_record(&dir, &now)?;
-            }
-        }
-    }
     progress.start(todo);
     timing.setup = t_setup.elapsed();
     let t0 = Instant::now();
@@ -383,11 +368,6 @@ pub fn run_study(
     })))
 }
 
-/// What a resume under another env than a cell started with says to do.
-const RESUME_REFUSED: &str = "the cell's committed blocks were computed under the env as it \
-    was then: restore it (the version of its package, the environment variables it reads), or \
-    delete the cell's directory (or rerun with --force-new) to compute the cell again";
-
 /// Ends a run that failed with `e`: waits for the cells handed to the
 /// recorder, writes `run.json`, and returns the error to report: the
 /// recorder's if it stopped the run (`aborted`: a cell's end failed), else `e`.
@@ -411,7 +391,7 @@ fn fail<'scope, 'c: 'scope>(
 
 /// The environment variable that chooses how built-in envs are stepped:
 /// `0` runs every cell through the lane sampler, one scalar env per lane
-/// (for comparisons); unset (or anything else) runs every built-in env that
+/// (for comparisons); unset (or `1`) runs every built-in env that
 /// has a lockstep version (`rwg_envs::lockstep`) through it, all lanes of a
 /// worker in one `step_many`. The results are identical either way.
 pub const LOCKSTEP_VAR: &str = "RWG_LOCKSTEP";
@@ -419,7 +399,17 @@ pub const LOCKSTEP_VAR: &str = "RWG_LOCKSTEP";
 /// Whether built-in envs run through their lockstep versions: see
 /// [`LOCKSTEP_VAR`].
 pub fn use_lockstep() -> bool {
-    std::env::var(LOCKSTEP_VAR).as_deref() != Ok("0")
+    lockstep_setting().unwrap_or(true)
+}
+
+/// [`LOCKSTEP_VAR`]: `1` or unset: lockstep, `0`: the lane sampler; an
+/// error naming the variable for any other value.
+pub fn lockstep_setting() -> Result<bool, rwg_env::vars::VarError> {
+    rwg_env::vars::switch(
+        LOCKSTEP_VAR,
+        true,
+        "0: built-in envs one instance per lane, not in lockstep",
+    )
 }
 
 /// Runs the given blocks of a cell. Built-in envs are statically dispatched

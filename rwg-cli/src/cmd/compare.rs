@@ -52,7 +52,7 @@ fn image_format(path: &std::path::Path) -> ImageFormat {
 
 fn write(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))?;
-    eprintln!("wrote {}", path.display());
+    crate::errln!("wrote {}", path.display());
     Ok(())
 }
 
@@ -96,7 +96,7 @@ pub fn run(args: Args) -> Result<()> {
         if !args.force {
             bail!("these runs are not comparable:{list}\n(use --force to compare them anyway)");
         }
-        eprintln!("warning: comparing runs whose settings differ (--force):{list}");
+        crate::errln!("warning: comparing runs whose settings differ (--force):{list}");
     }
     let mut inputs = Vec::new();
     for (label, run) in labels.iter().zip(&runs) {

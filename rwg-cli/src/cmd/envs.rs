@@ -121,9 +121,9 @@ pub fn run(args: Args) -> Result<()> {
             rows.extend(plugin_rows(p));
         }
         if !scan.rejected.is_empty() {
-            eprintln!("rejected on {PLUGIN_PATH_VAR}:");
+            crate::errln!("rejected on {PLUGIN_PATH_VAR}:");
             for r in &scan.rejected {
-                eprintln!("  {r}");
+                crate::errln!("  {r}");
             }
         }
     } else {

@@ -45,7 +45,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 /// Warns (stderr) when a run predates checksums and is read unverified.
 pub fn warn_unverified(run: &Run) {
     if !run.verified {
-        eprintln!(
+        crate::errln!(
             "warning: {} was written by an older rwg (run format {}) without checksums: its \
              files are read unverified",
             run.dir.display(),

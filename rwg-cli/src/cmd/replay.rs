@@ -212,7 +212,7 @@ pub fn run(args: Args) -> Result<()> {
         let e = export(cell, &policy, args.sample, m.episodes);
         rwg_study::rundir::export::write_atomic(path, serde_json::to_string_pretty(&e)?.as_bytes())
             .with_context(|| format!("cannot write {}", path.display()))?;
-        eprintln!("wrote {}", path.display());
+        crate::errln!("wrote {}", path.display());
     }
 
     let stdout = crate::stdio::stdout();

@@ -126,7 +126,7 @@ pub(crate) fn write_report(out: &Path, kept: KeptEpisodes) -> Result<()> {
 /// Applies the command-line overrides to the manifest, within rwg's limits
 /// (`rwg_study::limits`).
 fn apply_overrides(m: &mut Manifest, args: &Args) -> Result<()> {
-    use rwg_study::limits::{in_range, MAX_EPISODES, MAX_SAMPLES, MAX_THREADS};
+    use rwg_study::limits::{in_range, MAX_EPISODES, MAX_SAMPLES, MAX_SEED, MAX_THREADS};
     let flag = |m: String| anyhow::anyhow!("--{m}");
     if let Some(s) = args.samples {
         m.samples = in_range("samples", s, 1, MAX_SAMPLES).map_err(flag)?;
@@ -135,7 +135,7 @@ fn apply_overrides(m: &mut Manifest, args: &Args) -> Result<()> {
         m.episodes = in_range("episodes", e, 1, MAX_EPISODES).map_err(flag)?;
     }
     if let Some(s) = args.seed {
-        m.seed = s;
+        m.seed = in_range("seed", s, 0, MAX_SEED).map_err(flag)?;
     }
     if let Some(t) = args.threads {
         m.threads = Some(in_range("threads", t, 1, MAX_THREADS).map_err(flag)?);
@@ -197,7 +197,7 @@ pub fn run(args: Args) -> Result<()> {
         force_new: args.force_new,
         stop: fault_guard::interrupt_flag(),
         keep_episodes: args.shard.is_none() && !args.no_report,
-        commit_linger: commit_linger()?,
+        commit_linger: crate::env_vars::commit_linger()?,
     };
     let (mut bar, mut lines, mut silent) = (Bar::default(), Lines::new(), Silent);
     let display: &mut dyn Progress = if args.quiet {
@@ -223,7 +223,7 @@ pub fn run(args: Args) -> Result<()> {
         .into_iter()
         .flat_map(|c| c.join().unwrap_or_default())
     {
-        eprintln!("warning: {w}");
+        crate::errln!("warning: {w}");
     }
     let mut report = match outcome {
         Ok(RunOutcome::AlreadyComplete(_lock)) => {
@@ -238,7 +238,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         Ok(RunOutcome::Finished(report)) => report,
         Err(StudyError::Interrupted) => {
-            eprintln!(
+            crate::errln!(
                 "stopped; every finished block is saved in {}. Resume with:\n  rwg run {} --out {}{}",
                 out.display(),
                 args.manifest.display(),
@@ -250,8 +250,8 @@ pub fn run(args: Args) -> Result<()> {
         }
         Err(e @ StudyError::Cell { .. }) => {
             // (an isolated plugin's crash or hang, a Gymnasium worker's, an env error)
-            eprintln!("error: {}", crate::error_text(&e.into()));
-            eprintln!(
+            crate::errln!("error: {}", crate::error_text(&e.into()));
+            crate::errln!(
                 "Every committed block is kept; once the cause is fixed, resume with: rwg run {} --out {}{}",
                 args.manifest.display(),
                 out.display(),
@@ -313,32 +313,12 @@ pub fn run(args: Args) -> Result<()> {
         ),
     }
     if args.timing {
-        eprint!(
-            "{}",
-            crate::timing_table::timing_table(&report.timing, report_time)
-        );
+        crate::stdio::write_err(&crate::timing_table::timing_table(
+            &report.timing,
+            report_time,
+        ));
     }
     Ok(())
-}
-
-/// How long finished blocks gather before a commit: `RWG_COMMIT_LINGER`
-/// (seconds, may be fractional; 0 commits every block at once), else
-/// [`rwg_study::committer::LINGER`].
-fn commit_linger() -> Result<std::time::Duration> {
-    let Ok(v) = std::env::var("RWG_COMMIT_LINGER") else {
-        return Ok(rwg_study::committer::LINGER);
-    };
-    v.trim()
-        .parse::<f64>()
-        .ok()
-        .filter(|s| (0.0..=3600.0).contains(s))
-        .map(std::time::Duration::from_secs_f64)
-        .ok_or_else(|| {
-            anyhow::anyhow!(
-                "RWG_COMMIT_LINGER={v}: expected seconds from 0 to 3600 (how long finished \
-                 blocks gather before they are committed; 0 commits each block at once)"
-            )
-        })
 }
 
 fn shard_flag(s: Option<ShardMeta>) -> String {
@@ -386,7 +366,7 @@ impl Progress for WithChecks<'_> {
     fn note(&mut self, message: &str) {
         // Before `start`: no progress display to interleave with; shown
         // with --quiet too.
-        eprintln!("note: {message}");
+        crate::errln!("note: {message}");
     }
 
     fn cell(&mut self, label: &str) {

@@ -8,6 +8,19 @@
 //! same bits (the lockstep tests compare lanes with the scalar envs under
 //! either). `RWG_LOCKSTEP_AVX2=0` (read once) forces the baseline body.
 
+/// The environment variable that turns the AVX2 step bodies off (`0`).
+pub const AVX2_VAR: &str = "RWG_LOCKSTEP_AVX2";
+
+/// [`AVX2_VAR`]: `1` or unset: the AVX2 bodies where the CPU has AVX2, `0`:
+/// the baseline; an error naming the variable for any other value.
+pub fn avx2_setting() -> Result<bool, rwg_env::vars::VarError> {
+    rwg_env::vars::switch(
+        AVX2_VAR,
+        true,
+        "0: the lockstep envs' baseline step bodies, not their AVX2 ones",
+    )
+}
+
 /// Whether to run the AVX2 bodies: the CPU has AVX2 and
 /// `RWG_LOCKSTEP_AVX2=0` is not set.
 #[cfg(target_arch = "x86_64")]
@@ -19,8 +32,8 @@ pub(crate) fn avx2() -> bool {
         1 => false,
         2 => true,
         _ => {
-            let off = std::env::var_os("RWG_LOCKSTEP_AVX2").is_some_and(|v| v == "0");
-            let yes = !off && is_x86_feature_detected!("avx2");
+            let on = avx2_setting().unwrap_or(true);
+            let yes = on && is_x86_feature_detected!("avx2");
             CHOICE.store(if yes { 2 } else { 1 }, Relaxed);
             yes
         }
