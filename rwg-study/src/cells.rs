@@ -317,6 +317,23 @@ impl Cell {
         })
     }
 
+    /// The env as this cell runs it, for the cell's `env.json`
+    /// ([`crate::rundir::env_record`]).
+    pub fn env_record(&self) -> crate::rundir::env_record::EnvRecord {
+        use crate::rundir::env_record::{EnvRecord, GymRecord};
+        let gymnasium = match &self.source {
+            EnvSource::Gym(g) => Some(GymRecord {
+                observation_space: g.info().observation_space.clone(),
+                action_space: g.info().action_space.clone(),
+                python_hash_seed: g.config().hash_seed.clone(),
+                gymnasium_version: g.info().gymnasium.clone(),
+                python_version: g.info().python.clone(),
+            }),
+            _ => None,
+        };
+        EnvRecord::new(&self.spec, gymnasium)
+    }
+
     /// The cell's metadata for `run.json` / `cell.json`.
     pub fn meta(&self, m: &Manifest, env_steps: u64, wall_s: f64) -> CellMeta {
         let shape = NetShape::new(
@@ -356,7 +373,9 @@ impl Cell {
     ) -> Result<(CellMeta, CellTotals), StudyError> {
         let dir = cell_dir(out, &self.id.dir);
         let mut meta = None;
-        let totals = finalize_cell(&dir, m.samples, m.episodes, keep, pending, |t| {
+        // (Cells without a time limit are refused when planned.)
+        let limit = self.spec.max_episode_steps.unwrap_or(u32::MAX);
+        let totals = finalize_cell(&dir, m.samples, m.episodes, limit, keep, pending, |t| {
             let cm = self.meta(m, t.env_steps, wall_s);
             let json = serde_json::to_string_pretty(&cm).expect("serialisable");
             meta = Some(cm);
