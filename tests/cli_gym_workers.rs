@@ -1,8 +1,9 @@
 //! Worker processes as one family, end to end with the real `rwg` binary:
 //! every Gymnasium worker of an env hashes strings alike and reports the
-//! spaces of the first; start-up honours the timeouts and names the right
-//! knob; and the workers (Gymnasium's and isolated plugins') die with rwg on
-//! SIGTERM, SIGINT, SIGHUP and SIGKILL.
+//! spaces of the first; a cell's spaces are recorded when it starts, so a
+//! resume or merge under other spaces is refused; start-up honours the
+//! timeouts and names the right knob; and the workers (Gymnasium's and
+//! isolated plugins') die with rwg on SIGTERM, SIGINT, SIGHUP and SIGKILL.
 //!
 //! Needs `RWG_TEST_PYTHON` (see `cli_gym_bridge_faults.rs`) for the
 //! Gymnasium cases; the test envs are `tests/python/rwg_family_envs`.
@@ -31,7 +32,7 @@ fn cell_dir(run: &Path, env: &str) -> std::path::PathBuf {
 
 /// An env whose reset uses Python's `hash(str)`: the same bytes for 1 and 2
 /// threads and for a second run (each worker process would otherwise draw
-/// its own hash seed).
+/// its own hash seed), and the seed rwg fixed is in the cell's record.
 #[test]
 fn string_hashes_do_not_change_results_between_workers_or_runs() {
     let Some(py) = python() else { return };
@@ -56,6 +57,11 @@ fn string_hashes_do_not_change_results_between_workers_or_runs() {
     }
     assert!(scores[0] == scores[1], "1 vs 2 threads differ");
     assert!(scores[1] == scores[2], "two runs differ");
+    let record = String::from_utf8(read(
+        cell_dir(&dir.join("t1"), "HashReset-v0").join("env.json"),
+    ))
+    .unwrap();
+    assert!(record.contains("\"python_hash_seed\": \"0\""), "{record}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -102,6 +108,83 @@ fn workers_with_other_spaces_than_the_first_are_refused() {
     .unwrap();
     let err = run_err(out);
     assert!(err.contains("time limit: 60 steps"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The reset seed of network `n`, episode 0, of `Knob-v0`.
+fn knob_seed(n: u64) -> u64 {
+    rwg_core::sampler::reset_seed(0, "rwg_family_envs:Knob-v0", n, 0)
+}
+
+/// A resume or a merge under other spaces than the cell started with is
+/// refused, naming the difference; under the same spaces it goes on.
+#[test]
+fn a_resume_or_merge_under_other_spaces_is_refused() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-family-knob");
+    let kwargs = format!("fail_seed = \"{}\"", knob_seed(40));
+    let m = write(&dir, "m.toml", &manifest("Knob-v0", &kwargs, 64));
+    let run = dir.join("run");
+    let go = |knob: &str, args: &[&str]| {
+        rwg_cmd(&py, args)
+            .env("RWG_TEST_KNOB", knob)
+            .output()
+            .unwrap()
+    };
+    let args = ["run", &m, "--out", run.to_str().unwrap(), "--no-report"];
+    // knob a: fails in block 1, block 0 committed
+    let err = run_err(go("a", &args));
+    assert!(err.contains("deliberate failure of Knob-v0"), "{err}");
+    let cell = cell_dir(&run, "Knob-v0");
+    assert!(cell.join("blocks/b0000000.csv").exists(), "{err}");
+    // knob b: other action bounds
+    let err = run_err(go("b", &args));
+    for s in [
+        "env.json",
+        "action space",
+        "Box(-1.0, 1.0, (1,), float64)",
+        "Box(-100.0, 100.0, (1,), float64)",
+    ] {
+        assert!(err.contains(s), "{s:?} missing: {err}");
+    }
+    assert!(!cell.join("scores.csv").exists(), "{err}");
+    // knob c: the spaces the cell started with
+    let out = go("c", &args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(cell.join("scores.csv").exists());
+
+    // shards computed under other spaces do not merge
+    let mut shards = vec![];
+    for (k, knob) in [(0, "c"), (1, "b")] {
+        let d = dir.join(format!("s{k}"));
+        let shard = format!("{k}/2");
+        let out = go(
+            knob,
+            &["run", &m, "--shard", &shard, "--out", d.to_str().unwrap()],
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        shards.push(d.to_str().unwrap().to_string());
+    }
+    let merged = dir.join("merged");
+    let margs = [
+        "merge",
+        &shards[0],
+        &shards[1],
+        "--out",
+        merged.to_str().unwrap(),
+    ];
+    let err = run_err(go("c", &margs));
+    assert!(err.contains("action space"), "{err}");
+    assert!(err.contains("Box(-100.0, 100.0, (1,), float64)"), "{err}");
+    assert!(!cell_dir(&merged, "Knob-v0").join("scores.csv").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }
 

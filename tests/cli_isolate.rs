@@ -132,7 +132,7 @@ fn builtin_cell(dir: &Path, seed_id: &str, builtin: &str, f32_actions: bool, bia
         },
     )
     .unwrap();
-    finalize_cell(dir, SAMPLES, EPISODES, false, &[], |_| None).unwrap();
+    finalize_cell(dir, SAMPLES, EPISODES, u32::MAX, false, &[], |_| None).unwrap();
 }
 
 fn assert_same_cells(a: &Path, b: &Path, what: &str) {

@@ -400,3 +400,48 @@ fn status_of_runs_and_shards_names_the_command_that_finishes_them() {
     rwg_ok(&["run", m, "--out", whole.to_str().unwrap()]);
     assert_same(&whole, &study);
 }
+
+#[test]
+fn block_rows_no_episode_can_have_are_refused_though_their_digest_matches() {
+    let dir = temp_dir("merge-bad-rows");
+    let manifest = dir.join("study.toml");
+    std::fs::write(
+        &manifest,
+        "seed = 2\nsamples = 64\nepisodes = 2\nbias = [false]\n\
+         [[architectures]]\nname = \"0HL\"\nhidden = []\n\
+         [[envs]]\nid = \"CartPole-v1\"\nmax_episode_steps = 50\n",
+    )
+    .unwrap();
+    let manifest = manifest.to_str().unwrap();
+    let shards: Vec<String> = (0..2)
+        .map(|k| {
+            let d = dir.join(format!("s{k}")).to_str().unwrap().to_string();
+            rwg_ok(&["run", manifest, "--shard", &format!("{k}/2"), "--out", &d]);
+            d
+        })
+        .collect();
+    let blocks = dir.join("s0/cells/CartPole-v1__0HL__nobias/blocks");
+    let block = blocks.join("b0000000.csv");
+    let good = std::fs::read_to_string(&block).unwrap();
+    for (k, (row, want)) in [
+        ("0,1,NaN,9", "b0000000.csv:2: score NaN is not a finite number"),
+        ("0,1,9.0,51", "b0000000.csv:2: 51 steps: an episode of this cell lasts 1 to 50"),
+        ("0,1,0.0,0", "b0000000.csv:2: 0 steps"),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let mut lines: Vec<&str> = good.lines().collect();
+        lines[1] = row;
+        std::fs::write(&block, lines.join("\n") + "\n").unwrap();
+        reindex(&blocks, "b0000000.csv");
+        let out = dir.join(format!("merged{k}"));
+        let err = rwg_err(&["merge", &shards[0], &shards[1], "--out", out.to_str().unwrap()]);
+        assert!(err.contains(want), "{row}: {err}");
+        assert!(!out.join("cells/CartPole-v1__0HL__nobias/scores.csv").exists());
+    }
+    std::fs::write(&block, &good).unwrap();
+    reindex(&blocks, "b0000000.csv");
+    let out = dir.join("merged");
+    rwg_ok(&["merge", &shards[0], &shards[1], "--out", out.to_str().unwrap()]);
+}

@@ -74,7 +74,7 @@ fn builtin_cell(dir: &Path, seed_id: &str, builtin: &str, f32_actions: bool, bia
         },
     )
     .unwrap();
-    finalize_cell(dir, 33, 2, false, &[], |_| None).unwrap();
+    finalize_cell(dir, 33, 2, u32::MAX, false, &[], |_| None).unwrap();
 }
 
 /// Seeds derive from the env id, and a plugin id never equals a built-in id,

@@ -221,3 +221,45 @@ fn stats_at_n_refuses_bad_sizes() {
     );
     assert!(rwg_ok(&["stats", d, "--at-n", "15", "--no-write"]).contains("over 2 disjoint blocks"));
 }
+
+#[test]
+fn rows_no_episode_can_have_are_refused_though_their_digests_match() {
+    let dir = synthetic_run("stats-nan", 20, 3);
+    let d = dir.to_str().unwrap();
+    let cell = dir.join("cells/CartPole-v0__0HL__nobias");
+    // A score of NaN in scores.csv, its index line made to match.
+    let scores = cell.join("scores.csv");
+    let good = std::fs::read_to_string(&scores).unwrap();
+    let line: Vec<&str> = good.lines().nth(2).unwrap().split(',').collect();
+    let bad = format!("{},{},NaN,{}", line[0], line[1], line[3]);
+    std::fs::write(&scores, good.replacen(good.lines().nth(2).unwrap(), &bad, 1)).unwrap();
+    reindex(&cell, "scores.csv");
+    let err = rwg_err(&["stats", d, "--no-write"]);
+    assert!(
+        err.contains("scores.csv:3: score NaN is not a finite number"),
+        "{err}"
+    );
+    // More steps than the cell's time limit (200).
+    let bad = format!("{},{},1.0,201", line[0], line[1]);
+    std::fs::write(&scores, good.replacen(good.lines().nth(2).unwrap(), &bad, 1)).unwrap();
+    reindex(&cell, "scores.csv");
+    let err = rwg_err(&["stats", d, "--no-write"]);
+    assert!(
+        err.contains("scores.csv:3: 201 steps: an episode of this cell lasts 1 to 200"),
+        "{err}"
+    );
+    std::fs::write(&scores, &good).unwrap();
+    reindex(&cell, "scores.csv");
+    // A mean of NaN in samples.csv: `rwg top` would rank it first.
+    let samples = cell.join("samples.csv");
+    let text = std::fs::read_to_string(&samples).unwrap();
+    let first: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
+    let bad = format!("{},NaN,{}", first[0], first[2..].join(","));
+    std::fs::write(&samples, text.replacen(text.lines().nth(1).unwrap(), &bad, 1)).unwrap();
+    reindex(&cell, "samples.csv");
+    let err = rwg_err(&["top", d]);
+    assert!(
+        err.contains("samples.csv:2: mean NaN is not a finite number"),
+        "{err}"
+    );
+}

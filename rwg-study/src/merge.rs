@@ -8,6 +8,7 @@ use crate::cells::{new_meta, plan_cells, SummaryLine};
 use crate::manifest::Manifest;
 use crate::rundir::blocks::{cell_complete, copy_block, n_blocks, tidy_complete_cell, BlockIndex};
 use crate::rundir::checksum::verify_cell;
+use crate::rundir::env_record::{check_record, write_record};
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::lock::RunLock;
 use crate::rundir::meta::{read_cell_meta, read_run_meta, write_run_meta, RunMeta, RUN_FORMAT};
@@ -145,6 +146,18 @@ pub fn merge_shards(
         }
     }
 
+    // Every shard computed its blocks of a cell under the env as it is now.
+    for cell in &cells {
+        let now = cell.env_record();
+        for d in &owner {
+            check_record(
+                &cell_dir(d.expect("checked"), &cell.id.dir),
+                &now,
+                MERGE_REFUSED,
+            )?;
+        }
+    }
+
     std::fs::create_dir_all(out)
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
     let lock = RunLock::acquire(out)?;
@@ -204,6 +217,10 @@ pub fn merge_shards(
             cells_kept += 1;
             continue;
         }
+        let now = cell.env_record();
+        if !check_record(&dest, &now, MERGE_REFUSED)? {
+            write_record(&dest, &now)?;
+        }
         let dest_index = BlockIndex::load(&dest).map_err(|source| StudyError::RunDir {
             context: format!("cannot read the block index of {}", dest.display()),
             source,
@@ -239,6 +256,11 @@ pub fn merge_shards(
         lock,
     })
 }
+
+/// What a merge under another env than a shard's cell started with says to do.
+const MERGE_REFUSED: &str = "a merged cell's blocks must all be computed under the env as it \
+    is where the merge runs: merge where the env is as it was, or compute the shard's cell again \
+    under this env (delete its directory and rerun the shard)";
 
 /// Checks that `out` is empty or holds a merge of study `m`; returns that
 /// merge's metadata, if it got as far as writing `run.json`.

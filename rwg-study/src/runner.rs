@@ -19,6 +19,7 @@ use crate::rundir::blocks::{
 };
 use crate::rundir::checksum::{verify_cell, SUMS};
 use crate::rundir::data::KeptEpisodes;
+use crate::rundir::env_record::{check_record, write_record};
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::lock::RunLock;
 use crate::rundir::meta::{
@@ -195,6 +196,20 @@ pub fn run_study(
                 .sum()
         })
         .sum();
+    // Every block of a cell is computed under the env its first block was:
+    // the env as the cells start is recorded, and a resume under another
+    // env is refused before anything runs.
+    for (ci, c) in cells.iter().enumerate() {
+        let dir = cell_dir(out, &c.id.dir);
+        let works = !(opts.shard.is_none() && cell_complete(&dir))
+            && (0..nb).any(|b| owned(ci, b) && !indexes[ci].done(b));
+        if works {
+            let now = c.env_record();
+            if !check_record(&dir, &now, RESUME_REFUSED)? {
+                write_record(&dir, &now)?;
+            }
+        }
+    }
     progress.start(todo);
     timing.setup = t_setup.elapsed();
     let t0 = Instant::now();
@@ -367,6 +382,11 @@ pub fn run_study(
         lock,
     })))
 }
+
+/// What a resume under another env than a cell started with says to do.
+const RESUME_REFUSED: &str = "the cell's committed blocks were computed under the env as it \
+    was then: restore it (the version of its package, the environment variables it reads), or \
+    delete the cell's directory (or rerun with --force-new) to compute the cell again";
 
 /// Ends a run that failed with `e`: waits for the cells handed to the
 /// recorder, writes `run.json`, and returns the error to report: the

@@ -260,7 +260,8 @@ pub fn copy_block(src: &BlockIndex, dst: &Path, b: u64) -> Result<(), RunDirErro
             src.dir.join(BLOCKS).join(SUMS).display()
         ),
     })?;
-    let bytes = std::fs::read(&from).map_err(io_err(&from))?;
+    let bytes = crate::limits::read_bounded(&from, crate::limits::MAX_BLOCK_BYTES)
+        .map_err(io_err(&from))?;
     let got: Digest = {
         use sha2::Digest as _;
         sha2::Sha256::digest(&bytes).into()
@@ -286,8 +287,10 @@ pub struct CellTotals {
     pub episodes: (Vec<f64>, Vec<u32>),
 }
 
-/// Parses one `sample,episode,score,steps` row, checking it is the expected one.
-fn parse_row(line: &str, sample: u64, episode: u32) -> Result<(f64, u64), String> {
+/// Parses one `sample,episode,score,steps` row, checking it is the expected
+/// one and holds what an episode can give: a finite score and
+/// 1 ≤ steps ≤ `max_steps` (the cell's time limit).
+fn parse_row(line: &str, sample: u64, episode: u32, max_steps: u32) -> Result<(f64, u64), String> {
     let [s, e, score, steps] =
         rows::split_fields::<4>(line).map_err(|_| format!("expected 4 columns: '{line}'"))?;
     if s.parse::<u64>().ok() != Some(sample) || e.parse::<u32>().ok() != Some(episode) {
@@ -301,7 +304,25 @@ fn parse_row(line: &str, sample: u64, episode: u32) -> Result<(f64, u64), String
     let steps = steps
         .parse::<u64>()
         .map_err(|_| format!("bad steps '{steps}'"))?;
+    check_episode(score, steps, max_steps)?;
     Ok((score, steps))
+}
+
+/// Whether an episode's score and length are ones an episode can have: a
+/// finite score, and 1 ≤ `steps` ≤ `max_steps` (the cell's time limit). The
+/// message says what is wrong, for a row read back from a file.
+pub fn check_episode(score: f64, steps: u64, max_steps: u32) -> Result<(), String> {
+    if !score.is_finite() {
+        return Err(format!(
+            "score {score} is not a finite number (an episode's score is a sum of finite rewards)"
+        ));
+    }
+    if steps == 0 || steps > u64::from(max_steps) {
+        return Err(format!(
+            "{steps} steps: an episode of this cell lasts 1 to {max_steps} steps (its time limit)"
+        ));
+    }
+    Ok(())
 }
 
 /// Streams the cell's blocks into `scores.csv`, writes `samples.csv` (and,
@@ -309,7 +330,9 @@ fn parse_row(line: &str, sample: u64, episode: u32) -> Result<(f64, u64), String
 /// The blocks are the committed block files, except those in `pending`:
 /// blocks of this process not committed to files (the last ones a run
 /// computed, [`crate::committer::CommitThreads::finish`]), whose rows are
-/// formatted as [`write_blocks`] would write them. Memory: one block file (at
+/// formatted as [`write_blocks`] would write them. Every row read from a
+/// file must hold a finite score and 1 ≤ steps ≤ `max_steps` (the cell's
+/// time limit, at least 1), whatever its checksum says. Memory: one block file (at
 /// most 32 × [`crate::limits::MAX_EPISODES`] rows, ~8 MB), one sample's
 /// scores and the per-sample summaries (with `keep`, every episode's score
 /// and length too).
@@ -317,6 +340,7 @@ pub fn finalize_cell(
     cell_dir: &Path,
     samples: u64,
     episodes: u32,
+    max_steps: u32,
     keep: bool,
     pending: &[BlockResult],
     cell_json: impl FnOnce(&CellTotals) -> Option<String>,
@@ -382,7 +406,8 @@ pub fn finalize_cell(
         // row, then copied as it is (rwg wrote it, in the form scores.csv
         // takes) and checked against its digest.
         let path = block_path(cell_dir, b);
-        let text = std::fs::read(&path).map_err(io_err(&path))?;
+        let text = crate::limits::read_bounded(&path, crate::limits::MAX_BLOCK_BYTES)
+            .map_err(io_err(&path))?;
         let utf8 = std::str::from_utf8(&text).map_err(|e| {
             let line = 1 + text[..e.valid_up_to()]
                 .iter()
@@ -408,7 +433,7 @@ pub fn finalize_cell(
                 let row = rows
                     .next()
                     .ok_or_else(|| corrupt("file ends early".into()))?;
-                let (score, steps) = parse_row(row, sample, episode).map_err(corrupt)?;
+                let (score, steps) = parse_row(row, sample, episode, max_steps).map_err(corrupt)?;
                 buf.push(score);
                 env_steps += steps;
                 if keep {
@@ -477,6 +502,9 @@ mod tests {
     use crate::rundir::export;
     use rwg_core::sampler::EpisodeResult;
 
+    /// The time limit of the test cells (their episodes last 10 to 200 steps).
+    const LIMIT: u32 = 500;
+
     fn block(b: u64, samples: u64, episodes: u32) -> BlockResult {
         let r = block_samples(b, samples);
         let n = (r.end - r.start) as usize * episodes as usize;
@@ -501,13 +529,13 @@ mod tests {
         for b in [2, 0] {
             write_block(&dir, &block(b, samples, 2), 2).unwrap();
         }
-        let err = finalize_cell(&dir, samples, 2, false, &[], |_| None).unwrap_err();
+        let err = finalize_cell(&dir, samples, 2, LIMIT, false, &[], |_| None).unwrap_err();
         assert!(
             matches!(err, RunDirError::MissingBlock { block: 1, .. }),
             "{err}"
         );
         write_block(&dir, &block(1, samples, 2), 2).unwrap();
-        let totals = finalize_cell(&dir, samples, 2, true, &[], |t| {
+        let totals = finalize_cell(&dir, samples, 2, LIMIT, true, &[], |t| {
             Some(format!("{}", t.env_steps))
         })
         .unwrap();
@@ -580,7 +608,7 @@ mod tests {
         let p = block_path(&dir, 0);
         let text = std::fs::read_to_string(&p).unwrap().replace("1,1,", "1,7,");
         std::fs::write(&p, text).unwrap();
-        let err = finalize_cell(&dir, 3, 2, false, &[], |_| None)
+        let err = finalize_cell(&dir, 3, 2, LIMIT, false, &[], |_| None)
             .unwrap_err()
             .to_string();
         assert!(
@@ -598,10 +626,50 @@ mod tests {
             + 1;
         bytes[third + 2] = 0xff;
         std::fs::write(&p, bytes).unwrap();
-        let err = finalize_cell(&dir, 3, 2, false, &[], |_| None)
+        let err = finalize_cell(&dir, 3, 2, LIMIT, false, &[], |_| None)
             .unwrap_err()
             .to_string();
         assert!(err.contains("b0000000.csv:3: not UTF-8 text"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn rows_a_episode_cannot_have_are_refused_even_when_indexed() {
+        let dir = std::env::temp_dir().join(format!("rwg-rundir-rows-{}", std::process::id()));
+        for (from, to, want) in [
+            (
+                ",10\n",
+                ",0\n",
+                "b0000000.csv:1: 0 steps: an episode of this cell lasts 1 to 500",
+            ),
+            (",10\n", ",501\n", "b0000000.csv:1: 501 steps"),
+            (
+                "0,0,0.0,",
+                "0,0,NaN,",
+                "b0000000.csv:1: score NaN is not a finite number",
+            ),
+            (
+                "0,0,0.0,",
+                "0,0,-inf,",
+                "b0000000.csv:1: score -inf is not a finite number",
+            ),
+        ] {
+            let _ = std::fs::remove_dir_all(&dir);
+            write_block(&dir, &block(0, 3, 2), 2).unwrap();
+            // The row changed and its index line recomputed: the digest matches.
+            let p = block_path(&dir, 0);
+            let text = std::fs::read_to_string(&p).unwrap().replacen(from, to, 1);
+            std::fs::write(&p, &text).unwrap();
+            let sums = dir.join(BLOCKS).join(SUMS);
+            std::fs::remove_file(&sums).unwrap();
+            let d = checksum::hash_file(&p).unwrap();
+            append_sum(&sums, "b0000000.csv", &d).unwrap();
+            let err = finalize_cell(&dir, 3, 2, LIMIT, false, &[], |_| None)
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(want), "{from:?} -> {to:?}: {err}");
+            assert!(!cell_complete(&dir));
+        }
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -617,7 +685,7 @@ mod tests {
             .unwrap()
             .replacen(",10", ",11", 1);
         std::fs::write(&p, text).unwrap();
-        let err = finalize_cell(&dir, 3, 2, false, &[], |_| None)
+        let err = finalize_cell(&dir, 3, 2, LIMIT, false, &[], |_| None)
             .unwrap_err()
             .to_string();
         assert!(err.contains("b0000000.csv: checksum mismatch"), "{err}");
@@ -625,7 +693,7 @@ mod tests {
         // A block file the index does not list is not committed.
         std::fs::remove_file(dir.join("blocks").join(SUMS)).unwrap();
         assert!(!block_done(&dir, 0));
-        let err = finalize_cell(&dir, 3, 2, false, &[], |_| None).unwrap_err();
+        let err = finalize_cell(&dir, 3, 2, LIMIT, false, &[], |_| None).unwrap_err();
         assert!(
             matches!(err, RunDirError::MissingBlock { block: 0, .. }),
             "{err}"
@@ -662,12 +730,12 @@ mod tests {
         write_blocks(&dir, &blocks[1..3], 2).unwrap();
         let (index, dropped) = BlockIndex::load_checked(&dir).unwrap();
         assert!(dropped.is_empty() && (0..5).all(|b| index.done(b)));
-        let totals = finalize_cell(&dir, samples, 2, false, &[], |_| None).unwrap();
+        let totals = finalize_cell(&dir, samples, 2, LIMIT, false, &[], |_| None).unwrap();
         let clean = dir.with_extension("clean");
         let _ = std::fs::remove_dir_all(&clean);
         write_blocks(&clean, &blocks, 2).unwrap();
         assert_eq!(
-            finalize_cell(&clean, samples, 2, false, &[], |_| None).unwrap(),
+            finalize_cell(&clean, samples, 2, LIMIT, false, &[], |_| None).unwrap(),
             totals
         );
         for f in [SCORES_CSV, SAMPLES_CSV] {
@@ -688,12 +756,12 @@ mod tests {
         let blocks: Vec<_> = (0..5).map(|b| block(b, samples, 3)).collect();
         let (files, mixed, memory) = (base.join("f"), base.join("m"), base.join("p"));
         write_blocks(&files, &blocks, 3).unwrap();
-        let want = finalize_cell(&files, samples, 3, true, &[], |_| None).unwrap();
+        let want = finalize_cell(&files, samples, 3, LIMIT, true, &[], |_| None).unwrap();
         write_blocks(&mixed, &[blocks[1].clone(), blocks[3].clone()], 3).unwrap();
         let pending = [blocks[0].clone(), blocks[2].clone(), blocks[4].clone()];
-        let got = finalize_cell(&mixed, samples, 3, true, &pending, |_| None).unwrap();
+        let got = finalize_cell(&mixed, samples, 3, LIMIT, true, &pending, |_| None).unwrap();
         assert_eq!(got, want);
-        let got = finalize_cell(&memory, samples, 3, true, &blocks, |_| None).unwrap();
+        let got = finalize_cell(&memory, samples, 3, LIMIT, true, &blocks, |_| None).unwrap();
         assert_eq!(got, want);
         for dir in [&mixed, &memory] {
             for f in [SCORES_CSV, SAMPLES_CSV, SUMS] {
@@ -706,7 +774,15 @@ mod tests {
             assert!(!dir.join(BLOCKS).exists());
         }
         // A block neither committed nor pending is missing.
-        let err = finalize_cell(&base.join("none"), samples, 3, false, &pending, |_| None);
+        let err = finalize_cell(
+            &base.join("none"),
+            samples,
+            3,
+            LIMIT,
+            false,
+            &pending,
+            |_| None,
+        );
         assert!(
             matches!(err, Err(RunDirError::MissingBlock { block: 1, .. })),
             "{err:?}"

@@ -316,7 +316,8 @@ impl Run {
             });
         }
         let mpath = dir.join(MANIFEST);
-        let manifest = match std::fs::read_to_string(&mpath) {
+        let max = crate::limits::MAX_RESOLVED_MANIFEST_BYTES;
+        let manifest = match crate::limits::read_bounded_text(&mpath, max) {
             Ok(m) => Some(m),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
             Err(e) => return Err(io_err(&mpath)(e)),
@@ -357,6 +358,24 @@ impl Run {
                     cell.samples,
                     episodes
                 ),
+            });
+        }
+        // Rows an episode cannot have are refused whatever the checksums say.
+        let limit = cell.max_episode_steps.max(1);
+        let bad = scores
+            .iter()
+            .zip(&steps)
+            .enumerate()
+            .find_map(|(i, (&s, &st))| {
+                crate::rundir::blocks::check_episode(s, u64::from(st), limit)
+                    .err()
+                    .map(|m| (i, m))
+            });
+        if let Some((i, message)) = bad {
+            return Err(RunReadError::Csv {
+                path: spath,
+                line: i + 2,
+                message,
             });
         }
         let data = CellData::new(cell.clone(), episodes, scores, steps);

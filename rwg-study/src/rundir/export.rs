@@ -19,8 +19,10 @@ use std::path::{Path, PathBuf};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 /// A file written under `<name>.tmp` beside its target and renamed to its
-/// final name by [`AtomicFile::commit`]; dropped uncommitted, the temporary
-/// file stays behind for inspection but the final name is untouched.
+/// final name by [`AtomicFile::commit`]. Dropped uncommitted, or when the
+/// commit fails (a full disk, say), the temporary file is removed and the
+/// final name is untouched. (A process killed while writing leaves its
+/// `.tmp`; the next writer of that file removes it.)
 ///
 /// The temporary file is created exclusively (`O_CREAT | O_EXCL`, which never
 /// follows a symbolic link): a leftover `.tmp` of a killed run is removed
@@ -31,7 +33,8 @@ use std::time::{SystemTime, UNIX_EPOCH};
 pub struct AtomicFile {
     tmp: PathBuf,
     path: PathBuf,
-    out: HashingWriter<BufWriter<File>>,
+    /// `None` once committed (or given up).
+    out: Option<HashingWriter<BufWriter<File>>>,
 }
 
 /// The `.tmp` path beside `path`.
@@ -59,7 +62,7 @@ impl AtomicFile {
         Ok(AtomicFile {
             tmp,
             path: path.to_path_buf(),
-            out: HashingWriter::new(BufWriter::with_capacity(1 << 16, file)),
+            out: Some(HashingWriter::new(BufWriter::with_capacity(1 << 16, file))),
         })
     }
 
@@ -94,14 +97,31 @@ impl AtomicFile {
         self.finish(false)
     }
 
-    fn finish(self, sync: bool) -> io::Result<Digest> {
-        let (mut out, digest) = self.out.finish();
-        out.flush()?;
-        if sync {
-            out.get_ref().sync_all()?;
+    fn finish(mut self, sync: bool) -> io::Result<Digest> {
+        let (mut out, digest) = self.out.take().expect("not committed yet").finish();
+        let done = out
+            .flush()
+            .and_then(|()| match sync {
+                true => out.get_ref().sync_all(),
+                false => Ok(()),
+            })
+            .and_then(|()| std::fs::rename(&self.tmp, &self.path));
+        drop(out);
+        if done.is_err() {
+            let _ = std::fs::remove_file(&self.tmp);
         }
-        std::fs::rename(&self.tmp, &self.path)?;
-        Ok(digest)
+        done.map(|()| digest)
+    }
+}
+
+impl Drop for AtomicFile {
+    /// An uncommitted file's temporary file is removed.
+    fn drop(&mut self) {
+        if let Some(out) = self.out.take() {
+            // The buffered rest is dropped unwritten.
+            let _ = out.finish().0.into_parts();
+            let _ = std::fs::remove_file(&self.tmp);
+        }
     }
 }
 
@@ -120,12 +140,23 @@ pub fn sync_dir(path: &Path) -> io::Result<()> {
     Ok(())
 }
 
+impl AtomicFile {
+    fn writer(&mut self) -> &mut HashingWriter<BufWriter<File>> {
+        self.out
+            .as_mut()
+            .expect("an AtomicFile is written before it is committed")
+    }
+}
+
 impl Write for AtomicFile {
     fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.out.write(buf)
+        self.writer().write(buf)
+    }
+    fn write_all(&mut self, buf: &[u8]) -> io::Result<()> {
+        self.writer().write_all(buf)
     }
     fn flush(&mut self) -> io::Result<()> {
-        self.out.flush()
+        self.writer().flush()
     }
 }
 
@@ -239,6 +270,26 @@ mod tests {
     use super::*;
     use rwg_core::sampler::EpisodeResult;
     use std::time::Duration;
+
+    #[test]
+    fn an_uncommitted_or_failed_file_leaves_no_tmp() {
+        let dir = std::env::temp_dir().join(format!("rwg-atomic-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("f.csv");
+        // dropped before its commit
+        let mut f = AtomicFile::create(&p).unwrap();
+        f.write_all(b"half").unwrap();
+        assert!(tmp_path(&p).exists());
+        drop(f);
+        assert!(!tmp_path(&p).exists() && !p.exists());
+        // the rename fails: a non-empty directory holds the final name
+        std::fs::create_dir_all(p.join("x")).unwrap();
+        let err = write_atomic(&p, b"all").unwrap_err();
+        assert!(!tmp_path(&p).exists(), "{err}");
+        assert!(p.join("x").is_dir());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn rfc3339_dates() {

@@ -9,6 +9,7 @@
 //! RUN/cells/CELL/scores.csv    sample,episode,score,steps   (export, data)
 //! RUN/cells/CELL/samples.csv   sample,mean,variance,std,min,max,rank
 //! RUN/cells/CELL/cell.json     the cell's metadata (meta::CellMeta)
+//! RUN/cells/CELL/env.json      the env as the cell started (env_record)
 //! RUN/cells/CELL/SHA256SUMS    checksums of the three files above, written last (checksum)
 //! RUN/cells/CELL/blocks/SHA256SUMS  checksums of the committed blocks (checksum)
 //! RUN/stats.json, stats.csv    the run's statistics (data)
@@ -20,6 +21,7 @@
 //! - [`checksum`]: the `SHA256SUMS` index of committed files.
 //! - [`verify`]: checking a whole run against it (`rwg verify`).
 //! - [`meta`]: `run.json` / `cell.json` contents and cell directory names.
+//! - [`env_record`]: a cell's `env.json`, checked by resumes and merges.
 //! - [`blocks`]: block files, resume, and a cell's finalisation.
 //! - [`export`]: the CSV writers and atomic file replacement.
 //! - [`rows`]: the fast path for rwg's own plain numeric CSV rows.
@@ -29,6 +31,7 @@
 pub mod blocks;
 pub mod checksum;
 pub mod data;
+pub mod env_record;
 pub mod export;
 pub mod lock;
 pub mod meta;

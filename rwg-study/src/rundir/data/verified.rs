@@ -89,8 +89,31 @@ impl Run {
         }
     }
 
-    /// Reads one cell's `samples.csv` alone (checked against its checksum).
+    /// Reads one cell's `samples.csv` alone (checked against its checksum,
+    /// and every mean, min and max finite, as finite scores give).
     pub fn load_samples(&self, cell: &CellMeta) -> Result<Vec<SampleRow>, RunReadError> {
+        let path = self.cell_dir(cell).join(SAMPLES_CSV);
+        let rows = self.load_samples_unchecked(cell)?;
+        for (i, r) in rows.iter().enumerate() {
+            let s = &r.stats;
+            if let Some((what, x)) = [("mean", s.mean), ("min", s.min), ("max", s.max)]
+                .into_iter()
+                .find(|(_, x)| !x.is_finite())
+            {
+                return Err(RunReadError::Csv {
+                    path,
+                    line: i + 2,
+                    message: format!(
+                        "{what} {x} is not a finite number (a sample's statistics come from \
+                         finite episode scores)"
+                    ),
+                });
+            }
+        }
+        Ok(rows)
+    }
+
+    fn load_samples_unchecked(&self, cell: &CellMeta) -> Result<Vec<SampleRow>, RunReadError> {
         let dir = self.cell_dir(cell);
         let path = dir.join(SAMPLES_CSV);
         if self.verified {

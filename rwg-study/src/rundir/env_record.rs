@@ -1,0 +1,257 @@
+//! A cell's `env.json`: the environment as it was when the cell started
+//! (its spaces, time limit and reward threshold, and for a Gymnasium env
+//! Gymnasium's own text of its spaces and the workers' `PYTHONHASHSEED`).
+//! Every block of a cell must be computed under the same env, so a resume
+//! or a merge compares the env as it is now with this record and is refused
+//! when they differ, naming the difference (a new version of the env's
+//! package, an environment variable the env reads).
+
+use crate::rundir::export::write_atomic;
+use crate::rundir::meta::{load_json, JsonFileError};
+use crate::StudyError;
+use rwg_env::{EnvSpec, Space};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The file's name in a cell's directory.
+pub const ENV_JSON: &str = "env.json";
+
+/// The contents of `env.json`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EnvRecord {
+    /// The env's id.
+    pub env: String,
+    /// The observation space in rwg's terms (flattened): `Box(low [..], high [..])`.
+    pub observation_space: String,
+    /// The action space in rwg's terms: `Discrete(n)` or `Box(low [..], high [..])`.
+    pub action_space: String,
+    /// The time limit (`None`: none).
+    pub max_episode_steps: Option<u32>,
+    /// The env's reward threshold (`None`: none).
+    pub reward_threshold: Option<f64>,
+    /// For a Gymnasium env: what its workers reported.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gymnasium: Option<GymRecord>,
+}
+
+/// What a Gymnasium env's workers reported, in [`EnvRecord`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GymRecord {
+    /// Gymnasium's text of the observation space.
+    pub observation_space: String,
+    /// Gymnasium's text of the action space.
+    pub action_space: String,
+    /// The workers' `PYTHONHASHSEED` (rwg's default unless the user set it).
+    pub python_hash_seed: String,
+    /// Gymnasium's version (shown, not compared).
+    pub gymnasium_version: String,
+    /// Python's version (shown, not compared).
+    pub python_version: String,
+}
+
+/// A space in the record's words.
+fn space_text(s: &Space) -> String {
+    match s {
+        Space::Discrete { n } => format!("Discrete({n})"),
+        Space::Box(b) => format!("Box(low {:?}, high {:?})", b.low, b.high),
+    }
+}
+
+impl EnvRecord {
+    /// The record of an env described by `spec` (and `gymnasium`, for a
+    /// Gymnasium env).
+    pub fn new(spec: &EnvSpec, gymnasium: Option<GymRecord>) -> EnvRecord {
+        EnvRecord {
+            env: spec.id.clone(),
+            observation_space: space_text(&spec.observation_space),
+            action_space: space_text(&spec.action_space),
+            max_episode_steps: spec.max_episode_steps,
+            reward_threshold: spec.reward_threshold,
+            gymnasium,
+        }
+    }
+
+    /// What differs between this record (then) and `now`, one entry each:
+    /// `what: X then, Y now` (empty: the same env). Versions are not
+    /// compared: only what the episodes are computed under.
+    pub fn differences(&self, now: &EnvRecord) -> Vec<String> {
+        let mut out = vec![];
+        let mut differ = |what: &str, then: String, now: String| {
+            if then != now {
+                out.push(format!("{what}: {then} then, {now} now"));
+            }
+        };
+        let opt = |v: Option<String>| v.unwrap_or_else(|| "none".into());
+        if let (Some(a), Some(b)) = (&self.gymnasium, &now.gymnasium) {
+            differ(
+                "observation space",
+                a.observation_space.clone(),
+                b.observation_space.clone(),
+            );
+            differ(
+                "action space",
+                a.action_space.clone(),
+                b.action_space.clone(),
+            );
+            differ(
+                "PYTHONHASHSEED",
+                a.python_hash_seed.clone(),
+                b.python_hash_seed.clone(),
+            );
+        }
+        differ(
+            "flat observation space",
+            self.observation_space.clone(),
+            now.observation_space.clone(),
+        );
+        differ(
+            "action bounds",
+            self.action_space.clone(),
+            now.action_space.clone(),
+        );
+        differ(
+            "time limit",
+            opt(self.max_episode_steps.map(|s| format!("{s} steps"))),
+            opt(now.max_episode_steps.map(|s| format!("{s} steps"))),
+        );
+        differ(
+            "reward threshold",
+            opt(self.reward_threshold.map(|t| t.to_string())),
+            opt(now.reward_threshold.map(|t| t.to_string())),
+        );
+        out
+    }
+
+    /// Versions, for a refusal's message (`Gymnasium 1.4.0, Python 3.11.2`).
+    fn versions(&self) -> String {
+        self.gymnasium.as_ref().map_or(String::new(), |g| {
+            format!(
+                " (Gymnasium {}, Python {})",
+                g.gymnasium_version, g.python_version
+            )
+        })
+    }
+}
+
+/// Reads the record in cell directory `dir`, if there is one.
+pub fn read_record(dir: &Path) -> Result<Option<EnvRecord>, StudyError> {
+    let p = dir.join(ENV_JSON);
+    match load_json::<EnvRecord>(&p) {
+        Ok(r) => Ok(Some(r)),
+        Err(JsonFileError::Io(e)) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(JsonFileError::Io(source)) => Err(StudyError::Io {
+            context: format!("cannot read {}", p.display()),
+            source,
+        }),
+        Err(JsonFileError::Json(source)) => Err(StudyError::Json {
+            context: format!(
+                "{} is not an rwg {ENV_JSON} (the env a cell started with); delete it if \
+                 the cell holds no blocks yet, else the cell directory, to compute the cell again",
+                p.display()
+            ),
+            source,
+        }),
+    }
+}
+
+/// Writes `record` into cell directory `dir` (created if needed), atomically.
+pub fn write_record(dir: &Path, record: &EnvRecord) -> Result<(), StudyError> {
+    let p = dir.join(ENV_JSON);
+    std::fs::create_dir_all(dir)
+        .map_err(StudyError::io(format!("cannot create {}", dir.display())))?;
+    let json = serde_json::to_string_pretty(record).expect("serialisable") + "\n";
+    write_atomic(&p, json.as_bytes())
+        .map_err(StudyError::io(format!("cannot write {}", p.display())))
+}
+
+/// Checks that the record in cell directory `dir`, if any, describes the
+/// env `now` describes; `what` says what was refused and what to do ("the
+/// resume ...; ..."). `Ok(true)`: there is a record and it matches,
+/// `Ok(false)`: there is none.
+pub fn check_record(dir: &Path, now: &EnvRecord, what: &str) -> Result<bool, StudyError> {
+    let Some(then) = read_record(dir)? else {
+        return Ok(false);
+    };
+    let diffs = then.differences(now);
+    if diffs.is_empty() {
+        return Ok(true);
+    }
+    Err(StudyError::Refused(format!(
+        "{} records the env '{}' as cell {} started{}, and it is another now{}: {}; {what}",
+        dir.join(ENV_JSON).display(),
+        then.env,
+        dir.file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned()),
+        then.versions(),
+        if now.versions() == then.versions() {
+            String::new()
+        } else {
+            now.versions()
+        },
+        diffs.join("; ")
+    )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rwg_env::BoxSpace;
+
+    fn spec(high: f64, limit: Option<u32>) -> EnvSpec {
+        EnvSpec {
+            id: "gymnasium:X-v0".into(),
+            observation_space: Space::Box(BoxSpace::new(
+                vec![f64::NEG_INFINITY],
+                vec![f64::INFINITY],
+            )),
+            action_space: Space::Box(BoxSpace::symmetric(&[high])),
+            max_episode_steps: limit,
+            reward_threshold: None,
+        }
+    }
+
+    fn gym(action: &str, seed: &str) -> Option<GymRecord> {
+        Some(GymRecord {
+            observation_space: "Box(-inf, inf, (1,), float64)".into(),
+            action_space: action.into(),
+            python_hash_seed: seed.into(),
+            gymnasium_version: "1.4.0".into(),
+            python_version: "3.11.2".into(),
+        })
+    }
+
+    #[test]
+    fn a_record_round_trips_and_names_every_difference() {
+        let dir = std::env::temp_dir().join(format!("rwg-env-record-{}", std::process::id()));
+        let then = EnvRecord::new(&spec(1.0, Some(60)), gym("Box(-1.0, 1.0)", "0"));
+        assert!(
+            !check_record(&dir, &then, "refused").unwrap(),
+            "no record yet"
+        );
+        write_record(&dir, &then).unwrap();
+        assert_eq!(read_record(&dir).unwrap().as_ref(), Some(&then));
+        assert!(check_record(&dir, &then, "refused").unwrap());
+        // a new version alone is no difference
+        let mut newer = then.clone();
+        newer.gymnasium.as_mut().unwrap().gymnasium_version = "1.5.0".into();
+        assert!(check_record(&dir, &newer, "refused").unwrap());
+        let now = EnvRecord::new(&spec(100.0, None), gym("Box(-100.0, 100.0)", "7"));
+        let err = check_record(&dir, &now, "do this").unwrap_err().to_string();
+        for s in [
+            "env.json records the env 'gymnasium:X-v0'",
+            "action space: Box(-1.0, 1.0) then, Box(-100.0, 100.0) now",
+            "PYTHONHASHSEED: 0 then, 7 now",
+            "action bounds: Box(low [-1.0], high [1.0]) then, Box(low [-100.0], high [100.0]) now",
+            "time limit: 60 steps then, none now",
+            "(Gymnasium 1.4.0, Python 3.11.2)",
+            "; do this",
+        ] {
+            assert!(err.contains(s), "{s:?} missing in {err}");
+        }
+        assert!(!err.contains("observation space:"), "{err}");
+        std::fs::write(dir.join(ENV_JSON), "{").unwrap();
+        let err = read_record(&dir).unwrap_err().to_string();
+        assert!(err.contains("is not an rwg env.json"), "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
