@@ -111,6 +111,64 @@ fn workers_with_other_spaces_than_the_first_are_refused() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A reset that depends on the process (its id; Python's string hashes
+/// when the user asks for random ones) is found when a second worker starts:
+/// its checked reset differs from the first worker's.
+#[test]
+fn a_reset_that_depends_on_the_process_is_refused() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-family-pid");
+    for (env, hash_seed) in [("PidReset-v0", None), ("HashReset-v0", Some("random"))] {
+        let m = write(&dir, "m.toml", &manifest(env, "", 192));
+        let mut cmd = rwg_cmd(
+            &py,
+            &[
+                "run",
+                &m,
+                "--out",
+                dir.join(env).to_str().unwrap(),
+                "--threads",
+                "2",
+            ],
+        );
+        if let Some(v) = hash_seed {
+            cmd.env("PYTHONHASHSEED", v);
+        }
+        let err = run_err(cmd.output().unwrap());
+        assert!(err.contains("another worker process"), "{env}: {err}");
+        assert!(
+            err.contains("reset(seed=20200509) observes"),
+            "{env}: {err}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Instances of one worker whose spaces differ are refused when it starts.
+#[test]
+fn instances_of_other_spaces_in_one_worker_are_refused() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-family-mixed");
+    let m = write(&dir, "m.toml", &manifest("Mixed-v0", "", 32));
+    let run = dir.join("r");
+    let err = run_err(
+        rwg_cmd(&py, &["run", &m, "--out", run.to_str().unwrap()])
+            .output()
+            .unwrap(),
+    );
+    assert!(err.contains("m.toml:7:6"), "{err}");
+    assert!(
+        err.contains("gym.make gave instances of other spaces"),
+        "{err}"
+    );
+    assert!(
+        err.contains("Box(-100.0, 100.0, (1,), float64) (instance 1)"),
+        "{err}"
+    );
+    assert!(!run.join("cells").exists(), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The reset seed of network `n`, episode 0, of `Knob-v0`.
 fn knob_seed(n: u64) -> u64 {
     rwg_core::sampler::reset_seed(0, "rwg_family_envs:Knob-v0", n, 0)

@@ -353,6 +353,9 @@ struct Ready {
     max_episode_steps: Option<u32>,
     reward_threshold: Option<f64>,
     fresh_per_episode: bool,
+    /// The observation of `reset(seed=CHECK_SEED)`, when asked to check it.
+    #[serde(default)]
+    check_obs: Option<Vec<serde_json::Value>>,
 }
 
 /// The environment as the worker described it.
@@ -371,6 +374,10 @@ pub struct GymInfo {
     /// Whether the env's episodes depend on the instance's earlier episodes,
     /// so that every episode runs on a fresh instance.
     pub fresh_per_episode: bool,
+    /// The observation of `reset(seed)` for the seed of the determinism
+    /// check, where the worker was asked to make it: the same in every
+    /// worker process of an env, else its episodes depend on the process.
+    pub check_obs: Option<Vec<f64>>,
 }
 
 fn parse_ready(cfg: &GymConfig, r: Ready) -> Result<GymInfo, GymError> {
@@ -410,6 +417,7 @@ fn parse_ready(cfg: &GymConfig, r: Ready) -> Result<GymInfo, GymError> {
         gymnasium: r.gymnasium,
         python: r.python,
         fresh_per_episode: r.fresh_per_episode,
+        check_obs: r.check_obs.as_deref().map(floats).transpose()?,
     })
 }
 
@@ -491,6 +499,22 @@ pub fn info_differences(first: &GymInfo, other: &GymInfo) -> Vec<String> {
         threshold(a.reward_threshold),
         threshold(b.reward_threshold),
     );
+    if let (Some(x), Some(y)) = (&first.check_obs, &other.check_obs) {
+        let same = x.len() == y.len()
+            && x.iter()
+                .zip(y)
+                .all(|(p, q)| p.to_bits() == q.to_bits() || p.is_nan() && q.is_nan());
+        if !same {
+            let head = |v: &[f64]| format!("{:?}", &v[..v.len().min(4)]);
+            out.push(format!(
+                "reset(seed={CHECK_SEED}) observes {} in the first, {} in this one (the env's \
+                 reset depends on the process: its id, the time, or Python's hash() of strings \
+                 with {HASH_SEED_VAR} set to \"random\"?)",
+                head(x),
+                head(y)
+            ));
+        }
+    }
     out
 }
 
@@ -651,7 +675,9 @@ impl GymSource {
     }
 
     /// Runs blocks of a cell (see [`run_blocks_batched`]): one worker process
-    /// per thread of the current rayon pool, reused across calls.
+    /// per thread of the current rayon pool, reused across calls. Each
+    /// worker started here must describe the env as the first did, its
+    /// checked reset included ([`info_differences`]).
     pub fn run_blocks<G, X>(
         &self,
         plan: &CellPlan,
@@ -669,7 +695,7 @@ impl GymSource {
             wave,
             &self.pool,
             || {
-                GymBatch::spawn(&self.config, LANES, GROUPS, false)
+                GymBatch::spawn(&self.config, LANES, GROUPS, true)
                     .and_then(|w| w.same_as(&self.info))
                     .map_err(EnvError::from)
             },
@@ -693,7 +719,7 @@ impl GymSource {
     /// checks and replays), in a worker of its own.
     pub fn make_single(&self) -> Result<SingleLane<GymBatch>, GymError> {
         // (the config carries the probe's verdict on fresh instances)
-        let worker = GymBatch::spawn(&self.config, 1, 1, false)?.same_as(&self.info)?;
+        let worker = GymBatch::spawn(&self.config, 1, 1, true)?.same_as(&self.info)?;
         Ok(SingleLane::new(worker))
     }
 }

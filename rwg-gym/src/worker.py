@@ -161,6 +161,13 @@ def main():
                  traceback.format_exc())
     env0 = envs[0]
     obs_space, act_space = env0.observation_space, env0.action_space
+    for k, e in enumerate(envs):
+        if str(e.observation_space) != str(obs_space) or str(e.action_space) != str(act_space):
+            fail("space", f"gym.make gave instances of other spaces: observation space "
+                          f"{e.observation_space}, action space {e.action_space} (instance {k}) vs "
+                          f"{obs_space}, {act_space} (instance 0); rwg runs every episode of a cell "
+                          f"under one set of spaces, so they must not depend on the instance (on "
+                          f"counters, files or random numbers the env reads when it is made)")
 
     # --- observation space: Box flattened row-major, others through spaces.flatten
     if isinstance(obs_space, spaces.Box):
@@ -223,6 +230,8 @@ def main():
         return a.reshape(obs_dim)
 
     # --- determinism: two resets with the same seed give the same observation
+    # (and the same as in rwg's other workers: the observation goes to rwg)
+    check_obs = None
     if hello.get("check_reset"):
         s = int(hello["check_reset"])
         try:
@@ -237,6 +246,7 @@ def main():
                      f"reset(seed={s}) gave different observations on {how} "
                      f"({floats(first[:4])}... vs {floats(other[:4])}...); rwg needs "
                      f"environments whose reset(seed=s) determines the episode")
+        check_obs = floats(first)
 
     # --- history: does an episode depend on the episodes the instance ran
     # before? (Some envs keep state across reset, e.g. BipedalWalker-v3.) Then
@@ -282,6 +292,7 @@ def main():
 
     send_json(ord("R"), {
         "fresh_per_episode": fresh,
+        "check_obs": check_obs,
         "protocol": PROTOCOL,
         "gymnasium": gym.__version__,
         "python": sys.version.split()[0],

@@ -19,6 +19,10 @@ Importing this module registers them with Gymnasium, so rwg reaches them as
   (`a`: ±1, `b`: ±100, `c`: ±1), and with `a` its episode of reset seed
   `fail_seed` (a kwarg, a string: reset seeds exceed TOML's integers)
   raises at step 2, so that a run stops after its first blocks.
+- `PidReset-v0`: reset's observation depends on the process id (a process-
+  dependent reset that no hash seed fixes).
+- `Mixed-v0`: the second instance made in a process has action bounds ±100,
+  every other ±1.
 - `Stall-v0`: writes its process id into a file in the folder `marker` and
   sleeps for an hour: `where = "step"` at step 3 of the episode of reset
   seed `at_seed`, `where = "probe"` at its first step (in the probe rwg
@@ -96,6 +100,23 @@ class Split(Line):
         super().__init__(obs_dim, action)
 
 
+class PidReset(Line):
+    def reset(self, *, seed=None, options=None):
+        obs, info = super().reset(seed=seed, options=options)
+        self.x[0] += (os.getpid() % 1000) / 1000.0
+        return self.x.copy(), info
+
+
+_MADE = [0]
+
+
+class Mixed(Line):
+    def __init__(self):
+        _MADE[0] += 1
+        high = 100.0 if _MADE[0] == 2 else 1.0
+        super().__init__(2, spaces.Box(-high, high, (1,), np.float64))
+
+
 class Knob(Line):
     def __init__(self, fail_seed="0"):
         knob = os.environ.get("RWG_TEST_KNOB", "a")
@@ -145,5 +166,7 @@ gym.register("Split-v0", entry_point=Split, max_episode_steps=60)
 if os.environ.get("RWG_TEST_SPLIT_MARKER"):
     _limit = 60 if _first_process(os.environ["RWG_TEST_SPLIT_MARKER"]) else 70
     gym.register("SplitLimit-v0", entry_point=Line, max_episode_steps=_limit)
+gym.register("PidReset-v0", entry_point=PidReset, max_episode_steps=60)
+gym.register("Mixed-v0", entry_point=Mixed, max_episode_steps=60)
 gym.register("Knob-v0", entry_point=Knob, max_episode_steps=60)
 gym.register("Stall-v0", entry_point=Stall, max_episode_steps=60)
