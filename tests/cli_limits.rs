@@ -294,3 +294,41 @@ fn every_rwg_variable_is_checked_before_anything_is_created() {
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+#[test]
+fn endless_input_files_are_read_to_their_limit_only() {
+    let dir = temp_dir("limits-endless");
+    let t0 = Instant::now();
+    // a manifest that states no size and never ends
+    let out = dir.join("run");
+    let err = rwg_err(&["run", "/dev/zero", "--out", out.to_str().unwrap()]);
+    assert_eq!(
+        err.trim_end(),
+        "error: /dev/zero:1:1: the file holds more than 1048576 bytes; a manifest has at most \
+         1048576 (rwg's limit)"
+    );
+    assert!(!out.exists());
+    // an actions file
+    let err = rwg_err(&["rollout", "CartPole-v0", "--actions-file", "/dev/zero"]);
+    assert!(
+        err.starts_with(
+            "error: cannot read actions file /dev/zero: it has more than 268435456 bytes"
+        ),
+        "{err}"
+    );
+    // a run's run.json
+    let run = synthetic_run("limits-endless-run", 32, 2);
+    std::fs::remove_file(run.join("run.json")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", run.join("run.json")).unwrap();
+    let err = rwg_err(&["stats", run.to_str().unwrap()]);
+    assert!(
+        err.contains("run.json") && err.contains("more than 268435456 bytes"),
+        "{err}"
+    );
+    assert!(!err.contains("internal error"), "{err}");
+    assert!(
+        t0.elapsed() < Duration::from_secs(60),
+        "took {:?}",
+        t0.elapsed()
+    );
+}

@@ -5,6 +5,11 @@
 //! episodes, 4-unit layers) and small enough that the memory and time it
 //! implies can be borne: a value past one is an error that states the limit,
 //! never an allocation failure, a panic or a hang. The README lists them.
+//! Files are read through [`read_bounded`], which stops at the limit.
+
+use std::fs::File;
+use std::io::{self, Read};
+use std::path::Path;
 
 /// Networks per cell (`samples`, `--samples`). A run keeps one 40-byte
 /// summary per network of the running cell: 400 MB at the limit.
@@ -37,6 +42,20 @@ pub const MAX_CONFIG_BYTES: usize = 65_536;
 pub const MAX_PATH_BYTES: usize = 4096;
 /// Bytes of a manifest file.
 pub const MAX_MANIFEST_BYTES: u64 = 1 << 20;
+/// Bytes of a run directory's `manifest.toml` read as text (the resolved
+/// manifest: a manifest of [`MAX_MANIFEST_BYTES`] with every default
+/// written out).
+pub const MAX_RESOLVED_MANIFEST_BYTES: u64 = 16 << 20;
+/// Bytes of a JSON file rwg reads (`run.json`, `cell.json`, a Slurm
+/// `plan.json`): `run.json` of the largest study (every env and
+/// architecture, both bias settings) is far below.
+pub const MAX_JSON_BYTES: u64 = 256 << 20;
+/// Bytes of a block file or of a `SHA256SUMS` index (a block of 32
+/// networks at [`MAX_EPISODES`] is about 16 MB; the index of a cell at
+/// [`MAX_SAMPLES`] about 25 MB).
+pub const MAX_BLOCK_BYTES: u64 = 64 << 20;
+/// Bytes of a `rwg rollout --actions-file` (a line per step).
+pub const MAX_ACTIONS_FILE_BYTES: u64 = 256 << 20;
 /// Env steps per environment of `rwg bench envs --steps` (hours at the
 /// slowest env's rate).
 pub const MAX_BENCH_STEPS: u64 = 10_000_000_000;
@@ -47,6 +66,36 @@ pub const MAX_STEP_TIMEOUT_S: u64 = 604_800;
 pub const MAX_SEED: u64 = i64::MAX as u64;
 /// Shards of a study (`--shard K/N`: N).
 pub const MAX_SHARDS: u64 = 100_000;
+
+/// The contents of the file at `path`, reading at most `max` bytes: a
+/// longer file, or one that never ends (`/dev/zero`, a pipe), is an error
+/// (kind `FileTooLarge`) stating the limit, read no further. Its size is not
+/// trusted beforehand (a device or `/proc` file states none).
+pub fn read_bounded(path: &Path, max: u64) -> io::Result<Vec<u8>> {
+    let file = File::open(path)?;
+    let size = file.metadata().map_or(0, |m| m.len());
+    let mut bytes = Vec::with_capacity(size.min(max) as usize);
+    file.take(max.saturating_add(1)).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max {
+        return Err(io::Error::new(
+            io::ErrorKind::FileTooLarge,
+            format!(
+                "it has more than {max} bytes, the most rwg reads of such a file (rwg's limit)"
+            ),
+        ));
+    }
+    Ok(bytes)
+}
+
+/// [`read_bounded`] as UTF-8 text (an error of kind `InvalidData` if it is not).
+pub fn read_bounded_text(path: &Path, max: u64) -> io::Result<String> {
+    String::from_utf8(read_bounded(path, max)?).map_err(|e| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("byte {} is not UTF-8 text", e.utf8_error().valid_up_to()),
+        )
+    })
+}
 
 /// `Ok(v)` if `min <= v <= max`, else a message naming `key` and the range:
 /// `samples: at most 10000000 (rwg's limit), got 4294967295`.
@@ -78,6 +127,32 @@ pub fn short_enough(key: &str, s: &str, max: usize) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn reads_stop_at_the_limit() {
+        let dir = std::env::temp_dir().join(format!("rwg-limits-read-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("f");
+        std::fs::write(&p, b"12345").unwrap();
+        assert_eq!(read_bounded(&p, 5).unwrap(), b"12345");
+        let e = read_bounded(&p, 4).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::FileTooLarge);
+        assert_eq!(
+            e.to_string(),
+            "it has more than 4 bytes, the most rwg reads of such a file (rwg's limit)"
+        );
+        // a file that states no size and never ends
+        let e = read_bounded(Path::new("/dev/zero"), 1 << 16).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::FileTooLarge);
+        std::fs::write(&p, b"ab\xFFc").unwrap();
+        let e = read_bounded_text(&p, 10).unwrap_err();
+        assert_eq!(e.to_string(), "byte 2 is not UTF-8 text");
+        assert_eq!(
+            read_bounded_text(&dir.join("f"), 4).unwrap_err().kind(),
+            io::ErrorKind::InvalidData
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn messages_state_the_limit() {

@@ -264,20 +264,29 @@ impl Manifest {
             file: file.clone(),
             source,
         };
-        let size = std::fs::metadata(path).map_err(io)?.len();
-        if size > limits::MAX_MANIFEST_BYTES {
-            return Err(locate(
+        let too_large = |has: String| {
+            locate(
                 &file,
                 "",
                 0..0,
                 format!(
-                    "the file has {size} bytes; a manifest has at most {} (rwg's limit)",
+                    "the file {has} bytes; a manifest has at most {} (rwg's limit)",
                     limits::MAX_MANIFEST_BYTES
                 ),
             )
-            .into());
+        };
+        let size = std::fs::metadata(path).map_err(io)?.len();
+        if size > limits::MAX_MANIFEST_BYTES {
+            return Err(too_large(format!("has {size}")).into());
         }
-        let bytes = std::fs::read(path).map_err(io)?;
+        // the size a device or pipe states (none) is not what it holds
+        let bytes = match limits::read_bounded(path, limits::MAX_MANIFEST_BYTES) {
+            Err(e) if e.kind() == std::io::ErrorKind::FileTooLarge => {
+                let has = format!("holds more than {}", limits::MAX_MANIFEST_BYTES);
+                return Err(too_large(has).into());
+            }
+            r => r.map_err(io)?,
+        };
         let text = manifest_text::decode(&bytes).map_err(|e| {
             let valid = std::str::from_utf8(&bytes[..e.offset]).unwrap_or("");
             locate(&file, valid, e.offset..e.offset, e.message)

@@ -120,8 +120,9 @@ fn lock_file(path: &Path, dir: &Path) -> Result<File, LockError> {
         if err.kind() != std::io::ErrorKind::WouldBlock {
             return Err(io(err));
         }
+        // the holder's line (a file of rwg's own: the first few bytes)
         let mut text = String::new();
-        let _ = file.read_to_string(&mut text);
+        let _ = (&mut file).take(4096).read_to_string(&mut text);
         let holder = text.trim();
         return Err(LockError::Held {
             dir: dir.to_path_buf(),
