@@ -387,13 +387,24 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
                     lane.score += s.reward;
                     lane.steps += 1;
                     if s.terminated || s.truncated {
-                        out[lane.item] = EpisodeResult {
-                            score: lane.score,
-                            steps: lane.steps,
-                        };
                         lane.state = LaneState::Free;
-                        if run.failure.is_none() {
-                            start_next(&mut group.policy, &self.block_weights, nw, run, i, lane);
+                        match EpisodeResult::finished(lane.score, lane.steps) {
+                            Ok(r) => {
+                                out[lane.item] = r;
+                                if run.failure.is_none() {
+                                    start_next(
+                                        &mut group.policy,
+                                        &self.block_weights,
+                                        nw,
+                                        run,
+                                        i,
+                                        lane,
+                                    );
+                                }
+                            }
+                            Err(err) => {
+                                record_failure(&mut run.failure, lane.item, lane.steps, err)
+                            }
                         }
                     }
                 }

@@ -113,12 +113,14 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
                 lane.score += self.rewards[i];
                 lane.steps += 1;
                 if self.terminated[i] == 1 || self.truncated[i] == 1 {
-                    out[lane.item] = EpisodeResult {
-                        score: lane.score,
-                        steps: lane.steps,
-                    };
                     lane.active = false;
-                    self.start_next(&mut run, i, lane);
+                    match EpisodeResult::finished(lane.score, lane.steps) {
+                        Ok(r) => {
+                            out[lane.item] = r;
+                            self.start_next(&mut run, i, lane);
+                        }
+                        Err(err) => record_failure(&mut run.failure, lane.item, lane.steps, err),
+                    }
                 }
             }
             self.reset_pending(&mut run, &mut lanes);

@@ -166,6 +166,25 @@ pub struct EpisodeResult {
     pub steps: u32,
 }
 
+impl EpisodeResult {
+    /// The result of an episode that ended after `steps` steps with the
+    /// total reward `score`, or the error of a total that is not finite
+    /// (finite rewards whose sum overflows an `f64`). The sampler loops call
+    /// it once per episode, where it ends, so stepping costs nothing more.
+    #[inline]
+    pub fn finished(score: f64, steps: u32) -> Result<EpisodeResult, EnvError> {
+        if score.is_finite() {
+            Ok(EpisodeResult { score, steps })
+        } else {
+            Err(EnvError::Other(format!(
+                "the episode's total reward is {score}: its rewards are finite but their sum \
+                 overflows a 64-bit float; scale the rewards down (e.g. divide them by a \
+                 constant) so that an episode's total stays finite"
+            )))
+        }
+    }
+}
+
 /// An environment failure while sampling, with where it happened. The
 /// message includes the environment's error (which is therefore not also
 /// given as the error's `source()`, so error chains print it once).

@@ -160,12 +160,16 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
                         lane.score += s.reward;
                         lane.steps += 1;
                         if s.terminated || s.truncated {
-                            out[lane.item] = EpisodeResult {
-                                score: lane.score,
-                                steps: lane.steps,
-                            };
                             lane.active = false;
-                            self.start_next(&mut run, i, lane);
+                            match EpisodeResult::finished(lane.score, lane.steps) {
+                                Ok(r) => {
+                                    out[lane.item] = r;
+                                    self.start_next(&mut run, i, lane);
+                                }
+                                Err(err) => {
+                                    record_failure(&mut run.failure, lane.item, lane.steps, err)
+                                }
+                            }
                         }
                     }
                     Err(err) => {
@@ -232,7 +236,7 @@ pub fn run_episode<E: Environment>(
         score += s.reward;
         steps += 1;
         if s.terminated || s.truncated {
-            return Ok(EpisodeResult { score, steps });
+            return EpisodeResult::finished(score, steps).map_err(|e| (steps, e));
         }
     }
 }
@@ -481,6 +485,49 @@ mod tests {
             oks > 0 && step_errs > 0 && reset_errs > 0,
             "{oks} {step_errs} {reset_errs}"
         );
+    }
+
+    #[test]
+    fn an_overflowing_total_fails_the_episode_where_it_ends() {
+        use crate::test_envs::Toy;
+        let plan = CellPlan {
+            env_id: "Toy-v0".into(),
+            ..flaky_plan(1)
+        };
+        // Toy(5): rewards of f64::MAX in episodes whose seed % 5 == 2
+        let (mut sums, mut singles) = (0, 0);
+        for n in 0..40 {
+            let seed = reset_seed(plan.seed, "Toy-v0", n, 0);
+            if seed % 5 != 2 {
+                continue;
+            }
+            let steps = 1 + seed % 7;
+            let mut lw = LaneWorker::<_, 3>::new(|| Toy::new(5, false), &plan);
+            let mut got = [EpisodeResult {
+                score: 0.0,
+                steps: 0,
+            }];
+            let res = lw.run_block(&plan, n..n + 1, &mut got);
+            let mut w = Worker::new(Toy::new(5, false), &plan);
+            let seq = w.run_sample(&plan, n, &mut [got[0]]);
+            assert_eq!(res, seq, "sample {n}");
+            if steps == 1 {
+                assert_eq!(res, Ok(()));
+                assert_eq!(got[0].score, f64::MAX);
+                singles += 1;
+            } else {
+                let e = res.unwrap_err();
+                assert_eq!((e.sample, e.episode, e.step), (n, 0, steps as u32));
+                assert!(
+                    e.error
+                        .to_string()
+                        .starts_with("the episode's total reward is inf"),
+                    "{e}"
+                );
+                sums += 1;
+            }
+        }
+        assert!(sums > 0, "no episode overflowed ({singles} of one step)");
     }
 
     #[test]

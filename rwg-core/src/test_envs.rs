@@ -4,7 +4,8 @@ use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 
 /// A toy env: episodes of 1 + (seed % 7) steps; fails at step 2 of
 /// episodes whose seed is a multiple of `fail_every`, and at reset when
-/// it is also odd.
+/// it is also odd; rewards of `f64::MAX` (finite, but the total of two
+/// overflows) in episodes whose seed is 2 more than a multiple of it.
 #[derive(Clone)]
 pub(crate) struct Toy {
     spec: EnvSpec,
@@ -59,8 +60,9 @@ impl Environment for Toy {
         }
         obs[0] = obs[0] * 0.5 + a;
         obs[1] = obs[1] * 0.25 - a;
+        let huge = self.seed % self.fail_every == 2;
         Ok(Step {
-            reward: obs[0] - obs[1],
+            reward: if huge { f64::MAX } else { obs[0] - obs[1] },
             terminated: self.t > self.seed % 7,
             truncated: false,
         })

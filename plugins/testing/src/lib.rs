@@ -13,6 +13,7 @@
 //! | `broken/ExitInReset-v0` | calls `exit(0)` in the process's 3rd reset (config `at_reset=N`: the N-th) |
 //! | `broken/AbortInStep-v0` | calls `abort()` on step 5 of its 2nd episode |
 //! | `broken/PrintInReset-v0` | works, but prints a line to stdout on every reset |
+//! | `broken/HugeReward-v0` | rewards of 1e308: each finite, an episode's sum overflows to inf |
 //!
 //! Every one also has ABI 1.2's vector env ([`EachLane`]: its lanes are
 //! instances stepped one after another), which misbehaves the same way, so
@@ -51,11 +52,13 @@ pub enum Fault {
     AbortInStep,
     /// Prints `broken/PrintInReset-v0 says hello on stdout` on every reset.
     PrintInReset,
+    /// Rewards of 1e308: each finite, an episode's sum overflows to inf.
+    HugeReward,
 }
 
 impl Fault {
     /// Every fault, in export order.
-    pub const ALL: [Fault; 9] = [
+    pub const ALL: [Fault; 10] = [
         Fault::PanicInStep,
         Fault::NanObservation,
         Fault::NanReward,
@@ -65,6 +68,7 @@ impl Fault {
         Fault::ExitInReset,
         Fault::AbortInStep,
         Fault::PrintInReset,
+        Fault::HugeReward,
     ];
 
     /// The exported id.
@@ -79,6 +83,7 @@ impl Fault {
             Fault::ExitInReset => "broken/ExitInReset-v0",
             Fault::AbortInStep => "broken/AbortInStep-v0",
             Fault::PrintInReset => "broken/PrintInReset-v0",
+            Fault::HugeReward => "broken/HugeReward-v0",
         }
     }
 }
@@ -171,6 +176,7 @@ impl Environment for Broken {
             Fault::PanicInStep if self.t >= 3 => panic!("broken/PanicInStep-v0 panics on step 3"),
             Fault::NanObservation if self.t >= 2 => obs[0] = f64::NAN,
             Fault::NanReward if self.t >= 2 => reward = f64::NAN,
+            Fault::HugeReward => reward = 1e308,
             Fault::HiddenGlobalState => {
                 obs[0] += (GLOBAL.fetch_add(1, Ordering::Relaxed) % 2) as f64;
             }
