@@ -414,3 +414,109 @@ fn a_full_stdout_is_an_error_naming_it() {
         );
     }
 }
+
+#[test]
+fn arguments_that_are_not_utf8_or_not_directories_are_named() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = temp_dir("msg-args");
+    let m = manifest(&dir, STUDY.as_bytes());
+    // a manifest whose name is not UTF-8: the run's lock file names it
+    let odd = dir.join(std::ffi::OsStr::from_bytes(b"m\xFF.toml"));
+    std::fs::copy(&m, &odd).unwrap();
+    let out = dir.join("run-odd");
+    let o = Command::new(rwg_bin())
+        .arg("run")
+        .arg(&odd)
+        .args(["--out", out.to_str().unwrap(), "--no-report", "-q"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    // an error with such an argument on the command line (the hint looks at them)
+    let o = Command::new(rwg_bin())
+        .arg("stats")
+        .arg(dir.join(std::ffi::OsStr::from_bytes(b"no\xFFrun")))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.starts_with("error: ") && err.contains("is not a run directory"),
+        "{err}"
+    );
+    assert!(!err.contains("internal error"), "{err}");
+    // --out naming a file
+    let file = dir.join("a-file");
+    std::fs::write(&file, "precious\n").unwrap();
+    let err = rwg_err(&["run", &m, "--out", file.to_str().unwrap()]);
+    assert_eq!(
+        err.trim_end(),
+        format!(
+            "error: {}: exists and is not a directory; the run directory (--out, or `out` in \
+             the manifest) must be a directory or not exist yet",
+            file.display()
+        )
+    );
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "precious\n");
+}
+
+#[test]
+fn named_output_files_that_are_links_or_fifos_are_written_not_replaced() {
+    use std::os::unix::fs::FileTypeExt;
+    let dir = temp_dir("msg-named-out");
+    let m = manifest(&dir, STUDY.as_bytes());
+    let run = dir.join("run");
+    rwg_ok(&[
+        "run",
+        &m,
+        "--out",
+        run.to_str().unwrap(),
+        "--no-report",
+        "-q",
+    ]);
+    let export = |to: &Path| {
+        rwg_ok(&[
+            "replay",
+            run.to_str().unwrap(),
+            "--env",
+            "CartPole-v0",
+            "--arch",
+            "1HL",
+            "--sample",
+            "3",
+            "--export-weights",
+            to.to_str().unwrap(),
+        ])
+    };
+    // a symbolic link: its target is written, the link stays
+    let target = dir.join("weights.json");
+    std::fs::write(&target, "old\n").unwrap();
+    let link = dir.join("link.json");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    export(&link);
+    assert!(std::fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert!(std::fs::read_to_string(&target)
+        .unwrap()
+        .contains("\"weights\""));
+    // a FIFO (as a device would be): written into, not renamed over
+    let fifo = dir.join("fifo");
+    let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+    // SAFETY: plain calls on a path of our own; the read end is opened
+    // non-blocking first so that rwg's open for writing does not wait.
+    let fd = unsafe {
+        assert_eq!(libc::mkfifo(c.as_ptr(), 0o600), 0);
+        libc::open(c.as_ptr(), libc::O_RDONLY | libc::O_NONBLOCK)
+    };
+    assert!(fd >= 0);
+    export(&fifo);
+    assert!(std::fs::metadata(&fifo).unwrap().file_type().is_fifo());
+    let mut buf = vec![0u8; 1 << 16];
+    // SAFETY: a live buffer and our descriptor.
+    let n = unsafe { libc::read(fd, buf.as_mut_ptr().cast(), buf.len()) };
+    unsafe { libc::close(fd) };
+    assert!(n > 0, "nothing arrived through the FIFO");
+    assert!(String::from_utf8_lossy(&buf[..n as usize]).contains("\"weights\""));
+}

@@ -3,7 +3,7 @@
 // rwg's own output goes through `outln!`/`stdio::stdout()`: fd 1 carries what
 // plugins print (see `stdio::protect`), so a plain `println!` would land on stderr.
 // Its messages go through `errln!`: `eprintln!` panics when stderr is closed.
-#![deny(clippy::print_stdout)]
+#![deny(clippy::print_stdout, clippy::print_stderr)]
 
 mod cluster;
 mod cmd;
@@ -164,7 +164,11 @@ fn main() {
                 _ => error_text(&e),
             };
             errln!("error: {text}");
-            let args: Vec<String> = std::env::args().skip(2).collect();
+            // (args() would panic on an argument that is not UTF-8)
+            let args: Vec<String> = std::env::args_os()
+                .skip(2)
+                .map(|a| a.to_string_lossy().into_owned())
+                .collect();
             if let Some(h) = errors::hint(&e, &args) {
                 errln!("hint: {h}");
             }

@@ -53,3 +53,22 @@ pub fn warn_unverified(run: &Run) {
         );
     }
 }
+
+/// Writes `bytes` to a file named on the command line: atomically (a
+/// temporary file renamed over it) when it is a regular file or does not
+/// exist yet, and straight into it when it is something else (a device
+/// such as `/dev/stdout`, a FIFO), which a rename would replace. A symbolic
+/// link is followed: its target is written, the link kept.
+pub fn write_named_file(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    use anyhow::Context;
+    use std::io::Write;
+    let target = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    match std::fs::metadata(&target) {
+        Ok(m) if !m.is_file() && !m.is_dir() => std::fs::OpenOptions::new()
+            .write(true)
+            .open(&target)
+            .and_then(|mut f| f.write_all(bytes)),
+        _ => rwg_study::rundir::export::write_atomic(&target, bytes),
+    }
+    .with_context(|| format!("cannot write {}", path.display()))
+}

@@ -210,8 +210,7 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(path) = &args.export_weights {
         let _lock = crate::cmd::lock_if_inside(&args.run_dir, path)?;
         let e = export(cell, &policy, args.sample, m.episodes);
-        rwg_study::rundir::export::write_atomic(path, serde_json::to_string_pretty(&e)?.as_bytes())
-            .with_context(|| format!("cannot write {}", path.display()))?;
+        crate::cmd::write_named_file(path, serde_json::to_string_pretty(&e)?.as_bytes())?;
         crate::errln!("wrote {}", path.display());
     }
 

@@ -37,8 +37,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let figures = run_figures(&cells, ImageFormat::Svg)?;
     let html = report_html(&run, &stats, &figures);
-    rwg_study::rundir::export::write_atomic(&out, html.as_bytes())
-        .with_context(|| format!("cannot write {}", out.display()))?;
+    crate::cmd::write_named_file(&out, html.as_bytes())?;
     crate::outln!("{}", out.display());
     Ok(())
 }

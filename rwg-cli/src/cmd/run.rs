@@ -169,6 +169,13 @@ pub fn run(args: Args) -> Result<()> {
             PathBuf::from("runs").join(stem)
         }
     };
+    if out.exists() && !out.is_dir() {
+        anyhow::bail!(
+            "{}: exists and is not a directory; the run directory (--out, or `out` in the \
+             manifest) must be a directory or not exist yet",
+            out.display()
+        );
+    }
     let resume = format!(
         "rwg run {} --out {}{}",
         args.manifest.display(),

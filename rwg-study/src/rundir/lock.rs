@@ -91,9 +91,12 @@ impl RunLock {
     }
 }
 
-/// The command line of this process, for the lock file.
+/// The command line of this process, for the lock file (an argument that
+/// is not UTF-8 with U+FFFD for its bad bytes).
 fn command_line() -> String {
-    let args: Vec<String> = std::env::args().collect();
+    let args: Vec<String> = std::env::args_os()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
     args.join(" ")
 }
 

@@ -322,7 +322,7 @@ fn peer_python(args: &PeersArgs) -> Result<PathBuf> {
             v = args.venv.display()
         );
     }
-    eprintln!("creating the peer virtualenv {}", args.venv.display());
+    crate::errln!("creating the peer virtualenv {}", args.venv.display());
     let st = Command::new("python3")
         .args(["-m", "venv"])
         .arg(&args.venv)
@@ -508,7 +508,7 @@ pub fn run(args: PeersArgs) -> Result<()> {
             }
             row.update_ratio();
             let (r, g) = (&row.rwg, &row.gymnax_raw);
-            eprintln!(
+            crate::errln!(
                 "round {}/{}  {label:<32} rwg {:.3e}  gymnax-raw {:.3e}  ratio {:.2}",
                 round + 1,
                 args.rounds,
