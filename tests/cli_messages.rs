@@ -520,3 +520,48 @@ fn named_output_files_that_are_links_or_fifos_are_written_not_replaced() {
     assert!(n > 0, "nothing arrived through the FIFO");
     assert!(String::from_utf8_lossy(&buf[..n as usize]).contains("\"weights\""));
 }
+
+#[test]
+fn a_file_where_a_directory_goes_is_named_in_a_hint() {
+    let dir = temp_dir("msg-file-not-dir");
+    let m = manifest(&dir, STUDY.as_bytes());
+    let shards: Vec<String> = (0..2)
+        .map(|k| {
+            let s = dir.join(format!("s{k}"));
+            rwg_ok(&[
+                "run",
+                &m,
+                "--shard",
+                &format!("{k}/2"),
+                "--out",
+                s.to_str().unwrap(),
+                "-q",
+            ]);
+            s.to_str().unwrap().to_string()
+        })
+        .collect();
+    let file = dir.join("a-file");
+    std::fs::write(&file, "precious\n").unwrap();
+    let f = file.to_str().unwrap();
+    let hint = format!(
+        "hint: {f} is a file, not a directory: name a directory (or a path that does not exist yet)"
+    );
+    let run = dir.join("run");
+    rwg_ok(&[
+        "run",
+        &m,
+        "--out",
+        run.to_str().unwrap(),
+        "--no-report",
+        "-q",
+    ]);
+    for args in [
+        vec!["merge", &shards[0], &shards[1], "--out", f],
+        vec!["plot", run.to_str().unwrap(), "--out", f],
+    ] {
+        let err = rwg_err(&args);
+        assert!(err.starts_with("error: "), "{args:?}: {err}");
+        assert_eq!(err.lines().nth(1), Some(hint.as_str()), "{args:?}: {err}");
+    }
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "precious\n");
+}

@@ -1,15 +1,44 @@
 //! The hint under an error: when a file was not found, a "did you mean"
 //! for a path on the command line that does not exist but nearly matches
-//! one that does.
+//! one that does; when a directory could not be created, the path on the
+//! command line that is a file.
 
 use std::path::{Path, PathBuf};
 
-/// Whether some cause of `e` is a "not found" I/O error.
-fn not_found(e: &anyhow::Error) -> bool {
+/// Whether some cause of `e` is an I/O error of `kind`.
+fn io_kind(e: &anyhow::Error, kind: std::io::ErrorKind) -> bool {
     e.chain().any(|c| {
         c.downcast_ref::<std::io::Error>()
-            .is_some_and(|io| io.kind() == std::io::ErrorKind::NotFound)
+            .is_some_and(|io| io.kind() == kind)
     })
+}
+
+/// Whether some cause of `e` is a "not found" I/O error.
+fn not_found(e: &anyhow::Error) -> bool {
+    io_kind(e, std::io::ErrorKind::NotFound)
+}
+
+/// For an "already exists" error (a directory to create where a file is):
+/// the command-line arguments the error names that are files.
+fn file_not_directory(e: &anyhow::Error, args: &[String]) -> Option<String> {
+    if !io_kind(e, std::io::ErrorKind::AlreadyExists) {
+        return None;
+    }
+    let text = format!("{e:#}");
+    let hints: Vec<String> = args
+        .iter()
+        .filter(|a| !a.starts_with('-') && text.contains(a.as_str()))
+        .map(Path::new)
+        .filter(|p| p.exists() && !p.is_dir())
+        .map(|p| {
+            format!(
+                "{} is a file, not a directory: name a directory (or a path that does not \
+                 exist yet)",
+                p.display()
+            )
+        })
+        .collect();
+    (!hints.is_empty()).then(|| hints.join("\n"))
 }
 
 /// The existing entry of `missing`'s folder whose name is nearest to
@@ -47,6 +76,9 @@ pub fn nearby(missing: &Path) -> Option<PathBuf> {
 /// (`--out runs/mine`) is no typo, and "did you mean runs/quick?" for it
 /// would mislead.
 pub fn hint(e: &anyhow::Error, args: &[String]) -> Option<String> {
+    if let Some(h) = file_not_directory(e, args) {
+        return Some(h);
+    }
     if !not_found(e) {
         return None;
     }
@@ -101,6 +133,27 @@ mod tests {
             "{h}"
         );
         assert!(!h.contains(&out.display().to_string()), "{h}");
+    }
+
+    #[test]
+    fn a_file_where_a_directory_is_created() {
+        let dir = std::env::temp_dir().join(format!("rwg-hint-file-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("out");
+        std::fs::write(&file, "").unwrap();
+        let io = std::io::Error::new(std::io::ErrorKind::AlreadyExists, "File exists");
+        let e = anyhow::Error::new(io).context(format!("cannot create {}", file.display()));
+        let args = [file.display().to_string(), dir.display().to_string()];
+        assert_eq!(
+            hint(&e, &args).unwrap(),
+            format!(
+                "{} is a file, not a directory: name a directory (or a path that does not \
+                 exist yet)",
+                file.display()
+            )
+        );
+        std::fs::remove_file(&file).unwrap();
+        assert_eq!(hint(&e, &args), None);
     }
 
     #[test]
