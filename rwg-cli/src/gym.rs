@@ -50,7 +50,12 @@ pub fn config_from_args(
         let v: serde_json::Value = serde_json::from_str(k)
             .map_err(|e| anyhow::anyhow!("--kwargs: not a JSON object ({e}): {k}"))?;
         match v {
-            serde_json::Value::Object(m) => cfg.kwargs = m,
+            serde_json::Value::Object(m) => {
+                cfg.kwargs = m
+                    .into_iter()
+                    .map(|(k, v)| (k, rwg_gym::kwargs::escape(v)))
+                    .collect()
+            }
             _ => {
                 anyhow::bail!("--kwargs: expected a JSON object such as '{{\"continuous\": true}}'")
             }

@@ -24,6 +24,8 @@
 pub use rwg_worker::describe_status;
 pub use rwg_worker::protocol;
 
+pub mod kwargs;
+
 use protocol::*;
 use rwg_core::batch::{
     run_blocks_batched, BatchEnv, BatchFailure, BatchPool, LaneActions, LaneOp, LaneOutcome,
@@ -93,7 +95,8 @@ pub struct GymConfig {
     pub id: String,
     /// The Python interpreter.
     pub python: String,
-    /// Keyword arguments of `gym.make`, as JSON.
+    /// Keyword arguments of `gym.make`, as JSON with nan/inf and objects
+    /// whose only key is `"$rwg"` encoded as [`crate::kwargs`] says.
     pub kwargs: serde_json::Map<String, serde_json::Value>,
     /// The manifest's time-limit override (passed to `gym.make`).
     pub max_episode_steps: Option<u32>,
@@ -351,7 +354,8 @@ struct Ready {
     action_space: String,
     action: serde_json::Value,
     max_episode_steps: Option<u32>,
-    reward_threshold: Option<f64>,
+    /// A number, or "nan"/"inf"/"-inf" as in the bounds.
+    reward_threshold: Option<serde_json::Value>,
     fresh_per_episode: bool,
     /// The observation of `reset(seed=CHECK_SEED)`, when asked to check it.
     #[serde(default)]
@@ -374,6 +378,10 @@ pub struct GymInfo {
     /// Whether the env's episodes depend on the instance's earlier episodes,
     /// so that every episode runs on a fresh instance.
     pub fresh_per_episode: bool,
+    /// The `reward_threshold` of the env's spec as registered, also when it
+    /// is not a finite number (then `spec.reward_threshold` is `None`: no
+    /// score reaches it meaningfully, so a study needs its own `solved`).
+    pub registered_threshold: Option<f64>,
     /// The observation of `reset(seed)` for the seed of the determinism
     /// check, where the worker was asked to make it: the same in every
     /// worker process of an env, else its episodes depend on the process.
@@ -404,19 +412,24 @@ fn parse_ready(cfg: &GymConfig, r: Ready) -> Result<GymInfo, GymError> {
         }
         _ => return Err(GymError::Protocol(format!("action {}", r.action))),
     };
+    let threshold = match &r.reward_threshold {
+        None => None,
+        Some(t) => Some(floats(std::slice::from_ref(t))?[0]),
+    };
     Ok(GymInfo {
         spec: EnvSpec {
             id: cfg.rwg_id(),
             observation_space: Space::Box(BoxSpace::new(low, high)),
             action_space,
             max_episode_steps: r.max_episode_steps,
-            reward_threshold: r.reward_threshold,
+            reward_threshold: threshold.filter(|t| t.is_finite()),
         },
         observation_space: r.observation_space,
         action_space: r.action_space,
         gymnasium: r.gymnasium,
         python: r.python,
         fresh_per_episode: r.fresh_per_episode,
+        registered_threshold: threshold,
         check_obs: r.check_obs.as_deref().map(floats).transpose()?,
     })
 }

@@ -106,6 +106,28 @@ def floats(a):
     return out
 
 
+KWARG_TAG = "$rwg"
+_KWARG_FLOATS = {"nan": float("nan"), "inf": float("inf"), "-inf": float("-inf")}
+
+
+def decode_kwargs(v):
+    """gym.make's keyword arguments from the hello's JSON, which has no
+    nan/inf: an object whose only key is "$rwg" holds "nan", "inf" or "-inf"
+    (that float) or an object (the user's own object of that one key)."""
+    if isinstance(v, dict):
+        if len(v) == 1 and KWARG_TAG in v:
+            x = v[KWARG_TAG]
+            if isinstance(x, str) and x in _KWARG_FLOATS:
+                return _KWARG_FLOATS[x]
+            if isinstance(x, dict):
+                return {k: decode_kwargs(y) for k, y in x.items()}
+            fail("protocol", f"kwargs: {v!r} is not a value rwg encodes")
+        return {k: decode_kwargs(y) for k, y in v.items()}
+    if isinstance(v, list):
+        return [decode_kwargs(y) for y in v]
+    return v
+
+
 def main():
     tag, payload = read_msg()
     if tag != ord("H"):
@@ -119,6 +141,16 @@ def main():
         from gymnasium import spaces
     except ImportError as e:
         fail("python", f"{e} (Python {sys.version.split()[0]} at {sys.executable})")
+    global _REAL
+    _REAL = (int, float, np.floating, np.integer, np.bool_)
+    # A complex observation or reward cast to float (here or in Gymnasium's
+    # flatten) raises instead of dropping the imaginary part; an env's own
+    # casts are left alone.
+    import warnings
+
+    complex_warning = getattr(getattr(np, "exceptions", np), "ComplexWarning")
+    for module in ("__main__", "gymnasium.spaces.utils"):
+        warnings.filterwarnings("error", category=complex_warning, module=module)
 
     env_id = hello["env"]
     name = env_id
@@ -131,7 +163,7 @@ def main():
         except BaseException as e:  # noqa: BLE001 -- anything the import raises
             fail("import", f"cannot import module '{module}': {type(e).__name__}: {e}",
                  traceback.format_exc())
-    kwargs = dict(hello.get("kwargs") or {})
+    kwargs = {k: decode_kwargs(v) for k, v in (hello.get("kwargs") or {}).items()}
     if hello.get("max_episode_steps") is not None:
         kwargs["max_episode_steps"] = int(hello["max_episode_steps"])
     lanes = int(hello["lanes"])
@@ -185,6 +217,10 @@ def main():
                           f"(gymnasium.ObservationWrapper) to give a Box")
         boxed = False
     obs_dim = int(np.prod(flat_space.shape, dtype=np.int64))
+    if obs_dim == 0:
+        fail("space", f"observation space {obs_space} has no values; rwg's networks need at least "
+                      f"one observation value: wrap the env (gymnasium.ObservationWrapper) to give "
+                      f"some")
     max_obs = int(hello["max_obs"])
     if obs_dim > max_obs:
         hint = ("for Atari, pass kwargs = { obs_type = \"ram\" } (128 bytes of RAM)"
@@ -208,6 +244,10 @@ def main():
             fail("space", f"action space {act_space} is unbounded; rwg maps tanh outputs onto the "
                           f"bounds, so every dimension needs finite low and high: wrap the env "
                           f"(gymnasium.wrappers.RescaleAction, or an ActionWrapper) to give bounds")
+        if low.size == 0:
+            fail("space", f"action space {act_space} has no values; rwg's networks need at least "
+                          f"one action to choose: wrap the env (gymnasium.ActionWrapper) to give "
+                          f"some")
         action = {"type": "Box", "low": floats(low), "high": floats(high),
                   "shape": list(act_space.shape)}
         act_dim = int(low.size)
@@ -221,13 +261,45 @@ def main():
     spec = env0.spec
     max_steps = spec.max_episode_steps if spec is not None else None
     threshold = spec.reward_threshold if spec is not None else None
+    if threshold is not None:
+        try:
+            threshold = floats([threshold])[0]
+        except (TypeError, ValueError):
+            fail("spec", f"the env's spec registers reward_threshold = {threshold!r}, not a "
+                         f"number; register a number or None")
 
     def flat_obs(o):
-        a = np.asarray(o) if boxed else spaces.flatten(obs_space, o)
+        try:
+            a = np.asarray(o) if boxed else spaces.flatten(obs_space, o)
+        except complex_warning:
+            raise Refused(not_real("an observation with complex values",
+                                   "gymnasium.ObservationWrapper")) from None
         if a.size != obs_dim:
-            raise ObsShape(f"observation of {a.size} values (shape {np.shape(a)}) where the "
-                           f"observation space {obs_space} has {obs_dim}")
+            raise Refused(f"an observation of {a.size} values (shape {np.shape(a)}) where the "
+                          f"observation space {obs_space} has {obs_dim}")
+        if a.dtype.kind not in "biuf":
+            raise Refused(not_real(f"an observation of dtype {a.dtype} ({floats_text(a)})",
+                                   "gymnasium.ObservationWrapper"))
         return a.reshape(obs_dim)
+
+    def reset_obs(r, seed):
+        """The flat observation of `r`, what reset(seed=seed) returned."""
+        if type(r) is not tuple or len(r) != 2:
+            raise Refused(f"reset(seed={seed}) returned {describe(r)}; {OLD_RESET}")
+        try:
+            return flat_obs(r[0])
+        except Refused as e:
+            raise Refused(f"reset(seed={seed}) returned {e}") from None
+
+    def step_refusal(res, e):
+        """Why rwg refuses step()'s result `res`, where unpacking or reading it
+        raised `e` (in this frame, not in the env)."""
+        if type(res) is not tuple or len(res) != 5:
+            n = f"{len(res)} values" if type(res) is tuple else describe(res)
+            return f"step() returned {n}; {OLD_STEP}"
+        return (f"rwg cannot read what step() returned ({type(e).__name__}: {e}): terminated "
+                f"and truncated must be booleans (they are {res[2]!r} and {res[3]!r}), the "
+                f"reward a real number")
 
     # --- determinism: two resets with the same seed give the same observation
     # (and the same as in rwg's other workers: the observation goes to rwg)
@@ -235,10 +307,14 @@ def main():
     if hello.get("check_reset"):
         s = int(hello["check_reset"])
         try:
-            first = np.array(flat_obs(checked(env0.reset, seed=s)[0]), dtype=np.float64)
-            second = np.array(flat_obs(checked(envs[-1].reset, seed=s)[0]), dtype=np.float64)
-            third = np.array(flat_obs(checked(env0.reset, seed=s)[0]), dtype=np.float64)
+            first = np.array(reset_obs(checked(env0.reset, seed=s), s), dtype=np.float64)
+            second = np.array(reset_obs(checked(envs[-1].reset, seed=s), s), dtype=np.float64)
+            third = np.array(reset_obs(checked(env0.reset, seed=s), s), dtype=np.float64)
+        except Refused as e:
+            fail("api", str(e))
         except BaseException as e:  # noqa: BLE001
+            if old_api(e):
+                fail("api", old_api(e))
             fail("reset", f"reset(seed={s}) raised {type(e).__name__}: {e}", traceback.format_exc())
         for other, how in ((second, "another instance"), (third, "the same instance again")):
             if not np.array_equal(first, other, equal_nan=True):
@@ -254,14 +330,22 @@ def main():
     # worker ran which episodes before.
     def probe(env, seed, steps=200):
         rng = np.random.default_rng(seed)
-        out = [np.array(flat_obs(checked(env.reset, seed=seed)[0]), dtype=np.float64)]
+        out = [np.array(reset_obs(checked(env.reset, seed=seed), seed), dtype=np.float64)]
         for _ in range(steps):
             if act_dim:
                 a = rng.uniform(low, high).astype(act_dtype).reshape(act_shape)
             else:
                 a = start + int(rng.integers(action["n"]))
-            o, r, term, trunc, _ = checked(env.step, a)
-            out.append(np.append(np.array(flat_obs(o), dtype=np.float64), float(r)))
+            stepped = checked(env.step, a)
+            try:
+                o, r, term, trunc, _ = stepped
+                out.append(np.append(np.array(flat_obs(o), dtype=np.float64), reward_of(r)))
+            except Refused as e:
+                raise Refused(f"step() returned {e}") from None
+            except Exception as e:  # noqa: BLE001 -- unpacking or reading the result
+                if e.__traceback__.tb_next is not None:
+                    raise
+                raise Refused(step_refusal(stepped, e)) from None
             if term or trunc:
                 break
         return out
@@ -275,7 +359,11 @@ def main():
             other.close()
             probe(env0, CHECK_SEED_1)
             got = probe(env0, CHECK_SEED_2)
+        except Refused as e:
+            fail("api", str(e))
         except BaseException as e:  # noqa: BLE001
+            if old_api(e):
+                fail("api", old_api(e))
             fail("reset", f"the env raised while rwg probed it with random actions: "
                           f"{type(e).__name__}: {e}", traceback.format_exc())
         same = len(want) == len(got) and all(
@@ -304,7 +392,7 @@ def main():
         "action_space": str(act_space),
         "action": action,
         "max_episode_steps": max_steps,
-        "reward_threshold": None if threshold is None else float(threshold),
+        "reward_threshold": threshold,
     })
 
     # --- the lane marker: the lane being reset/stepped (255: none), for rwg to
@@ -370,18 +458,20 @@ def main():
             if op == 0:
                 continue
             mark[0] = base + i
+            stepped = None
             try:
                 if op == 2:
                     if act_dim:
                         a = np.array(acts[i], dtype=act_dtype).reshape(act_shape)
                     else:
                         a = acts[i] + start
-                    o, r, term, trunc, _ = steps[base + i](a)
-                    if type(o) is ndarray and o.shape == shp:
+                    stepped = steps[base + i](a)
+                    o, r, term, trunc, _ = stepped
+                    if type(o) is ndarray and o.shape == shp and o.dtype.kind in "biuf":
                         obs_out[i] = o
                     else:
                         obs_out[i] = flat_obs(o)
-                    rew[i] = float(r)
+                    rew[i] = r if type(r) is float else reward_of(r)
                     flags[i] = 1 | (2 if term else 0) | (4 if trunc else 0)
                 elif op == 1:
                     if fresh:
@@ -390,20 +480,28 @@ def main():
                         steps[base + i] = envs[base + i].step
                     at = 13 + ops_len + 8 * words * i
                     seed = int.from_bytes(inview[at:at + 8], "little")
-                    o, _ = envs[base + i].reset(seed=seed)
-                    obs_out[i] = flat_obs(o)
+                    obs_out[i] = reset_obs(envs[base + i].reset(seed=seed), seed)
                     rew[i] = 0.0
                     flags[i] = 1
                 else:
                     fail("protocol", f"unknown lane op {op}")
-            except ObsShape as e:
+            except Refused as e:
                 flags[i] = 8
                 errors = errors or []
-                errors.append({"lane": i, "message": str(e), "traceback": ""})
+                message = str(e) if op == 1 else f"step() returned {e}"
+                errors.append({"lane": i, "message": message, "traceback": ""})
             except Exception as e:  # noqa: BLE001 -- the env's own failure, reported to rwg
                 flags[i] = 8
-                what = "step" if op == 2 else "reset"
                 errors = errors or []
+                if op == 2 and stepped is not None and e.__traceback__.tb_next is None:
+                    # raised here, unpacking or reading what step() returned
+                    errors.append({"lane": i, "message": step_refusal(stepped, e),
+                                   "traceback": ""})
+                    continue
+                if old_api(e):
+                    errors.append({"lane": i, "message": old_api(e), "traceback": ""})
+                    continue
+                what = "step" if op == 2 else "reset"
                 errors.append({"lane": i, "message": f"{what} raised {type(e).__name__}: {e}",
                                "traceback": traceback.format_exc()})
         mark[0] = 255
@@ -421,8 +519,71 @@ def main():
                     out[0] = memoryview(out[0])[k:]
 
 
-class ObsShape(Exception):
-    pass
+class Refused(Exception):
+    """A value the env returned that rwg does not take (the message says why)."""
+
+
+def describe(v):
+    """A short description of a returned value: its type and shape."""
+    shape = getattr(v, "shape", None)
+    return f"a value of type {type(v).__name__}" + (f", shape {shape}" if shape is not None else "")
+
+
+def floats_text(a):
+    """The first values of array `a`, for a message."""
+    flat = list(a.reshape(-1)[:3])
+    return ", ".join(repr(x.item() if hasattr(x, "item") else x) for x in flat) + (
+        ", ..." if a.size > 3 else "")
+
+
+def not_real(what, wrapper):
+    return (f"{what}; rwg takes real numbers only (a complex value's imaginary part would be "
+            f"lost, a string is not a number): wrap the env ({wrapper}) to give real numbers")
+
+
+OLD_RESET = ("reset() must return (observation, info), as Gymnasium 0.26+ envs do (the old Gym "
+             "API returned the observation alone): update the env to the Gymnasium API, or wrap "
+             "it (shimmy's GymV21CompatibilityV0)")
+OLD_STEP = ("step() must return (observation, reward, terminated, truncated, info), as "
+            "Gymnasium 0.26+ envs do (the old Gym API returned (observation, reward, done, "
+            "info)): update the env to the Gymnasium API, or wrap it (shimmy's "
+            "GymV21CompatibilityV0)")
+
+
+def old_api(e):
+    """The message for `e`, raised where Gymnasium's own wrappers (those of
+    gym.make) unpack what the env's reset() or step() returned, when the env
+    follows the old Gym API; else None."""
+    if not isinstance(e, (ValueError, TypeError)) or "unpack" not in str(e):
+        return None
+    tb = e.__traceback__
+    while tb.tb_next is not None:
+        tb = tb.tb_next
+    code = tb.tb_frame.f_code
+    if "gymnasium" not in code.co_filename:
+        return None
+    if code.co_name == "step":
+        return f"the env's step() returned what Gymnasium cannot unpack ({e}); {OLD_STEP}"
+    if code.co_name == "reset":
+        return f"the env's reset() returned what Gymnasium cannot unpack ({e}); {OLD_RESET}"
+    return None
+
+
+_REAL = (int, float)  # and numpy's real scalar types, once numpy is imported
+
+
+def reward_of(r):
+    """The reward `r` as a float: a real number (bool, int, float, numpy's,
+    or an array of one); anything else is refused."""
+    if isinstance(r, _REAL):
+        return float(r)
+    import numpy as np
+
+    a = np.asarray(r)
+    if a.size != 1 or a.dtype.kind not in "biuf":
+        raise Refused(not_real(f"the reward {r!r} ({type(r).__name__})",
+                               "gymnasium.wrappers.TransformReward"))
+    return float(a.reshape(()))
 
 
 def _mujoco_warning(msg):

@@ -19,9 +19,7 @@ pub fn config_of(e: &EnvEntry) -> GymConfig {
         cfg.python = p.clone();
     }
     if let Some(k) = &e.kwargs {
-        if let Ok(serde_json::Value::Object(m)) = serde_json::to_value(k) {
-            cfg.kwargs = m;
-        }
+        cfg.kwargs = crate::manifest::kwargs::to_json(k);
     }
     cfg.max_episode_steps = e.max_episode_steps;
     cfg.action_dtype = e.action_dtype;
@@ -54,6 +52,21 @@ pub fn open_entry(m: &Manifest, i: usize) -> Result<GymSource, ManifestError> {
         .unwrap_or(e.id_span.clone());
         m.error_at(at, format!("{key}: {}: {err}", e.id))
     })?;
+    match src.info().registered_threshold {
+        Some(t) if !t.is_finite() && e.solved.is_none() => {
+            return Err(m.error_at(
+                e.id_span.clone(),
+                format!(
+                    "{key}: {} registers reward_threshold = {}, not a score a network can be \
+                     said to reach; set `solved = ...` in this [[envs]] entry (the mean score \
+                     that counts as solved)",
+                    e.id,
+                    if t.is_nan() { "nan".into() } else { t.to_string() }
+                ),
+            ))
+        }
+        _ => {}
+    }
     if src.info().fresh_per_episode {
         // a closed stderr is no reason to fail (eprintln! would panic)
         let _ = writeln!(

@@ -154,7 +154,7 @@ struct RawEnv {
     action_dtype: Option<Spanned<String>>,
     plugin: Option<Spanned<String>>,
     config: Option<Spanned<String>>,
-    kwargs: Option<Spanned<toml::Table>>,
+    kwargs: Option<Spanned<kwargs::RawKwargs>>,
     python: Option<Spanned<String>>,
     isolate: Option<Spanned<bool>>,
 }
@@ -548,7 +548,14 @@ impl Manifest {
                 action_dtype,
                 plugin,
                 config: e.config.as_ref().map(|c| c.get_ref().clone()),
-                kwargs: e.kwargs.as_ref().map(|k| k.get_ref().clone()),
+                kwargs: match &e.kwargs {
+                    None => None,
+                    Some(k) => Some(
+                        k.get_ref()
+                            .to_table(&format!("{key}.kwargs"))
+                            .map_err(|(span, msg)| err(span, msg))?,
+                    ),
+                },
                 python: e.python.as_ref().map(|p| {
                     let v = p.get_ref();
                     if v.contains('/') && !Path::new(v).is_absolute() {
@@ -664,6 +671,8 @@ fn unknown_field_suggestion(msg: &str) -> Option<String> {
     rwg_env::suggest::nearest(field, expected.iter().copied())
         .map(|s| format!(" (did you mean `{s}`?)"))
 }
+
+pub mod kwargs;
 
 #[cfg(test)]
 mod tests;

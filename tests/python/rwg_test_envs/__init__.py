@@ -10,6 +10,7 @@ on PYTHONPATH).
   `at_seed` (a string: reset seeds exceed TOML's integers) reaches step
   `at_step`; there it does what `mode` says: `raise` (RuntimeError in step),
   `nan` (a NaN observation), `shape` (an observation of another shape),
+  `complex` (a complex observation),
   `segfault` (reads address 0 through ctypes), `hang` (sleeps for an hour),
   `reset_raise` (raises in that episode's reset).
 - `Memory-v0`: Drift-v0 whose rewards depend on how many episodes the
@@ -74,6 +75,8 @@ class Faulty(Drift):
                 obs["pos"][1] = np.nan
             if self.mode == "shape":
                 obs = {"pos": np.zeros(5, np.float32), "phase": 0}
+            if self.mode == "complex":
+                obs["pos"] = obs["pos"] + 1j
             if self.mode == "segfault":
                 ctypes.string_at(0)
             if self.mode == "hang":
@@ -106,3 +109,73 @@ gym.register("Memory-v0", entry_point=Memory, max_episode_steps=60)
 gym.register("Drift-v0", entry_point=Drift, max_episode_steps=60, reward_threshold=50.0)
 gym.register("Faulty-v0", entry_point=Faulty, max_episode_steps=60)
 gym.register("Unseeded-v0", entry_point=Unseeded, max_episode_steps=60)
+
+
+class Odd(gym.Env):
+    """Values that must be refused where they enter rwg, one per `mode`:
+    `huge_reward` (finite rewards of 1e308, whose episode sum overflows),
+    `complex_obs` (complex observations in a float Box), `box0` (a Box(0)
+    observation space), `old_reset` (reset returns the bare observation, the
+    pre-0.26 Gym API), `old_step` (step returns the old 4-tuple), `str_obs`
+    (observations as an array of strings), `str_reward` (rewards as strings),
+    `box0_action` (a Box(0) action space), `obs_list` (observations as a plain
+    list of the right length: accepted), `int_obs` (an integer Box: accepted).
+    """
+
+    def __init__(self, mode="huge_reward"):
+        self.mode = mode
+        shape = (0,) if mode == "box0" else (3,)
+        dtype = np.int64 if mode == "int_obs" else np.float64
+        self.observation_space = spaces.Box(-5, 5, shape, dtype)
+        self.action_space = (
+            spaces.Box(-1.0, 1.0, (0,)) if mode == "box0_action" else spaces.Discrete(2)
+        )
+        self.t = 0
+        self.x = np.zeros(shape, dtype)
+
+    def _obs(self):
+        if self.mode == "complex_obs":
+            return self.x.astype(np.complex128) + 1j
+        if self.mode == "str_obs":
+            return self.x.astype(str)
+        if self.mode == "obs_list":
+            return [float(v) for v in self.x]
+        return self.x.copy()
+
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        self.x = self.np_random.integers(-2, 3, self.observation_space.shape).astype(
+            self.observation_space.dtype
+        )
+        self.t = 0
+        if self.mode == "old_reset":
+            return self._obs()
+        return self._obs(), {}
+
+    def step(self, action):
+        self.t += 1
+        reward = 1e308 if self.mode == "huge_reward" else 1.0
+        if self.mode == "str_reward":
+            reward = "1.5"
+        done = self.t >= 5
+        if self.mode == "old_step":
+            return self._obs(), reward, done, {}
+        return self._obs(), reward, done, False, {}
+
+
+class Kwargs(Drift):
+    """Drift-v0 that writes `repr(kwargs)` (sorted by key) to the file `out`,
+    so a test sees the values gym.make received."""
+
+    def __init__(self, out, **kwargs):
+        super().__init__()
+        with open(out, "w") as f:
+            f.write(repr(dict(sorted(kwargs.items()))))
+
+
+gym.register("Odd-v0", entry_point=Odd, max_episode_steps=60)
+gym.register("Kwargs-v0", entry_point=Kwargs, max_episode_steps=60)
+gym.register("NanThreshold-v0", entry_point=Drift, max_episode_steps=60,
+             reward_threshold=float("nan"))
+gym.register("InfThreshold-v0", entry_point=Drift, max_episode_steps=60,
+             reward_threshold=float("inf"))

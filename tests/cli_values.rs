@@ -1,0 +1,300 @@
+//! Values are checked where they enter rwg, end to end with the real `rwg`
+//! binary: an episode's total reward that overflows (built-in, plugin through
+//! every path, Gymnasium), Gymnasium observations that are complex, strings or
+//! of no values, the pre-0.26 Gym API, registered reward thresholds that are
+//! not finite, and manifest `kwargs` with nan/inf or a datetime. What can be
+//! refused before the run is refused before the run directory is created.
+//!
+//! The Gymnasium tests need `RWG_TEST_PYTHON` (see `cli_gym_bridge_faults.rs`).
+
+mod common;
+mod gym_bridge_common;
+use common::*;
+use gym_bridge_common::*;
+use std::path::Path;
+
+const HEAD: &str = "samples = 40\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n";
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// A manifest of one Gymnasium env entry `env` (the lines after `[[envs]]`).
+fn gym_manifest(dir: &Path, name: &str, env: &str) -> String {
+    write(dir, name, &format!("{HEAD}[[envs]]\n{env}"))
+}
+
+/// `rwg run` of `m` into `dir/out` with the test Python; requires failure
+/// and that nothing was created; returns stderr.
+fn refused_before_run(py: &str, m: &str, dir: &Path, out: &str) -> String {
+    let run = dir.join(out);
+    let err = run_err(
+        rwg_cmd(py, &["run", m, "--out", run.to_str().unwrap()])
+            .output()
+            .unwrap(),
+    );
+    assert!(!run.exists(), "{out}: a run directory was created:\n{err}");
+    assert!(!err.contains("internal error"), "{err}");
+    err
+}
+
+#[test]
+fn an_overflowing_total_reward_fails_the_episode_on_every_plugin_path() {
+    let dir = temp_dir("values-plugin-sum");
+    let m = write(
+        &dir,
+        "m.toml",
+        &format!(
+            "{HEAD}[[envs]]\nid = \"broken/HugeReward-v0\"\nplugin = \"{}\"\n",
+            broken_plugin().display()
+        ),
+    );
+    let vars: [(&str, &[(&str, &str)]); 3] = [
+        ("single", &[("RWG_PLUGIN_BATCH", "0")]),
+        ("batched", &[("RWG_PLUGIN_VEC", "0")]),
+        ("vector", &[]),
+    ];
+    for (path, env) in vars {
+        let out = dir.join(path);
+        let env: Vec<(&str, &std::ffi::OsStr)> =
+            env.iter().map(|(k, v)| (*k, v.as_ref())).collect();
+        let res = rwg_env(
+            &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
+            &env,
+        );
+        let err = text(&res.stderr);
+        assert!(!res.status.success(), "{path}: {err}");
+        // 1e308 per step: the 20-step episode's sum is inf, found where it ends
+        assert!(
+            err.contains("broken/HugeReward-v0: sample 0, episode 0, step 20: "),
+            "{path}: {err}"
+        );
+        assert!(
+            err.contains("the episode's total reward is inf"),
+            "{path}: {err}"
+        );
+        assert!(err.contains("scale the rewards"), "{path}: {err}");
+        let scores = out.join("cells/broken+HugeReward-v0__0HL__nobias/scores.csv");
+        assert!(!scores.exists(), "{path}: scores.csv written");
+    }
+    // isolated in worker processes: the batched sampler's sum
+    let iso = write(
+        &dir,
+        "iso.toml",
+        &format!(
+            "{HEAD}[[envs]]\nid = \"broken/HugeReward-v0\"\nplugin = \"{}\"\nisolate = true\n",
+            broken_plugin().display()
+        ),
+    );
+    let out = dir.join("isolated");
+    let err = rwg_err(&["run", &iso, "--out", out.to_str().unwrap(), "--no-report"]);
+    assert!(
+        err.contains("sample 0, episode 0, step 20: the episode's total reward is inf"),
+        "{err}"
+    );
+}
+
+#[test]
+fn gymnasium_an_overflowing_total_reward_fails_the_episode() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("values-gym-sum");
+    let m = gym_manifest(
+        &dir,
+        "m.toml",
+        "id = \"gymnasium:rwg_test_envs:Odd-v0\"\nkwargs = { mode = \"huge_reward\" }\n",
+    );
+    let out = dir.join("run");
+    let err = run_err(
+        rwg_cmd(&py, &["run", &m, "--out", out.to_str().unwrap()])
+            .output()
+            .unwrap(),
+    );
+    assert!(
+        err.contains(
+            "rwg_test_envs:Odd-v0: sample 0, episode 0, step 5: the episode's total reward is inf"
+        ),
+        "{err}"
+    );
+    assert!(!out
+        .join("cells/gymnasium=rwg_test_envs=Odd-v0__0HL__nobias/scores.csv")
+        .exists());
+}
+
+#[test]
+fn gymnasium_bad_observations_and_the_old_api_are_refused_before_the_run() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("values-gym-obs");
+    let cases: [(&str, &[&str]); 7] = [
+        (
+            "complex_obs",
+            &["complex128", "imaginary part", "ObservationWrapper"],
+        ),
+        ("str_obs", &["dtype <U", "real numbers"]),
+        (
+            "str_reward",
+            &["step() returned the reward '1.5' (str)", "TransformReward"],
+        ),
+        ("box0", &["has no values", "at least one"]),
+        ("box0_action", &["action space Box", "has no values"]),
+        (
+            "old_reset",
+            &["reset() must return (observation, info)", "0.26"],
+        ),
+        (
+            "old_step",
+            &[
+                "the env's step() returned what Gymnasium cannot unpack",
+                "(expected 5, got 4)",
+                "step() must return (observation, reward, terminated, truncated, info)",
+            ],
+        ),
+    ];
+    for (mode, says) in cases {
+        let m = gym_manifest(
+            &dir,
+            &format!("{mode}.toml"),
+            &format!("id = \"gymnasium:rwg_test_envs:Odd-v0\"\nkwargs = {{ mode = \"{mode}\" }}\n"),
+        );
+        let err = refused_before_run(&py, &m, &dir, mode);
+        assert!(err.contains(&format!("{mode}.toml:7:")), "{mode}: {err}");
+        assert!(err.contains("rwg_test_envs:Odd-v0"), "{mode}: {err}");
+        for s in says {
+            assert!(err.contains(s), "{mode}: {s:?} missing in:\n{err}");
+        }
+        assert!(!err.contains("Traceback"), "{mode}: {err}");
+    }
+    // accepted: a plain list, an integer Box
+    for mode in ["obs_list", "int_obs"] {
+        let m = gym_manifest(
+            &dir,
+            &format!("{mode}.toml"),
+            &format!("id = \"gymnasium:rwg_test_envs:Odd-v0\"\nkwargs = {{ mode = \"{mode}\" }}\n"),
+        );
+        let out = dir.join(mode);
+        run_ok(
+            &py,
+            &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
+        );
+    }
+}
+
+#[test]
+fn gymnasium_a_complex_observation_mid_run_fails_its_episode() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("values-gym-complex");
+    let at_seed = rwg_core::sampler::reset_seed(0, "rwg_test_envs:Faulty-v0", 3, 1);
+    let m = gym_manifest(
+        &dir,
+        "m.toml",
+        &format!(
+            "id = \"gymnasium:rwg_test_envs:Faulty-v0\"\nkwargs = {{ mode = \"complex\", \
+             at_seed = \"{at_seed}\", at_step = 4 }}\n"
+        ),
+    );
+    let out = dir.join("run");
+    // (one thread: one worker process)
+    let err = run_err(
+        rwg_cmd(
+            &py,
+            &["run", &m, "--out", out.to_str().unwrap(), "--threads", "1"],
+        )
+        .output()
+        .unwrap(),
+    );
+    assert!(
+        err.contains(
+            "rwg_test_envs:Faulty-v0: sample 3, episode 1, step 4: step() returned an \
+             observation with complex values; rwg takes real numbers only"
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn gymnasium_non_finite_reward_thresholds_need_solved() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("values-gym-threshold");
+    for (id, shown) in [("NanThreshold-v0", "nan"), ("InfThreshold-v0", "inf")] {
+        let m = gym_manifest(
+            &dir,
+            "m.toml",
+            &format!("id = \"gymnasium:rwg_test_envs:{id}\"\n"),
+        );
+        let err = refused_before_run(&py, &m, &dir, "r");
+        assert!(err.contains("m.toml:7:6"), "{id}: {err}");
+        assert!(
+            err.contains(&format!("registers reward_threshold = {shown}")),
+            "{id}: {err}"
+        );
+        assert!(err.contains("set `solved = ...`"), "{id}: {err}");
+        assert!(!err.contains("Traceback"), "{id}: {err}");
+        // the manifest's solved score stands in for it
+        let m = gym_manifest(
+            &dir,
+            "s.toml",
+            &format!("id = \"gymnasium:rwg_test_envs:{id}\"\nsolved = 30\n"),
+        );
+        let out = dir.join(format!("ok-{id}"));
+        run_ok(
+            &py,
+            &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
+        );
+        let meta = std::fs::read_to_string(out.join("run.json")).unwrap();
+        assert!(meta.contains("\"solved\": 30.0"), "{id}: {meta}");
+    }
+}
+
+#[test]
+fn gymnasium_kwargs_pass_nan_and_inf_as_floats_and_refuse_datetimes() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("values-gym-kwargs");
+    let got = dir.join("got.txt");
+    let m = gym_manifest(
+        &dir,
+        "m.toml",
+        &format!(
+            "id = \"gymnasium:rwg_test_envs:Kwargs-v0\"\nkwargs = {{ out = \"{}\", a = nan, \
+             b = inf, c = -inf, l = [1.0, -nan], t = {{ x = +inf, y = 2 }}, \
+             e = {{ \"$rwg\" = \"nan\" }} }}\n",
+            got.display()
+        ),
+    );
+    let out = dir.join("run");
+    run_ok(
+        &py,
+        &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
+    );
+    assert_eq!(
+        std::fs::read_to_string(&got).unwrap(),
+        format!(
+            "{{'a': nan, 'b': inf, 'c': -inf, 'e': {{'$rwg': 'nan'}}, 'l': [1.0, nan], \
+             't': {{'x': inf, 'y': 2}}}}"
+        )
+    );
+    // a datetime: refused at its line, the key named
+    let m = write(
+        &dir,
+        "d.toml",
+        &format!(
+            "{HEAD}[[envs]]\nid = \"gymnasium:rwg_test_envs:Kwargs-v0\"\n\n[envs.kwargs]\n\
+             out = \"{}\"\nwhen = 1979-05-27T07:32:00Z\n",
+            got.display()
+        ),
+    );
+    let err = refused_before_run(&py, &m, &dir, "d");
+    assert!(err.contains("d.toml:11:"), "{err}");
+    assert!(err.contains("envs[0].kwargs.when"), "{err}");
+    assert!(err.contains("datetime"), "{err}");
+    let m = gym_manifest(
+        &dir,
+        "n.toml",
+        &format!(
+            "id = \"gymnasium:rwg_test_envs:Kwargs-v0\"\nkwargs = {{ out = \"{}\", w = \
+             {{ at = [07:32:00] }} }}\n",
+            got.display()
+        ),
+    );
+    let err = refused_before_run(&py, &m, &dir, "n");
+    assert!(err.contains("n.toml:8:"), "{err}");
+    assert!(err.contains("envs[0].kwargs.w.at[0]"), "{err}");
+}
