@@ -282,6 +282,46 @@ fn start_up_honours_the_timeouts_and_names_the_right_variable() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// An isolated plugin whose create hangs in its worker: the create call
+/// gets --step-timeout, as in-process, and the message says so. Before,
+/// the whole start-up had max(--step-timeout, 60 s) and spoke of a reset
+/// or step.
+#[test]
+fn an_isolated_create_that_hangs_gets_the_step_timeout() {
+    let dir = temp_dir("isolate-create-hang");
+    // the first create (the one rwg makes when it plans the cells) returns
+    let lib = compile_c(
+        "isolate-create-hang",
+        "plugins/testing/c/handshake.c",
+        "hangs",
+        &["HANG_IN_CREATE_AFTER=1"],
+    );
+    let m = write(
+        &dir,
+        "m.toml",
+        &format!(
+            "samples = 40\nepisodes = 1\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
+             [[envs]]\nid = \"handshake/Ok-v0\"\nplugin = {:?}\nisolate = true\n",
+            lib.to_str().unwrap()
+        ),
+    );
+    let t0 = Instant::now();
+    let out = std::process::Command::new(rwg_bin())
+        .args(["run", &m, "--out", dir.join("r").to_str().unwrap()])
+        .args(["--step-timeout", "2"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(t0.elapsed() < Duration::from_secs(30), "{err}");
+    assert!(
+        err.contains("creating an instance (the plugin's create) did not return within 2 s"),
+        "{err}"
+    );
+    assert!(err.contains("raise --step-timeout"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// The process ids of `pid`'s children.
 #[cfg(target_os = "linux")]
 fn children(pid: u32) -> Vec<u32> {

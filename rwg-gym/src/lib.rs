@@ -33,7 +33,7 @@ use rwg_core::batch::{
 };
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError, LANES};
 use rwg_env::{ActionDtype, BoxSpace, EnvError, EnvSpec, Space};
-use rwg_worker::host::{Describe, PipeBatch};
+use rwg_worker::host::{handshake, Describe, PipeBatch, StartFailure, StartTimeouts};
 use rwg_worker::lane_file::LaneFile;
 use rwg_worker::{ProcError, Worker};
 use serde::Deserialize;
@@ -443,27 +443,21 @@ fn start(
     hello: &serde_json::Value,
     cfg: &GymConfig,
 ) -> Result<(u8, Vec<u8>), GymError> {
-    worker.send(&message(TAG_HELLO, hello.to_string().as_bytes()))?;
-    let mut buf = Vec::new();
-    let mut calling = false;
-    loop {
-        let timeout = if calling {
-            cfg.timeout
-        } else {
-            cfg.start_timeout
-        };
-        match worker.recv_message(&mut buf, timeout) {
-            Ok(TAG_PROGRESS) => calling = buf.get(5) == Some(&b'c'),
-            Ok(tag) => return Ok((tag, buf.split_off(5))),
-            Err(ProcError::Timeout { secs, stderr }) if calling => {
-                return Err(GymError::CheckTimeout { secs, stderr })
-            }
-            Err(ProcError::Timeout { secs, stderr }) => {
-                return Err(GymError::StartTimeout { secs, stderr })
-            }
-            Err(e) => return Err(e.into()),
-        }
-    }
+    let timeouts = StartTimeouts {
+        start: cfg.start_timeout,
+        call: cfg.timeout,
+    };
+    handshake(worker, hello, timeouts).map_err(|f| match f {
+        StartFailure {
+            error: ProcError::Timeout { secs, stderr },
+            in_call: true,
+        } => GymError::CheckTimeout { secs, stderr },
+        StartFailure {
+            error: ProcError::Timeout { secs, stderr },
+            in_call: false,
+        } => GymError::StartTimeout { secs, stderr },
+        StartFailure { error, .. } => error.into(),
+    })
 }
 
 /// What differs between the env as the first worker described it and as

@@ -20,10 +20,10 @@ use rwg_core::batch::{
 };
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError, LANES};
 use rwg_env::{EnvError, EnvSpec, Space};
-use rwg_worker::host::{handshake, Describe, PipeBatch};
+use rwg_worker::host::{handshake, Describe, PipeBatch, StartFailure, StartTimeouts};
 use rwg_worker::lane_file::{LaneFile, LaneMark};
 use rwg_worker::protocol::{
-    message, read_message, WorkerError, PROTOCOL, TAG_ERROR, TAG_HELLO, TAG_READY,
+    message, read_message, WorkerError, PROTOCOL, TAG_ERROR, TAG_HELLO, TAG_PROGRESS, TAG_READY,
 };
 use rwg_worker::{ProcError, Worker};
 use serde::{Deserialize, Serialize};
@@ -120,6 +120,24 @@ const DESCRIBE: Describe = Describe {
     traceback: "traceback",
 };
 
+/// A worker that did not start in time: in a create call it announced
+/// (`in_call`: the step timeout applied), or loading the plugin.
+fn start_timeout_text(secs: f64, in_call: bool, stderr: &str) -> String {
+    let tail = rwg_worker::stderr_tail_text(stderr);
+    if in_call {
+        format!(
+            "creating an instance (the plugin's create) did not return within {secs} s in its \
+             isolated worker process, which was killed; raise --step-timeout if the env is just \
+             slow{tail}"
+        )
+    } else {
+        format!(
+            "its isolated worker process did not start within {secs} s (loading the plugin \
+             library) and was killed; --step-timeout above {secs} allows more{tail}"
+        )
+    }
+}
+
 fn proc_text(e: ProcError) -> String {
     match e {
         ProcError::Died { how, stderr } => format!(
@@ -210,8 +228,23 @@ impl IsolatedPlugin {
         let mut hello = serde_json::to_value(&self.hello).expect("serialisable");
         hello["lane_file"] = lane_file.path().into();
         let timeout = self.timeout();
-        let (tag, payload) =
-            handshake(&mut worker, &hello, timeout.max(Duration::from_secs(60))).map_err(fail)?;
+        // Loading the plugin may take a while; each create call is a call
+        // into the env like a reset or step.
+        let timeouts = StartTimeouts {
+            start: timeout.max(Duration::from_secs(60)),
+            call: timeout,
+        };
+        let (tag, payload) = handshake(&mut worker, &hello, timeouts).map_err(|f| match f {
+            StartFailure {
+                error: ProcError::Timeout { secs, stderr },
+                in_call,
+            } => EnvError::Other(format!(
+                "{}: {}",
+                self.prefix,
+                start_timeout_text(secs, in_call, &stderr)
+            )),
+            StartFailure { error, .. } => fail(error),
+        })?;
         let protocol = |m: String| fail(ProcError::Protocol(m));
         match tag {
             TAG_READY => {
@@ -345,7 +378,7 @@ pub fn worker_main(input: &mut impl Read, output: &mut impl Write) -> Result<(),
     else {
         return Ok(());
     };
-    let mut fatal = |kind: &str, text: String| -> ProcError {
+    let fatal = |output: &mut dyn Write, kind: &str, text: String| -> ProcError {
         let e = WorkerError {
             kind: kind.into(),
             message: text.clone(),
@@ -358,14 +391,19 @@ pub fn worker_main(input: &mut impl Read, output: &mut impl Write) -> Result<(),
         ProcError::Protocol(text)
     };
     if tag != TAG_HELLO {
-        return Err(fatal("protocol", format!("expected hello, got tag {tag}")));
+        return Err(fatal(
+            output,
+            "protocol",
+            format!("expected hello, got tag {tag}"),
+        ));
     }
     let hello: Hello = match serde_json::from_slice(&payload) {
         Ok(h) => h,
-        Err(e) => return Err(fatal("protocol", format!("hello message: {e}"))),
+        Err(e) => return Err(fatal(output, "protocol", format!("hello message: {e}"))),
     };
     if hello.protocol != PROTOCOL {
         return Err(fatal(
+            output,
             "protocol",
             format!(
                 "protocol {} asked, this worker speaks {PROTOCOL}",
@@ -375,16 +413,18 @@ pub fn worker_main(input: &mut impl Read, output: &mut impl Write) -> Result<(),
     }
     if hello.lanes == 0 || hello.groups == 0 || hello.lanes * hello.groups > 255 {
         return Err(fatal(
+            output,
             "protocol",
             format!("{} groups of {} lanes", hello.groups, hello.lanes),
         ));
     }
     let plugin = match rwg_plugin_host::load_plugin(&hello.plugin) {
         Ok(p) => p,
-        Err(e) => return Err(fatal("load", e.to_string())),
+        Err(e) => return Err(fatal(output, "load", e.to_string())),
     };
     let Some(ty) = plugin.env(&hello.env) else {
         return Err(fatal(
+            output,
             "not_registered",
             format!(
                 "plugin {} has no env '{}'",
@@ -395,9 +435,14 @@ pub fn worker_main(input: &mut impl Read, output: &mut impl Write) -> Result<(),
     };
     let mut envs = Vec::with_capacity(hello.lanes * hello.groups);
     for _ in 0..hello.lanes * hello.groups {
+        // the host gives each create call the step timeout
+        output
+            .write_all(&message(TAG_PROGRESS, b"c"))
+            .and_then(|()| output.flush())
+            .map_err(|e| ProcError::Protocol(format!("cannot answer the host: {e}")))?;
         match ty.make(&hello.config, hello.max_episode_steps) {
             Ok(e) => envs.push(e),
-            Err(e) => return Err(fatal("make", e.to_string())),
+            Err(e) => return Err(fatal(output, "make", e.to_string())),
         }
     }
     let spec = rwg_env::Environment::spec(&envs[0]).clone();

@@ -20,17 +20,54 @@ pub struct Describe {
     pub traceback: &'static str,
 }
 
-/// Sends the hello message (`hello`, JSON) and reads the answer, within
-/// `timeout`: (tag, payload).
+/// How long a worker's start-up may take.
+#[derive(Debug, Clone, Copy)]
+pub struct StartTimeouts {
+    /// Until the worker's answer, or its next progress message, while it
+    /// is not in a call into the env (loading, making instances).
+    pub start: Duration,
+    /// From the worker's announcement of a call into the env (a progress
+    /// message `c`: a create, reset or step) until its next message.
+    pub call: Duration,
+}
+
+/// A start-up that failed: the error, and whether it came while the worker
+/// was in a call into the env it had announced (so the call timeout applied).
+#[derive(Debug)]
+pub struct StartFailure {
+    /// What happened.
+    pub error: ProcError,
+    /// Whether the worker was in an announced call.
+    pub in_call: bool,
+}
+
+/// Sends the hello message (`hello`, JSON) and reads the answer (tag,
+/// payload), passing over the worker's progress messages
+/// ([`TAG_PROGRESS`]): each `c` gives the next message `timeouts.call`,
+/// anything else `timeouts.start`.
 pub fn handshake(
     worker: &mut Worker,
     hello: &serde_json::Value,
-    timeout: Duration,
-) -> Result<(u8, Vec<u8>), ProcError> {
-    worker.send(&message(TAG_HELLO, hello.to_string().as_bytes()))?;
+    timeouts: StartTimeouts,
+) -> Result<(u8, Vec<u8>), StartFailure> {
+    let mut in_call = false;
+    let fail = |error, in_call| StartFailure { error, in_call };
+    worker
+        .send(&message(TAG_HELLO, hello.to_string().as_bytes()))
+        .map_err(|e| fail(e, false))?;
     let mut buf = Vec::new();
-    let tag = worker.recv_message(&mut buf, timeout)?;
-    Ok((tag, buf.split_off(5)))
+    loop {
+        let timeout = if in_call {
+            timeouts.call
+        } else {
+            timeouts.start
+        };
+        match worker.recv_message(&mut buf, timeout) {
+            Ok(TAG_PROGRESS) => in_call = buf.get(5) == Some(&b'c'),
+            Ok(tag) => return Ok((tag, buf.split_off(5))),
+            Err(e) => return Err(fail(e, in_call)),
+        }
+    }
 }
 
 /// A started worker hosting `groups × lanes` instances of one environment,

@@ -23,6 +23,8 @@
  * 0", usually a field left unset: rwg check warns).
  * PRINTF_IN_STEP makes step printf a line to stdout (a valid plugin that
  * talks: its output must never reach rwg's own stdout).
+ * HANG_IN_CREATE_AFTER=N makes every create after the process's N-th
+ * sleep for ever (a create that hangs, for the timeouts of isolation).
  *
  * The tests in ../tests/c_plugins.rs compile each variant with cc.
  */
@@ -31,6 +33,11 @@
 #include <stdlib.h>
 
 #include "rwg_plugin.h"
+
+#ifdef HANG_IN_CREATE_AFTER
+#include <unistd.h>
+static int creates_so_far = 0;
+#endif
 
 struct rwg_env {
     int started;
@@ -42,6 +49,10 @@ static rwg_status_t create(uint32_t i, const char *config, rwg_env_t **out, char
     (void)config;
     (void)err;
     (void)err_len;
+#ifdef HANG_IN_CREATE_AFTER
+    if (++creates_so_far > HANG_IN_CREATE_AFTER)
+        for (;;) pause();
+#endif
     *out = calloc(1, sizeof **out);
     return *out ? RWG_OK : RWG_ERR_INTERNAL;
 }
