@@ -1,0 +1,36 @@
+"""rwg from Python: run Random Weight Guessing studies with the ``rwg`` binary
+this package ships with, and read their run directories into numpy and pandas.
+
+    import rwg
+
+    run = rwg.run("examples/quick.toml", out="runs/quick-py", samples=100)
+    print(run.stats[["env", "arch", "bias", "best_mean", "p_solved"]])
+    scores = run.scores("CartPole-v0", "0HL")   # networks x episodes
+
+See docs/python.md in the repository for the whole API.
+"""
+
+from ._binary import find_rwg_bin
+from ._rundir import Run, load
+from ._runner import run
+from .errors import (
+    NotARunError,
+    RunDamagedError,
+    RunError,
+    RunInProgressError,
+    RwgFailedError,
+    RwgNotFoundError,
+)
+
+__all__ = [
+    "load",
+    "run",
+    "Run",
+    "find_rwg_bin",
+    "RunError",
+    "NotARunError",
+    "RunInProgressError",
+    "RunDamagedError",
+    "RwgFailedError",
+    "RwgNotFoundError",
+]

@@ -1,0 +1,56 @@
+"""Finding the ``rwg`` binary the wheel installs."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+import sysconfig
+
+from .errors import RwgNotFoundError
+
+#: Environment variable naming the ``rwg`` binary to use (first choice).
+BIN_VAR = "RWG_BIN"
+
+
+def _user_scheme() -> str:
+    if sys.version_info >= (3, 10):
+        return sysconfig.get_preferred_scheme("user")
+    return "nt_user" if os.name == "nt" else "posix_user"
+
+
+def find_rwg_bin() -> str:
+    """The path of the ``rwg`` binary: ``$RWG_BIN`` if set, else the one in
+    this Python environment's scripts folder (where ``pip install`` puts the
+    wheel's binary), else in the user scheme's scripts folder (``pip install
+    --user``), else ``bin/`` beside the package (``pip install --target``),
+    else ``rwg`` on PATH. Raises :class:`RwgNotFoundError` naming the places
+    searched."""
+    env = os.environ.get(BIN_VAR)
+    if env:
+        if not os.path.isfile(env):
+            raise RwgNotFoundError(
+                f"{BIN_VAR}={env}: no such file; point {BIN_VAR} at an rwg binary "
+                "(e.g. target/release/rwg) or unset it"
+            )
+        return env
+    exe = "rwg" + (sysconfig.get_config_var("EXE") or "")
+    candidates = [os.path.join(sysconfig.get_path("scripts"), exe)]
+    try:
+        candidates.append(os.path.join(sysconfig.get_path("scripts", scheme=_user_scheme()), exe))
+    except KeyError:
+        pass
+    pkg_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    candidates.append(os.path.join(pkg_root, "bin", exe))
+    for c in candidates:
+        if os.path.isfile(c):
+            return c
+    on_path = shutil.which(exe)
+    if on_path:
+        return on_path
+    raise RwgNotFoundError(
+        "cannot find the rwg binary: not in "
+        + ", ".join(candidates)
+        + f", nor on PATH; install the rwg wheel (pip install rwg-*.whl, or pip install . "
+        f"in a clone), or set {BIN_VAR} to the binary"
+    )

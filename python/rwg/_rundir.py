@@ -1,0 +1,295 @@
+"""Reading a finished run directory: ``rwg.load`` and :class:`Run`."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import subprocess
+import sys
+import warnings
+from typing import Any, Dict, List
+
+import numpy as np
+import pandas as pd
+
+from . import _verify
+from ._binary import find_rwg_bin
+from .errors import (
+    NotARunError,
+    RunDamagedError,
+    RunError,
+    RunInProgressError,
+    RwgNotFoundError,
+)
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - exercised on Python < 3.11 only
+    import tomli as tomllib
+
+#: The run format with checksums (``"format"`` in ``run.json``).
+RUN_FORMAT = 2
+SCORES_HEADER = ["sample", "episode", "score", "steps"]
+SAMPLES_HEADER = ["sample", "mean", "variance", "std", "min", "max", "rank"]
+_TEXT_COLUMNS = ["dir", "env", "arch", "hidden", "bias"]
+# Every float as rwg wrote it (shortest round-trip form): pandas 3 parses
+# exactly by default (and deprecates the option); earlier versions need it.
+_EXACT = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
+
+
+def load(run_dir: "str | os.PathLike[str]", verify: bool = True) -> "Run":
+    """Opens the finished run in ``run_dir`` (as written by ``rwg run`` or
+    ``rwg merge``).
+
+    With ``verify`` (the default) every file of the run is first checked
+    against its recorded SHA-256, as ``rwg verify`` does. Raises
+    :class:`NotARunError` for a directory that is not a run (or is a shard),
+    :class:`RunDamagedError` for files that do not match their checksums,
+    :class:`RunInProgressError` for a study not finished yet (``K of N cells``).
+    """
+    return Run(run_dir, verify=verify)
+
+
+def _read_json(path: str) -> Any:
+    try:
+        with open(path, "rb") as f:
+            return json.load(f)
+    except (OSError, ValueError) as e:
+        raise RunDamagedError(f"{path}: cannot be read: {e}", [f"{path}: {e}"]) from e
+
+
+class Run:
+    """A finished rwg run directory (see ``rwg.load``).
+
+    Attributes:
+        path: the run directory.
+        meta: ``run.json`` as a dict (version, seed, samples, episodes,
+            weights, threads, times, env steps, ``cells``).
+        cells: the cells of ``run.json``, one dict each (``dir``, ``env``,
+            ``arch``, ``hidden``, ``bias``, ``n_weights``, ``solved``,
+            ``samples``, ``episodes``, ...), in the order they ran.
+        manifest: the run's ``manifest.toml`` (the resolved study) as a dict.
+        stats: ``stats.csv`` as a pandas DataFrame, one row per cell (computed
+            by ``rwg stats`` when the run was made with ``--no-report``).
+    """
+
+    def __init__(self, run_dir: "str | os.PathLike[str]", verify: bool = True):
+        self.path = os.fspath(run_dir)
+        path = self.path
+        run_json = os.path.join(path, "run.json")
+        if not os.path.isdir(path):
+            raise NotARunError(
+                f"{path}: no such directory; give the run directory rwg run wrote "
+                "(its --out, e.g. runs/quick)"
+            )
+        if not os.path.isfile(run_json):
+            raise NotARunError(
+                f"{path}: not an rwg run directory (no run.json in it); give the directory "
+                "rwg run wrote (its --out, e.g. runs/quick)"
+            )
+        self.meta: Dict[str, Any] = _read_json(run_json)
+        if not isinstance(self.meta, dict) or not isinstance(self.meta.get("cells"), list):
+            raise NotARunError(f"{run_json}: not an rwg run.json (no list of cells in it)")
+        shard = self.meta.get("shard")
+        if shard:
+            raise NotARunError(
+                f"{path}: shard {shard.get('index')}/{shard.get('count')} of a study, not a whole "
+                "run; combine the shards with `rwg merge SHARD_DIR... --out DIR` and load DIR"
+            )
+        manifest_path = os.path.join(path, "manifest.toml")
+        try:
+            with open(manifest_path, "rb") as f:
+                self.manifest: Dict[str, Any] = tomllib.load(f)
+        except (OSError, tomllib.TOMLDecodeError) as e:
+            raise RunDamagedError(
+                f"{manifest_path}: cannot be read: {e}", [f"{manifest_path}: {e}"]
+            ) from e
+        self.cells: List[Dict[str, Any]] = list(self.meta["cells"])
+        for c in self.cells:
+            d = c.get("dir") if isinstance(c, dict) else None
+            if not isinstance(d, str) or d in ("", ".", "..") or "/" in d or "\\" in d:
+                raise RunDamagedError(
+                    f"{run_json}: a cell's dir {d!r} is not a cell directory name",
+                    [f"{run_json}: cell dir {d!r}"],
+                )
+        self._verified = self.meta.get("format", 1) >= RUN_FORMAT
+        if not self._verified:
+            warnings.warn(
+                f"{path}: run format {self.meta.get('format', 1)}: written by an older rwg "
+                "without checksums, so nothing in it can be verified",
+                stacklevel=3,
+            )
+        elif verify:
+            self._verify_all()
+        total = self._cells_total()
+        done = len(self.cells)
+        if done < total or self.meta.get("end_time") is None:
+            raise RunInProgressError(
+                f"{path}: run in progress: {done} of {total} cells finished (rwg run is "
+                f"still writing it, or it stopped: `rwg status {path}` tells; "
+                f"`rwg run {os.path.join(path, 'manifest.toml')} --out {path}` resumes it)",
+                done,
+                total,
+            )
+        self.stats: pd.DataFrame = self._read_stats()
+
+    def _cells_total(self) -> int:
+        m = self.manifest
+        return len(m.get("envs", [])) * len(m.get("architectures", [])) * len(m.get("bias", [False]))
+
+    def _verify_all(self) -> None:
+        problems: List[str] = []
+        cells_dir = os.path.join(self.path, "cells")
+        listed = {c["dir"] for c in self.cells}
+        try:
+            names = sorted(n for n in os.listdir(cells_dir) if os.path.isdir(os.path.join(cells_dir, n)))
+        except FileNotFoundError:
+            names = []
+        except OSError as e:
+            raise RunDamagedError(f"cannot read {cells_dir}: {e}", [f"{cells_dir}: {e}"]) from e
+        for d in sorted(listed - set(names)):
+            problems.append(
+                f"{os.path.join(cells_dir, d, _verify.SUMS)}: missing: run.json lists cell {d} "
+                "as finished"
+            )
+        for name in names:
+            cdir = os.path.join(cells_dir, name)
+            if name in listed:
+                problems.extend(_verify.verify_cell_files(cdir))
+            problems.extend(_verify.verify_blocks(cdir))
+        if problems:
+            raise RunDamagedError(
+                f"{self.path}: {len(problems)} problem(s) with the run's files "
+                "(`rwg verify` lists the same):\n  " + "\n  ".join(problems),
+                problems,
+            )
+
+    def _read_stats(self) -> pd.DataFrame:
+        stats_csv = os.path.join(self.path, "stats.csv")
+        if os.path.isfile(stats_csv):
+            with open(stats_csv, "rb") as f:
+                return _stats_frame(f.read(), stats_csv)
+        try:
+            rwg = find_rwg_bin()
+        except RwgNotFoundError as e:
+            raise RunError(
+                f"{stats_csv}: missing (the run was made with --no-report), and rwg cannot be "
+                f"found to compute it: {e}. Run `rwg stats {self.path}` to write it."
+            ) from e
+        res = subprocess.run(
+            [rwg, "stats", self.path, "--format", "csv", "--no-write"],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+        )
+        if res.returncode != 0:
+            raise RunError(
+                f"{stats_csv}: missing (the run was made with --no-report), and "
+                f"`rwg stats {self.path} --format csv --no-write` failed: "
+                + res.stderr.decode("utf-8", "replace").strip()
+            )
+        return _stats_frame(res.stdout, f"`rwg stats {self.path} --format csv`")
+
+    def cell(self, env: str, arch: str, bias: bool = False) -> Dict[str, Any]:
+        """The ``run.json`` entry of the cell (env, architecture, bias); a
+        ``KeyError`` lists the run's cells when there is none."""
+        for c in self.cells:
+            if c["env"] == env and c["arch"] == arch and bool(c["bias"]) == bool(bias):
+                return c
+        have = ", ".join(f"({c['env']!r}, {c['arch']!r}, bias={c['bias']})" for c in self.cells)
+        raise KeyError(f"{self.path}: no cell ({env!r}, {arch!r}, bias={bias}); the run has {have}")
+
+    def _cell_file(self, cell: Dict[str, Any], name: str) -> "tuple[str, bytes]":
+        cdir = os.path.join(self.path, "cells", cell["dir"])
+        path = os.path.join(cdir, name)
+        try:
+            with open(path, "rb") as f:
+                data = f.read()
+        except OSError as e:
+            raise RunDamagedError(f"cannot read {path}: {e}", [f"{path}: {e}"]) from e
+        if self._verified:
+            try:
+                sums = _verify.read_sums(os.path.join(cdir, _verify.SUMS), strict=True)
+            except _verify.SumsError as e:
+                raise RunDamagedError(str(e), [str(e)]) from e
+            want = (sums or {}).get(name)
+            if want is None:
+                msg = f"{path}: not listed in {os.path.join(cdir, _verify.SUMS)}, so it cannot be verified"
+                raise RunDamagedError(msg, [msg])
+            got = _verify.sha256_hex(data)
+            if got != want:
+                msg = _verify.mismatch(path, want, got)
+                raise RunDamagedError(msg, [msg])
+        return path, data
+
+    def scores(self, env: str, arch: str, bias: bool = False) -> np.ndarray:
+        """The cell's episode scores (``scores.csv``) as a float64 array of
+        shape (networks, episodes): row ``n`` holds network ``n``'s scores in
+        episode order."""
+        c = self.cell(env, arch, bias)
+        path, data = self._cell_file(c, "scores.csv")
+        df = _read_csv(data, path, SCORES_HEADER, {"sample": np.int64, "episode": np.int64, "score": np.float64, "steps": np.int64})
+        n, e = int(c["samples"]), int(c["episodes"])
+        want_sample = np.repeat(np.arange(n, dtype=np.int64), e)
+        want_episode = np.tile(np.arange(e, dtype=np.int64), n)
+        if len(df) != n * e or not (
+            np.array_equal(df["sample"].to_numpy(), want_sample)
+            and np.array_equal(df["episode"].to_numpy(), want_episode)
+        ):
+            msg = (
+                f"{path}: {len(df)} rows, not the {n} networks x {e} episodes in order that "
+                "run.json records for the cell"
+            )
+            raise RunDamagedError(msg, [msg])
+        return df["score"].to_numpy(dtype=np.float64).reshape(n, e)
+
+    def samples(self, env: str, arch: str, bias: bool = False) -> pd.DataFrame:
+        """The cell's per-network statistics (``samples.csv``): a DataFrame
+        indexed by ``sample`` with columns ``mean``, ``variance``, ``std``,
+        ``min``, ``max`` and ``rank`` (0 = the worst mean)."""
+        c = self.cell(env, arch, bias)
+        path, data = self._cell_file(c, "samples.csv")
+        types = {k: np.float64 for k in SAMPLES_HEADER}
+        types.update(sample=np.int64, rank=np.int64)
+        df = _read_csv(data, path, SAMPLES_HEADER, types)
+        n = int(c["samples"])
+        if len(df) != n or not np.array_equal(df["sample"].to_numpy(), np.arange(n)):
+            msg = f"{path}: {len(df)} rows, not networks 0 to {n - 1} in order as run.json records"
+            raise RunDamagedError(msg, [msg])
+        return df.set_index("sample")
+
+    def __repr__(self) -> str:
+        return (
+            f"<rwg.Run {self.path!r}: {len(self.cells)} cells, {self.meta.get('samples')} networks "
+            f"x {self.meta.get('episodes')} episodes, seed {self.meta.get('seed')}>"
+        )
+
+
+def _read_csv(data: bytes, path: str, header: List[str], types: Dict[str, Any]) -> pd.DataFrame:
+    first = data.split(b"\n", 1)[0].decode("utf-8", "replace").strip()
+    if first.split(",") != header:
+        msg = f"{path}:1: header {first!r}, expected {','.join(header)!r}"
+        raise RunDamagedError(msg, [msg])
+    try:
+        return pd.read_csv(io.BytesIO(data), dtype=types, **_EXACT)
+    except (ValueError, pd.errors.ParserError) as e:
+        raise RunDamagedError(f"{path}: {e}", [f"{path}: {e}"]) from e
+
+
+def _stats_frame(data: bytes, source: str) -> pd.DataFrame:
+    try:
+        df = pd.read_csv(
+            io.BytesIO(data),
+            dtype={c: str for c in _TEXT_COLUMNS},
+            keep_default_na=False,
+            na_values=[""],
+            **_EXACT,
+        )
+    except (ValueError, pd.errors.ParserError) as e:
+        raise RunError(f"{source}: cannot be read as stats.csv: {e}") from e
+    for c in _TEXT_COLUMNS:
+        if c in df:
+            df[c] = df[c].fillna("")
+    if "bias" in df:
+        df["bias"] = df["bias"].map({"true": True, "false": False}).astype(bool)
+    return df

@@ -1,0 +1,230 @@
+"""``rwg.run``: a study run by the ``rwg`` binary, from Python."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+from typing import IO, Any, List, Mapping, Optional, Union
+
+from . import _toml
+from ._binary import find_rwg_bin
+from ._rundir import Run, load, tomllib
+from .errors import RwgFailedError
+
+#: The overrides ``run`` takes, and the ``rwg run`` flag each becomes
+#: (``True`` for the flags without a value).
+VALUE_FLAGS = {
+    "samples": "--samples",
+    "episodes": "--episodes",
+    "seed": "--seed",
+    "threads": "--threads",
+    "step_timeout": "--step-timeout",
+}
+SWITCHES = {
+    "force_new": "--force-new",
+    "isolate": "--isolate",
+    "no_report": "--no-report",
+    "quiet": "--quiet",
+    "timing": "--timing",
+}
+#: Lines of rwg's stderr given in the exception when it has no ``error:`` line.
+_TAIL = 40
+
+
+def run(
+    manifest: Union[str, "os.PathLike[str]", Mapping[str, Any]],
+    out: Optional[Union[str, "os.PathLike[str]"]] = None,
+    **overrides: Any,
+) -> Run:
+    """Runs the study ``manifest`` with the ``rwg`` binary and returns the
+    finished :class:`Run`.
+
+    ``manifest`` is the path of a TOML manifest, or the manifest as a dict
+    (written as TOML for rwg; relative ``plugin`` and ``python`` paths in it
+    are taken from the current directory). ``out`` is the run directory
+    (default: the manifest's ``out``, else ``runs/NAME`` for ``NAME.toml``; a
+    dict needs one of them). ``overrides`` are ``rwg run``'s options:
+    ``samples``, ``episodes``, ``seed``, ``threads``, ``step_timeout`` take a
+    value; ``force_new``, ``isolate``, ``no_report``, ``quiet``, ``timing``
+    are switches (``True`` to give them).
+
+    rwg's progress goes to ``sys.stderr`` and its summary to ``sys.stdout``.
+    A directory holding the unfinished study is resumed. ``gymnasium:`` envs
+    run in this interpreter (``RWG_PYTHON`` is set to ``sys.executable``
+    unless it is set already; a manifest's ``python`` wins over both).
+    Ctrl-C (SIGINT) stops rwg as in a shell: it finishes the blocks in flight,
+    keeps every committed block, and ``KeyboardInterrupt`` is raised once it
+    has exited; calling ``run`` again resumes. A failure raises
+    :class:`RwgFailedError` with rwg's message.
+    """
+    flags = _flags(overrides)
+    rwg = find_rwg_bin()
+    with tempfile.TemporaryDirectory(prefix="rwg-manifest-") as tmp:
+        manifest_text: Optional[str] = None
+        if isinstance(manifest, Mapping):
+            doc = _absolute_paths(manifest)
+            if out is None:
+                if not isinstance(doc.get("out"), str):
+                    raise ValueError(
+                        "rwg.run: a manifest given as a dict needs a run directory: "
+                        "pass out=... or give the dict an 'out' key"
+                    )
+                out = doc["out"]
+            manifest_text = _toml.dumps(doc)
+            # named after the run directory, as rwg's messages name the file
+            name = os.path.basename(os.path.normpath(os.fspath(out))) or "study"
+            path = os.path.join(tmp, name + ".toml")
+            with open(path, "w", encoding="utf-8") as f:
+                f.write(manifest_text)
+        else:
+            path = os.fspath(manifest)
+            if out is None:
+                out = _default_out(path)
+        out = os.fspath(out)
+        cmd = [rwg, "run", path, "--out", out] + flags
+        _run_child(cmd, manifest_text)
+    return load(out)
+
+
+def _flags(overrides: Mapping[str, Any]) -> List[str]:
+    flags: List[str] = []
+    for key, value in overrides.items():
+        if key in VALUE_FLAGS:
+            if value is None:
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+                raise TypeError(f"rwg.run: {key}= takes a number, not {value!r}")
+            flags += [VALUE_FLAGS[key], str(value)]
+        elif key in SWITCHES:
+            if not isinstance(value, bool):
+                raise TypeError(f"rwg.run: {key}= takes True or False, not {value!r}")
+            if value:
+                flags.append(SWITCHES[key])
+        elif key == "shard":
+            raise TypeError(
+                "rwg.run: shards are not run from Python (the result is not a whole run); run "
+                "`rwg run MANIFEST --shard K/N --out DIR` per shard, `rwg merge`, then rwg.load"
+            )
+        else:
+            known = ", ".join(sorted(list(VALUE_FLAGS) + list(SWITCHES)))
+            raise TypeError(f"rwg.run: unknown option {key}=; the options are out, {known}")
+    return flags
+
+
+def _default_out(manifest_path: str) -> str:
+    """The run directory rwg picks for a manifest file without --out."""
+    try:
+        with open(manifest_path, "rb") as f:
+            out = tomllib.load(f).get("out")
+    except (OSError, tomllib.TOMLDecodeError):
+        out = None  # rwg itself reports the file
+    if isinstance(out, str):
+        return out
+    stem = os.path.splitext(os.path.basename(manifest_path))[0]
+    return os.path.join("runs", stem)
+
+
+def _absolute_paths(manifest: Mapping[str, Any]) -> dict:
+    """A copy of ``manifest`` whose relative ``plugin`` paths (and ``python``
+    paths with a ``/``) in ``envs`` are made absolute from the current
+    directory, since the TOML file is written elsewhere."""
+    doc = dict(manifest)
+    envs = doc.get("envs")
+    if isinstance(envs, (list, tuple)):
+        fixed = []
+        for e in envs:
+            if isinstance(e, Mapping):
+                e = dict(e)
+                p = e.get("plugin")
+                if isinstance(p, (str, os.PathLike)) and not os.path.isabs(p):
+                    e["plugin"] = os.path.abspath(p)
+                py = e.get("python")
+                if isinstance(py, (str, os.PathLike)):
+                    py = os.fspath(py)
+                    if "/" in py and not os.path.isabs(py):
+                        e["python"] = os.path.abspath(py)
+            fixed.append(e)
+        doc["envs"] = fixed
+    return doc
+
+
+def _forward(src: IO[bytes], dst_name: str, keep: Optional[List[str]]) -> None:
+    """Copies the child's output line by line to ``sys.stdout``/``sys.stderr``
+    (looked up per line: notebooks and test harnesses swap them); with
+    ``keep``, also gathers its lines there."""
+    for raw in iter(src.readline, b""):
+        text = raw.decode("utf-8", "replace")
+        dst = getattr(sys, dst_name)
+        try:
+            dst.write(text)
+            dst.flush()
+        except (OSError, ValueError):
+            pass
+        if keep is not None:
+            keep.append(text.rstrip("\r\n"))
+    src.close()
+
+
+def _error_message(lines: List[str]) -> str:
+    """rwg's message: its lines from the first ``error:`` on, without progress
+    lines (``[0:00:05] ...``); else its last lines."""
+    for i, line in enumerate(lines):
+        if line.startswith("error:"):
+            return "\n".join(x for x in lines[i:] if not x.startswith("[")).strip()
+    return "\n".join(lines[-_TAIL:]).strip()
+
+
+def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
+    env = dict(os.environ)
+    env.setdefault("RWG_PYTHON", sys.executable)
+    lines: List[str] = []
+    # A session of its own: a Ctrl-C at the terminal reaches this process
+    # only, which forwards it once (twice would make rwg quit at once,
+    # without the blocks in flight).
+    proc = subprocess.Popen(
+        cmd,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+        start_new_session=True,
+    )
+    readers = [
+        threading.Thread(target=_forward, args=(proc.stdout, "stdout", None), daemon=True),
+        threading.Thread(target=_forward, args=(proc.stderr, "stderr", lines), daemon=True),
+    ]
+    for t in readers:
+        t.start()
+    interrupted = False
+    while True:
+        try:
+            proc.wait()
+            break
+        except KeyboardInterrupt:
+            interrupted = True
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+    for t in readers:
+        t.join()
+    if interrupted:
+        if manifest_text is not None:
+            sys.stderr.write(
+                "rwg.run: every committed block is kept; to resume, call rwg.run again with the "
+                "same manifest and out\n"
+            )
+        raise KeyboardInterrupt
+    if proc.returncode != 0:
+        stderr = "\n".join(lines)
+        message = _error_message(lines) or f"rwg exited with status {proc.returncode}"
+        if proc.returncode < 0:
+            message += f"\n(rwg was killed by signal {-proc.returncode})"
+        if manifest_text is not None:
+            numbered = "\n".join(f"{i:4}  {line}" for i, line in enumerate(manifest_text.splitlines(), 1))
+            message += f"\nThe manifest, as written from the dict (line numbers as in the message):\n{numbered}"
+        raise RwgFailedError(message, proc.returncode, stderr, cmd, manifest_text)
+
+
