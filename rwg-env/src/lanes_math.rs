@@ -15,14 +15,15 @@
 //!
 //! # Implementations
 //!
-//! - **Vector** (x86-64 only): a four-lane AVX2+FMA port of glibc 2.36's
-//!   `__sin_fma`/`__cos_fma` for |x| < 105414350 (module `fma`); lanes
-//!   beyond (huge, ±inf, NaN) call libm. Used when (a) the CPU has AVX2
-//!   and FMA, the condition under which glibc's ifunc selects those
-//!   variants, and (b) a one-time self-check on [`edge_arguments`] (every
-//!   path, every path boundary, the table's rounding points, the reduction's
-//!   hard cases: a few thousand arguments) gives this process's libm bits
-//!   for all of them.
+//! - **Vector** (x86-64 only): for `sin`/`cos`, a four-lane AVX2+FMA port
+//!   of glibc 2.36's `__sin_fma`/`__cos_fma` for |x| < 105414350 (the crate
+//!   `rwg-glibc-sincos`, LGPL-2.1-or-later, present only with this crate's
+//!   `glibc-sincos` feature: see below); lanes beyond (huge, ±inf, NaN)
+//!   call libm. Used when (a) the CPU has AVX2 and FMA, the condition under
+//!   which glibc's ifunc selects those variants, and (b) a one-time
+//!   self-check on [`edge_arguments`] (every path, every path boundary, the
+//!   table's rounding points, the reduction's hard cases: a few thousand
+//!   arguments) gives this process's libm bits for all of them.
 //!   [`pow2_lanes`] settles most squares with [`crate::float::pow2`]'s fast
 //!   path (`x*x` when the exact square is within 0.48 ulp of it) and
 //!   computes the rest (about 4 %) with a four-lane port of glibc 2.36's
@@ -40,11 +41,22 @@
 //! runs and why. `rwg bench libm --check N` compares the two over N
 //! arguments on the user's machine.
 //!
-//! The vector code follows glibc's algorithm and constants (glibc's libm,
-//! originally IBM's Accurate Mathematical Library, is LGPL-2.1-or-later).
+//! # The `glibc-sincos` feature
+//!
+//! The vector `sin`/`cos` follows glibc's `s_sin.c` and `sincostab.c`
+//! (originally IBM's Accurate Mathematical Library), which are
+//! LGPL-2.1-or-later, so it lives in the crate `rwg-glibc-sincos` under that
+//! licence, and this crate (MIT OR Apache-2.0) uses it only with its
+//! feature `glibc-sincos`, off by default: a plugin depending on `rwg-env`
+//! contains no LGPL code. Without the feature [`SIN_COS_BUILT_IN`] is false,
+//! [`implementation`] is `Scalar(NotBuiltIn)` and the `sin`/`cos` functions
+//! (also [`Vector`]'s) call libm once per element: the same bits, more
+//! slowly. The `rwg` binary and the reference plugin turn it on.
+//!
+//! The vector `pow(x, 2)` (modules `pow_fma`, `pow_table`) is not affected:
+//! it follows Arm's optimized-routines `pow` (MIT OR Apache-2.0 WITH
+//! LLVM-exception), which glibc adopted in 2.28.
 
-#[cfg(target_arch = "x86_64")]
-mod fma;
 mod pow_edges;
 #[cfg(target_arch = "x86_64")]
 mod pow_fma;
@@ -52,13 +64,17 @@ mod pow_fma;
 mod pow_table;
 #[cfg(test)]
 mod pow_tests;
-#[cfg(target_arch = "x86_64")]
-mod table;
 #[cfg(test)]
 mod tests;
 
 use crate::float::{libm_cos, libm_sin};
 use std::sync::OnceLock;
+
+/// Whether this build has the vector `sin`/`cos` (the `glibc-sincos`
+/// feature); without it every `sin`/`cos` here is one libm call per
+/// element. (With it, the vector code still needs an x86-64 CPU with AVX2
+/// and FMA: [`implementation`].)
+pub const SIN_COS_BUILT_IN: bool = cfg!(feature = "glibc-sincos");
 
 /// One libm call per element: the reference the vector code must match.
 pub mod scalar {
@@ -122,40 +138,44 @@ impl Vector {
         }
     }
 
-    /// `out[i] = sin(x[i])`, four lanes at a time.
+    /// `out[i] = sin(x[i])`, four lanes at a time (one libm call per
+    /// element without [`SIN_COS_BUILT_IN`]).
     pub fn sin_lanes(self, x: &[f64], out: &mut [f64]) {
         assert_eq!(x.len(), out.len(), "sin_lanes: arguments and results");
-        #[cfg(target_arch = "x86_64")]
+        #[cfg(all(feature = "glibc-sincos", target_arch = "x86_64"))]
         // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
         unsafe {
-            fma::sin_lanes(x, out, libm_sin)
+            rwg_glibc_sincos::sin_lanes(x, out, libm_sin)
         }
-        #[cfg(not(target_arch = "x86_64"))]
+        #[cfg(not(all(feature = "glibc-sincos", target_arch = "x86_64")))]
         scalar::sin_lanes(x, out)
     }
 
-    /// `out[i] = cos(x[i])`, four lanes at a time.
+    /// `out[i] = cos(x[i])`, four lanes at a time (one libm call per
+    /// element without [`SIN_COS_BUILT_IN`]).
     pub fn cos_lanes(self, x: &[f64], out: &mut [f64]) {
         assert_eq!(x.len(), out.len(), "cos_lanes: arguments and results");
-        #[cfg(target_arch = "x86_64")]
+        #[cfg(all(feature = "glibc-sincos", target_arch = "x86_64"))]
         // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
         unsafe {
-            fma::cos_lanes(x, out, libm_cos)
+            rwg_glibc_sincos::cos_lanes(x, out, libm_cos)
         }
-        #[cfg(not(target_arch = "x86_64"))]
+        #[cfg(not(all(feature = "glibc-sincos", target_arch = "x86_64")))]
         scalar::cos_lanes(x, out)
     }
 
-    /// `sin[i], cos[i] = sin(x[i]), cos(x[i])`, four lanes at a time.
+    /// `sin[i], cos[i] = sin(x[i]), cos(x[i])`, four lanes at a time (one
+    /// libm `sin` and one `cos` call per element without
+    /// [`SIN_COS_BUILT_IN`]).
     pub fn sincos_lanes(self, x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
         assert_eq!(x.len(), sin.len(), "sincos_lanes: arguments and sines");
         assert_eq!(x.len(), cos.len(), "sincos_lanes: arguments and cosines");
-        #[cfg(target_arch = "x86_64")]
+        #[cfg(all(feature = "glibc-sincos", target_arch = "x86_64"))]
         // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
         unsafe {
-            fma::sincos_lanes(x, sin, cos, libm_sin, libm_cos)
+            rwg_glibc_sincos::sincos_lanes(x, sin, cos, libm_sin, libm_cos)
         }
-        #[cfg(not(target_arch = "x86_64"))]
+        #[cfg(not(all(feature = "glibc-sincos", target_arch = "x86_64")))]
         scalar::sincos_lanes(x, sin, cos)
     }
 
@@ -241,6 +261,9 @@ pub enum ScalarReason {
     Forced,
     /// Not an x86-64 CPU with AVX2 and FMA.
     NoCpuSupport,
+    /// The vector `sin`/`cos` is not in this build (the `glibc-sincos`
+    /// feature is off: [`SIN_COS_BUILT_IN`]).
+    NotBuiltIn,
     /// The self-check found an argument (this one) where the vector code's
     /// bits for this function (`"sin/cos"` or `"pow"`) differ from this
     /// process's libm (another glibc or libm).
@@ -257,6 +280,10 @@ impl std::fmt::Display for Implementation {
             Implementation::Scalar(ScalarReason::NoCpuSupport) => {
                 write!(f, "scalar (no x86-64 CPU with AVX2 and FMA)")
             }
+            Implementation::Scalar(ScalarReason::NotBuiltIn) => write!(
+                f,
+                "scalar (vector sin/cos not built in: rwg-env's glibc-sincos feature is off)"
+            ),
             Implementation::Scalar(ScalarReason::SelfCheckFailed(function, x)) => write!(
                 f,
                 "scalar (the vector {function} differs from this libm at x = {x:e} = {:#018x})",
@@ -267,10 +294,16 @@ impl std::fmt::Display for Implementation {
 }
 
 /// The implementation [`sin_lanes`], [`cos_lanes`] and [`sincos_lanes`] use,
-/// decided once per process (the self-check on [`edge_arguments`]).
+/// decided once per process (the self-check on [`edge_arguments`]; scalar
+/// without [`SIN_COS_BUILT_IN`]).
 pub fn implementation() -> Implementation {
     static CHOICE: OnceLock<Implementation> = OnceLock::new();
-    *CHOICE.get_or_init(|| decide(|v| v.first_mismatch(&edge_arguments()).map(|x| ("sin/cos", x))))
+    *CHOICE.get_or_init(|| {
+        if !SIN_COS_BUILT_IN {
+            return Implementation::Scalar(ScalarReason::NotBuiltIn);
+        }
+        decide(|v| v.first_mismatch(&edge_arguments()).map(|x| ("sin/cos", x)))
+    })
 }
 
 /// The implementation [`pow2_lanes`] uses, decided once per process (the

@@ -10,6 +10,18 @@
 //!
 //! The host side of the ABI (loading and checking plugins) lives in
 //! `rwg-plugin-host`; the sampler and the study runner build on this crate.
+//!
+//! # Features
+//!
+//! Both off by default.
+//!
+//! - `serde`: `Serialize` for the spec types (`EnvSpec`, `Space`, ...).
+//! - `glibc-sincos`: the vector `sin`/`cos` of [`lanes_math`] (a port of
+//!   glibc's, in the LGPL-2.1-or-later crate `rwg-glibc-sincos`). Without it
+//!   this crate is MIT OR Apache-2.0 throughout and [`lanes_math`] calls libm
+//!   once per `sin`/`cos` element: the same bits, more slowly. A plugin
+//!   should leave it off unless it steps many lanes through `lanes_math` and
+//!   accepts the LGPL for its library.
 
 pub mod env;
 pub mod float;

@@ -1,3 +1,8 @@
+//! Derived from Arm's optimized-routines `math/pow.c` (Copyright (c)
+//! 2018-2020, Arm Limited; MIT OR Apache-2.0 WITH LLVM-exception), the code
+//! glibc's `pow` has used since 2.28; credited in THIRD-PARTY-NOTICES at the
+//! repository's root.
+//!
 //! `pow(x, 2.0)` four lanes at a time: the operations of glibc 2.36's x86-64
 //! `__pow_fma` (the variant its `pow` ifunc picks on CPUs with AVX2 and FMA)
 //! for `y = 2` and 2^-60 <= |x| <= 2^32, |x| != 1, with AVX2+FMA intrinsics.
@@ -25,10 +30,12 @@
 //! `pow2_lanes` never sends it here (1 is an exact square).
 //!
 //! Every function is `unsafe` only because it is compiled for AVX2+FMA
-//! (see `fma.rs`). Table reads are row loads (cheaper than gathers) at
-//! indices masked into the tables, whatever a lane holds.
+//! (`#[target_feature]`; safe target-feature functions need Rust 1.86, the
+//! workspace supports 1.85): calling it is sound on a CPU with both, which
+//! [`super::Vector::detect`] checks before the entry points are reachable.
+//! Table reads are row loads (cheaper than gathers) at indices masked into
+//! the tables, whatever a lane holds.
 
-use super::fma::splat;
 use super::pow_table::{EXP_TAB, LOG_TAB};
 use std::arch::x86_64::*;
 
@@ -62,6 +69,13 @@ const C4: f64 = f64::from_bits(0x3fa5_5555_cf17_2b91);
 const C5: f64 = f64::from_bits(0x3f81_1111_67a4_d017);
 /// The exponent `y`.
 const Y: f64 = 2.0;
+
+/// `v` in all four lanes.
+#[inline]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn splat(v: f64) -> V {
+    _mm256_set1_pd(v)
+}
 
 #[inline]
 #[target_feature(enable = "avx2,fma")]

@@ -1,3 +1,8 @@
+//! Derived from Arm's optimized-routines `math/pow_log_data.c` and
+//! `math/exp_data.c` (Copyright (c) 2018, Arm Limited; MIT OR Apache-2.0
+//! WITH LLVM-exception), which glibc ships as `e_pow_log_data.c` and
+//! `e_exp_data.c`; credited in THIRD-PARTY-NOTICES at the repository's root.
+//!
 //! The tables glibc's `pow` reads (glibc 2.36, x86-64): `__pow_log_data`'s
 //! 128 rows `{invc, pad, logc, logctail}` (the log's subintervals; kept
 //! here as `{invc, logc, logctail, 0}`) and `__exp_data.tab`'s 256 words (for k = 0..128,

@@ -1,3 +1,8 @@
+//! Derived from glibc's `sysdeps/ieee754/dbl-64/sincostab.c` (IBM Accurate
+//! Mathematical Library; Copyright (C) 2001-2022 Free Software Foundation,
+//! Inc.), under the GNU Lesser General Public License 2.1 or (at your
+//! option) any later version: see the crate's `COPYING`.
+//!
 //! The table of `sin`/`cos` at multiples of 1/128 that glibc's `sin` and `cos`
 //! read (`__sincostab`, 440 doubles): for k = 0..110, four doubles at index
 //! 4k: sin(k/128) rounded, its rounding error, cos(k/128) rounded, its rounding
@@ -6,10 +11,10 @@
 
 /// 32-byte aligned: each row of four is one aligned vector load.
 #[repr(align(32))]
-pub(super) struct Aligned(pub(super) [f64; 440]);
+pub(crate) struct Aligned(pub(crate) [f64; 440]);
 
 /// `[sin, sin error, cos, cos error]` of k/128 for k = 0..110.
-pub(super) static SINCOSTAB: Aligned = Aligned({
+pub(crate) static SINCOSTAB: Aligned = Aligned({
     const B: [u64; 440] = [
         0x00000000_00000000,
         0x00000000_00000000,

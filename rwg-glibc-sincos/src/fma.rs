@@ -1,3 +1,9 @@
+//! Derived from glibc's `sysdeps/ieee754/dbl-64/s_sin.c` (IBM Accurate
+//! Mathematical Library, written by International Business Machines Corp.;
+//! Copyright (C) 2001-2022 Free Software Foundation, Inc.), under the GNU
+//! Lesser General Public License 2.1 or (at your option) any later version:
+//! see the crate's `COPYING`.
+//!
 //! Four lanes at a time: the operations of glibc 2.36's x86-64 `__sin_fma`
 //! and `__cos_fma` (the variants its `sin`/`cos` ifuncs pick on CPUs with
 //! AVX2 and FMA), for |x| < 105414350, with AVX2+FMA intrinsics.
@@ -26,11 +32,11 @@
 //! Every function here is `unsafe` only because it is compiled for AVX2+FMA
 //! (`#[target_feature]`; safe target-feature functions need Rust 1.86, the
 //! workspace supports 1.85): calling it is sound on a CPU with both, which
-//! `Vector::detect` checks before the three entry points are reachable. The
-//! only memory accesses are slices (bounds-checked) and the table rows of
-//! `lookup`, whose indices are clamped into the table.
+//! the caller of the three entry points checks (`rwg_env::lanes_math`'s
+//! `Vector::detect`). The only memory accesses are slices (bounds-checked)
+//! and the table rows of `lookup`, whose indices are clamped into the table.
 
-use super::table::SINCOSTAB;
+use crate::table::SINCOSTAB;
 use std::arch::x86_64::*;
 
 const SIGN: f64 = -0.0;
@@ -62,14 +68,14 @@ const COS_TINY: f64 = f64::from_bits(0x3e40_0000_0000_0000); // 2^-27
 const SMALL: f64 = f64::from_bits(0x3feb_6000_0000_0000); // 0.85546875
 const MID: f64 = f64::from_bits(0x4003_68fd_0000_0000); // 2.426265...
 /// Above this (and for ±inf, NaN) glibc uses `__branred`: libm's job here.
-pub(super) const REDUCE: f64 = f64::from_bits(0x4199_21fb_0000_0000); // 105414350.0...
+const REDUCE: f64 = f64::from_bits(0x4199_21fb_0000_0000); // 105414350.0...
 
 type V = __m256d;
 
 /// `v` in all four lanes.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn splat(v: f64) -> V {
+unsafe fn splat(v: f64) -> V {
     _mm256_set1_pd(v)
 }
 
@@ -390,8 +396,9 @@ unsafe fn run<const SIN: bool, const COS: bool>(
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
+#[inline]
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn sin_lanes(x: &[f64], out: &mut [f64], libm_sin: fn(f64) -> f64) {
+pub unsafe fn sin_lanes(x: &[f64], out: &mut [f64], libm_sin: fn(f64) -> f64) {
     run::<true, false>(x, out, &mut [], libm_sin, libm_sin);
 }
 
@@ -399,8 +406,9 @@ pub(super) unsafe fn sin_lanes(x: &[f64], out: &mut [f64], libm_sin: fn(f64) -> 
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
+#[inline]
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn cos_lanes(x: &[f64], out: &mut [f64], libm_cos: fn(f64) -> f64) {
+pub unsafe fn cos_lanes(x: &[f64], out: &mut [f64], libm_cos: fn(f64) -> f64) {
     run::<false, true>(x, &mut [], out, libm_cos, libm_cos);
 }
 
@@ -409,8 +417,9 @@ pub(super) unsafe fn cos_lanes(x: &[f64], out: &mut [f64], libm_cos: fn(f64) -> 
 ///
 /// # Safety
 /// The CPU must support AVX2 and FMA.
+#[inline]
 #[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn sincos_lanes(
+pub unsafe fn sincos_lanes(
     x: &[f64],
     sin: &mut [f64],
     cos: &mut [f64],
