@@ -215,15 +215,39 @@ fn bench_peers_explains_a_missing_peer() {
     );
 }
 
+/// Run from the repository's top folder, `rwg bench peers` finds the peer
+/// scripts of benches/peers without --peers: it gets as far as the peer's
+/// virtualenv.
+#[test]
+fn bench_peers_finds_the_repositorys_scripts_by_default() {
+    let top = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    for script in ["gymnax_rwg.py", "rwg_common.py", "ref_numpy.py"] {
+        assert!(top.join("benches/peers").join(script).is_file(), "{script}");
+    }
+    let venv = temp_dir("peers-default").join("no-venv");
+    let out = std::process::Command::new(rwg_bin())
+        .current_dir(&top)
+        .args(["bench", "peers", "--no-pin", "--venv"])
+        .arg(&venv)
+        .env_remove("RWG_PEER_PYTHON")
+        .env_remove("RWG_PEERS_DIR")
+        .output()
+        .unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(!out.status.success(), "{err}");
+    assert!(!err.contains("not found"), "{err}");
+    assert!(err.contains("no peer virtualenv at"), "{err}");
+}
+
 /// Smoke test of `rwg bench peers` with the real peer on tiny sample counts:
 /// it runs both sides, parses them and computes the ratios. Needs
 /// RWG_PEER_PYTHON (a Python with jax and gymnax, see `rwg bench peers
-/// --help`) and the peer scripts in ../shared/peers (or RWG_PEERS_DIR);
-/// `.ci/run` makes that Python, and under CI a skip is a failure.
+/// --help`); the peer scripts are the repository's benches/peers (or
+/// RWG_PEERS_DIR). `.ci/run` makes that Python, and under CI a skip is a failure.
 #[test]
 fn bench_peers_measures_both_sides_and_their_ratio() {
     let peers = std::env::var("RWG_PEERS_DIR").map_or_else(
-        |_| std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/peers"),
+        |_| std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../benches/peers"),
         std::path::PathBuf::from,
     );
     let python = std::env::var("RWG_PEER_PYTHON").ok();
@@ -312,6 +336,91 @@ fn bench_peers_measures_both_sides_and_their_ratio() {
     // The run directory rwg wrote is a real run of the workload.
     let scores =
         std::fs::read_to_string(work.join("w0/cells/Pendulum-v1__1HL__nobias/scores.csv")).unwrap();
+    assert_eq!(scores.lines().count(), 1 + 6 * 2, "{scores}");
+}
+
+/// benches/peers/side_by_side.py, the peers beside `rwg run` in one sitting,
+/// on tiny counts: every side runs every round, pinned, and the ratios are
+/// rwg's rate over each peer's in the same round. Needs RWG_PEER_PYTHON, as
+/// the test above.
+#[test]
+fn side_by_side_script_pairs_rwg_with_each_peer() {
+    let Ok(python) = std::env::var("RWG_PEER_PYTHON") else {
+        skip(
+            "side_by_side_script_pairs_rwg_with_each_peer",
+            "set RWG_PEER_PYTHON to a Python with jax and gymnax (benches/peers/README.md)",
+        );
+        return;
+    };
+    let top = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let work = temp_dir("side-by-side");
+    let json = work.join("report.json");
+    let out = std::process::Command::new(&python)
+        .arg(top.join("benches/peers/side_by_side.py"))
+        .arg("--rwg")
+        .arg(rwg_bin())
+        .args([
+            "--peers",
+            "ref_numpy,gym_vector,gymnax-raw",
+            "--env",
+            "Pendulum-v1",
+        ])
+        .args(["--rwg-samples", "6", "--episodes", "2", "--rounds", "2"])
+        .args([
+            "--peer-samples",
+            "ref_numpy=3",
+            "--peer-samples",
+            "gym_vector=2",
+        ])
+        .args(["--peer-samples", "gymnax-raw=4", "--work-dir"])
+        .arg(work.join("runs"))
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "side_by_side.py failed: {}{stdout}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("| Pendulum-v1 [4] |"), "{stdout}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["setup"]["pinned_cpu"], 0);
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 1, "{v}");
+    let r = &rows[0];
+    let rates = |side: &str| -> Vec<f64> {
+        let ms = r["measurements"][side].as_array().unwrap();
+        assert_eq!(ms.len(), 2, "{side}: {v}");
+        ms.iter()
+            .map(|m| m["steps_per_cpu_s"].as_f64().unwrap())
+            .collect()
+    };
+    // Pendulum never terminates: every episode lasts its 200 steps.
+    for (side, nets) in [
+        ("rwg", 6),
+        ("ref_numpy", 3),
+        ("gym_vector", 2),
+        ("gymnax-raw", 4),
+    ] {
+        for m in r["measurements"][side].as_array().unwrap() {
+            assert_eq!(m["env_steps"], nets * 2 * 200, "{side}: {v}");
+        }
+    }
+    let rwg = rates("rwg");
+    for peer in ["ref_numpy", "gym_vector", "gymnax-raw"] {
+        let p = rates(peer);
+        let ratios: Vec<f64> = rwg.iter().zip(&p).map(|(a, b)| a / b).collect();
+        let s = &r["rwg_over"][peer];
+        assert_eq!(s["median"].as_f64().unwrap(), (ratios[0] + ratios[1]) / 2.0);
+        assert_eq!(s["min"].as_f64().unwrap(), ratios[0].min(ratios[1]));
+        assert_eq!(s["max"].as_f64().unwrap(), ratios[0].max(ratios[1]));
+    }
+    let scores =
+        std::fs::read_to_string(work.join("runs/w0-rwg/cells/Pendulum-v1__1HL__nobias/scores.csv"))
+            .unwrap();
     assert_eq!(scores.lines().count(), 1 + 6 * 2, "{scores}");
 }
 

@@ -1,9 +1,10 @@
 //! Works as printed: every command in the README's ```sh blocks and in every
 //! `rwg <command> --help` Examples section runs, in the order shown, in a
 //! scratch folder laid out as a reader's clone of the repository (the
-//! `examples/` folder and the plugin header), with `rwg` on PATH and the
-//! release artefacts the README builds under `target/release/`. Each must
-//! exit 0 with output of the expected shape.
+//! `examples/` folder, the peer scripts of `benches/peers/` and the plugin
+//! header), with `rwg` on PATH and the release artefacts the README builds
+//! under `target/release/`. Each must exit 0 with output of the expected
+//! shape.
 //!
 //! What the test does instead of running a command as printed (each is
 //! printed to the test output when it applies, never silently):
@@ -28,9 +29,12 @@
 //!   `RWG_TEST_PYTHON` (the CI virtualenv, which holds those packages) is
 //!   handed to rwg as `RWG_PYTHON`. Without it the Gymnasium examples are
 //!   skipped, visibly, and under `CI=true` the test fails.
-//! - The JAX peer's virtualenv and `rwg bench peers` (about 25 minutes):
-//!   not run; tests/cli_bench.rs runs `rwg bench peers` on tiny counts when
-//!   `RWG_PEER_PYTHON` names a Python with the peer.
+//! - The JAX peer's virtualenv, `rwg bench peers` (about 25 minutes) and the
+//!   peer scripts run by hand (`benches/peers/*.py`, which need that
+//!   virtualenv): not run; tests/cli_bench.rs runs `rwg bench peers` and
+//!   `benches/peers/side_by_side.py` on tiny counts when `RWG_PEER_PYTHON`
+//!   names a Python with the peer. `rwg bench gym --peer
+//!   benches/peers/ref_numpy.py` runs (it needs gymnasium only).
 
 mod common;
 use common::*;
@@ -229,6 +233,7 @@ fn prepare(dir: &Path) -> PathBuf {
     };
     std::fs::create_dir_all(dir.join("rwg-env")).unwrap();
     copy("examples");
+    copy("benches");
     copy("rwg-env/include");
     // built by make in the repository, maybe: the reader's clone has none
     for f in ["libchain.so", "libchain.dylib"] {
@@ -325,6 +330,11 @@ fn plan(e: &Example) -> Plan {
     }
     if c.contains("peers-venv") {
         return Plan::NotRun("the JAX peer is not installed by this test (network, ~1 GB)");
+    }
+    if c.contains("benches/peers/") && !c.contains("rwg bench gym") {
+        return Plan::NotRun(
+            "the peer scripts need the peers' virtualenv; tests/cli_bench.rs runs them small",
+        );
     }
     if c.contains("rwg bench peers") {
         return Plan::NotRun(

@@ -1,7 +1,7 @@
 //! `rwg bench gym`: the Gymnasium bridge's throughput, measured side by side
 //! with a pure-Python loop stepping the same env (the ceiling) and with the
 //! paper's way of running RWG in Python (a peer script such as
-//! `../shared/peers/ref_numpy.py`), in one invocation.
+//! `benches/peers/ref_numpy.py` of rwg's repository), in one invocation.
 
 use anyhow::{bail, Context, Result};
 use rwg_analysis::table::{Align, TextColumns};
@@ -30,7 +30,7 @@ pub struct GymBenchArgs {
     repeats: usize,
     /// A peer script run as `PYTHON SCRIPT --env ID --samples N --episodes E
     /// --out CSV` that prints a JSON line with `steps_per_s` (e.g.
-    /// ../shared/peers/ref_numpy.py: the paper's way, numpy forward pass and
+    /// benches/peers/ref_numpy.py: the paper's way, numpy forward pass and
     /// one env.step per time step in one process).
     #[arg(long, value_name = "SCRIPT")]
     peer: Option<PathBuf>,

@@ -96,15 +96,18 @@ excluded, as the peer reports them apart).
 Prints env steps per CPU-second of each side and their ratio per round: median \
 [min-max]. Env steps are the transitions inside episodes on both sides.
 
-The peer needs a Python with jax and gymnax: --python (or RWG_PEER_PYTHON), or the \
-virtualenv --venv, which --create-venv makes as the first two examples do. Build rwg \
-with --release for meaningful figures.
+The peer scripts are the repository's benches/peers (--peers, relative to the current \
+directory: run from the repository's top folder). The peer needs a Python with jax and \
+gymnax: --python (or RWG_PEER_PYTHON), or the virtualenv --venv, which --create-venv \
+makes as the first two examples do. Build rwg with --release for meaningful figures; \
+benches/peers/README.md has the other peers (the paper's numpy way, Gymnasium's vector \
+envs, EnvPool).
 
 Examples:
   python3 -m venv target/peers-venv
   target/peers-venv/bin/pip install numpy==2.4.6 gymnasium==1.3.0 jax==0.10.2 jaxlib==0.10.2 \\
     gymnax==1.0.1 flax==0.12.8 six==1.17.0
-  rwg bench peers --peers ../shared/peers")]
+  rwg bench peers")]
     Peers(peers::PeersArgs),
     /// Gymnasium envs through the bridge, beside a pure-Python ceiling loop and a peer script.
     #[command(after_help = "\
@@ -117,7 +120,7 @@ the ceiling for any bridge; (3) the same RWG workload on two threads = two worke
 Reported: median [min-max] env steps/s, bridge / ceiling and 2 workers / 1 worker.
 
 Example:
-  rwg bench gym --env gymnasium:CartPole-v1 --peer ../shared/peers/ref_numpy.py")]
+  rwg bench gym --env gymnasium:CartPole-v1 --peer benches/peers/ref_numpy.py")]
     Gym(gym::GymBenchArgs),
     /// A plugin's re-exported classic envs in the sampler: built-in vs the plugin's single calls, batched calls and vector env.
     #[command(after_help = "\

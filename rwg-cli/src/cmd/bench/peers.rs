@@ -51,12 +51,14 @@ pub struct PeersArgs {
     /// packages) if it does not exist.
     #[arg(long)]
     create_venv: bool,
-    /// Directory of the peer scripts (gymnax_rwg.py and rwg_common.py).
+    /// Directory of the peer scripts (gymnax_rwg.py and rwg_common.py),
+    /// relative to the current directory: the repository's `benches/peers`
+    /// when run from its top folder.
     #[arg(
         long,
         env = "RWG_PEERS_DIR",
         value_name = "DIR",
-        default_value = "../shared/peers"
+        default_value = "benches/peers"
     )]
     peers: PathBuf,
     /// The rwg binary to measure (default: this one).
@@ -403,7 +405,8 @@ pub fn run(args: PeersArgs) -> Result<()> {
     let script = args.peers.join("gymnax_rwg.py");
     if !script.exists() {
         bail!(
-            "{} not found: point --peers (or RWG_PEERS_DIR) to the directory of the peer scripts",
+            "{} not found: run from the top folder of rwg's repository (the peer scripts are in \
+             its benches/peers), or point --peers (or RWG_PEERS_DIR) to their directory",
             script.display()
         );
     }
