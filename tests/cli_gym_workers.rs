@@ -411,6 +411,72 @@ fn signal_rwg(
     )
 }
 
+/// Processes a Gymnasium env starts (a simulator, a server) end with its
+/// worker: when the run ends, and when the worker dies (whose report must
+/// not wait for them: they hold its stderr open).
+#[cfg(target_os = "linux")]
+#[test]
+fn processes_an_env_starts_end_with_its_worker() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-family-orphans");
+    let seed = rwg_core::sampler::reset_seed(0, "rwg_family_envs:Orphans-v0", 40, 0);
+    for (name, exit_seed) in [("ends", "0".to_string()), ("dies", seed.to_string())] {
+        let marker = dir.join(name);
+        std::fs::create_dir_all(&marker).unwrap();
+        let kwargs = format!(
+            "marker = {:?}, exit_seed = \"{exit_seed}\"",
+            marker.to_str().unwrap()
+        );
+        let m = write(&dir, "m.toml", &manifest("Orphans-v0", &kwargs, 96));
+        let mut child = rwg_cmd(
+            &py,
+            &[
+                "run",
+                &m,
+                "--out",
+                dir.join(format!("r{name}")).to_str().unwrap(),
+            ],
+        )
+        .args(["--threads", "2", "--no-report"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+        let t0 = Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break s;
+            }
+            if t0.elapsed() > Duration::from_secs(90) {
+                let _ = child.kill();
+                panic!("{name}: rwg did not end (waiting for the env's processes?)");
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        };
+        assert_eq!(status.success(), name == "ends", "{name}: {status:?}");
+        let started: Vec<u32> = std::fs::read_dir(&marker)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().parse().unwrap())
+            .collect();
+        assert!(!started.is_empty(), "{name}: the env started nothing");
+        let t0 = Instant::now();
+        while started.iter().any(|&p| alive(p)) && t0.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let left: Vec<u32> = started.iter().copied().filter(|&p| alive(p)).collect();
+        for &p in &left {
+            let _ = std::process::Command::new("kill")
+                .args(["-KILL", &p.to_string()])
+                .status();
+        }
+        assert!(
+            left.is_empty(),
+            "{name}: the env's processes {left:?} outlived rwg"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// SIGTERM, SIGINT, SIGHUP or SIGKILL to rwg alone while a Gymnasium env
 /// hangs in a step: rwg ends and so do its Python workers (not left
 /// running, re-parented to PID 1); SIGINT waits for the blocks in flight,

@@ -29,9 +29,10 @@ import traceback  # noqa: E402
 
 import signal  # noqa: E402
 
-# Ctrl-C on a terminal signals the whole process group: rwg itself stops after
-# the blocks in flight and then closes the pipes, so the worker ignores SIGINT
-# (as rwg's own plugin workers do) instead of dying with a KeyboardInterrupt.
+# rwg starts each worker in a process group of its own (killed with it), so
+# Ctrl-C on a terminal reaches rwg alone; a SIGINT sent to the worker's group
+# is ignored too: rwg stops after the blocks in flight and then closes the
+# pipes (as with rwg's own plugin workers), not a KeyboardInterrupt.
 signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 faulthandler.enable(file=sys.stderr)

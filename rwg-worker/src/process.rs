@@ -20,6 +20,9 @@ pub struct Worker {
     drain: Option<std::thread::JoinHandle<()>>,
     program: String,
     dump_signal: Option<i32>,
+    /// The worker's own process group (Linux: it leads one), killed with it
+    /// so that processes the env started go too; `None` once killed.
+    group: Option<i32>,
 }
 
 impl Worker {
@@ -57,6 +60,10 @@ impl Worker {
                 k.drain(..excess);
             }
         });
+        #[cfg(target_os = "linux")]
+        let group = Some(child.id() as i32);
+        #[cfg(not(target_os = "linux"))]
+        let group = None;
         Ok(Worker {
             child,
             stdin,
@@ -65,6 +72,7 @@ impl Worker {
             drain: Some(drain),
             program: program.to_string(),
             dump_signal,
+            group,
         })
     }
 
@@ -189,14 +197,67 @@ impl Worker {
 
     /// Kills the process (if still running) and reaps it.
     pub fn kill(&mut self) {
+        self.kill_group();
         let _ = self.child.kill();
         let _ = self.child.wait();
+    }
+
+    /// Kills what is left of the worker's process group: processes the env
+    /// started (which would otherwise outlive it, and hold its stderr open).
+    /// Only before the worker is reaped, so that the group's id is still
+    /// the worker's.
+    fn kill_group(&mut self) {
+        #[cfg(unix)]
+        if let Some(g) = self.group.take() {
+            // SAFETY: signalling our own child's process group.
+            unsafe {
+                libc::kill(-g, libc::SIGKILL);
+            }
+        }
+    }
+
+    /// Waits up to `limit` for the worker to end, without reaping it
+    /// (Linux), so that its process group can still be killed by its id.
+    /// Whether it ended (always `true` elsewhere).
+    fn wait_for_end(&mut self, limit: Duration) -> bool {
+        #[cfg(target_os = "linux")]
+        {
+            let t0 = Instant::now();
+            loop {
+                // SAFETY: a zeroed siginfo_t for waitid to fill.
+                let mut info: libc::siginfo_t = unsafe { std::mem::zeroed() };
+                // SAFETY: waitid on our own child; WNOWAIT leaves it unreaped.
+                let r = unsafe {
+                    libc::waitid(
+                        libc::P_PID,
+                        self.child.id() as libc::id_t,
+                        &mut info,
+                        libc::WEXITED | libc::WNOHANG | libc::WNOWAIT,
+                    )
+                };
+                // SAFETY: filled by waitid (zero when the child still runs).
+                let ended = r != 0 || unsafe { info.si_pid() } != 0;
+                if ended || t0.elapsed() >= limit {
+                    return ended;
+                }
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        }
+        #[cfg(not(target_os = "linux"))]
+        {
+            let _ = limit;
+            true
+        }
     }
 
     /// The error for a worker that stopped answering: how it ended and the
     /// end of what it wrote to stderr.
     pub fn died(&mut self) -> ProcError {
-        // Give it a moment to finish dying, so the status is known.
+        // Give it a moment to finish dying, so the status is known; what it
+        // started goes with it.
+        if self.wait_for_end(Duration::from_secs(2)) {
+            self.kill_group();
+        }
         let t0 = Instant::now();
         let status = loop {
             match self.child.try_wait() {
@@ -210,6 +271,8 @@ impl Worker {
                 }
             }
         };
+        // reaped: its id may name another process's group from now on
+        self.group = None;
         if let Some(d) = self.drain.take() {
             let _ = d.join();
         }
@@ -276,6 +339,8 @@ fn spawn_in_family(command: Command) -> std::io::Result<Child> {
 #[cfg(target_os = "linux")]
 fn spawn_with_death_signal(mut command: Command) -> std::io::Result<Child> {
     use std::os::unix::process::CommandExt;
+    // A process group of its own, killed with the worker (Worker::kill).
+    command.process_group(0);
     // SAFETY: getpid has no preconditions.
     let parent = unsafe { libc::getpid() };
     // SAFETY: the closure runs in the forked child before exec and calls

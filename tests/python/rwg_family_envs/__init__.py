@@ -23,6 +23,10 @@ Importing this module registers them with Gymnasium, so rwg reaches them as
   dependent reset that no hash seed fixes).
 - `Mixed-v0`: the second instance made in a process has action bounds ±100,
   every other ±1.
+- `Orphans-v0`: its first instance in a process starts `sleep 600` (which
+  inherits the worker's stderr) and writes that process's id into a file in
+  the folder `marker`; with `exit_seed` (a string) the worker exits with
+  status 3 at step 3 of that seed's episode.
 - `Stall-v0`: writes its process id into a file in the folder `marker` and
   sleeps for an hour: `where = "step"` at step 3 of the episode of reset
   seed `at_seed`, `where = "probe"` at its first step (in the probe rwg
@@ -30,6 +34,7 @@ Importing this module registers them with Gymnasium, so rwg reaches them as
 """
 
 import os
+import subprocess
 import time
 
 import gymnasium as gym
@@ -117,6 +122,30 @@ class Mixed(Line):
         super().__init__(2, spaces.Box(-high, high, (1,), np.float64))
 
 
+class Orphans(Line):
+    started = False
+
+    def __init__(self, marker="", exit_seed="0"):
+        super().__init__()
+        self.exit_seed = int(exit_seed)
+        self.armed = False
+        if not Orphans.started:
+            Orphans.started = True
+            child = subprocess.Popen(["sleep", "600"])
+            with open(os.path.join(marker, str(child.pid)), "w") as f:
+                f.write("started\n")
+
+    def reset(self, *, seed=None, options=None):
+        self.armed = seed == self.exit_seed
+        return super().reset(seed=seed, options=options)
+
+    def step(self, action):
+        out = super().step(action)
+        if self.armed and self.t == 3:
+            os._exit(3)
+        return out
+
+
 class Knob(Line):
     def __init__(self, fail_seed="0"):
         knob = os.environ.get("RWG_TEST_KNOB", "a")
@@ -168,5 +197,6 @@ if os.environ.get("RWG_TEST_SPLIT_MARKER"):
     gym.register("SplitLimit-v0", entry_point=Line, max_episode_steps=_limit)
 gym.register("PidReset-v0", entry_point=PidReset, max_episode_steps=60)
 gym.register("Mixed-v0", entry_point=Mixed, max_episode_steps=60)
+gym.register("Orphans-v0", entry_point=Orphans, max_episode_steps=60)
 gym.register("Knob-v0", entry_point=Knob, max_episode_steps=60)
 gym.register("Stall-v0", entry_point=Stall, max_episode_steps=60)
