@@ -124,7 +124,7 @@ fn gymnasium_an_overflowing_total_reward_fails_the_episode() {
 fn gymnasium_bad_observations_and_the_old_api_are_refused_before_the_run() {
     let Some(py) = python() else { return };
     let dir = temp_dir("values-gym-obs");
-    let cases: [(&str, &[&str]); 7] = [
+    let cases: [(&str, &[&str]); 10] = [
         (
             "complex_obs",
             &["complex128", "imaginary part", "ObservationWrapper"],
@@ -135,6 +135,27 @@ fn gymnasium_bad_observations_and_the_old_api_are_refused_before_the_run() {
             &["step() returned the reward '1.5' (str)", "TransformReward"],
         ),
         ("box0", &["has no values", "at least one"]),
+        (
+            "nan_reset",
+            &[
+                "reset(seed=20200509) returned a non-finite observation: value 0 of 3 is nan",
+                "finite numbers only",
+            ],
+        ),
+        (
+            "inf_reward",
+            &[
+                "step() returned a non-finite observation or reward",
+                "reward inf",
+            ],
+        ),
+        (
+            "term_array",
+            &[
+                "terminated and truncated must be booleans",
+                "array([False, False])",
+            ],
+        ),
         ("box0_action", &["action space Box", "has no values"]),
         (
             "old_reset",

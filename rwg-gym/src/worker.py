@@ -276,8 +276,9 @@ def main():
             raise Refused(not_real("an observation with complex values",
                                    "gymnasium.ObservationWrapper")) from None
         if a.size != obs_dim:
-            raise Refused(f"an observation of {a.size} values (shape {np.shape(a)}) where the "
-                          f"observation space {obs_space} has {obs_dim}")
+            of_type = f", type {type(o).__name__}" if boxed and type(o) is not np.ndarray else ""
+            raise Refused(f"an observation of {a.size} values (shape {np.shape(a)}{of_type}) "
+                          f"where the observation space {obs_space} has {obs_dim}")
         if a.dtype.kind not in "biuf":
             raise Refused(not_real(f"an observation of dtype {a.dtype} ({floats_text(a)})",
                                    "gymnasium.ObservationWrapper"))
@@ -311,6 +312,10 @@ def main():
             first = np.array(reset_obs(checked(env0.reset, seed=s), s), dtype=np.float64)
             second = np.array(reset_obs(checked(envs[-1].reset, seed=s), s), dtype=np.float64)
             third = np.array(reset_obs(checked(env0.reset, seed=s), s), dtype=np.float64)
+            bad = np.flatnonzero(~np.isfinite(first))
+            if bad.size:
+                raise Refused(f"reset(seed={s}) returned a non-finite observation: value "
+                              f"{bad[0]} of {obs_dim} is {floats(first[bad[:1]])[0]}; {FINITE}")
         except Refused as e:
             fail("api", str(e))
         except BaseException as e:  # noqa: BLE001
@@ -341,13 +346,18 @@ def main():
             try:
                 o, r, term, trunc, _ = stepped
                 out.append(np.append(np.array(flat_obs(o), dtype=np.float64), reward_of(r)))
+                done = bool(term) or bool(trunc)
+                if not np.all(np.isfinite(out[-1])):
+                    raise Refused(f"a non-finite observation or reward (observation "
+                                  f"{floats(out[-1][:-1][:4])}, reward {floats(out[-1][-1:])[0]}) "
+                                  f"to random actions; {FINITE}")
             except Refused as e:
                 raise Refused(f"step() returned {e}") from None
             except Exception as e:  # noqa: BLE001 -- unpacking or reading the result
                 if e.__traceback__.tb_next is not None:
                     raise
                 raise Refused(step_refusal(stepped, e)) from None
-            if term or trunc:
+            if done:
                 break
         return out
 
@@ -542,6 +552,8 @@ def not_real(what, wrapper):
             f"lost, a string is not a number): wrap the env ({wrapper}) to give real numbers")
 
 
+FINITE = ("rwg's networks take finite numbers only: fix the env, or wrap it "
+          "(gymnasium.ObservationWrapper, gymnasium.wrappers.TransformReward)")
 OLD_RESET = ("reset() must return (observation, info), as Gymnasium 0.26+ envs do (the old Gym "
              "API returned the observation alone): update the env to the Gymnasium API, or wrap "
              "it (shimmy's GymV21CompatibilityV0)")

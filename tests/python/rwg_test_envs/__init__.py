@@ -119,7 +119,9 @@ class Odd(gym.Env):
     pre-0.26 Gym API), `old_step` (step returns the old 4-tuple), `str_obs`
     (observations as an array of strings), `str_reward` (rewards as strings),
     `box0_action` (a Box(0) action space), `obs_list` (observations as a plain
-    list of the right length: accepted), `int_obs` (an integer Box: accepted).
+    list of the right length: accepted), `int_obs` (an integer Box: accepted),
+    `nan_reset` (a NaN in every reset's observation), `inf_reward` (a reward of
+    inf on the 3rd step), `term_array` (terminated as an array of two booleans).
     """
 
     def __init__(self, mode="huge_reward"):
@@ -148,6 +150,8 @@ class Odd(gym.Env):
             self.observation_space.dtype
         )
         self.t = 0
+        if self.mode == "nan_reset":
+            self.x[0] = np.nan
         if self.mode == "old_reset":
             return self._obs()
         return self._obs(), {}
@@ -157,7 +161,11 @@ class Odd(gym.Env):
         reward = 1e308 if self.mode == "huge_reward" else 1.0
         if self.mode == "str_reward":
             reward = "1.5"
+        if self.mode == "inf_reward" and self.t == 3:
+            reward = float("inf")
         done = self.t >= 5
+        if self.mode == "term_array":
+            done = np.array([False, done])
         if self.mode == "old_step":
             return self._obs(), reward, done, {}
         return self._obs(), reward, done, False, {}
