@@ -353,3 +353,102 @@ fn a_bad_commit_linger_is_refused_naming_the_variable() {
         assert_eq!(read(out.join(&p)), read(clean.join(&p)), "{p}");
     }
 }
+
+/// `rwg run` with `args` in folder `dir`.
+fn rwg_in(dir: &Path, args: &[&str]) -> std::process::Output {
+    std::process::Command::new(rwg_bin())
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn the_manifest_given_is_never_written_over() {
+    let dir = temp_dir("own-manifest");
+    let text = format!("# the user's own comments\n{CARTPOLE}");
+    manifest(&dir, "manifest.toml", &text);
+    // --out . would put the run's manifest.toml over the user's.
+    let out = rwg_in(&dir, &["run", "manifest.toml", "--out", ".", "-q"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("./manifest.toml is the manifest given and . holds no run")
+            && err.contains("--out runs/"),
+        "{err}"
+    );
+    assert_eq!(read(dir.join("manifest.toml")), text);
+    assert!(!dir.join("cells").exists() && !dir.join("run.json").exists());
+    // A run directory's own manifest resumes it, and is not rewritten.
+    let run = dir.join("runs/x");
+    let r = run.to_str().unwrap();
+    rwg_ok(&["run", &dir.join("manifest.toml").to_string_lossy(), "--out", r, "-q"]);
+    let own = run.join("manifest.toml");
+    let o = own.to_str().unwrap();
+    let before = std::fs::metadata(&own).unwrap().modified().unwrap();
+    let again = rwg_ok(&["run", o, "--out", r, "-q"]);
+    assert!(again.contains("complete; nothing to do"), "{again}");
+    assert_eq!(std::fs::metadata(&own).unwrap().modified().unwrap(), before);
+    // --force-new would delete the manifest given.
+    let err = rwg_err(&["run", o, "--out", r, "--force-new", "-q"]);
+    assert!(err.contains("--force-new would delete"), "{err}");
+    assert!(own.is_file());
+}
+
+#[test]
+fn an_edited_run_directory_manifest_is_refused_and_named() {
+    let dir = temp_dir("edited-manifest");
+    let m = manifest(&dir, "m.toml", CARTPOLE);
+    let run = dir.join("run");
+    let r = run.to_str().unwrap();
+    rwg_ok(&["run", &m, "--out", r, "-q", "--no-report"]);
+    let own = run.join("manifest.toml");
+    let o = own.to_str().unwrap();
+    let good = read(&own);
+    std::fs::write(&own, good.replace("samples = 40", "samples = 96")).unwrap();
+    let want = format!(
+        "{o} was changed after rwg wrote it (samples: 40 vs 96; run.json's record vs the file)"
+    );
+    for args in [vec!["run", o, "--out", r, "-q"], vec!["run", &m, "--out", r, "-q"]] {
+        let err = rwg_err(&args);
+        assert!(err.contains(&want), "{args:?}: {err}");
+        assert!(err.contains("rwg run edited.toml --out"), "{err}");
+    }
+    // status warns and counts the recorded study's blocks, not the edit's.
+    let status = rwg_ok(&["status", r]);
+    assert!(status.contains(&want), "{status}");
+    assert!(status.contains("40 networks") && status.contains("2/2"), "{status}");
+    std::fs::write(&own, &good).unwrap();
+    rwg_ok(&["run", o, "--out", r, "-q"]);
+}
+
+#[test]
+fn an_empty_or_cut_run_json_says_how_to_rebuild_it() {
+    let dir = temp_dir("bad-run-json");
+    let m = manifest(&dir, "m.toml", CARTPOLE);
+    let run = dir.join("run");
+    let r = run.to_str().unwrap();
+    rwg_ok(&["run", &m, "--out", r, "-q", "--no-report"]);
+    let json = read(run.join("run.json"));
+    let rebuild = format!("Delete it, then run rwg run {r}/manifest.toml --out {r}");
+    for cut in ["", &json[..json.len() / 2]] {
+        std::fs::write(run.join("run.json"), cut).unwrap();
+        for args in [
+            vec!["run", &m, "--out", r, "-q"],
+            vec!["stats", r, "--no-write"],
+            vec!["verify", r],
+        ] {
+            let out = rwg(&args);
+            assert!(!out.status.success(), "{args:?}");
+            // (verify lists its problems on stdout)
+            let err = String::from_utf8_lossy(&out.stderr).into_owned()
+                + &String::from_utf8_lossy(&out.stdout);
+            assert!(err.contains("is not a readable run.json"), "{args:?}: {err}");
+            assert!(err.contains(&rebuild), "{args:?}: {err}");
+        }
+    }
+    std::fs::remove_file(run.join("run.json")).unwrap();
+    rwg_ok(&["run", &format!("{r}/manifest.toml"), "--out", r, "-q", "--no-report"]);
+    rwg_ok(&["verify", r]);
+    rwg_ok(&["stats", r, "--no-write"]);
+}

@@ -263,3 +263,82 @@ fn rows_no_episode_can_have_are_refused_though_their_digests_match() {
         "{err}"
     );
 }
+
+/// A run of 4 cells stopped by an env error after its first `finished`
+/// cells (CartPole-v1, with and without bias; then a plugin env whose 2nd
+/// step fails), and the same study's CartPole cells alone, finished.
+fn stopped_run(name: &str, finished: usize) -> (std::path::PathBuf, String) {
+    let dir = temp_dir(name);
+    let broken = format!(
+        "[[envs]]\nid = \"broken/NaNReward-v0\"\nplugin = \"{}\"\n",
+        broken_plugin().display()
+    );
+    let cartpole = "[[envs]]\nid = \"CartPole-v1\"\n";
+    let head = "samples = 40\nepisodes = 2\nbias = [false, true]\n\
+                [[architectures]]\nname = \"0HL\"\nhidden = []\n";
+    let envs = match finished {
+        0 => format!("{broken}{cartpole}"),
+        _ => format!("{cartpole}{broken}"),
+    };
+    let m = dir.join("m.toml");
+    std::fs::write(&m, format!("{head}{envs}")).unwrap();
+    let run = dir.join("run");
+    let err = rwg_err(&["run", m.to_str().unwrap(), "--out", run.to_str().unwrap(), "-q"]);
+    assert!(err.contains("NaN"), "{err}");
+    let whole = dir.join("whole");
+    std::fs::write(&m, format!("{head}{cartpole}")).unwrap();
+    rwg_ok(&["run", m.to_str().unwrap(), "--out", whole.to_str().unwrap(), "-q"]);
+    (dir, run.to_str().unwrap().to_string())
+}
+
+#[test]
+fn readers_of_a_run_in_progress_say_so_and_refuse_or_mark_partial_output() {
+    let (dir, r) = stopped_run("stats-partial", 2);
+    let partial = format!("{r} is a run in progress (or stopped): 2 of 4 cells finished");
+    // stats --no-write: the finished cells, marked; writing them: refused.
+    let out = rwg(&["stats", &r, "--no-write", "--format", "csv"]);
+    assert!(out.status.success());
+    let note = String::from_utf8_lossy(&out.stderr);
+    assert!(note.contains(&partial), "{note}");
+    assert_eq!(String::from_utf8_lossy(&out.stdout).lines().count(), 3);
+    let err = rwg_err(&["stats", &r]);
+    assert!(err.contains(&partial) && err.contains("--no-write prints"), "{err}");
+    assert!(err.contains(&format!("rwg run {r}/manifest.toml --out {r}")), "{err}");
+    assert!(!dir.join("run/stats.json").exists());
+    let err = rwg_err(&["report", &r]);
+    assert!(err.contains(&partial), "{err}");
+    let out = rwg(&["top", &r, "-n", "1"]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains(&partial));
+    let out = rwg_ok(&["verify", &r]);
+    assert!(out.contains("a run in progress (or stopped): 2 of 4 cells finished"), "{out}");
+    // compare: the finished cells' architectures match the whole run's.
+    let whole = dir.join("whole");
+    let err = rwg_err(&["compare", whole.to_str().unwrap(), &r]);
+    assert!(
+        err.contains("not comparable") && err.contains("run is a run in progress (or stopped): 2 of 4"),
+        "{err}"
+    );
+    let out = rwg(&["compare", whole.to_str().unwrap(), &r, "--force"]);
+    assert!(out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("2 of 4 cells finished"));
+}
+
+#[test]
+fn readers_of_a_run_whose_first_cell_has_not_finished_know_it() {
+    let (_dir, r) = stopped_run("stats-none", 0);
+    let partial = format!("{r} is a run in progress (or stopped): 0 of 4 cells finished");
+    for cmd in ["stats", "top", "report", "verify"] {
+        let out = rwg(&[cmd, &r]);
+        let text = String::from_utf8_lossy(&out.stderr).into_owned()
+            + &String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains(&partial) || text.contains("0 of 4 cells finished"), "{cmd}: {text}");
+        assert!(!text.contains("not a run directory"), "{cmd}: {text}");
+    }
+    // As an older rwg left it: no run.json before the first cell finished.
+    std::fs::remove_file(std::path::Path::new(&r).join("run.json")).unwrap();
+    for cmd in ["stats", "top", "report", "verify"] {
+        let err = rwg_err(&[cmd, &r]);
+        assert!(err.contains(&partial), "{cmd}: {err}");
+    }
+}

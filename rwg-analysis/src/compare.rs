@@ -328,6 +328,7 @@ mod tests {
                 .collect(),
             block_samples: 10,
             shard: None,
+            study: None,
         }
     }
 

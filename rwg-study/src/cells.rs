@@ -469,5 +469,6 @@ pub fn new_meta(
         cells: vec![],
         block_samples: BLOCK_SAMPLES,
         shard,
+        study: Some(m.to_toml()),
     }
 }

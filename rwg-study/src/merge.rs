@@ -51,6 +51,10 @@ pub fn merge_shards(
             source,
         })?;
         let meta = read_run_meta(d)?;
+        let edits = crate::rundir::study::manifest_edits(d, &meta, &m);
+        if !edits.is_empty() {
+            return refuse(crate::rundir::study::edited_message(d, &edits));
+        }
         if meta.shard.is_none() {
             return refuse(format!("{} holds a whole run, not a shard", d.display()));
         }
@@ -289,6 +293,10 @@ fn check_out(out: &Path, m: &Manifest) -> Result<Option<RunMeta>, StudyError> {
         return Ok(None);
     }
     let meta = read_run_meta(out)?;
+    let edits = crate::rundir::study::manifest_edits(out, &meta, &old);
+    if !edits.is_empty() {
+        return refuse(crate::rundir::study::edited_message(out, &edits));
+    }
     if let Some(s) = meta.shard {
         return refuse(format!(
             "{} holds shard {}/{} of the study, not a merged run; choose another --out",

@@ -25,6 +25,7 @@ use crate::rundir::lock::RunLock;
 use crate::rundir::meta::{
     read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta, RUN_FORMAT,
 };
+use crate::rundir::study::{edited_message, manifest_edits};
 use crate::rundir::{cell_dir, BLOCKS, CELLS, MANIFEST, RUN_JSON};
 use crate::timing::{CellTiming, RunTiming};
 use crate::StudyError;
@@ -55,6 +56,10 @@ pub struct RunOptions<'a> {
     /// How long finished blocks gather before they are committed as a group
     /// ([`crate::committer::LINGER`] by default; zero commits each at once).
     pub commit_linger: Duration,
+    /// The manifest file the study was read from, if any: never written
+    /// over (when it is the run directory's own `manifest.toml`, that file
+    /// must hold the study as rwg wrote it).
+    pub manifest_file: Option<&'a Path>,
 }
 
 /// What a run reports while it works.
@@ -131,7 +136,12 @@ pub fn run_study(
     std::fs::create_dir_all(out)
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
     let lock = RunLock::acquire(out)?;
-    let previous = prepare_dir(out, m, opts.shard, opts.force_new)?;
+    let manifest_path = out.join(MANIFEST);
+    // The manifest given is the directory's own: it is the study, never rewritten.
+    let own_manifest = opts
+        .manifest_file
+        .is_some_and(|f| crate::rundir::export::same_file(f, &manifest_path));
+    let previous = prepare_dir(out, m, opts.shard, opts.force_new, own_manifest)?;
     if previous.as_ref().is_some_and(|p| p.end_time.is_some()) {
         // Complete only if everything in it still verifies. Blocks that do
         // not (a shard's, say, after a crash of the machine) are computed
@@ -149,11 +159,12 @@ pub fn run_study(
             return Ok(RunOutcome::AlreadyComplete(lock));
         }
     }
-    let manifest_path = out.join(MANIFEST);
-    write_atomic(&manifest_path, m.to_toml().as_bytes()).map_err(StudyError::io(format!(
-        "cannot write {}",
-        manifest_path.display()
-    )))?;
+    if !own_manifest {
+        write_atomic(&manifest_path, m.to_toml().as_bytes()).map_err(StudyError::io(format!(
+            "cannot write {}",
+            manifest_path.display()
+        )))?;
+    }
 
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
@@ -214,8 +225,10 @@ pub fn run_study(
     timing.setup = t_setup.elapsed();
     let t0 = Instant::now();
     let mut meta = new_meta(m, threads, rfc3339(SystemTime::now()), opts.shard);
-    if let Some(p) = &previous {
-        meta.start_time = p.start_time.clone();
+    match &previous {
+        Some(p) => meta.start_time = p.start_time.clone(),
+        // A run in progress has its run.json (and study) before its first cell ends.
+        None => write_run_meta(out, &meta)?,
     }
     let mut steps_now = 0u64;
     // Set by the recorder when a cell's end fails: the run stops after the
@@ -552,14 +565,27 @@ fn run_cell_blocks(
 }
 
 /// Creates the run directory, or checks that the one there holds the same
-/// study (to resume it). Returns the previous run's metadata, if any.
+/// study (to resume it), and that its `manifest.toml` still holds the study
+/// `run.json` recorded. `own_manifest`: the study was read from the
+/// directory's own `manifest.toml`. Returns the previous run's metadata, if
+/// any.
 fn prepare_dir(
     out: &Path,
     m: &Manifest,
     shard: Option<ShardMeta>,
     force_new: bool,
+    own_manifest: bool,
 ) -> Result<Option<RunMeta>, StudyError> {
     let manifest_path = out.join(MANIFEST);
+    if force_new && own_manifest {
+        return Err(StudyError::Refused(format!(
+            "--force-new would delete {}, the manifest given: copy it out of the directory \
+             first (cp {} study.toml && rwg run study.toml --out {} --force-new)",
+            manifest_path.display(),
+            manifest_path.display(),
+            out.display()
+        )));
+    }
     if force_new {
         for p in [CELLS, RUN_JSON, MANIFEST] {
             let p = out.join(p);
@@ -576,6 +602,34 @@ fn prepare_dir(
     let mut previous = None;
     if manifest_path.exists() {
         let old = Manifest::load(&manifest_path)?;
+        if out.join(RUN_JSON).exists() {
+            let meta = read_run_meta(out)?;
+            let edits = manifest_edits(out, &meta, &old);
+            if !edits.is_empty() {
+                return Err(StudyError::Refused(edited_message(out, &edits)));
+            }
+        } else if own_manifest {
+            // No run yet: rwg would write the run's manifest over this one,
+            // unless it already is the study as rwg writes it.
+            let text = std::fs::read_to_string(&manifest_path).map_err(StudyError::io(format!(
+                "cannot read {}",
+                manifest_path.display()
+            )))?;
+            if text != m.to_toml() {
+                return Err(StudyError::Refused(format!(
+                    "{} is the manifest given and {} holds no run: rwg writes the study's \
+                     resolved manifest.toml into its run directory, which would replace yours \
+                     (comments and layout lost); give the run a directory of its own, e.g. \
+                     --out runs/{}",
+                    manifest_path.display(),
+                    out.display(),
+                    std::path::absolute(out)
+                        .ok()
+                        .and_then(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+                        .unwrap_or_else(|| "study".into())
+                )));
+            }
+        }
         let diffs = old.study_differences(m);
         if !diffs.is_empty() {
             return Err(StudyError::Refused(format!(

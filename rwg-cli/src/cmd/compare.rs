@@ -90,7 +90,17 @@ pub fn run(args: Args) -> Result<()> {
         .zip(&runs)
         .map(|(l, r)| (l.as_str(), &r.meta))
         .collect();
-    let diffs = settings_differences(&metas);
+    let mut diffs = settings_differences(&metas);
+    // A run not finished has only some of its cells: compared, they would
+    // pass for the whole run.
+    for (label, run) in labels.iter().zip(&runs) {
+        if let Some(progress) = run.unfinished() {
+            diffs.push(format!(
+                "{label} is a run {progress} (`rwg status {}` shows how far it got)",
+                run.dir.display()
+            ));
+        }
+    }
     if !diffs.is_empty() {
         let list: String = diffs.iter().map(|d| format!("\n  - {d}")).collect();
         if !args.force {

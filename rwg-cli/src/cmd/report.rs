@@ -27,6 +27,7 @@ pub fn run(args: Args) -> Result<()> {
     let out = args.out.unwrap_or_else(|| args.run_dir.join(REPORT_HTML));
     let _lock = crate::cmd::lock_if_inside(&args.run_dir, &out)?;
     let run = Run::open(&args.run_dir)?;
+    run.require_finished()?;
     crate::cmd::warn_unverified(&run);
     let cells = rwg_analysis::load_cells(&run)?;
     let mut stats = rwg_analysis::run_stats(&run, &cells);

@@ -200,6 +200,7 @@ pub fn run(args: Args) -> Result<()> {
     });
     let opts = RunOptions {
         out: out.clone(),
+        manifest_file: Some(&args.manifest),
         shard: args.shard,
         force_new: args.force_new,
         stop: fault_guard::interrupt_flag(),

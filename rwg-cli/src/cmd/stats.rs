@@ -1,9 +1,11 @@
 //! `rwg stats`: the statistics of a run as tables; writes `stats.json` and
 //! `stats.csv` into the run directory.
 
-use anyhow::{Context, Result};
+use anyhow::{bail, Context, Result};
 use rwg_analysis::{render_tables, tables::run_tables, TableFormat};
-use rwg_study::rundir::data::{stats_csv, write_stats, Run, RunStats, SummarizeError};
+use rwg_study::rundir::data::{
+    stats_csv, write_stats, Run, RunReadError, RunStats, SummarizeError,
+};
 use rwg_study::rundir::lock::RunLock;
 use std::path::PathBuf;
 
@@ -105,13 +107,28 @@ pub fn load_stats(run_dir: &std::path::Path, at_n: Option<u64>) -> Result<(Run, 
 
 /// Runs `rwg stats`.
 pub fn run(args: Args) -> Result<()> {
-    // Writing stats.json and stats.csv makes this a writer of the run.
     // (Opened first, so a directory that is no run says so.)
+    let opened = Run::open(&args.run_dir)?;
+    if let Some(progress) = opened.unfinished() {
+        if !args.no_write {
+            let e = RunReadError::Unfinished {
+                dir: args.run_dir.clone(),
+                progress,
+            };
+            bail!(
+                "{e}\nstats.json and stats.csv are a finished run's; --no-write prints the \
+                 statistics of the cells finished so far without writing them"
+            );
+        }
+        crate::errln!(
+            "note: {} is a run {progress}: these statistics cover the finished cells only",
+            args.run_dir.display()
+        );
+    }
+    // Writing stats.json and stats.csv makes this a writer of the run.
     let _lock = match args.no_write {
         true => None,
-        false => Run::open(&args.run_dir)
-            .map(|_| RunLock::acquire(&args.run_dir))??
-            .into(),
+        false => Some(RunLock::acquire(&args.run_dir)?),
     };
     let (run, stats) = load_stats(&args.run_dir, args.at_n)?;
     crate::cmd::warn_unverified(&run);

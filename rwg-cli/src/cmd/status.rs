@@ -12,6 +12,7 @@ use rwg_study::rundir::blocks::n_blocks;
 use rwg_study::rundir::meta::read_run_meta as read_meta;
 use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::rundir::status::{cell_dirs, progress, CellProgress, Totals};
+use rwg_study::rundir::study::{edited_message, manifest_edits};
 use rwg_study::rundir::{MANIFEST, RUN_JSON};
 use std::path::PathBuf;
 
@@ -60,12 +61,30 @@ pub fn run(args: Args) -> Result<()> {
             dir.display()
         );
     }
-    let m = Manifest::load(&manifest_path)?;
+    let mut m = Manifest::load(&manifest_path)?;
     let meta = if dir.join(RUN_JSON).exists() {
         Some(read_meta(dir)?)
     } else {
         None
     };
+    // An edited manifest.toml is not the study: progress is the recorded study's.
+    if let Some(meta) = &meta {
+        let edits = manifest_edits(dir, meta, &m);
+        if !edits.is_empty() {
+            crate::outln!("warning: {}", edited_message(dir, &edits));
+            let recorded = meta.study.as_deref().and_then(|s| {
+                Manifest::parse(s, &dir.join(RUN_JSON).display().to_string(), dir).ok()
+            });
+            match recorded {
+                Some(r) => m = r,
+                None => bail!(
+                    "{}: run.json does not record the study, so how far the run has got \
+                     cannot be told from the edited manifest.toml; undo the edit first",
+                    dir.display()
+                ),
+            }
+        }
+    }
     let shard = meta.as_ref().and_then(|m| m.shard);
     let cells = progress(dir, &m, shard);
     let t = Totals::of(&cells, shard.is_some());

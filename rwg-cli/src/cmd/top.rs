@@ -22,6 +22,12 @@ pub fn run(args: Args) -> Result<()> {
     rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
     let run_dir = Run::open(&args.run_dir)?;
     crate::cmd::warn_unverified(&run_dir);
+    if let Some(progress) = run_dir.unfinished() {
+        crate::errln!(
+            "note: {} is a run {progress}: the best networks of the finished cells only",
+            args.run_dir.display()
+        );
+    }
     let run = args.run_dir.display().to_string();
     let stdout = crate::stdio::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());

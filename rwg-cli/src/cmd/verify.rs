@@ -24,6 +24,14 @@ pub struct Args {
 pub fn run(args: Args) -> Result<()> {
     // a folder that is no run at all is said so, with what a run holds
     rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
+    if let Ok(Some(progress)) =
+        rwg_study::rundir::data::Run::open(&args.run_dir).map(|r| r.unfinished())
+    {
+        crate::outln!(
+            "{}: a run {progress}; checking what is committed so far",
+            args.run_dir.display()
+        );
+    }
     let r = verify_run(&args.run_dir);
     for l in &r.ok {
         crate::outln!("{l}");

@@ -37,12 +37,15 @@ pub enum RunReadError {
         source: std::io::Error,
     },
     /// `run.json` is not valid.
-    #[error("{path}: invalid run metadata: {source}")]
+    #[error("{how}")]
     Json {
         /// The file.
         path: PathBuf,
         /// The cause.
         source: serde_json::Error,
+        /// What it is and how to get it back, naming the file
+        /// ([`crate::rundir::study::damaged_run_json`]).
+        how: String,
     },
     /// The run was written in a layout this rwg does not read.
     #[error("{path}: run format {found}, this rwg reads format {expected}")]
@@ -90,6 +93,19 @@ pub enum RunReadError {
         /// What reading the file found.
         row: Box<RunReadError>,
     },
+    /// The run is not finished (in progress, or stopped), and what was
+    /// asked needs a finished one.
+    #[error(
+        "{} is a run {progress}; `rwg status {}` shows how far it got, and \
+         `rwg run {}/manifest.toml --out {}` finishes it",
+        dir.display(), dir.display(), dir.display(), dir.display()
+    )]
+    Unfinished {
+        /// The run directory.
+        dir: PathBuf,
+        /// How far it has got.
+        progress: Unfinished,
+    },
     /// A file disagrees with `run.json` or with another file.
     #[error("{path}: {message}")]
     Mismatch {
@@ -125,9 +141,21 @@ fn run_dirs_in(dir: &Path) -> Vec<PathBuf> {
     out
 }
 
-/// The error for a directory without `run.json`, with a hint: the run
-/// directories inside it, or the nearest-named run directory beside it.
+/// The error for a directory without `run.json`: a run whose first cell has
+/// not finished (written by an rwg that wrote `run.json` only then), or no
+/// run at all, with a hint: the run directories inside it, or the
+/// nearest-named run directory beside it.
 fn not_a_run_dir(dir: &Path) -> RunReadError {
+    if dir.join(MANIFEST).is_file() && dir.join(crate::rundir::CELLS).is_dir() {
+        let manifest = std::fs::read_to_string(dir.join(MANIFEST)).ok();
+        return RunReadError::Unfinished {
+            dir: dir.to_path_buf(),
+            progress: Unfinished {
+                cells_done: 0,
+                cells: study_cells(dir, None, manifest.as_deref()),
+            },
+        };
+    }
     let why = if dir.is_dir() {
         "it has no run.json"
     } else if dir.exists() {
@@ -296,6 +324,7 @@ impl Run {
             JsonFileError::Json(source) => RunReadError::Json {
                 path: path.clone(),
                 source,
+                how: crate::rundir::study::damaged_run_json(&dir),
             },
         })?;
         if !(1..=RUN_FORMAT).contains(&meta.format) {
@@ -757,7 +786,11 @@ pub fn write_cell_files(
 mod spread;
 mod stats_files;
 pub mod synthetic;
+mod unfinished;
 mod verified;
+
+use unfinished::study_cells;
+pub use unfinished::Unfinished;
 
 pub use stats_files::{stats_csv, stats_csv_header, stats_csv_row, write_stats};
 

@@ -125,6 +125,21 @@ impl Drop for AtomicFile {
     }
 }
 
+/// Whether `a` and `b` name the same existing file or folder (through any
+/// links or other paths).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        #[cfg(unix)]
+        (Ok(x), Ok(y)) => {
+            use std::os::unix::fs::MetadataExt;
+            (x.dev(), x.ino()) == (y.dev(), y.ino())
+        }
+        #[cfg(not(unix))]
+        (Ok(_), Ok(_)) => std::fs::canonicalize(a).ok() == std::fs::canonicalize(b).ok(),
+        _ => false,
+    }
+}
+
 /// Syncs the directory holding `path`, so a rename into it is durable.
 pub fn sync_dir(path: &Path) -> io::Result<()> {
     #[cfg(unix)]
@@ -273,7 +288,7 @@ mod tests {
 
     #[test]
     fn an_uncommitted_or_failed_file_leaves_no_tmp() {
-        let dir = std::env::temp_dir().join(format!("rwg-atomic-{}", std::process::id()));
+        let dir = std::env::temp_dir().join(format!("rwg-atomic-drop-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join("f.csv");

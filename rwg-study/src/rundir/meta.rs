@@ -56,6 +56,11 @@ pub struct RunMeta {
     /// Set when the directory holds one shard of a study (`rwg run --shard`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shard: Option<ShardMeta>,
+    /// The study: the resolved manifest, as `manifest.toml` holds it, so an
+    /// edit of `manifest.toml` is found ([`crate::rundir::study`]). Absent
+    /// in runs written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub study: Option<String>,
 }
 
 /// Which share of a study a shard directory holds.
@@ -208,9 +213,16 @@ pub fn load_json<T: serde::de::DeserializeOwned>(p: &Path) -> Result<T, JsonFile
     serde_json::from_str(&text).map_err(JsonFileError::Json)
 }
 
-/// Reads `run.json` of run directory `dir`.
+/// Reads `run.json` of run directory `dir` (a file that does not parse is
+/// an error that says how to rebuild it).
 pub fn read_run_meta(dir: &Path) -> Result<RunMeta, StudyError> {
-    read_json(&dir.join(RUN_JSON), RUN_JSON)
+    read_json(&dir.join(RUN_JSON), RUN_JSON).map_err(|e| match e {
+        StudyError::Json { source, .. } => StudyError::Json {
+            context: crate::rundir::study::damaged_run_json(dir),
+            source,
+        },
+        e => e,
+    })
 }
 
 /// Reads a finished cell's `cell.json` in cell directory `dir`.

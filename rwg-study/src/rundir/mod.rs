@@ -27,6 +27,7 @@
 //! - [`rows`]: the fast path for rwg's own plain numeric CSV rows.
 //! - [`data`]: reading a finished run for analysis, writing its statistics.
 //! - [`status`]: how far a run or a shard has got (read-only, safe while it runs).
+//! - [`study`]: the study a run directory holds, and edits of its manifest.
 
 pub mod blocks;
 pub mod checksum;
@@ -38,6 +39,7 @@ pub mod meta;
 pub mod names;
 pub mod rows;
 pub mod status;
+pub mod study;
 pub mod verify;
 
 use std::path::{Path, PathBuf};

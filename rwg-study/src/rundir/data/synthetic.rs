@@ -158,6 +158,7 @@ pub fn write_synthetic_run(dir: &Path, spec: &SyntheticRun) -> std::io::Result<R
         cells,
         block_samples: spec.samples,
         shard: None,
+        study: None,
     };
     write_run_json(dir, &meta)?;
     Ok(meta)
