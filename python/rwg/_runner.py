@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -52,7 +53,9 @@ def run(
     value; ``force_new``, ``isolate``, ``no_report``, ``quiet``, ``timing``
     are switches (``True`` to give them).
 
-    rwg's progress goes to ``sys.stderr`` and its summary to ``sys.stdout``.
+    rwg's summary goes to ``sys.stdout``; its progress and messages to the
+    terminal (its progress bar, through a pseudo-terminal) when stderr is one,
+    else to ``sys.stderr`` (a progress line every 5 s).
     A directory holding the unfinished study is resumed. ``gymnasium:`` envs
     run in this interpreter (``RWG_PYTHON`` is set to ``sys.executable``
     unless it is set already; a manifest's ``python`` wins over both).
@@ -169,6 +172,50 @@ def _forward(src: IO[bytes], dst_name: str, keep: Optional[List[str]]) -> None:
     src.close()
 
 
+_ANSI = re.compile(rb"\x1b\[[0-9;?]*[A-Za-z]")
+
+
+def _plain_line(raw: bytes) -> str:
+    """A line as a terminal shows it: escape sequences dropped, and of the
+    text redrawn after carriage returns, the last."""
+    parts = [p for p in _ANSI.sub(b"", raw).split(b"\r") if p.strip()]
+    return parts[-1].decode("utf-8", "replace") if parts else ""
+
+
+def _terminal_stderr() -> bool:
+    """Whether this process's stderr is a terminal at fd 2 (POSIX)."""
+    if os.name != "posix":
+        return False
+    try:
+        return sys.stderr.isatty() and sys.stderr.fileno() == 2
+    except (AttributeError, ValueError, OSError):
+        return False
+
+
+def _forward_pty(master: int, keep: List[str]) -> None:
+    """Copies what rwg writes to its terminal (a pseudo-terminal) to this
+    process's terminal as it is (progress bar included), and gathers its
+    lines as they read."""
+    pending = b""
+    while True:
+        try:
+            chunk = os.read(master, 1 << 16)
+        except OSError:  # EIO: every writer closed its end
+            break
+        if not chunk:
+            break
+        try:
+            os.write(2, chunk)
+        except OSError:
+            pass
+        pending += chunk
+        *complete, pending = pending.split(b"\n")
+        keep.extend(_plain_line(raw) for raw in complete)
+    if pending:
+        keep.append(_plain_line(pending))
+    os.close(master)
+
+
 def _error_message(lines: List[str]) -> str:
     """rwg's message: its lines from the first ``error:`` on, without progress
     lines (``[0:00:05] ...``); else its last lines."""
@@ -185,17 +232,45 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
     # A session of its own: a Ctrl-C at the terminal reaches this process
     # only, which forwards it once (twice would make rwg quit at once,
     # without the blocks in flight).
-    proc = subprocess.Popen(
-        cmd,
-        stdin=subprocess.DEVNULL,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        env=env,
-        start_new_session=True,
-    )
+    # On a terminal, rwg's stderr is a pseudo-terminal of the same size, so
+    # it draws its progress bar there, and its lines are still read for the
+    # error message; elsewhere (a notebook, a pipe, a log) a pipe, and rwg
+    # writes a progress line every 5 s.
+    master: Optional[int] = None
+    stderr: Any = subprocess.PIPE
+    if _terminal_stderr():
+        import fcntl
+        import pty
+        import termios
+
+        master, stderr = pty.openpty()
+        try:
+            size = fcntl.ioctl(2, termios.TIOCGWINSZ, b"\0" * 8)
+            fcntl.ioctl(stderr, termios.TIOCSWINSZ, size)
+        except OSError:
+            pass
+        sys.stderr.flush()
+    try:
+        proc = subprocess.Popen(
+            cmd,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=stderr,
+            env=env,
+            start_new_session=True,
+        )
+    except BaseException:
+        if master is not None:
+            os.close(master)
+        raise
+    finally:
+        if master is not None:
+            os.close(stderr)
     readers = [
         threading.Thread(target=_forward, args=(proc.stdout, "stdout", None), daemon=True),
-        threading.Thread(target=_forward, args=(proc.stderr, "stderr", lines), daemon=True),
+        threading.Thread(target=_forward_pty, args=(master, lines), daemon=True)
+        if master is not None
+        else threading.Thread(target=_forward, args=(proc.stderr, "stderr", lines), daemon=True),
     ]
     for t in readers:
         t.start()

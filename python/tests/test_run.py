@@ -129,6 +129,55 @@ def test_gymnasium_envs_run_in_this_interpreter(tmp_path, monkeypatch):
     assert mark.exists()
 
 
+def test_on_a_terminal_rwg_draws_on_it_and_its_message_is_still_read(tmp_path):
+    import pty
+
+    script = textwrap.dedent(
+        f"""
+        import json, rwg
+        study = {{"samples": 64, "episodes": 3, "architectures": [{{"name": "0HL", "hidden": []}}],
+                 "envs": [{{"id": "CartPole-v1"}}]}}
+        run = rwg.run(study, out={str(tmp_path / "ok")!r})
+        print("ran", run.scores("CartPole-v1", "0HL").shape)
+        study["envs"] = [{{"id": "Nope-v0"}}]
+        try:
+            rwg.run(study, out={str(tmp_path / "bad")!r})
+        except rwg.RwgFailedError as e:
+            print("message", json.dumps(str(e).splitlines()[0]))
+        """
+    )
+    master, slave = pty.openpty()
+    proc = subprocess.Popen(
+        [sys.executable, "-c", script],
+        env=python_env(),
+        stdout=subprocess.PIPE,
+        stderr=slave,
+        text=True,
+    )
+    os.close(slave)
+    terminal = b""
+    while True:
+        try:
+            chunk = os.read(master, 1 << 16)
+        except OSError:
+            break
+        if not chunk:
+            break
+        terminal += chunk
+    os.close(master)
+    stdout, _ = proc.communicate(timeout=120)
+    assert proc.returncode == 0, terminal.decode(errors="replace")
+    shown = terminal.decode(errors="replace")
+    # rwg saw a terminal (no plain progress lines) and wrote its error there
+    assert "a progress line every 5 s" not in shown and "networks" in shown, shown
+    assert "error: " in shown and "unknown environment 'Nope-v0'" in shown, shown
+    assert "ran (64, 3)" in stdout
+    # the exception's message is rwg's line, without the terminal's control characters
+    line = json.loads(re.search(r"^message (.*)$", stdout, re.M).group(1))
+    assert line.startswith("error: ") and "unknown environment 'Nope-v0'" in line, line
+    assert "\x1b" not in line and "\r" not in line, line
+
+
 INTERRUPTED = """\
 samples = 192
 episodes = 6
