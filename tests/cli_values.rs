@@ -292,6 +292,40 @@ fn gymnasium_kwargs_pass_nan_and_inf_as_floats_and_refuse_datetimes() {
              't': {{'x': inf, 'y': 2}}}}"
         )
     );
+    // an exported network's kwargs, decoded by rwg_net.gym_kwargs, are the same
+    let w = dir.join("w.json");
+    run_ok(
+        &py,
+        &[
+            "replay",
+            out.to_str().unwrap(),
+            "--env",
+            "gymnasium:rwg_test_envs:Kwargs-v0",
+            "--arch",
+            "0HL",
+            "--sample",
+            "0",
+            "--export-weights",
+            w.to_str().unwrap(),
+        ],
+    );
+    let decoded = std::process::Command::new(&py)
+        .arg("-c")
+        .arg(
+            "import json, sys, rwg_net; k = rwg_net.gym_kwargs(json.load(open(sys.argv[1]))); \
+             del k['out']; print(repr(dict(sorted(k.items()))), end='')",
+        )
+        .arg(&w)
+        .env("PYTHONPATH", python_dir())
+        .output()
+        .unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&decoded.stdout),
+        "{'a': nan, 'b': inf, 'c': -inf, 'e': {'$rwg': 'nan'}, 'l': [1.0, nan], \
+         't': {'x': inf, 'y': 2}}",
+        "{}",
+        String::from_utf8_lossy(&decoded.stderr)
+    );
     // a datetime: refused at its line, the key named
     let m = write(
         &dir,

@@ -25,7 +25,7 @@ import rwg_net  # noqa: E402
 def main():
     for path in sys.argv[1:]:
         w = json.load(open(path))
-        kwargs = dict(w.get("gym_kwargs") or {})
+        kwargs = rwg_net.gym_kwargs(w)
         env = gym.make(w["env"], max_episode_steps=w["max_episode_steps"], **kwargs)
         boxed = isinstance(env.observation_space, spaces.Box)
         act_space = env.action_space

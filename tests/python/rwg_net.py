@@ -26,6 +26,30 @@ _MASK = (1 << 64) - 1
 _SHIFT_BITS = struct.unpack("<Q", struct.pack("<d", SHIFT))[0]
 
 
+_FLOATS = {"nan": float("nan"), "inf": float("inf"), "-inf": float("-inf")}
+
+
+def _decode(v):
+    if isinstance(v, dict):
+        if len(v) == 1 and "$rwg" in v:
+            x = v["$rwg"]
+            if isinstance(x, str) and x in _FLOATS:
+                return _FLOATS[x]
+            return {k: _decode(y) for k, y in x.items()}
+        return {k: _decode(y) for k, y in v.items()}
+    if isinstance(v, list):
+        return [_decode(y) for y in v]
+    return v
+
+
+def gym_kwargs(w):
+    """gym.make's keyword arguments of an exported network (its `gym_kwargs`),
+    as the run gave them: JSON has no nan or infinities, so the export writes
+    such a float as {"$rwg": "nan"} ("inf", "-inf"), and an object whose only
+    key is "$rwg" as {"$rwg": {...}}."""
+    return {k: _decode(v) for k, v in (w.get("gym_kwargs") or {}).items()}
+
+
 def _bits(x):
     return struct.unpack("<Q", struct.pack("<d", x))[0]
 
