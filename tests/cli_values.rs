@@ -266,6 +266,37 @@ fn gymnasium_non_finite_reward_thresholds_need_solved() {
 }
 
 #[test]
+fn gymnasium_a_registered_time_limit_beyond_rwgs_is_named() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("values-gym-limit");
+    let m = gym_manifest(
+        &dir,
+        "m.toml",
+        "id = \"gymnasium:rwg_test_envs:HugeLimit-v0\"\n",
+    );
+    let err = refused_before_run(&py, &m, &dir, "r");
+    assert!(
+        err.contains("m.toml:7:6: envs[0]: gymnasium:rwg_test_envs:HugeLimit-v0: the env's spec registers max_episode_steps = 1099511627776"),
+        "{err}"
+    );
+    assert!(
+        err.contains("set max_episode_steps in the manifest"),
+        "{err}"
+    );
+    // the manifest's limit replaces it
+    let m = gym_manifest(
+        &dir,
+        "s.toml",
+        "id = \"gymnasium:rwg_test_envs:HugeLimit-v0\"\nmax_episode_steps = 30\n",
+    );
+    let out = dir.join("ok");
+    run_ok(
+        &py,
+        &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
+    );
+}
+
+#[test]
 fn gymnasium_kwargs_pass_nan_and_inf_as_floats_and_refuse_datetimes() {
     let Some(py) = python() else { return };
     let dir = temp_dir("values-gym-kwargs");

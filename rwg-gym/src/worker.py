@@ -262,6 +262,10 @@ def main():
     spec = env0.spec
     max_steps = spec.max_episode_steps if spec is not None else None
     threshold = spec.reward_threshold if spec is not None else None
+    if max_steps is not None and not (type(max_steps) is int and 0 < max_steps < 2**32):
+        fail("spec", f"the env's spec registers max_episode_steps = {max_steps!r}; rwg takes a "
+                     f"whole number of steps from 1 to {2**32 - 1}: set max_episode_steps in the "
+                     f"manifest's [[envs]] entry")
     if threshold is not None:
         try:
             threshold = floats([threshold])[0]

@@ -185,5 +185,6 @@ gym.register("Odd-v0", entry_point=Odd, max_episode_steps=60)
 gym.register("Kwargs-v0", entry_point=Kwargs, max_episode_steps=60)
 gym.register("NanThreshold-v0", entry_point=Drift, max_episode_steps=60,
              reward_threshold=float("nan"))
+gym.register("HugeLimit-v0", entry_point=Drift, max_episode_steps=2**40)
 gym.register("InfThreshold-v0", entry_point=Drift, max_episode_steps=60,
              reward_threshold=float("inf"))
