@@ -1,10 +1,13 @@
-//! Works as printed: every command in the README's ```sh blocks and in every
-//! `rwg <command> --help` Examples section runs, in the order shown, in a
-//! scratch folder laid out as a reader's clone of the repository (the
+//! Works as printed: every command in the ```sh blocks of the README and of
+//! every Markdown page under `docs/`, and in every `rwg <command> --help`
+//! Examples section, runs in the order shown. Each page runs in a scratch
+//! folder of its own laid out as a reader's clone of the repository (the
 //! `examples/` folder, the peer scripts of `benches/peers/` and the plugin
-//! header), with `rwg` on PATH and the release artefacts the README builds
-//! under `target/release/`. Each must exit 0 with output of the expected
-//! shape.
+//! header), with `rwg` on PATH and the release artefacts the pages build
+//! under `target/release/`; the `--help` examples run after the README's, in
+//! its folder. Each must exit 0 with output of the expected shape. A command
+//! is read as a reader's shell would: a `# comment` dropped, `\` lines
+//! joined, a here-document (`cat > f <<'EOF'` ... `EOF`) kept whole.
 //!
 //! What the test does instead of running a command as printed (each is
 //! printed to the test output when it applies, never silently):
@@ -12,8 +15,13 @@
 //!   provides what they make (`rwg` on PATH; `target/release/rwg` and the
 //!   plugin libraries are the test build's, linked there).
 //! - `cargo test --workspace`: not run, it is this test suite.
+//! - `pip install ...` and `maturin build`: not run; `.ci/run` builds the
+//!   wheel with maturin and installs it into a fresh virtualenv.
+//!   `cargo install --path rwg-cli --no-default-features`: not run, a
+//!   release build of its own; `.ci/run` builds without default features.
 //! - Studies are reduced: every `rwg run` gets `--samples 32 --episodes 4`
-//!   (replacing a `--samples` it has), `plugin-overhead.sh` runs with
+//!   (replacing a `--samples` it has; `examples/atlas.toml`, 45 cells mostly
+//!   stepped in Python, `--samples 4 --episodes 1`), `plugin-overhead.sh` runs with
 //!   `SAMPLES=32 EPISODES=2`, `rwg bench envs` with `--steps 20000`,
 //!   `rwg bench sampler` and `rwg bench gym` with `--samples 16 --episodes 2`
 //!   (and `--repeats 1`), `rwg bench plugin` with `--samples 16 --episodes 2
@@ -45,7 +53,7 @@ use std::time::{Duration, Instant};
 /// One command shown to the reader.
 #[derive(Debug, Clone)]
 struct Example {
-    /// Where it is shown: `README.md:LINE` or `rwg X --help`.
+    /// Where it is shown: `PAGE:LINE` (`docs/guide.md:12`) or `rwg X --help`.
     source: String,
     /// The command as printed (comment removed, continuation lines joined).
     command: String,
@@ -73,20 +81,70 @@ fn strip_comment(line: &str) -> &str {
     line.trim_end()
 }
 
-/// The commands of the README's ```sh blocks, in order.
-fn readme_examples() -> Vec<Example> {
-    let text = std::fs::read_to_string(repo().join("README.md")).unwrap();
+/// The pages whose ```sh blocks this test runs: the README, then every
+/// Markdown page under `docs/` (sorted by path), as paths relative to the
+/// repository.
+fn doc_pages() -> Vec<String> {
+    fn walk(dir: &Path, rel: &str, out: &mut Vec<String>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let entry = entry.unwrap();
+            let name = entry.file_name().into_string().unwrap();
+            let rel = format!("{rel}/{name}");
+            if entry.file_type().unwrap().is_dir() {
+                walk(&entry.path(), &rel, out);
+            } else if name.ends_with(".md") {
+                out.push(rel);
+            }
+        }
+    }
+    let mut docs = Vec::new();
+    walk(&repo().join("docs"), "docs", &mut docs);
+    docs.sort();
+    std::iter::once("README.md".to_string())
+        .chain(docs)
+        .collect()
+}
+
+/// The terminator of a here-document that `line` opens (`cmd <<'EOF'`,
+/// `cmd <<EOF`), if it opens one.
+fn heredoc_terminator(line: &str) -> Option<String> {
+    let (_, tail) = line.rsplit_once("<<")?;
+    let word = tail.trim().trim_start_matches('-');
+    let word = word.trim_matches(|c| c == '\'' || c == '"');
+    let ok = !word.is_empty() && word.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+    ok.then(|| word.to_string())
+}
+
+/// The commands of the ```sh blocks of `page` (relative to the repository),
+/// in order: comments removed, `\` continuations joined, a here-document
+/// kept whole (its lines verbatim up to its terminator).
+fn page_examples(page: &str) -> Vec<Example> {
+    let text = std::fs::read_to_string(repo().join(page)).unwrap();
     let mut out = Vec::new();
     let mut in_sh = false;
     let mut pending: Option<(usize, String)> = None;
+    let mut heredoc: Option<(usize, String, String)> = None;
     for (i, line) in text.lines().enumerate() {
+        if let Some((start, mut cmd, end)) = heredoc.take() {
+            cmd.push('\n');
+            cmd.push_str(line);
+            if line.trim() == end {
+                out.push(Example {
+                    source: format!("{page}:{start}"),
+                    command: cmd,
+                });
+            } else {
+                heredoc = Some((start, cmd, end));
+            }
+            continue;
+        }
         if line.starts_with("```") {
             // shell commands stand in ```sh blocks, which this test runs; one
             // in a block of another shell name would be skipped unseen
             let lang = line.trim().trim_start_matches('`');
             assert!(
                 !["bash", "shell", "console", "zsh", "shell-session"].contains(&lang),
-                "README.md:{}: a ```{lang} block: write ```sh, so that this test runs it",
+                "{page}:{}: a ```{lang} block: write ```sh, so that this test runs it",
                 i + 1
             );
             in_sh = !in_sh && line.trim() == "```sh";
@@ -104,13 +162,21 @@ fn readme_examples() -> Vec<Example> {
         }
         cmd.push_str(l);
         let cmd = cmd.trim().to_string();
+        if let Some(end) = heredoc_terminator(&cmd) {
+            heredoc = Some((start, cmd, end));
+            continue;
+        }
         if !cmd.is_empty() {
             out.push(Example {
-                source: format!("README.md:{start}"),
+                source: format!("{page}:{start}"),
                 command: cmd,
             });
         }
     }
+    assert!(
+        heredoc.is_none(),
+        "{page}: a here-document runs to the end of the page"
+    );
     out
 }
 
@@ -279,7 +345,11 @@ fn set_flag(cmd: &str, flag: &str, value: &str) -> String {
 /// Applies the module doc's substitutions to one `rwg` command of a line.
 fn reduce_rwg(cmd: &str) -> String {
     let mut c = cmd.to_string();
-    if c.contains("rwg run ") {
+    if c.contains("rwg run ") && c.contains("examples/atlas.toml") {
+        // 45 cells, mostly Box2D and MuJoCo envs stepped in Python
+        c = set_flag(&c, "--samples", "4");
+        c = set_flag(&c, "--episodes", "1");
+    } else if c.contains("rwg run ") {
         c = set_flag(&c, "--samples", "32");
         c = set_flag(&c, "--episodes", "4");
     }
@@ -316,6 +386,17 @@ fn reduce_rwg(cmd: &str) -> String {
 
 fn plan(e: &Example) -> Plan {
     let c = e.command.as_str();
+    if c.starts_with("pip install") || c.starts_with("maturin build") {
+        return Plan::NotRun(
+            "the wheel is built with maturin and installed into a fresh virtualenv by .ci/run's \
+             packaging check",
+        );
+    }
+    if c.starts_with("cargo install --path rwg-cli") && c.contains("--no-default-features") {
+        return Plan::NotRun(
+            "a release build of its own; the build without default features is .ci/run's",
+        );
+    }
     if c.starts_with("cargo install --path rwg-cli") {
         return Plan::NotRun("provided: rwg is on PATH");
     }
@@ -344,6 +425,10 @@ fn plan(e: &Example) -> Plan {
     if c.contains("plugin-overhead.sh") {
         return Plan::Run(format!("SAMPLES=32 EPISODES=2 {c}"));
     }
+    if c.contains('\n') {
+        // a here-document: a file or a script, as printed
+        return Plan::Run(c.to_string());
+    }
     // a line may hold several commands (`a; b`, a `for` loop): reduce each
     let parts: Vec<String> = c.split("; ").map(reduce_rwg).collect();
     Plan::Run(parts.join("; "))
@@ -360,8 +445,10 @@ fn check_shape(e: &Example, ran: &str, dir: &Path, stdout: &str) {
             e.source, e.command
         )
     };
-    if let Some((_, file)) = c.split_once(" > ") {
-        let text = std::fs::read_to_string(dir.join(file.trim())).unwrap_or_default();
+    let first_line = c.lines().next().unwrap_or("");
+    if let Some((_, file)) = first_line.split_once(" > ") {
+        let file = file.split_whitespace().next().unwrap_or("");
+        let text = std::fs::read_to_string(dir.join(file)).unwrap_or_default();
         want(
             !text.trim().is_empty(),
             "writes nothing into its output file",
@@ -372,6 +459,14 @@ fn check_shape(e: &Example, ran: &str, dir: &Path, stdout: &str) {
                 "writes no valid JSON",
             );
         }
+        return;
+    }
+    if let Some(rest) = first_line.strip_prefix("python3 -m venv ") {
+        let venv = rest.split_whitespace().next().unwrap_or("");
+        want(
+            dir.join(venv).join("bin/python").exists(),
+            "makes no virtualenv",
+        );
         return;
     }
     if has("make -C") {
@@ -504,19 +599,16 @@ fn sh(
     (status.success(), out.join().unwrap(), err.join().unwrap())
 }
 
-#[test]
-fn every_readme_and_help_example_runs_as_printed() {
-    let dir = temp_dir("examples").join("rwg");
-    std::fs::create_dir_all(&dir).unwrap();
-    let bin = prepare(&dir);
-    let readme = readme_examples();
-    let help = help_examples();
-    assert!(readme.len() >= 20, "README examples found: {readme:#?}");
-    assert!(help.len() >= 15, "help examples found: {help:#?}");
-    let mut notes = Vec::new();
-    let started = Instant::now();
+const TEST: &str = "every_page_and_help_example_runs_as_printed";
+
+/// Runs `examples` in order in `dir`, a fresh reader's clone, each as its
+/// [`plan`] says, checking its exit status and output; what was done is
+/// added to `notes`.
+fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
+    std::fs::create_dir_all(dir).unwrap();
+    let bin = prepare(dir);
     let python = std::env::var_os("RWG_TEST_PYTHON");
-    for e in readme.iter().chain(&help) {
+    for e in examples {
         let ran = match plan(e) {
             Plan::NotRun(why) => {
                 notes.push(format!("{}: `{}` not run: {why}", e.source, e.command));
@@ -529,7 +621,7 @@ fn every_readme_and_help_example_runs_as_printed() {
         }
         if ran.contains("../shared/") && !dir.join("../shared").is_dir() {
             skip(
-                "every_readme_and_help_example_runs_as_printed",
+                TEST,
                 &format!(
                     "{}: `{}` needs ../shared beside the repository",
                     e.source, e.command
@@ -539,7 +631,7 @@ fn every_readme_and_help_example_runs_as_printed() {
         }
         if ran.contains("gymnasium") && python.is_none() {
             skip(
-                "every_readme_and_help_example_runs_as_printed",
+                TEST,
                 &format!(
                     "{}: `{}` needs RWG_TEST_PYTHON, a Python with gymnasium[box2d,mujoco]",
                     e.source, e.command
@@ -548,13 +640,7 @@ fn every_readme_and_help_example_runs_as_printed() {
             continue;
         }
         let t = Instant::now();
-        let (ok, stdout, stderr) = sh(
-            &ran,
-            &dir,
-            &bin,
-            python.as_deref(),
-            Duration::from_secs(300),
-        );
+        let (ok, stdout, stderr) = sh(&ran, dir, &bin, python.as_deref(), Duration::from_secs(300));
         assert!(
             ok,
             "{}: `{}` failed (ran as `{ran}` in {}):\nstdout:\n{stdout}\nstderr:\n{stderr}",
@@ -567,12 +653,46 @@ fn every_readme_and_help_example_runs_as_printed() {
             "{}: `{ran}` printed an error:\n{stderr}",
             e.source
         );
-        check_shape(e, &ran, &dir, &stdout);
+        check_shape(e, &ran, dir, &stdout);
         notes.push(format!(
             "{}: `{ran}` ok in {:.1} s",
             e.source,
             t.elapsed().as_secs_f64()
         ));
+    }
+}
+
+/// Each page runs in a clone of its own, as a reader who opens it would:
+/// its commands may use what earlier commands of the same page made, never
+/// another page's. The `--help` examples run after the README's, in its
+/// clone (they look at the run of its quick start).
+#[test]
+fn every_page_and_help_example_runs_as_printed() {
+    let root = temp_dir("examples");
+    let help = help_examples();
+    assert!(help.len() >= 15, "help examples found: {help:#?}");
+    let mut notes = Vec::new();
+    let mut counts = Vec::new();
+    let started = Instant::now();
+    // every page is read before any runs: a page that cannot be parsed fails at once
+    let pages: Vec<(String, Vec<Example>)> = doc_pages()
+        .into_iter()
+        .map(|page| {
+            let examples = page_examples(&page);
+            (page, examples)
+        })
+        .collect();
+    for (page, mut examples) in pages {
+        counts.push(format!("{} from {page}", examples.len()));
+        if page == "README.md" {
+            assert!(examples.len() >= 10, "README examples found: {examples:#?}");
+            examples.extend(help.iter().cloned());
+        }
+        if ["docs/guide.md", "docs/gymnasium.md", "docs/plugins.md"].contains(&page.as_str()) {
+            assert!(examples.len() >= 3, "{page}: examples found: {examples:#?}");
+        }
+        let dir = root.join(page.replace(['/', '.'], "-")).join("rwg");
+        run_in_clone(&examples, &dir, &mut notes);
     }
     use std::io::Write;
     let mut err = std::io::stderr();
@@ -581,8 +701,8 @@ fn every_readme_and_help_example_runs_as_printed() {
     }
     let _ = writeln!(
         err,
-        "examples: {} from README.md, {} from --help, in {:.0} s",
-        readme.len(),
+        "examples: {}, {} from --help, in {:.0} s",
+        counts.join(", "),
         help.len(),
         started.elapsed().as_secs_f64()
     );
@@ -593,6 +713,15 @@ fn comments_and_continuations_are_read_as_a_reader_would() {
     assert_eq!(strip_comment("rwg envs   # list"), "rwg envs");
     assert_eq!(strip_comment("rwg x --a \"b # c\""), "rwg x --a \"b # c\"");
     assert_eq!(strip_comment("echo $#"), "echo $#");
+    assert_eq!(
+        heredoc_terminator("cat > f.toml <<'EOF'").as_deref(),
+        Some("EOF")
+    );
+    assert_eq!(
+        heredoc_terminator("python3 - <<TOML").as_deref(),
+        Some("TOML")
+    );
+    assert_eq!(heredoc_terminator("rwg run m.toml"), None);
     assert_eq!(
         set_flag("rwg run m.toml --samples 1000 --out x", "--samples", "32"),
         "rwg run m.toml --samples 32 --out x"
