@@ -332,3 +332,30 @@ fn endless_input_files_are_read_to_their_limit_only() {
         t0.elapsed()
     );
 }
+
+#[test]
+fn run_files_that_are_devices_fail_at_once() {
+    let run = synthetic_run("limits-device-cell", 32, 2);
+    let cell = std::fs::read_dir(run.join("cells"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    let scores = cell.join("scores.csv");
+    std::fs::remove_file(&scores).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", &scores).unwrap();
+    let r = run.to_str().unwrap();
+    for args in [&["verify", r][..], &["stats", r, "--no-write"]] {
+        let t0 = Instant::now();
+        let o = rwg(args);
+        // (verify names each problem on stdout)
+        let err = String::from_utf8_lossy(&o.stderr) + String::from_utf8_lossy(&o.stdout);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+        assert!(
+            err.contains(&*scores.to_string_lossy()) && err.contains("not a regular file"),
+            "{args:?}: {err}"
+        );
+        assert!(t0.elapsed() < Duration::from_secs(30), "{args:?}");
+    }
+}

@@ -87,6 +87,21 @@ pub fn read_bounded(path: &Path, max: u64) -> io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// Opens the file at `path` for streaming, if it is a regular file (a
+/// symbolic link to one included): a device or FIFO in a run directory,
+/// which rwg never writes there, is an error (kind `InvalidInput`) instead
+/// of a read without end or an open that waits for a writer.
+pub fn open_regular(path: &Path) -> io::Result<File> {
+    let kind = std::fs::metadata(path)?.file_type();
+    if !kind.is_file() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "not a regular file (a device, FIFO or directory where rwg writes a file)",
+        ));
+    }
+    File::open(path)
+}
+
 /// [`read_bounded`] as UTF-8 text (an error of kind `InvalidData` if it is not).
 pub fn read_bounded_text(path: &Path, max: u64) -> io::Result<String> {
     String::from_utf8(read_bounded(path, max)?).map_err(|e| {
@@ -147,6 +162,11 @@ mod tests {
         std::fs::write(&p, b"ab\xFFc").unwrap();
         let e = read_bounded_text(&p, 10).unwrap_err();
         assert_eq!(e.to_string(), "byte 2 is not UTF-8 text");
+        assert!(open_regular(&p).is_ok());
+        for odd in [Path::new("/dev/zero"), dir.as_path()] {
+            let e = open_regular(odd).unwrap_err();
+            assert_eq!(e.kind(), io::ErrorKind::InvalidInput, "{odd:?}");
+        }
         assert_eq!(
             read_bounded_text(&dir.join("f"), 4).unwrap_err().kind(),
             io::ErrorKind::InvalidData

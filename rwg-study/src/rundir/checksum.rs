@@ -21,7 +21,7 @@
 use crate::rundir::blocks::RunDirError;
 use sha2::{Digest as _, Sha256};
 use std::collections::BTreeMap;
-use std::fs::{File, OpenOptions};
+use std::fs::OpenOptions;
 use std::io::{self, Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
@@ -112,7 +112,7 @@ impl<R: Read> Read for HashingReader<R> {
 
 /// The SHA-256 of a file's contents.
 pub fn hash_file(path: &Path) -> io::Result<Digest> {
-    HashingReader::new(File::open(path)?).finish()
+    HashingReader::new(crate::limits::open_regular(path)?).finish()
 }
 
 fn io_err(path: &Path) -> impl FnOnce(io::Error) -> RunDirError + '_ {

@@ -21,7 +21,6 @@ use crate::rundir::{
 use crate::stats::{self, CellSummary, SampleStats};
 use rwg_env::float::fmt_f64;
 use serde::{Deserialize, Serialize};
-use std::fs::File;
 use std::io::{BufRead, BufReader, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
@@ -510,7 +509,7 @@ fn read_csv(
     };
     // One open file for the check and the read: a file renamed over `path`
     // in between cannot be read by the wrong path.
-    let mut file = File::open(path).map_err(io_err(path))?;
+    let mut file = crate::limits::open_regular(path).map_err(io_err(path))?;
     if rows::is_plain_reader(&mut file).map_err(io_err(path))? {
         file.seek(SeekFrom::Start(0)).map_err(io_err(path))?;
         let mut input = BufReader::with_capacity(1 << 16, file);

@@ -42,7 +42,7 @@ pub fn is_plain(bytes: &[u8]) -> bool {
 
 /// Whether the file at `path` is plain, read in chunks (constant memory).
 pub fn is_plain_file(path: &Path) -> io::Result<bool> {
-    is_plain_reader(&mut std::fs::File::open(path)?)
+    is_plain_reader(&mut crate::limits::open_regular(path)?)
 }
 
 /// Whether what `input` holds from where it is to its end is plain, read in
