@@ -81,11 +81,9 @@ struct ParsedAction {
 /// stands (for error messages).
 fn action_texts(args: &Args) -> Result<Vec<(String, String)>> {
     if let Some(path) = &args.actions_file {
-        let text = rwg_study::limits::read_bounded_text(
-            path,
-            rwg_study::limits::MAX_ACTIONS_FILE_BYTES,
-        )
-        .with_context(|| format!("cannot read actions file {}", path.display()))?;
+        let text =
+            rwg_study::limits::read_bounded_text(path, rwg_study::limits::MAX_ACTIONS_FILE_BYTES)
+                .with_context(|| format!("cannot read actions file {}", path.display()))?;
         Ok(text
             .lines()
             .enumerate()
