@@ -452,3 +452,39 @@ fn an_empty_or_cut_run_json_says_how_to_rebuild_it() {
     rwg_ok(&["verify", r]);
     rwg_ok(&["stats", r, "--no-write"]);
 }
+
+#[test]
+fn what_stands_in_the_way_of_the_run_directory_is_named() {
+    let dir = temp_dir("in-the-way");
+    let m = manifest(&dir, "m.toml", CARTPOLE);
+    // A file where the run's cells/ folder goes.
+    let run = dir.join("cf");
+    std::fs::create_dir_all(&run).unwrap();
+    std::fs::write(run.join("cells"), "mine").unwrap();
+    let err = rwg_err(&["run", &m, "--out", run.to_str().unwrap(), "-q"]);
+    let cells = run.join("cells");
+    assert!(
+        err.contains(&format!("cannot create {0}: {0} is a file, not a folder", cells.display())),
+        "{err}"
+    );
+    assert_eq!(read(&cells), "mine");
+    // --out a symbolic link to a folder that does not exist.
+    let link = dir.join("dl");
+    std::os::unix::fs::symlink(dir.join("nowhere"), &link).unwrap();
+    let shard = dir.join("s0");
+    let s0 = shard.to_str().unwrap();
+    rwg_ok(&["run", &m, "--shard", "0/1", "--out", s0, "-q"]);
+    let want = format!(
+        "{} is a symbolic link to {}, which does not exist",
+        link.display(),
+        dir.join("nowhere").display()
+    );
+    for args in [
+        vec!["run", &m, "--out", link.to_str().unwrap(), "-q"],
+        vec!["merge", s0, "--out", link.to_str().unwrap()],
+    ] {
+        let err = rwg_err(&args);
+        assert!(err.contains(&want), "{args:?}: {err}");
+        assert!(!err.contains("File exists"), "{args:?}: {err}");
+    }
+}

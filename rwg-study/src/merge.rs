@@ -162,7 +162,7 @@ pub fn merge_shards(
         }
     }
 
-    std::fs::create_dir_all(out)
+    crate::rundir::export::create_dir_all(out)
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
     let lock = RunLock::acquire(out)?;
     if let Some(previous) = check_out(out, m)? {
@@ -186,8 +186,11 @@ pub fn merge_shards(
             });
         }
     }
-    std::fs::create_dir_all(out.join(CELLS))
-        .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
+    let cells_dir = out.join(CELLS);
+    crate::rundir::export::create_dir_all(&cells_dir).map_err(StudyError::io(format!(
+        "cannot create {}",
+        cells_dir.display()
+    )))?;
     let manifest_path = out.join(MANIFEST);
     write_atomic(&manifest_path, m.to_toml().as_bytes()).map_err(StudyError::io(format!(
         "cannot write {}",

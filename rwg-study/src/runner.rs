@@ -133,7 +133,7 @@ pub fn run_study(
             .map_or(1, |n| n.get())
             .min(crate::limits::MAX_THREADS)
     });
-    std::fs::create_dir_all(out)
+    crate::rundir::export::create_dir_all(out)
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
     let lock = RunLock::acquire(out)?;
     let manifest_path = out.join(MANIFEST);
@@ -669,7 +669,8 @@ fn prepare_dir(
             out.display()
         )));
     }
-    std::fs::create_dir_all(out.join(CELLS))
-        .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
+    let cells = out.join(CELLS);
+    crate::rundir::export::create_dir_all(&cells)
+        .map_err(StudyError::io(format!("cannot create {}", cells.display())))?;
     Ok(previous)
 }

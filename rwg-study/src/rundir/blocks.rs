@@ -14,7 +14,7 @@ use crate::rundir::checksum::{
     self, append_sum, append_sums_unsynced, read_sums, sums_text, Digest, SUMS,
 };
 use crate::rundir::export::{
-    sync_dir, write_atomic_hashed, write_sample_rows, write_score_rows, AtomicFile,
+    self, sync_dir, write_atomic_hashed, write_sample_rows, write_score_rows, AtomicFile,
 };
 use crate::rundir::{rows, BLOCKS, CELL_JSON, SAMPLES_CSV, SCORES_CSV, SCORES_HEADER};
 use crate::stats::{ranks, sample_stats};
@@ -222,7 +222,7 @@ pub fn write_blocks(
 ) -> Result<(), RunDirError> {
     let dir = cell_dir.join(BLOCKS);
     if !dir.is_dir() {
-        std::fs::create_dir_all(&dir).map_err(io_err(&dir))?;
+        export::create_dir_all(&dir).map_err(io_err(&dir))?;
     }
     let mut done = Vec::with_capacity(blocks.len());
     let mut failed = None;
@@ -269,7 +269,7 @@ pub fn copy_block(src: &BlockIndex, dst: &Path, b: u64) -> Result<(), RunDirErro
     checksum::check(&from, &want, &got)?;
     let to = block_path(dst, b);
     let dir = to.parent().expect("block path has a parent");
-    std::fs::create_dir_all(dir).map_err(io_err(dir))?;
+    export::create_dir_all(dir).map_err(io_err(dir))?;
     let digest = write_atomic_hashed(&to, &bytes).map_err(io_err(&to))?;
     append_sum(&dir.join(SUMS), &block_name(b), &digest)
 }
@@ -367,7 +367,7 @@ pub fn finalize_cell(
         }
     }
     // A cell whose blocks are all pending has no directory yet.
-    std::fs::create_dir_all(cell_dir).map_err(io_err(cell_dir))?;
+    export::create_dir_all(cell_dir).map_err(io_err(cell_dir))?;
     let scores_path = cell_dir.join(SCORES_CSV);
     let mut scores = AtomicFile::create(&scores_path).map_err(io_err(&scores_path))?;
     writeln!(scores, "{SCORES_HEADER}").map_err(io_err(&scores_path))?;

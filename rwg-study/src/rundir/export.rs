@@ -140,6 +140,44 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
+/// Creates folder `path` and its parents, as [`std::fs::create_dir_all`];
+/// when something on the way is not a folder (a file, or a symbolic link
+/// to nothing), the error names it and says what it is, instead of "File
+/// exists".
+pub fn create_dir_all(path: &Path) -> io::Result<()> {
+    let Err(e) = std::fs::create_dir_all(path) else {
+        return Ok(());
+    };
+    let mut on_the_way: Vec<&Path> = path
+        .ancestors()
+        .filter(|a| !a.as_os_str().is_empty())
+        .collect();
+    on_the_way.reverse();
+    for a in on_the_way {
+        let Ok(link) = std::fs::symlink_metadata(a) else {
+            break; // nothing there: nor below
+        };
+        let what = match std::fs::metadata(a) {
+            Ok(m) if m.is_dir() => continue,
+            Ok(_) => "a file, not a folder".to_string(),
+            Err(_) if link.file_type().is_symlink() => {
+                let to = std::fs::read_link(a).unwrap_or_default();
+                format!(
+                    "a symbolic link to {}, which does not exist (create that folder, or \
+                     give another path)",
+                    to.display()
+                )
+            }
+            Err(_) => continue,
+        };
+        return Err(io::Error::new(
+            e.kind(),
+            format!("{} is {what}", a.display()),
+        ));
+    }
+    Err(e)
+}
+
 /// Syncs the directory holding `path`, so a rename into it is durable.
 pub fn sync_dir(path: &Path) -> io::Result<()> {
     #[cfg(unix)]
@@ -285,6 +323,34 @@ mod tests {
     use super::*;
     use rwg_core::sampler::EpisodeResult;
     use std::time::Duration;
+
+    #[test]
+    fn a_folder_that_cannot_be_created_names_what_is_in_the_way() {
+        let dir = std::env::temp_dir().join(format!("rwg-mkdir-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("run")).unwrap();
+        std::fs::write(dir.join("run/cells"), "").unwrap();
+        let e = create_dir_all(&dir.join("run/cells/c1/blocks")).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "{} is a file, not a folder",
+                dir.join("run/cells").display()
+            )
+        );
+        std::os::unix::fs::symlink(dir.join("nowhere"), dir.join("link")).unwrap();
+        let e = create_dir_all(&dir.join("link")).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!(
+                "{} is a symbolic link to {}, which does not exist",
+                dir.join("link").display(),
+                dir.join("nowhere").display()
+            )),
+            "{e}"
+        );
+        create_dir_all(&dir.join("run/ok/a")).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn an_uncommitted_or_failed_file_leaves_no_tmp() {
