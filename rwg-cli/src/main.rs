@@ -118,8 +118,12 @@ fn main() {
             // pipe is told as for any other output
             let status = e.exit_code();
             match e.print() {
-                Err(io) if io.kind() == std::io::ErrorKind::BrokenPipe && status == 0 => {
+                Err(io) if status == 0 && io.kind() == std::io::ErrorKind::BrokenPipe => {
                     std::process::exit(stdio::CLOSED_PIPE_STATUS)
+                }
+                Err(io) if status == 0 => {
+                    errln!("error: cannot write to standard output: {io}");
+                    std::process::exit(1)
                 }
                 _ => std::process::exit(status),
             }
