@@ -8,6 +8,18 @@
 //!
 //! [`write_analysis`] writes all of it into a run directory: what `rwg run`
 //! calls when it finishes.
+//!
+//! # Modules
+//!
+//! - [`tables`], [`table`], [`fmt`]: the paper's tables and the one text-table
+//!   layout, as text, Markdown, LaTeX, CSV or HTML.
+//! - [`plot`]: the paper's figures and the comparison figures.
+//! - [`report`] writes `report.html`.
+//! - [`compare`], [`ranking`], [`compare_page`]: `rwg compare`, its difficulty
+//!   ranking and its HTML page.
+//!
+//! Cells are read and summarised and figures drawn on the caller's rayon pool,
+//! in a fixed order, so the bytes do not depend on the thread count.
 
 pub mod compare;
 pub mod compare_page;

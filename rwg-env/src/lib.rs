@@ -22,6 +22,30 @@
 //!   once per `sin`/`cos` element: the same bits, more slowly. A plugin
 //!   should leave it off unless it steps many lanes through `lanes_math` and
 //!   accepts the LGPL for its library.
+//!
+//! # Modules
+//!
+//! - [`mod@env`], [`space`], [`time_limit`]: the `Environment` trait, its spaces, and
+//!   Gymnasium's truncation rule as a wrapper.
+//! - [`float`]: numpy-exact float helpers (its `sin_cos` is Python's
+//!   `math.sin`/`math.cos`, never glibc's `sincos`; `pow2` is glibc's `pow(x, 2)`).
+//! - [`lanes_math`]: glibc-exact `sin`/`cos` and `pow(x, 2)` over lanes of
+//!   arguments for the envs stepped in lockstep: four lanes with AVX2+FMA (the
+//!   vector `sin`/`cos` from `rwg-glibc-sincos` behind the `glibc-sincos`
+//!   feature, `pow` in `lanes_math/pow_fma.rs`), each used only after a
+//!   one-time self-check against the process's libm, else one libm call per
+//!   element.
+//! - [`many`]: the `ManyEnv` contract, many instances reset and stepped by one
+//!   call over structure-of-arrays buffers (plugins' batched calls and vector
+//!   envs, the lockstep built-in envs).
+//! - [`seeding`], [`mt19937`], [`sha512`]: numpy's `SeedSequence`/`PCG64`, and gym
+//!   0.17's seeding for Pendulum-v0.
+//! - [`plugin`]: the C ABI's `#[repr(C)]` mirrors (`plugin/abi.rs`, checked
+//!   against `include/rwg_plugin.h`) and the export side (`PluginBuilder`,
+//!   [`export_plugin!`], the `extern "C"` trampolines, the batched calls and the
+//!   vector env, instantiated per concrete env type so its `step` inlines).
+//! - `vars`: parsing of `RWG_*` environment variables with messages naming them;
+//!   [`suggest`]: did-you-mean hints.
 
 pub mod env;
 pub mod float;

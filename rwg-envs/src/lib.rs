@@ -3,6 +3,22 @@
 //! Gymnasium's classic-control environments, reproducing Gymnasium 1.4's
 //! numbers bit for bit (and gym 0.17.2's for Pendulum-v0). Each env lives in
 //! its own module; [`registry`] builds them by id with Gymnasium's time limits.
+//!
+//! # Modules
+//!
+//! - One module per env ([`cartpole`], [`acrobot`], [`pendulum`],
+//!   [`mountain_car`], [`mountain_car_continuous`]), their state through
+//!   `array_state!`.
+//! - [`registry`]: ids, time limits and reward thresholds, static dispatch
+//!   through [`visit`].
+//! - [`lockstep`]: each env again over N lanes as a `ManyEnv`: state as arrays
+//!   over lanes, one `lanes_math` call per libm use, Gymnasium's `TimeLimit` per
+//!   lane; `visit_lockstep` hands out the concrete type. `wide.rs` compiles each
+//!   step body a second time for AVX2, chosen at run time (the same operations,
+//!   so the same bits; `RWG_LOCKSTEP_AVX2=0` for the baseline). Lane loops
+//!   combine booleans with `&`/`|` so they stay branch-free, and the step bodies
+//!   take the per-lane buffers as arrays of the lane count (`lane_arrays`: one
+//!   length check per call).
 
 /// The `state_len`, `state` and `set_state` methods of an environment
 /// whose internal state is the array `self.state: [f64; N]` (Gymnasium's

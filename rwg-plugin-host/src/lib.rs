@@ -10,6 +10,19 @@
 //!
 //! Loading a plugin runs its code in this process; libraries are never
 //! unloaded. See the header for the full contract.
+//!
+//! # Modules
+//!
+//! - [`loader`]: `search.rs` (`RWG_PLUGIN_PATH`), `handshake.rs` (load and
+//!   validate), `instance.rs` ([`PluginEnv`]), `batch.rs` (`PluginBatch`: many
+//!   instances through the batched calls; the plugin's results checked over
+//!   whole buffers, `batch_scan.rs`, with a lane-by-lane pass only when that
+//!   finds something), `vec_env.rs` (`PluginVecEnv`: a plugin's vector env, its
+//!   errors naming the lane), `lanes.rs` (either one behind one type),
+//!   `clock.rs` (the host's time limit over lanes), `error.rs`.
+//! - [`check`]: one function per conformance check (`env_checks.rs`,
+//!   `plugin_checks.rs`), `batch_checks.rs` (batched calls and vector env equal
+//!   the single calls bit for bit), results in `report.rs`.
 
 pub mod check;
 pub mod loader;

@@ -10,6 +10,24 @@
 //! built in (`rwg-envs`), a plugin (`rwg-plugin-host`), or a Gymnasium env
 //! run by Python worker processes (`rwg-gym`, see [`gym_source`]); a plugin
 //! env may run isolated in worker processes of its own ([`isolate`]).
+//!
+//! # Modules
+//!
+//! - [`manifest`] (with [`manifest_text`]: bytes to text, located messages;
+//!   [`limits`]: every maximum), [`cells`]: manifest to cells, `CellId`.
+//! - [`env_source`]: built-in, plugin or Gymnasium ([`gym_source`]); [`isolate`]:
+//!   a plugin env in `rwg __plugin-worker` processes, both sides;
+//!   [`plugin_batch`]: an in-process plugin's lanes through its vector env or
+//!   batched calls as a `ManyEnv`.
+//! - [`runner`]: blocks to run directory, resume, shards; [`fault_context`] names
+//!   the plugin call in flight; [`committer`]: block commits on I/O threads,
+//!   gathered up to 2 s; `recorder`: a cell's end off the sampling path;
+//!   [`timing`]: `rwg run --timing`.
+//! - [`merge`]: shards into one run.
+//! - [`rundir`]: the run directory's one owner: names, cell directory names,
+//!   the writer lock, SHA-256 index and `rwg verify`, block files, CSV writers,
+//!   `run.json`/`cell.json`, readers (`data`), progress (`status`).
+//! - [`stats`]: every statistic, numpy-exact; `stats/spread`: `--at-n`.
 
 pub mod cells;
 pub mod committer;

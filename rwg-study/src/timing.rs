@@ -5,7 +5,7 @@
 //! worker threads, with the block commits overlapped on I/O threads
 //! ([`crate::committer`]); the cell's end (its last commits, finalising it,
 //! `run.json`) runs on threads of its own while the next cell samples
-//! ([`crate::recorder`]). What the runner's thread does for a cell outside
+//! (`recorder`). What the runner's thread does for a cell outside
 //! its sampling (starting the cell's I/O threads, handing the cell's end
 //! over, waiting when too many cells are still ending) keeps the workers
 //! waiting: that is the cell's serial time, and with set-up, the wait for the

@@ -16,6 +16,16 @@
 //! [`host`] is the [`rwg_core::batch::BatchEnv`] over a started worker (what
 //! the batched sampler drives), and [`serve`] is the worker's loop over
 //! instances of any [`rwg_env::Environment`].
+//!
+//! # Modules
+//!
+//! - [`process`]: spawning a worker, reading its answers with a deadline,
+//!   [`describe_status`] for how it ended.
+//! - [`protocol`]: the binary messages of `docs/bridge-protocol.md`.
+//! - [`host`]: [`PipeBatch`], the `BatchEnv` over a started worker.
+//! - [`lane_file`]: the shared 8-byte file naming the instance in a call, so a
+//!   worker that dies mid-call is reported with its episode.
+//! - [`serve`]: a Rust worker's loop over instances of any `Environment`.
 
 pub mod host;
 pub mod lane_file;

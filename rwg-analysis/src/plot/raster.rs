@@ -59,10 +59,10 @@ impl Raster {
     }
 
     /// Paints a `size × size` dot centred at backend pixel `(x, y)` with
-    /// `color` (alpha composited over what is there; [`blend`]).
+    /// `color` (alpha composited over what is there; `blend`).
     ///
     /// The dot's rectangle is clipped to the raster once, and each pixel's
-    /// new value is looked up in a memo of [`blend`] for this colour: a
+    /// new value is looked up in a memo of `blend` for this colour: a
     /// dense scatter blends the same colour over the same few pixel values
     /// again and again. The pixels are those `blend` gives, bit for bit.
     pub fn dot(&mut self, (x, y): (i32, i32), size: i32, color: RGBAColor) {

@@ -79,7 +79,7 @@ pub struct Args {
     /// and the worker is killed.
     #[arg(long, value_name = "SECONDS", default_value_t = fault_guard::DEFAULT_STEP_TIMEOUT_S)]
     step_timeout: u64,
-    /// Run every plugin env isolated, as `isolate = true` in its [[envs]]
+    /// Run every plugin env isolated, as `isolate = true` in its `[[envs]]`
     /// entry does: in worker processes (rwg itself), stepped in batches.
     /// A plugin that crashes, aborts, exits or hangs then ends its worker,
     /// not rwg: the run stops with an error naming the env, network,

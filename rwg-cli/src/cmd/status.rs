@@ -33,7 +33,7 @@ Examples:
   rwg status runs/paper-cluster   # after rwg slurm ... --out runs/paper-cluster")]
 pub struct Args {
     /// Run directory, shard directory, or a sharded study's directory (the
-    /// --out of `rwg slurm`, or any DIR holding shards in DIR/shards/<K>).
+    /// --out of `rwg slurm`, or any DIR holding shards in `DIR/shards/<K>`).
     run_dir: PathBuf,
 }
 

@@ -9,7 +9,7 @@
 //! [`rwg_env::lanes_math`] call for all lanes, and the branchy helpers
 //! (`pow2`, `fmod_pos`, the f32 casts) run per lane as in the scalar env.
 //! The time limit and the reset-before-step check are Gymnasium's
-//! `TimeLimit` / `OrderEnforcing` per lane ([`Clocks`]), and actions are
+//! `TimeLimit` / `OrderEnforcing` per lane (`Clocks`), and actions are
 //! checked with the scalar envs' own functions, so a lane gives the
 //! observations, rewards, flags and errors of a `TimeLimit`-wrapped scalar
 //! env bit for bit (`tests/lockstep.rs`).
@@ -262,7 +262,7 @@ pub(crate) fn pow2_lanes<const N: usize>(x: &[f64; N], out: &mut [f64; N]) {
 }
 
 /// Receives a concrete lockstep environment type from
-/// [`crate::registry::visit_lockstep`].
+/// [`crate::visit_lockstep`].
 pub trait LockstepVisitor {
     /// What the visitor returns.
     type Output;

@@ -49,7 +49,7 @@ impl std::fmt::Display for CheckResult {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum CheckEvent<'a> {
     /// A check is about to run (`env` is `None` before the first instance
-    /// of a [`check_env`] run exists).
+    /// of a [`check_env`](crate::check::check_env) run exists).
     Started {
         /// The environment id, if known yet.
         env: Option<&'a str>,

@@ -110,7 +110,7 @@ pub enum PluginLoadErrorKind {
         /// The second index.
         second: u32,
     },
-    /// An id is already provided by another plugin file (see [`load_plugin_path`]).
+    /// An id is already provided by another plugin file (see [`load_plugin_path`](crate::load_plugin_path)).
     #[error("environment id '{id}' is already provided by {}", other.display())]
     IdTaken {
         /// The id.
@@ -119,7 +119,7 @@ pub enum PluginLoadErrorKind {
         other: PathBuf,
     },
     /// An id belongs to the host (a built-in environment; see
-    /// [`load_plugin_path_reserving`]).
+    /// [`load_plugin_path_reserving`](crate::load_plugin_path_reserving)).
     #[error("environment id '{id}' is built into rwg (plugin ids must differ from built-in ones)")]
     IdReserved {
         /// The id.

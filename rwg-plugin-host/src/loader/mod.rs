@@ -1,8 +1,8 @@
-//! Loading plugins: the search of `RWG_PLUGIN_PATH` ([`search`]), the
-//! handshake and validation of a library ([`handshake`]), [`PluginEnv`], the
-//! host-side `Environment` over a plugin's C function table ([`instance`]),
+//! Loading plugins: the search of `RWG_PLUGIN_PATH` (`search`), the
+//! handshake and validation of a library (`handshake`), [`PluginEnv`], the
+//! host-side `Environment` over a plugin's C function table (`instance`),
 //! [`PluginBatch`], many instances reset and stepped by ABI 1.1's batched
-//! calls ([`batch`]), and why a file is refused ([`error`]).
+//! calls (`batch`), and why a file is refused (`error`).
 //!
 //! **Loading a plugin runs its code in this process** (the library's
 //! initialisers, its entry function, `init`, and later every env call). A

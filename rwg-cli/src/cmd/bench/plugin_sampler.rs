@@ -28,7 +28,7 @@ pub(super) struct PluginArgs {
     /// Only this built-in env id (repeatable; default: every one the plugin re-exports).
     #[arg(long = "env", value_name = "ID")]
     envs: Vec<String>,
-    /// Only this architecture: 0HL, [4] or [4,4] (repeatable; default: all three).
+    /// Only this architecture: 0HL, `[4]` or `[4,4]` (repeatable; default: all three).
     #[arg(long = "arch", value_name = "ARCH")]
     archs: Vec<String>,
     /// Networks per run.

@@ -217,7 +217,7 @@ pub(super) struct ExportedEnv {
     _bounds: Vec<Vec<f64>>,
 }
 
-/// The C tables of an exported plugin. Built once by [`entry_v1`] and kept in
+/// The C tables of an exported plugin. Built once by [`entry_v1`](super::entry_v1) and kept in
 /// a `static` for the life of the library.
 pub struct ExportedPlugin {
     pub(super) entry: RwgPluginEntry,

@@ -1,4 +1,4 @@
-//! Exporting Rust [`Environment`]s as a plugin through the C ABI.
+//! Exporting Rust [`Environment`](crate::Environment)s as a plugin through the C ABI.
 //!
 //! A plugin crate (`crate-type = ["cdylib"]`, built with `panic = "unwind"`)
 //! describes its environments with a [`PluginBuilder`] and hands the builder
