@@ -23,6 +23,8 @@ pub struct Worker {
     /// The worker's own process group (Linux: it leads one), killed with it
     /// so that processes the env started go too; `None` once killed.
     group: Option<i32>,
+    /// Bytes a read took past the end of a message: the start of the next.
+    pending: Vec<u8>,
 }
 
 impl Worker {
@@ -73,6 +75,7 @@ impl Worker {
             program: program.to_string(),
             dump_signal,
             group,
+            pending: Vec::new(),
         })
     }
 
@@ -114,15 +117,28 @@ impl Worker {
     /// Reads one whole message (header included) into `buf`, in as few
     /// reads as the pipe allows (usually one: the worker writes a message at
     /// once and sends nothing unasked). Returns the tag; the payload is
-    /// `buf[5..]`.
+    /// `buf[5..]`. A read may take more than the message (when `buf` is
+    /// longer than it and the next message is already in the pipe): the
+    /// surplus is kept as the start of the next message.
     pub fn recv_message(&mut self, buf: &mut Vec<u8>, timeout: Duration) -> Result<u8, ProcError> {
         let deadline = Instant::now() + timeout;
-        if buf.len() < 5 {
-            buf.resize(5, 0);
+        let mut got = self.pending.len();
+        if buf.len() < got.max(5) {
+            buf.resize(got.max(5), 0);
         }
-        let mut got = 0;
+        buf[..got].copy_from_slice(&self.pending);
+        self.pending.clear();
         let mut need = 5;
-        while got < need {
+        loop {
+            if need == 5 && got >= 5 {
+                need = 4 + u32::from_le_bytes(buf[..4].try_into().expect("4 bytes")) as usize;
+                if buf.len() < need {
+                    buf.resize(need, 0);
+                }
+            }
+            if got >= need {
+                break;
+            }
             if !self.wait_readable(deadline) {
                 self.dump_traceback();
                 self.kill();
@@ -139,13 +155,8 @@ impl Worker {
                 Ok(0) | Err(_) => return Err(self.died()),
                 Ok(n) => got += n,
             }
-            if need == 5 && got >= 5 {
-                need = 4 + u32::from_le_bytes(buf[..4].try_into().expect("4 bytes")) as usize;
-                if buf.len() < need {
-                    buf.resize(need, 0);
-                }
-            }
         }
+        self.pending.extend_from_slice(&buf[need..got]);
         buf.truncate(need);
         Ok(buf[4])
     }
@@ -414,6 +425,29 @@ mod tests {
             w.child.try_wait().unwrap().is_none(),
             "ended with its thread"
         );
+        w.kill();
+    }
+
+    /// A read that takes more than the message (the buffer was left longer
+    /// by an earlier, longer message, and the next messages are already in
+    /// the pipe) keeps the surplus for the next call.
+    #[test]
+    fn bytes_read_past_a_message_are_the_next_messages() {
+        // a 10-byte message, then two of 6 bytes, written at once
+        let mut c = Command::new("sh");
+        c.arg("-c").arg(
+            "printf '\\011\\000\\000\\000Aabcdefgh\\005\\000\\000\\000B1234\\005\\000\\000\\000C5678'; sleep 30",
+        );
+        let mut w = Worker::spawn(c, "sh", None).unwrap();
+        let mut buf = vec![0; 14];
+        let t = Duration::from_secs(10);
+        assert_eq!(w.recv_message(&mut buf, t).unwrap(), b'A');
+        assert_eq!(&buf[5..], b"abcdefgh");
+        buf.resize(14, 0); // longer than the next message
+        assert_eq!(w.recv_message(&mut buf, t).unwrap(), b'B');
+        assert_eq!(&buf[5..], b"1234");
+        assert_eq!(w.recv_message(&mut buf, t).unwrap(), b'C');
+        assert_eq!(&buf[5..], b"5678");
         w.kill();
     }
 }
