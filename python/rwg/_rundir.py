@@ -125,10 +125,15 @@ class Run:
         total = self._cells_total()
         done = len(self.cells)
         if done < total or self.meta.get("end_time") is None:
+            resume = f"`rwg run {os.path.join(path, 'manifest.toml')} --out {path}`"
+            state = (
+                f"{done} of {total} cells finished"
+                if done < total
+                else f"all {total} cells finished, but the run has not recorded its end"
+            )
             raise RunInProgressError(
-                f"{path}: run in progress: {done} of {total} cells finished (rwg run is "
-                f"still writing it, or it stopped: `rwg status {path}` tells; "
-                f"`rwg run {os.path.join(path, 'manifest.toml')} --out {path}` resumes it)",
+                f"{path}: run in progress: {state} (rwg run is still writing it, or it "
+                f"stopped: `rwg status {path}` tells; {resume} finishes it)",
                 done,
                 total,
             )

@@ -119,6 +119,19 @@ def test_stats_are_computed_by_rwg_when_stats_csv_is_missing(small_run, run_copy
     assert not (run_copy / "stats.csv").exists(), "loading must not write into the run"
 
 
+def test_a_run_that_did_not_record_its_end_is_in_progress(run_copy):
+    # rwg writes end_time after the last cell: a run stopped in between
+    meta = json.loads((run_copy / "run.json").read_text())
+    meta["end_time"] = None
+    (run_copy / "run.json").write_text(json.dumps(meta))
+    with pytest.raises(rwg.RunInProgressError, match="all 8 cells finished, but the run has not") as e:
+        rwg.load(run_copy)
+    assert (e.value.cells_done, e.value.cells_total) == (8, 8)
+    res = rwg_cli("run", run_copy / "manifest.toml", "--out", run_copy, "-q")
+    assert json.loads((run_copy / "run.json").read_text())["end_time"] is not None, res.stderr
+    assert len(rwg.load(run_copy).cells) == 8
+
+
 def test_directories_that_are_not_runs_are_refused(tmp_path, small_run):
     with pytest.raises(rwg.NotARunError, match="no run.json"):
         rwg.load(tmp_path)
@@ -177,7 +190,7 @@ def test_a_run_in_progress_is_refused_naming_k_of_n_cells(tmp_path):
         proc.wait()
     with open(out / "run.json") as f:
         k = len(json.load(f)["cells"])
-    with pytest.raises(rwg.RunInProgressError, match=f"{k} of 4 cells finished.*--out {re.escape(str(out))}"):
+    with pytest.raises(rwg.RunInProgressError, match=f"{k} of 4 cells finished.*--out {re.escape(str(out))}` finishes it"):
         rwg.load(out)
     # a damaged committed block of the unfinished cell
     committed = (acrobot / "SHA256SUMS").read_text().split("\n")[0].split("  ")[1]
