@@ -23,7 +23,7 @@
 //! episode is known there), survive `_exit()`/`quick_exit()` or a SIGKILL
 //! (nothing runs), or catch a crash that corrupts rwg's memory before it
 //! shows. Isolation (`isolate = true`, `rwg run --isolate`: the plugin in worker
-//! processes, `rwg_study::isolate`) does; see the README.
+//! processes, `rwg_study::isolate`) does; see docs/plugins.md.
 
 use rwg_study::fault_context::{all_threads, cell_label, this_thread, CallSnapshot, Phase};
 use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU64, Ordering::*};

@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 Without --episode: prints every episode's reset seed, score and steps, next to the
 stored score, and fails if any differs. With --episode: prints that episode step by
 step, like `rwg rollout`. --export-weights writes the network as JSON so it can be
-rebuilt in numpy and run in Gymnasium (see the README).
+rebuilt in numpy and run in Gymnasium (docs/guide.md shows how).
 
 Example:
   rwg replay runs/quick --env CartPole-v0 --arch 0HL --sample 17 --episode 3")]
