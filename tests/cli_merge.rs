@@ -445,3 +445,26 @@ fn block_rows_no_episode_can_have_are_refused_though_their_digest_matches() {
     let out = dir.join("merged");
     rwg_ok(&["merge", &shards[0], &shards[1], "--out", out.to_str().unwrap()]);
 }
+
+#[test]
+fn an_edited_manifest_in_a_shard_or_the_merged_run_is_refused() {
+    let s = study("merge-edited");
+    let out = s.dir.join("merged");
+    let o = out.to_str().unwrap();
+    rwg_ok(&merge_args(&s, o));
+    for dir in [PathBuf::from(&s.shards[1]), out.clone()] {
+        let manifest = dir.join("manifest.toml");
+        let good = std::fs::read_to_string(&manifest).unwrap();
+        std::fs::write(&manifest, good.replace("seed = 11", "seed = 12")).unwrap();
+        let err = rwg_err(&merge_args(&s, o));
+        assert!(
+            err.contains(&format!(
+                "{} was changed after rwg wrote it (seed: 11 vs 12",
+                manifest.display()
+            )),
+            "{err}"
+        );
+        std::fs::write(&manifest, good).unwrap();
+    }
+    rwg_ok(&merge_args(&s, o));
+}

@@ -418,6 +418,15 @@ fn an_edited_run_directory_manifest_is_refused_and_named() {
     let status = rwg_ok(&["status", r]);
     assert!(status.contains(&want), "{status}");
     assert!(status.contains("40 networks") && status.contains("2/2"), "{status}");
+    // An emptied manifest.toml: run.json's record says how to restore it.
+    std::fs::write(&own, "").unwrap();
+    let err = rwg_err(&["run", &m, "--out", r, "-q"]);
+    assert!(
+        err.contains("does not read, but run.json records the study it held"),
+        "{err}"
+    );
+    let meta: serde_json::Value = serde_json::from_str(&read(run.join("run.json"))).unwrap();
+    assert_eq!(meta["study"].as_str().unwrap(), good);
     std::fs::write(&own, &good).unwrap();
     rwg_ok(&["run", o, "--out", r, "-q"]);
 }

@@ -284,6 +284,17 @@ fn check_out(out: &Path, m: &Manifest) -> Result<Option<RunMeta>, StudyError> {
         return Ok(None);
     }
     let old = Manifest::load(&manifest_path)?;
+    // An edited manifest.toml is said so before it is compared with the shards'.
+    let meta = match out.join(RUN_JSON).exists() {
+        true => Some(read_run_meta(out)?),
+        false => None,
+    };
+    if let Some(meta) = &meta {
+        let edits = crate::rundir::study::manifest_edits(out, meta, &old);
+        if !edits.is_empty() {
+            return refuse(crate::rundir::study::edited_message(out, &edits));
+        }
+    }
     let diffs = old.study_differences(m);
     if !diffs.is_empty() {
         return refuse(format!(
@@ -292,14 +303,9 @@ fn check_out(out: &Path, m: &Manifest) -> Result<Option<RunMeta>, StudyError> {
             diffs.join("; ")
         ));
     }
-    if !out.join(RUN_JSON).exists() {
+    let Some(meta) = meta else {
         return Ok(None);
-    }
-    let meta = read_run_meta(out)?;
-    let edits = crate::rundir::study::manifest_edits(out, &meta, &old);
-    if !edits.is_empty() {
-        return refuse(crate::rundir::study::edited_message(out, &edits));
-    }
+    };
     if let Some(s) = meta.shard {
         return refuse(format!(
             "{} holds shard {}/{} of the study, not a merged run; choose another --out",

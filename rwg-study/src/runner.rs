@@ -564,6 +564,11 @@ fn run_cell_blocks(
     }
 }
 
+/// The study `run.json` in `out` records, if it reads and records one.
+fn recorded_study(out: &Path) -> Option<String> {
+    read_run_meta(out).ok()?.study
+}
+
 /// Creates the run directory, or checks that the one there holds the same
 /// study (to resume it), and that its `manifest.toml` still holds the study
 /// `run.json` recorded. `own_manifest`: the study was read from the
@@ -601,7 +606,16 @@ fn prepare_dir(
     }
     let mut previous = None;
     if manifest_path.exists() {
-        let old = Manifest::load(&manifest_path)?;
+        let old = Manifest::load(&manifest_path).map_err(|e| match recorded_study(out) {
+            Some(_) => StudyError::Refused(format!(
+                "{e}\n{} does not read, but run.json records the study it held: restore it \
+                 (e.g. jq -r .study {} > {}) and run again",
+                manifest_path.display(),
+                out.join(RUN_JSON).display(),
+                manifest_path.display()
+            )),
+            None => e.into(),
+        })?;
         if out.join(RUN_JSON).exists() {
             let meta = read_run_meta(out)?;
             let edits = manifest_edits(out, &meta, &old);
