@@ -316,13 +316,14 @@ fn endless_input_files_are_read_to_their_limit_only() {
         ),
         "{err}"
     );
-    // a run's run.json
+    // a run's run.json that has become a device
     let run = synthetic_run("limits-endless-run", 32, 2);
     std::fs::remove_file(run.join("run.json")).unwrap();
     std::os::unix::fs::symlink("/dev/zero", run.join("run.json")).unwrap();
     let err = rwg_err(&["stats", run.to_str().unwrap()]);
+    // (a file of rwg's own: only a regular file is read, up to its limit)
     assert!(
-        err.contains("run.json") && err.contains("more than 268435456 bytes"),
+        err.contains("run.json") && err.contains("not a regular file"),
         "{err}"
     );
     assert!(!err.contains("internal error"), "{err}");
@@ -358,4 +359,21 @@ fn run_files_that_are_devices_fail_at_once() {
         );
         assert!(t0.elapsed() < Duration::from_secs(30), "{args:?}");
     }
+}
+
+#[test]
+fn run_files_that_are_fifos_are_not_waited_on() {
+    let run = synthetic_run("limits-fifo-run", 32, 2);
+    let meta = run.join("run.json");
+    std::fs::remove_file(&meta).unwrap();
+    let c = std::ffi::CString::new(meta.to_str().unwrap()).unwrap();
+    // SAFETY: mkfifo on a path of our own.
+    assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    let t0 = Instant::now();
+    let err = rwg_err(&["stats", run.to_str().unwrap(), "--no-write"]);
+    assert!(
+        err.contains("run.json") && err.contains("not a regular file"),
+        "{err}"
+    );
+    assert!(t0.elapsed() < Duration::from_secs(30));
 }

@@ -63,7 +63,7 @@ impl ShardedDir {
     /// Reads the plan file.
     pub fn read_plan(&self) -> Result<Plan> {
         let p = self.plan_file();
-        let text = rwg_study::limits::read_bounded_text(&p, rwg_study::limits::MAX_JSON_BYTES)
+        let text = rwg_study::limits::read_own_text(&p, rwg_study::limits::MAX_JSON_BYTES)
             .with_context(|| format!("cannot read {}", p.display()))?;
         serde_json::from_str(&text)
             .with_context(|| format!("{} is not an rwg slurm plan.json", p.display()))

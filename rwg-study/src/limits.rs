@@ -72,7 +72,24 @@ pub const MAX_SHARDS: u64 = 100_000;
 /// (kind `FileTooLarge`) stating the limit, read no further. Its size is not
 /// trusted beforehand (a device or `/proc` file states none).
 pub fn read_bounded(path: &Path, max: u64) -> io::Result<Vec<u8>> {
-    let file = File::open(path)?;
+    read_to_limit(File::open(path)?, max)
+}
+
+/// [`read_bounded`] of a file rwg wrote itself (in a run directory, a
+/// Slurm study's folder): only a regular file (or a link to one) is read,
+/// as [`open_regular`] opens it; a device or FIFO there is an error.
+pub fn read_own_file(path: &Path, max: u64) -> io::Result<Vec<u8>> {
+    read_to_limit(open_regular(path)?, max)
+}
+
+/// [`read_own_file`] as UTF-8 text (an error of kind `InvalidData` if it
+/// is not).
+pub fn read_own_text(path: &Path, max: u64) -> io::Result<String> {
+    utf8(read_own_file(path, max)?)
+}
+
+/// What `file` holds, up to `max` bytes (see [`read_bounded`]).
+fn read_to_limit(file: File, max: u64) -> io::Result<Vec<u8>> {
     let size = file.metadata().map_or(0, |m| m.len());
     let mut bytes = Vec::with_capacity(size.min(max) as usize);
     file.take(max.saturating_add(1)).read_to_end(&mut bytes)?;
@@ -85,6 +102,17 @@ pub fn read_bounded(path: &Path, max: u64) -> io::Result<Vec<u8>> {
         ));
     }
     Ok(bytes)
+}
+
+/// `bytes` as text, or an error of kind `InvalidData` naming the first byte
+/// that is not UTF-8.
+fn utf8(bytes: Vec<u8>) -> io::Result<String> {
+    String::from_utf8(bytes).map_err(|e| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            format!("byte {} is not UTF-8 text", e.utf8_error().valid_up_to()),
+        )
+    })
 }
 
 /// Opens the file at `path` for streaming, if it is a regular file (a
@@ -104,12 +132,7 @@ pub fn open_regular(path: &Path) -> io::Result<File> {
 
 /// [`read_bounded`] as UTF-8 text (an error of kind `InvalidData` if it is not).
 pub fn read_bounded_text(path: &Path, max: u64) -> io::Result<String> {
-    String::from_utf8(read_bounded(path, max)?).map_err(|e| {
-        io::Error::new(
-            io::ErrorKind::InvalidData,
-            format!("byte {} is not UTF-8 text", e.utf8_error().valid_up_to()),
-        )
-    })
+    utf8(read_bounded(path, max)?)
 }
 
 /// `Ok(v)` if `min <= v <= max`, else a message naming `key` and the range:
@@ -163,6 +186,14 @@ mod tests {
         let e = read_bounded_text(&p, 10).unwrap_err();
         assert_eq!(e.to_string(), "byte 2 is not UTF-8 text");
         assert!(open_regular(&p).is_ok());
+        assert_eq!(read_own_file(&p, 10).unwrap(), b"ab\xFFc");
+        let fifo = dir.join("fifo");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: mkfifo on a path of our own.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        // refused before it is opened: an open would wait for a writer
+        let e = read_own_text(&fifo, 10).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::InvalidInput);
         for odd in [Path::new("/dev/zero"), dir.as_path()] {
             let e = open_regular(odd).unwrap_err();
             assert_eq!(e.kind(), io::ErrorKind::InvalidInput, "{odd:?}");

@@ -260,7 +260,7 @@ pub fn copy_block(src: &BlockIndex, dst: &Path, b: u64) -> Result<(), RunDirErro
             src.dir.join(BLOCKS).join(SUMS).display()
         ),
     })?;
-    let bytes = crate::limits::read_bounded(&from, crate::limits::MAX_BLOCK_BYTES)
+    let bytes = crate::limits::read_own_file(&from, crate::limits::MAX_BLOCK_BYTES)
         .map_err(io_err(&from))?;
     let got: Digest = {
         use sha2::Digest as _;
@@ -406,7 +406,7 @@ pub fn finalize_cell(
         // row, then copied as it is (rwg wrote it, in the form scores.csv
         // takes) and checked against its digest.
         let path = block_path(cell_dir, b);
-        let text = crate::limits::read_bounded(&path, crate::limits::MAX_BLOCK_BYTES)
+        let text = crate::limits::read_own_file(&path, crate::limits::MAX_BLOCK_BYTES)
             .map_err(io_err(&path))?;
         let utf8 = std::str::from_utf8(&text).map_err(|e| {
             let line = 1 + text[..e.valid_up_to()]

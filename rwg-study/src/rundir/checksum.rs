@@ -131,7 +131,7 @@ pub fn read_sums(
     path: &Path,
     strict: bool,
 ) -> Result<Option<BTreeMap<String, Digest>>, RunDirError> {
-    let text = match crate::limits::read_bounded(path, crate::limits::MAX_BLOCK_BYTES) {
+    let text = match crate::limits::read_own_file(path, crate::limits::MAX_BLOCK_BYTES) {
         Ok(t) => t,
         Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(io_err(path)(e)),

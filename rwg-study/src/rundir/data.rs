@@ -345,7 +345,7 @@ impl Run {
         }
         let mpath = dir.join(MANIFEST);
         let max = crate::limits::MAX_RESOLVED_MANIFEST_BYTES;
-        let manifest = match crate::limits::read_bounded_text(&mpath, max) {
+        let manifest = match crate::limits::read_own_text(&mpath, max) {
             Ok(m) => Some(m),
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
             Err(e) => return Err(io_err(&mpath)(e)),

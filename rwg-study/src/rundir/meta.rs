@@ -208,7 +208,7 @@ pub enum JsonFileError {
 /// Reads and parses `run.json` (`RunMeta`) or `cell.json` (`CellMeta`): the
 /// one reader of the run directory's JSON files.
 pub fn load_json<T: serde::de::DeserializeOwned>(p: &Path) -> Result<T, JsonFileError> {
-    let text = crate::limits::read_bounded_text(p, crate::limits::MAX_JSON_BYTES)
+    let text = crate::limits::read_own_text(p, crate::limits::MAX_JSON_BYTES)
         .map_err(JsonFileError::Io)?;
     serde_json::from_str(&text).map_err(JsonFileError::Json)
 }
