@@ -231,9 +231,10 @@ fn read_only_and_full_file_systems_name_the_file() {
         "{err}"
     );
 
-    // Room for the manifest and a few blocks, not for the whole run.
+    // Room for the manifest, run.json, the cells' env.json and a few
+    // blocks (a page each at least), not for the whole run.
     let full = dir.join("full");
-    assert!(mount_tmpfs(&full, 16, false));
+    assert!(mount_tmpfs(&full, 32, false));
     let out = full.join("run");
     let big = STUDY
         .replace("samples = 4", "samples = 2000")

@@ -414,6 +414,10 @@ fn an_edited_run_directory_manifest_is_refused_and_named() {
         assert!(err.contains(&want), "{args:?}: {err}");
         assert!(err.contains("rwg run edited.toml --out"), "{err}");
     }
+    // verify counts it as a problem.
+    let out = rwg(&["verify", r]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stdout).contains(&want));
     // status warns and counts the recorded study's blocks, not the edit's.
     let status = rwg_ok(&["status", r]);
     assert!(status.contains(&want), "{status}");

@@ -45,6 +45,22 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
         ));
         return r;
     }
+    // manifest.toml against the study run.json records (when it records one).
+    if meta.study.is_some() {
+        let manifest = dir.join(crate::rundir::MANIFEST);
+        match crate::manifest::Manifest::load(&manifest) {
+            Ok(m) => {
+                let edits = crate::rundir::study::manifest_edits(dir, &meta, &m);
+                if !edits.is_empty() {
+                    r.problems
+                        .push(crate::rundir::study::edited_message(dir, &edits));
+                }
+            }
+            Err(e) => r.problems.push(format!(
+                "{e} (run.json records the study it held: restore it from there)"
+            )),
+        }
+    }
     let cells_dir = dir.join("cells");
     let mut names: Vec<String> = match std::fs::read_dir(&cells_dir) {
         Ok(rd) => rd
