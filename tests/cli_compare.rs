@@ -204,3 +204,31 @@ fn compare_page_renders_in_headless_chromium() {
         );
     }
 }
+
+#[test]
+fn outputs_that_fill_the_disk_leave_nothing_half_written() {
+    let disk = match SmallDisk::mount("compare-full", "16k") {
+        Ok(d) => d,
+        Err(why) => return skip("outputs_that_fill_the_disk_leave_nothing_half_written", &why),
+    };
+    let a = synthetic_run("compare-full-a", 60, 4);
+    let b = synthetic_run("compare-full-b", 60, 4);
+    let html = disk.0.join("compare.html");
+    let err = rwg_err(&[
+        "compare",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--html",
+        html.to_str().unwrap(),
+    ]);
+    assert!(
+        err.contains(&format!("cannot write {}", html.display()))
+            && err.contains("No space left on device"),
+        "{err}"
+    );
+    let left: Vec<_> = std::fs::read_dir(&disk.0)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(left.is_empty(), "left behind: {left:?}");
+}

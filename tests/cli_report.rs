@@ -142,36 +142,6 @@ fn report_with_a_spread_at_n_renders_in_headless_chromium() {
     assert!(dom.contains(&format!("{FIGURES} of {FIGURES} figures rendered")));
 }
 
-/// A small tmpfs mounted for one test, unmounted when dropped.
-struct SmallDisk(PathBuf);
-
-impl SmallDisk {
-    /// A tmpfs of `size` (mount's `size=`) at a fresh folder; `Err` with the
-    /// reason where mounting is not allowed (not root, no mount(8)).
-    fn mount(name: &str, size: &str) -> Result<SmallDisk, String> {
-        let dir = temp_dir(name).join("disk");
-        std::fs::create_dir_all(&dir).unwrap();
-        let out = std::process::Command::new("mount")
-            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
-            .arg(&dir)
-            .output()
-            .map_err(|e| format!("cannot run mount: {e}"))?;
-        if !out.status.success() {
-            return Err(format!(
-                "cannot mount a tmpfs (needs root): {}",
-                String::from_utf8_lossy(&out.stderr).trim()
-            ));
-        }
-        Ok(SmallDisk(dir))
-    }
-}
-
-impl Drop for SmallDisk {
-    fn drop(&mut self) {
-        let _ = std::process::Command::new("umount").arg(&self.0).status();
-    }
-}
-
 #[test]
 fn a_report_that_fills_the_disk_leaves_no_temporary_file() {
     let disk = match SmallDisk::mount("report-full", "16k") {

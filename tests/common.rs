@@ -343,3 +343,33 @@ pub fn reindex(dir: &Path, name: &str) {
         .collect();
     std::fs::write(&sums, text).unwrap();
 }
+
+/// A small tmpfs mounted for one test, unmounted when dropped.
+pub struct SmallDisk(pub PathBuf);
+
+impl SmallDisk {
+    /// A tmpfs of `size` (mount's `size=`) at a fresh folder; `Err` with the
+    /// reason where mounting is not allowed (not root, no mount(8)).
+    pub fn mount(name: &str, size: &str) -> Result<SmallDisk, String> {
+        let dir = temp_dir(name).join("disk");
+        std::fs::create_dir_all(&dir).unwrap();
+        let out = std::process::Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
+            .arg(&dir)
+            .output()
+            .map_err(|e| format!("cannot run mount: {e}"))?;
+        if !out.status.success() {
+            return Err(format!(
+                "cannot mount a tmpfs (needs root): {}",
+                String::from_utf8_lossy(&out.stderr).trim()
+            ));
+        }
+        Ok(SmallDisk(dir))
+    }
+}
+
+impl Drop for SmallDisk {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("umount").arg(&self.0).status();
+    }
+}

@@ -1,7 +1,7 @@
 //! `rwg compare`: envs from several runs side by side.
 
 use super::stats::Format;
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use rwg_analysis::compare::{
     compare_csv, compare_rows, compare_table, settings_differences, CompareRun,
 };
@@ -50,8 +50,10 @@ fn image_format(path: &std::path::Path) -> ImageFormat {
     }
 }
 
+/// Writes an output file whole or not at all (nothing half-written is left
+/// on a full disk).
 fn write(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
-    std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))?;
+    crate::cmd::write_named_file(path, bytes)?;
     crate::errln!("wrote {}", path.display());
     Ok(())
 }
