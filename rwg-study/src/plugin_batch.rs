@@ -11,7 +11,7 @@
 //! plugin env that has one, else its batched calls ([`calls_for`]):
 //! `RWG_PLUGIN_VEC=0` turns the vector env off, `RWG_PLUGIN_BATCH=0` both
 //! (the single calls). Measured, each costs fewer CPU instructions per env
-//! step than the one after it (docs/performance.md). What they give up: a
+//! step than the one after it (docs/benchmarks.md). What they give up: a
 //! crash inside one is reported as the call, not the network and step the
 //! single calls' reports name (rerun with `RWG_PLUGIN_BATCH=0` for those).
 

@@ -199,8 +199,8 @@ impl BlendMemo {
 /// `Best` the deflate was the larger part of the report's CPU time (and the
 /// report about a third of a 3000-network CartPole cell's whole run), for
 /// pages 0.4 % smaller than at `Default`; `Fast` (fdeflate) saves a little
-/// more time but makes `report.html` 57–80 % larger (docs/performance.md).
-/// Deterministic, as every level: the same pixels give the same bytes.
+/// more time but makes `report.html` 57–80 % larger. Deterministic, as
+/// every level: the same pixels give the same bytes.
 pub const EMBEDDED: png::Compression = png::Compression::Default;
 
 /// Compression of whole PNG figures (`rwg plot --png`, `rwg compare
