@@ -281,13 +281,8 @@ fn help_examples() -> Vec<Example> {
     out
 }
 
-/// The scratch folder: a reader's clone as far as the examples need it,
-/// with the shared folder beside it (`../shared`) when the repository has one.
+/// The scratch folder: a reader's clone as far as the examples need it.
 fn prepare(dir: &Path) -> PathBuf {
-    let shared = repo().join("../shared");
-    if shared.is_dir() {
-        std::os::unix::fs::symlink(shared.canonicalize().unwrap(), dir.join("../shared")).unwrap();
-    }
     let copy = |rel: &str| {
         let status = Command::new("cp")
             .arg("-r")
@@ -619,16 +614,6 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
         if ran != e.command {
             notes.push(format!("{}: `{}` ran as `{ran}`", e.source, e.command));
         }
-        if ran.contains("../shared/") && !dir.join("../shared").is_dir() {
-            skip(
-                TEST,
-                &format!(
-                    "{}: `{}` needs ../shared beside the repository",
-                    e.source, e.command
-                ),
-            );
-            continue;
-        }
         if ran.contains("gymnasium") && python.is_none() {
             skip(
                 TEST,
@@ -706,6 +691,48 @@ fn every_page_and_help_example_runs_as_printed() {
         help.len(),
         started.elapsed().as_secs_f64()
     );
+}
+
+/// The pages stay readable: the README at most 300 lines, ARCHITECTURE.md at
+/// most 150 with no table cell over 25 words, and no page points outside a
+/// clone (`../shared`, a folder beside the developers' checkout).
+#[test]
+fn pages_keep_to_their_limits() {
+    let read = |page: &str| std::fs::read_to_string(repo().join(page)).unwrap();
+    let readme = read("README.md").lines().count();
+    assert!(readme <= 300, "README.md has {readme} lines; at most 300");
+    let arch = read("ARCHITECTURE.md");
+    let lines = arch.lines().count();
+    assert!(
+        lines <= 150,
+        "ARCHITECTURE.md has {lines} lines; at most 150"
+    );
+    for (i, line) in arch.lines().enumerate() {
+        if !line.starts_with('|') {
+            continue;
+        }
+        for cell in line.trim_matches('|').split(" | ") {
+            let words = cell.split_whitespace().count();
+            assert!(
+                words <= 25,
+                "ARCHITECTURE.md:{}: a cell of {words} words, at most 25: {cell}",
+                i + 1
+            );
+        }
+    }
+    for page in doc_pages()
+        .iter()
+        .map(String::as_str)
+        .chain(["ARCHITECTURE.md"])
+    {
+        for (i, line) in read(page).lines().enumerate() {
+            assert!(
+                !line.contains("../shared"),
+                "{page}:{}: names ../shared, which a clone does not have: {line}",
+                i + 1
+            );
+        }
+    }
 }
 
 #[test]
