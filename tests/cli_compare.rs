@@ -209,7 +209,12 @@ fn compare_page_renders_in_headless_chromium() {
 fn outputs_that_fill_the_disk_leave_nothing_half_written() {
     let disk = match SmallDisk::mount("compare-full", "16k") {
         Ok(d) => d,
-        Err(why) => return skip("outputs_that_fill_the_disk_leave_nothing_half_written", &why),
+        Err(why) => {
+            return skip(
+                "outputs_that_fill_the_disk_leave_nothing_half_written",
+                &why,
+            )
+        }
     };
     let a = synthetic_run("compare-full-a", 60, 4);
     let b = synthetic_run("compare-full-b", 60, 4);

@@ -424,8 +424,14 @@ fn block_rows_no_episode_can_have_are_refused_though_their_digest_matches() {
     let block = blocks.join("b0000000.csv");
     let good = std::fs::read_to_string(&block).unwrap();
     for (k, (row, want)) in [
-        ("0,1,NaN,9", "b0000000.csv:2: score NaN is not a finite number"),
-        ("0,1,9.0,51", "b0000000.csv:2: 51 steps: an episode of this cell lasts 1 to 50"),
+        (
+            "0,1,NaN,9",
+            "b0000000.csv:2: score NaN is not a finite number",
+        ),
+        (
+            "0,1,9.0,51",
+            "b0000000.csv:2: 51 steps: an episode of this cell lasts 1 to 50",
+        ),
         ("0,1,0.0,0", "b0000000.csv:2: 0 steps"),
     ]
     .into_iter()
@@ -436,14 +442,28 @@ fn block_rows_no_episode_can_have_are_refused_though_their_digest_matches() {
         std::fs::write(&block, lines.join("\n") + "\n").unwrap();
         reindex(&blocks, "b0000000.csv");
         let out = dir.join(format!("merged{k}"));
-        let err = rwg_err(&["merge", &shards[0], &shards[1], "--out", out.to_str().unwrap()]);
+        let err = rwg_err(&[
+            "merge",
+            &shards[0],
+            &shards[1],
+            "--out",
+            out.to_str().unwrap(),
+        ]);
         assert!(err.contains(want), "{row}: {err}");
-        assert!(!out.join("cells/CartPole-v1__0HL__nobias/scores.csv").exists());
+        assert!(!out
+            .join("cells/CartPole-v1__0HL__nobias/scores.csv")
+            .exists());
     }
     std::fs::write(&block, &good).unwrap();
     reindex(&blocks, "b0000000.csv");
     let out = dir.join("merged");
-    rwg_ok(&["merge", &shards[0], &shards[1], "--out", out.to_str().unwrap()]);
+    rwg_ok(&[
+        "merge",
+        &shards[0],
+        &shards[1],
+        "--out",
+        out.to_str().unwrap(),
+    ]);
 }
 
 #[test]

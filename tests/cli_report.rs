@@ -146,11 +146,21 @@ fn report_with_a_spread_at_n_renders_in_headless_chromium() {
 fn a_report_that_fills_the_disk_leaves_no_temporary_file() {
     let disk = match SmallDisk::mount("report-full", "16k") {
         Ok(d) => d,
-        Err(why) => return skip("a_report_that_fills_the_disk_leaves_no_temporary_file", &why),
+        Err(why) => {
+            return skip(
+                "a_report_that_fills_the_disk_leaves_no_temporary_file",
+                &why,
+            )
+        }
     };
     let run = synthetic_run("report-full-run", 60, 4);
     let out = disk.0.join("report.html");
-    let err = rwg_err(&["report", run.to_str().unwrap(), "--out", out.to_str().unwrap()]);
+    let err = rwg_err(&[
+        "report",
+        run.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
     assert!(
         err.contains(&format!("cannot write {}", out.display())),
         "{err}"

@@ -382,7 +382,13 @@ fn the_manifest_given_is_never_written_over() {
     // A run directory's own manifest resumes it, and is not rewritten.
     let run = dir.join("runs/x");
     let r = run.to_str().unwrap();
-    rwg_ok(&["run", &dir.join("manifest.toml").to_string_lossy(), "--out", r, "-q"]);
+    rwg_ok(&[
+        "run",
+        &dir.join("manifest.toml").to_string_lossy(),
+        "--out",
+        r,
+        "-q",
+    ]);
     let own = run.join("manifest.toml");
     let o = own.to_str().unwrap();
     let before = std::fs::metadata(&own).unwrap().modified().unwrap();
@@ -409,7 +415,10 @@ fn an_edited_run_directory_manifest_is_refused_and_named() {
     let want = format!(
         "{o} was changed after rwg wrote it (samples: 40 vs 96; run.json's record vs the file)"
     );
-    for args in [vec!["run", o, "--out", r, "-q"], vec!["run", &m, "--out", r, "-q"]] {
+    for args in [
+        vec!["run", o, "--out", r, "-q"],
+        vec!["run", &m, "--out", r, "-q"],
+    ] {
         let err = rwg_err(&args);
         assert!(err.contains(&want), "{args:?}: {err}");
         assert!(err.contains("rwg run edited.toml --out"), "{err}");
@@ -421,7 +430,10 @@ fn an_edited_run_directory_manifest_is_refused_and_named() {
     // status warns and counts the recorded study's blocks, not the edit's.
     let status = rwg_ok(&["status", r]);
     assert!(status.contains(&want), "{status}");
-    assert!(status.contains("40 networks") && status.contains("2/2"), "{status}");
+    assert!(
+        status.contains("40 networks") && status.contains("2/2"),
+        "{status}"
+    );
     // An emptied manifest.toml: run.json's record says how to restore it.
     std::fs::write(&own, "").unwrap();
     let err = rwg_err(&["run", &m, "--out", r, "-q"]);
@@ -456,12 +468,22 @@ fn an_empty_or_cut_run_json_says_how_to_rebuild_it() {
             // (verify lists its problems on stdout)
             let err = String::from_utf8_lossy(&out.stderr).into_owned()
                 + &String::from_utf8_lossy(&out.stdout);
-            assert!(err.contains("is not a readable run.json"), "{args:?}: {err}");
+            assert!(
+                err.contains("is not a readable run.json"),
+                "{args:?}: {err}"
+            );
             assert!(err.contains(&rebuild), "{args:?}: {err}");
         }
     }
     std::fs::remove_file(run.join("run.json")).unwrap();
-    rwg_ok(&["run", &format!("{r}/manifest.toml"), "--out", r, "-q", "--no-report"]);
+    rwg_ok(&[
+        "run",
+        &format!("{r}/manifest.toml"),
+        "--out",
+        r,
+        "-q",
+        "--no-report",
+    ]);
     rwg_ok(&["verify", r]);
     rwg_ok(&["stats", r, "--no-write"]);
 }
@@ -477,7 +499,10 @@ fn what_stands_in_the_way_of_the_run_directory_is_named() {
     let err = rwg_err(&["run", &m, "--out", run.to_str().unwrap(), "-q"]);
     let cells = run.join("cells");
     assert!(
-        err.contains(&format!("cannot create {0}: {0} is a file, not a folder", cells.display())),
+        err.contains(&format!(
+            "cannot create {0}: {0} is a file, not a folder",
+            cells.display()
+        )),
         "{err}"
     );
     assert_eq!(read(&cells), "mine");

@@ -232,7 +232,11 @@ fn rows_no_episode_can_have_are_refused_though_their_digests_match() {
     let good = std::fs::read_to_string(&scores).unwrap();
     let line: Vec<&str> = good.lines().nth(2).unwrap().split(',').collect();
     let bad = format!("{},{},NaN,{}", line[0], line[1], line[3]);
-    std::fs::write(&scores, good.replacen(good.lines().nth(2).unwrap(), &bad, 1)).unwrap();
+    std::fs::write(
+        &scores,
+        good.replacen(good.lines().nth(2).unwrap(), &bad, 1),
+    )
+    .unwrap();
     reindex(&cell, "scores.csv");
     let err = rwg_err(&["stats", d, "--no-write"]);
     assert!(
@@ -241,7 +245,11 @@ fn rows_no_episode_can_have_are_refused_though_their_digests_match() {
     );
     // More steps than the cell's time limit (200).
     let bad = format!("{},{},1.0,201", line[0], line[1]);
-    std::fs::write(&scores, good.replacen(good.lines().nth(2).unwrap(), &bad, 1)).unwrap();
+    std::fs::write(
+        &scores,
+        good.replacen(good.lines().nth(2).unwrap(), &bad, 1),
+    )
+    .unwrap();
     reindex(&cell, "scores.csv");
     let err = rwg_err(&["stats", d, "--no-write"]);
     assert!(
@@ -255,7 +263,11 @@ fn rows_no_episode_can_have_are_refused_though_their_digests_match() {
     let text = std::fs::read_to_string(&samples).unwrap();
     let first: Vec<&str> = text.lines().nth(1).unwrap().split(',').collect();
     let bad = format!("{},NaN,{}", first[0], first[2..].join(","));
-    std::fs::write(&samples, text.replacen(text.lines().nth(1).unwrap(), &bad, 1)).unwrap();
+    std::fs::write(
+        &samples,
+        text.replacen(text.lines().nth(1).unwrap(), &bad, 1),
+    )
+    .unwrap();
     reindex(&cell, "samples.csv");
     let err = rwg_err(&["top", d]);
     assert!(
@@ -283,11 +295,23 @@ fn stopped_run(name: &str, finished: usize) -> (std::path::PathBuf, String) {
     let m = dir.join("m.toml");
     std::fs::write(&m, format!("{head}{envs}")).unwrap();
     let run = dir.join("run");
-    let err = rwg_err(&["run", m.to_str().unwrap(), "--out", run.to_str().unwrap(), "-q"]);
+    let err = rwg_err(&[
+        "run",
+        m.to_str().unwrap(),
+        "--out",
+        run.to_str().unwrap(),
+        "-q",
+    ]);
     assert!(err.contains("NaN"), "{err}");
     let whole = dir.join("whole");
     std::fs::write(&m, format!("{head}{cartpole}")).unwrap();
-    rwg_ok(&["run", m.to_str().unwrap(), "--out", whole.to_str().unwrap(), "-q"]);
+    rwg_ok(&[
+        "run",
+        m.to_str().unwrap(),
+        "--out",
+        whole.to_str().unwrap(),
+        "-q",
+    ]);
     (dir, run.to_str().unwrap().to_string())
 }
 
@@ -302,8 +326,14 @@ fn readers_of_a_run_in_progress_say_so_and_refuse_or_mark_partial_output() {
     assert!(note.contains(&partial), "{note}");
     assert_eq!(String::from_utf8_lossy(&out.stdout).lines().count(), 3);
     let err = rwg_err(&["stats", &r]);
-    assert!(err.contains(&partial) && err.contains("--no-write prints"), "{err}");
-    assert!(err.contains(&format!("rwg run {r}/manifest.toml --out {r}")), "{err}");
+    assert!(
+        err.contains(&partial) && err.contains("--no-write prints"),
+        "{err}"
+    );
+    assert!(
+        err.contains(&format!("rwg run {r}/manifest.toml --out {r}")),
+        "{err}"
+    );
     assert!(!dir.join("run/stats.json").exists());
     let err = rwg_err(&["report", &r]);
     assert!(err.contains(&partial), "{err}");
@@ -311,12 +341,16 @@ fn readers_of_a_run_in_progress_say_so_and_refuse_or_mark_partial_output() {
     assert!(out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains(&partial));
     let out = rwg_ok(&["verify", &r]);
-    assert!(out.contains("a run in progress (or stopped): 2 of 4 cells finished"), "{out}");
+    assert!(
+        out.contains("a run in progress (or stopped): 2 of 4 cells finished"),
+        "{out}"
+    );
     // compare: the finished cells' architectures match the whole run's.
     let whole = dir.join("whole");
     let err = rwg_err(&["compare", whole.to_str().unwrap(), &r]);
     assert!(
-        err.contains("not comparable") && err.contains("run is a run in progress (or stopped): 2 of 4"),
+        err.contains("not comparable")
+            && err.contains("run is a run in progress (or stopped): 2 of 4"),
         "{err}"
     );
     let out = rwg(&["compare", whole.to_str().unwrap(), &r, "--force"]);
@@ -332,7 +366,10 @@ fn readers_of_a_run_whose_first_cell_has_not_finished_know_it() {
         let out = rwg(&[cmd, &r]);
         let text = String::from_utf8_lossy(&out.stderr).into_owned()
             + &String::from_utf8_lossy(&out.stdout);
-        assert!(text.contains(&partial) || text.contains("0 of 4 cells finished"), "{cmd}: {text}");
+        assert!(
+            text.contains(&partial) || text.contains("0 of 4 cells finished"),
+            "{cmd}: {text}"
+        );
         assert!(!text.contains("not a run directory"), "{cmd}: {text}");
     }
     // As an older rwg left it: no run.json before the first cell finished.

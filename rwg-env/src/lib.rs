@@ -58,8 +58,8 @@ pub mod sha512;
 pub mod space;
 pub mod suggest;
 pub mod time_limit;
+pub mod vars;
 
 pub use env::{Action, ActionDtype, EnvError, EnvSpec, Environment, Step};
 pub use space::{BoxSpace, Space};
 pub use time_limit::TimeLimit;
-pub mod vars;

@@ -61,7 +61,11 @@ pub fn open_entry(m: &Manifest, i: usize) -> Result<GymSource, ManifestError> {
                      said to reach; set `solved = ...` in this [[envs]] entry (the mean score \
                      that counts as solved)",
                     e.id,
-                    if t.is_nan() { "nan".into() } else { t.to_string() }
+                    if t.is_nan() {
+                        "nan".into()
+                    } else {
+                        t.to_string()
+                    }
                 ),
             ))
         }
