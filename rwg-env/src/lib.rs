@@ -44,6 +44,8 @@
 //!   against `include/rwg_plugin.h`) and the export side (`PluginBuilder`,
 //!   [`export_plugin!`], the `extern "C"` trampolines, the batched calls and the
 //!   vector env, instantiated per concrete env type so its `step` inlines).
+//! - [`simd`]: the SIMD level every vector path runs (`RWG_SIMD`: the CPU's
+//!   widest, or `avx512`, `avx2`, `scalar` for comparisons; the bits never differ).
 //! - `vars`: parsing of `RWG_*` environment variables with messages naming them;
 //!   [`suggest`]: did-you-mean hints.
 
@@ -55,6 +57,7 @@ pub mod mt19937;
 pub mod plugin;
 pub mod seeding;
 pub mod sha512;
+pub mod simd;
 pub mod space;
 pub mod suggest;
 pub mod time_limit;
