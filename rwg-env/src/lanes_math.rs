@@ -59,6 +59,10 @@
 
 mod pow_edges;
 #[cfg(target_arch = "x86_64")]
+mod pow_avx512;
+#[cfg(all(test, target_arch = "x86_64"))]
+mod pow_avx512_tests;
+#[cfg(target_arch = "x86_64")]
 mod pow_fma;
 #[cfg(target_arch = "x86_64")]
 mod pow_table;

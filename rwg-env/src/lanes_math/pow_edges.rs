@@ -7,11 +7,12 @@ fn near(v: &mut Vec<f64>, x: f64, ulps: i64) {
     }
 }
 
-/// xorshift64 over [0, 1).
-struct Unit(u64);
+/// xorshift64 over [0, 1) (also the tests' generator).
+pub(super) struct Unit(pub(super) u64);
 
 impl Unit {
-    fn next(&mut self) -> f64 {
+    /// The next number in [0, 1).
+    pub(super) fn next(&mut self) -> f64 {
         self.0 ^= self.0 << 13;
         self.0 ^= self.0 >> 7;
         self.0 ^= self.0 << 17;
@@ -19,7 +20,7 @@ impl Unit {
     }
 
     /// Log-uniform over [2^-60, 2^32].
-    fn log_uniform(&mut self) -> f64 {
+    pub(super) fn log_uniform(&mut self) -> f64 {
         (self.next() * 92.0 - 60.0).exp2()
     }
 }

@@ -29,18 +29,23 @@
 //! out because glibc's `exp` returns `1 + x` for that tiny-argument case;
 //! `pow2_lanes` never sends it here (1 is an exact square).
 //!
-//! Every function is `unsafe` only because it is compiled for AVX2+FMA
-//! (`#[target_feature]`; safe target-feature functions need Rust 1.86, the
-//! workspace supports 1.85): calling it is sound on a CPU with both, which
-//! [`super::Vector::detect`] checks before the entry points are reachable.
-//! Table reads are row loads (cheaper than gathers) at indices masked into
-//! the tables, whatever a lane holds.
+//! The computation is written once, over the vector operations of the
+//! trait [`Lanes`]: implemented here for four AVX2+FMA lanes (`__m256d`)
+//! and in `pow_avx512` for eight AVX-512 lanes (`__m512d`). Both run the same
+//! floating-point operations in the same order, fused at the same places, so
+//! they give the same bits; they differ only in exact integer steps and in
+//! how they read the tables.
+//!
+//! Every function is `unsafe` only because it is compiled for its
+//! instruction set (`#[target_feature]`, which trait methods cannot carry
+//! on safe functions): calling it is sound on a CPU with that set, which
+//! [`super::Vector::detect`] (or the AVX-512 level's detection) checks
+//! before the entry points are reachable. Here table reads are row loads
+//! (cheaper than gathers on four lanes) at indices masked into the tables,
+//! whatever a lane holds.
 
 use super::pow_table::{EXP_TAB, LOG_TAB};
 use std::arch::x86_64::*;
-
-type V = __m256d;
-type I = __m256i;
 
 /// Smallest |x| of the port: 2^-60, the bound of `pow2`'s 0.48-ulp fast path.
 const MIN: f64 = crate::float::TIGHT_MIN;
@@ -70,186 +75,339 @@ const C5: f64 = f64::from_bits(0x3f81_1111_67a4_d017);
 /// The exponent `y`.
 const Y: f64 = 2.0;
 
-/// `v` in all four lanes.
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn splat(v: f64) -> V {
-    _mm256_set1_pd(v)
-}
+/// The vector operations the port is written in: `Self` holds one `f64`
+/// per lane, [`Lanes::I`] one 64-bit integer per lane, [`Lanes::M`] one
+/// truth value per lane. Every floating-point method is one IEEE operation
+/// (rounded to nearest) per lane, so an implementation changes no bits.
+pub(super) trait Lanes: Copy {
+    /// 64-bit integers, one per lane.
+    type I: Copy;
+    /// Per-lane truth values (a comparison's result).
+    type M: Copy;
 
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn splat_i(v: i64) -> I {
-    _mm256_set1_epi64x(v)
-}
-
-/// The four 64-bit lanes of `v`, as table indices.
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn lanes(v: I) -> [usize; 4] {
-    let mut k = [0u64; 4];
-    _mm256_storeu_si256(k.as_mut_ptr().cast(), v);
-    k.map(|k| k as usize)
-}
-
-/// `[invc, logc, logctail]` of the log table's rows `i` (each taken mod
-/// 128): four aligned row loads and a transpose.
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn log_rows(i: I) -> [V; 3] {
-    let t = LOG_TAB.0.as_ptr();
-    // SAFETY (for the caller's unsafe block): `k & 127` is a row of the
-    // table (the caller's indices are in 0..128 already; the mask makes the
-    // reads safe whatever they are).
-    let row = |k: usize| _mm256_load_pd(t.add(k & 127).cast());
-    let [a, b, c, d] = lanes(i);
-    let (r0, r1, r2, r3) = (row(a), row(b), row(c), row(d));
-    let t0 = _mm256_unpacklo_pd(r0, r1); // invc0 invc1 logctail0 logctail1
-    let t1 = _mm256_unpackhi_pd(r0, r1); // logc0 logc1 0 0
-    let t2 = _mm256_unpacklo_pd(r2, r3);
-    let t3 = _mm256_unpackhi_pd(r2, r3);
-    [
-        _mm256_permute2f128_pd::<0x20>(t0, t2),
-        _mm256_permute2f128_pd::<0x20>(t1, t3),
-        _mm256_permute2f128_pd::<0x31>(t0, t2),
-    ]
-}
-
-/// `(tail, sbits)` of the exp table's pairs `k` (each taken mod 128): four
-/// pair loads and an unpack.
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn exp_pairs(k: I) -> (V, V) {
-    let t = EXP_TAB.as_ptr();
-    // SAFETY (for the caller's unsafe block): with `k & 127`, 2k + 1 < 256
-    // (as for `log_rows`, the mask only guards the reads).
-    let pair = |k: usize| _mm_loadu_pd(t.add(2 * (k & 127)).cast());
-    let [a, b, c, d] = lanes(k);
-    let lo = _mm256_set_m128d(pair(c), pair(a)); // tail_a sbits_a tail_c sbits_c
-    let hi = _mm256_set_m128d(pair(d), pair(b));
-    (_mm256_unpacklo_pd(lo, hi), _mm256_unpackhi_pd(lo, hi))
+    /// `v` in every lane.
+    unsafe fn splat(v: f64) -> Self;
+    /// `v` in every lane.
+    unsafe fn splat_i(v: i64) -> Self::I;
+    /// `self + b`.
+    unsafe fn add(self, b: Self) -> Self;
+    /// `self - b`.
+    unsafe fn sub(self, b: Self) -> Self;
+    /// `self * b`.
+    unsafe fn mul(self, b: Self) -> Self;
+    /// `self * b + c`, rounded once.
+    unsafe fn fmadd(self, b: Self, c: Self) -> Self;
+    /// `self * b - c`, rounded once.
+    unsafe fn fmsub(self, b: Self, c: Self) -> Self;
+    /// `|self|` (the sign bit cleared).
+    unsafe fn abs(self) -> Self;
+    /// The bits of each lane.
+    unsafe fn to_bits(self) -> Self::I;
+    /// The lanes with bits `i`.
+    unsafe fn from_bits(i: Self::I) -> Self;
+    /// `a + b`, wrapping.
+    unsafe fn add_i(a: Self::I, b: Self::I) -> Self::I;
+    /// `a - b`, wrapping.
+    unsafe fn sub_i(a: Self::I, b: Self::I) -> Self::I;
+    /// `a & b`.
+    unsafe fn and_i(a: Self::I, b: Self::I) -> Self::I;
+    /// `a >> 45`, shifting in zeros.
+    unsafe fn shr45(a: Self::I) -> Self::I;
+    /// `a << 45`.
+    unsafe fn shl45(a: Self::I) -> Self::I;
+    /// `(double) (a >> 52)` with an arithmetic shift (exact).
+    unsafe fn top12(a: Self::I) -> Self;
+    /// `[invc, logc, logctail]` of the log table's rows `i` (each taken mod
+    /// 128).
+    unsafe fn log_rows(i: Self::I) -> [Self; 3];
+    /// `(tail, sbits)` of the exp table's pairs `k` (each taken mod 128).
+    unsafe fn exp_pairs(k: Self::I) -> (Self, Self);
+    /// `a >= b` (false for NaN).
+    unsafe fn ge(a: Self, b: Self) -> Self::M;
+    /// `a <= b` (false for NaN).
+    unsafe fn le(a: Self, b: Self) -> Self::M;
+    /// `a == b` (false for NaN).
+    unsafe fn eq(a: Self, b: Self) -> Self::M;
+    /// `a && b`.
+    unsafe fn and_m(a: Self::M, b: Self::M) -> Self::M;
+    /// `!a && b`.
+    unsafe fn andnot_m(a: Self::M, b: Self::M) -> Self::M;
 }
 
 /// `log_inline(|x|)`: `(hi, lo)` with `hi + lo` = log|x| to ~2^-68.
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn log_hi_lo(x: V) -> (V, V) {
-    let ix = _mm256_castpd_si256(_mm256_andnot_pd(splat(-0.0), x));
-    let tmp = _mm256_sub_epi64(ix, splat_i(OFF));
-    // i = (tmp >> 45) % 128; k = (int64) tmp >> 52 (AVX2 has no 64-bit
-    // arithmetic shift: sign-extend the top 12 bits by hand).
-    let i = _mm256_and_si256(_mm256_srli_epi64::<45>(tmp), splat_i(127));
-    let top = _mm256_srli_epi64::<52>(tmp);
-    let k = _mm256_sub_epi64(_mm256_xor_si256(top, splat_i(0x800)), splat_i(0x800));
-    // (double) k, exactly: 1.5 * 2^52 + k - 1.5 * 2^52 for |k| < 2^51.
-    let kd = _mm256_sub_pd(
-        _mm256_castsi256_pd(_mm256_add_epi64(k, splat_i(SHIFT.to_bits() as i64))),
-        splat(SHIFT),
-    );
-    let iz = _mm256_sub_epi64(ix, _mm256_and_si256(tmp, splat_i(0xfff << 52)));
-    let z = _mm256_castsi256_pd(iz);
-    let [invc, logc, logctail] = log_rows(i);
+#[inline(always)]
+unsafe fn log_hi_lo<V: Lanes>(x: V) -> (V, V) {
+    let ix = x.abs().to_bits();
+    let tmp = V::sub_i(ix, V::splat_i(OFF));
+    // i = (tmp >> 45) % 128; k = (int64) tmp >> 52.
+    let i = V::and_i(V::shr45(tmp), V::splat_i(127));
+    let kd = V::top12(tmp);
+    let iz = V::sub_i(ix, V::and_i(tmp, V::splat_i(0xfff << 52)));
+    let z = V::from_bits(iz);
+    let [invc, logc, logctail] = V::log_rows(i);
 
-    let r = _mm256_fmadd_pd(z, invc, splat(-1.0));
-    let t1 = _mm256_fmadd_pd(kd, splat(LN2HI), logc);
-    let lo1 = _mm256_fmadd_pd(kd, splat(LN2LO), logctail);
-    let t2 = _mm256_add_pd(t1, r);
-    let lo2 = _mm256_add_pd(_mm256_sub_pd(t1, t2), r);
-    let ar = _mm256_mul_pd(splat(A0), r);
-    let ar2 = _mm256_mul_pd(r, ar);
-    let ar3 = _mm256_mul_pd(r, ar2);
-    let hi = _mm256_add_pd(t2, ar2);
-    let lo3 = _mm256_fmsub_pd(ar, r, ar2);
-    let lo4 = _mm256_add_pd(_mm256_sub_pd(t2, hi), ar2);
+    let r = z.fmadd(invc, V::splat(-1.0));
+    let t1 = kd.fmadd(V::splat(LN2HI), logc);
+    let lo1 = kd.fmadd(V::splat(LN2LO), logctail);
+    let t2 = t1.add(r);
+    let lo2 = t1.sub(t2).add(r);
+    let ar = V::splat(A0).mul(r);
+    let ar2 = r.mul(ar);
+    let ar3 = r.mul(ar2);
+    let hi = t2.add(ar2);
+    let lo3 = ar.fmsub(r, ar2);
+    let lo4 = t2.sub(hi).add(ar2);
     // p = ar3 * (A1 + r A2 + ar2 (A3 + r A4 + ar2 (A5 + r A6))), the last
     // product fused into the sum of the lo terms.
-    let q5 = _mm256_fmadd_pd(r, splat(A6), splat(A5));
-    let q3 = _mm256_fmadd_pd(ar2, q5, _mm256_fmadd_pd(r, splat(A4), splat(A3)));
-    let q1 = _mm256_fmadd_pd(ar2, q3, _mm256_fmadd_pd(r, splat(A2), splat(A1)));
-    let lo = _mm256_add_pd(_mm256_add_pd(_mm256_add_pd(lo1, lo2), lo3), lo4);
-    let lo = _mm256_fmadd_pd(ar3, q1, lo);
-    let y = _mm256_add_pd(hi, lo);
-    let tail = _mm256_add_pd(_mm256_sub_pd(hi, y), lo);
+    let q5 = r.fmadd(V::splat(A6), V::splat(A5));
+    let q3 = ar2.fmadd(q5, r.fmadd(V::splat(A4), V::splat(A3)));
+    let q1 = ar2.fmadd(q3, r.fmadd(V::splat(A2), V::splat(A1)));
+    let lo = lo1.add(lo2).add(lo3).add(lo4);
+    let lo = ar3.fmadd(q1, lo);
+    let y = hi.add(lo);
+    let tail = hi.sub(y).add(lo);
     (y, tail)
 }
 
 /// `exp_inline(x, xtail, 0)` for 2^-54 <= |x| < 512.
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn exp_hi_lo(x: V, xtail: V) -> V {
-    let kd = _mm256_fmadd_pd(x, splat(INVLN2N), splat(SHIFT));
-    let ki = _mm256_castpd_si256(kd);
-    let kd = _mm256_sub_pd(kd, splat(SHIFT));
-    let r = _mm256_fmadd_pd(kd, splat(NEGLN2HIN), x);
-    let r = _mm256_fmadd_pd(kd, splat(NEGLN2LON), r);
-    let r = _mm256_add_pd(r, xtail);
-    let top = _mm256_slli_epi64::<45>(ki);
-    let (tail, sbits) = exp_pairs(_mm256_and_si256(ki, splat_i(127)));
-    let sbits = _mm256_add_epi64(_mm256_castpd_si256(sbits), top);
-    let r2 = _mm256_mul_pd(r, r);
-    let tmp = _mm256_fmadd_pd(
-        _mm256_fmadd_pd(r, splat(C3), splat(C2)),
-        r2,
-        _mm256_add_pd(r, tail),
-    );
-    let tmp = _mm256_fmadd_pd(
-        _mm256_fmadd_pd(r, splat(C5), splat(C4)),
-        _mm256_mul_pd(r2, r2),
-        tmp,
-    );
-    let scale = _mm256_castsi256_pd(sbits);
-    _mm256_fmadd_pd(tmp, scale, scale)
+#[inline(always)]
+unsafe fn exp_hi_lo<V: Lanes>(x: V, xtail: V) -> V {
+    let kd = x.fmadd(V::splat(INVLN2N), V::splat(SHIFT));
+    let ki = kd.to_bits();
+    let kd = kd.sub(V::splat(SHIFT));
+    let r = kd.fmadd(V::splat(NEGLN2HIN), x);
+    let r = kd.fmadd(V::splat(NEGLN2LON), r);
+    let r = r.add(xtail);
+    let top = V::shl45(ki);
+    let (tail, sbits) = V::exp_pairs(V::and_i(ki, V::splat_i(127)));
+    let sbits = V::add_i(sbits.to_bits(), top);
+    let r2 = r.mul(r);
+    let tmp = r.fmadd(V::splat(C3), V::splat(C2)).fmadd(r2, r.add(tail));
+    let tmp = r.fmadd(V::splat(C5), V::splat(C4)).fmadd(r2.mul(r2), tmp);
+    let scale = V::from_bits(sbits);
+    tmp.fmadd(scale, scale)
 }
 
 /// glibc's `pow(x, 2.0)` for 2^-60 <= |x| <= 2^32, |x| != 1 (other lanes
 /// get meaningless values).
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn pow2(x: V) -> V {
+#[inline(always)]
+pub(super) unsafe fn pow2<V: Lanes>(x: V) -> V {
     let (hi, lo) = log_hi_lo(x);
-    let ehi = _mm256_mul_pd(splat(Y), hi);
-    let elo = _mm256_fmadd_pd(splat(Y), lo, _mm256_fmsub_pd(hi, splat(Y), ehi));
+    let ehi = V::splat(Y).mul(hi);
+    let elo = V::splat(Y).fmadd(lo, hi.fmsub(V::splat(Y), ehi));
     exp_hi_lo(ehi, elo)
 }
 
 /// Lanes where the port applies: 2^-60 <= |x| <= 2^32 and |x| != 1 (false
 /// for NaN).
-#[inline]
-#[target_feature(enable = "avx2,fma")]
-pub(super) unsafe fn in_range(x: V) -> V {
-    let ax = _mm256_andnot_pd(splat(-0.0), x);
-    let inside = _mm256_and_pd(
-        _mm256_cmp_pd::<_CMP_GE_OQ>(ax, splat(MIN)),
-        _mm256_cmp_pd::<_CMP_LE_OQ>(ax, splat(MAX)),
-    );
-    _mm256_andnot_pd(_mm256_cmp_pd::<_CMP_EQ_OQ>(ax, splat(1.0)), inside)
+#[inline(always)]
+pub(super) unsafe fn in_range<V: Lanes>(x: V) -> V::M {
+    let ax = x.abs();
+    let inside = V::and_m(V::ge(ax, V::splat(MIN)), V::le(ax, V::splat(MAX)));
+    V::andnot_m(V::eq(ax, V::splat(1.0)), inside)
 }
 
 /// `p = x*x` and the lanes where `p` is `pow(x, 2)` for certain
 /// ([`crate::float::pow2`]'s 0.48-ulp fast path: in the port's range and
 /// the exact square within 0.48 ulp of `p`).
+#[inline(always)]
+pub(super) unsafe fn square_fast<V: Lanes>(x: V) -> (V, V::M) {
+    let p = x.mul(x);
+    let e = x.fmsub(x, p).abs();
+    // ulp(p) = 2^(exponent - 52); p >= 2^-120 is normal here.
+    let ulp = V::from_bits(V::sub_i(
+        V::and_i(p.to_bits(), V::splat_i(0x7ff0_0000_0000_0000)),
+        V::splat_i(52 << 52),
+    ));
+    let ax = x.abs();
+    let tight = V::and_m(V::ge(ax, V::splat(MIN)), V::le(ax, V::splat(MAX)));
+    let near = V::le(e, V::splat(0.48).mul(ulp));
+    (p, V::and_m(tight, near))
+}
+
+/// `out[j] = slow(x[j])` for every lane `j` whose bit is set in `lanes`.
+#[inline]
+pub(super) fn slow_lanes(lanes: u32, x: &[f64], out: &mut [f64], slow: fn(f64) -> f64) {
+    if lanes != 0 {
+        for (j, (o, &a)) in out.iter_mut().zip(x).enumerate() {
+            if lanes >> j & 1 == 1 {
+                *o = slow(a);
+            }
+        }
+    }
+}
+
+type V4 = __m256d;
+type I4 = __m256i;
+
+/// The four 64-bit lanes of `v`, as table indices.
 #[inline]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn square_fast(x: V) -> (V, V) {
-    let p = _mm256_mul_pd(x, x);
-    let e = _mm256_andnot_pd(splat(-0.0), _mm256_fmsub_pd(x, x, p));
-    // ulp(p) = 2^(exponent - 52); p >= 2^-120 is normal here.
-    let ulp = _mm256_castsi256_pd(_mm256_sub_epi64(
-        _mm256_and_si256(_mm256_castpd_si256(p), splat_i(0x7ff0_0000_0000_0000)),
-        splat_i(52 << 52),
-    ));
-    let ax = _mm256_andnot_pd(splat(-0.0), x);
-    let tight = _mm256_and_pd(
-        _mm256_cmp_pd::<_CMP_GE_OQ>(ax, splat(MIN)),
-        _mm256_cmp_pd::<_CMP_LE_OQ>(ax, splat(MAX)),
-    );
-    let near = _mm256_cmp_pd::<_CMP_LE_OQ>(e, _mm256_mul_pd(splat(0.48), ulp));
-    (p, _mm256_and_pd(tight, near))
+unsafe fn lanes(v: I4) -> [usize; 4] {
+    let mut k = [0u64; 4];
+    _mm256_storeu_si256(k.as_mut_ptr().cast(), v);
+    k.map(|k| k as usize)
+}
+
+impl Lanes for V4 {
+    type I = I4;
+    type M = V4;
+
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn splat(v: f64) -> V4 {
+        _mm256_set1_pd(v)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn splat_i(v: i64) -> I4 {
+        _mm256_set1_epi64x(v)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn add(self, b: V4) -> V4 {
+        _mm256_add_pd(self, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn sub(self, b: V4) -> V4 {
+        _mm256_sub_pd(self, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn mul(self, b: V4) -> V4 {
+        _mm256_mul_pd(self, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn fmadd(self, b: V4, c: V4) -> V4 {
+        _mm256_fmadd_pd(self, b, c)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn fmsub(self, b: V4, c: V4) -> V4 {
+        _mm256_fmsub_pd(self, b, c)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn abs(self) -> V4 {
+        _mm256_andnot_pd(_mm256_set1_pd(-0.0), self)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn to_bits(self) -> I4 {
+        _mm256_castpd_si256(self)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn from_bits(i: I4) -> V4 {
+        _mm256_castsi256_pd(i)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn add_i(a: I4, b: I4) -> I4 {
+        _mm256_add_epi64(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn sub_i(a: I4, b: I4) -> I4 {
+        _mm256_sub_epi64(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn and_i(a: I4, b: I4) -> I4 {
+        _mm256_and_si256(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn shr45(a: I4) -> I4 {
+        _mm256_srli_epi64::<45>(a)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn shl45(a: I4) -> I4 {
+        _mm256_slli_epi64::<45>(a)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn top12(a: I4) -> V4 {
+        // AVX2 has no 64-bit arithmetic shift: sign-extend the top 12 bits
+        // by hand; then 1.5 * 2^52 + k - 1.5 * 2^52 = k exactly for
+        // |k| < 2^51.
+        let top = _mm256_srli_epi64::<52>(a);
+        let k = _mm256_sub_epi64(
+            _mm256_xor_si256(top, Self::splat_i(0x800)),
+            Self::splat_i(0x800),
+        );
+        _mm256_sub_pd(
+            _mm256_castsi256_pd(_mm256_add_epi64(k, Self::splat_i(SHIFT.to_bits() as i64))),
+            _mm256_set1_pd(SHIFT),
+        )
+    }
+    /// Four aligned row loads and a transpose.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn log_rows(i: I4) -> [V4; 3] {
+        let t = LOG_TAB.0.as_ptr();
+        // SAFETY (for the caller's unsafe block): `k & 127` is a row of the
+        // table (the caller's indices are in 0..128 already; the mask makes
+        // the reads safe whatever they are).
+        let row = |k: usize| _mm256_load_pd(t.add(k & 127).cast());
+        let [a, b, c, d] = lanes(i);
+        let (r0, r1, r2, r3) = (row(a), row(b), row(c), row(d));
+        let t0 = _mm256_unpacklo_pd(r0, r1); // invc0 invc1 logctail0 logctail1
+        let t1 = _mm256_unpackhi_pd(r0, r1); // logc0 logc1 0 0
+        let t2 = _mm256_unpacklo_pd(r2, r3);
+        let t3 = _mm256_unpackhi_pd(r2, r3);
+        [
+            _mm256_permute2f128_pd::<0x20>(t0, t2),
+            _mm256_permute2f128_pd::<0x20>(t1, t3),
+            _mm256_permute2f128_pd::<0x31>(t0, t2),
+        ]
+    }
+    /// Four pair loads and an unpack.
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn exp_pairs(k: I4) -> (V4, V4) {
+        let t = EXP_TAB.as_ptr();
+        // SAFETY (for the caller's unsafe block): with `k & 127`, 2k + 1 <
+        // 256 (as for `log_rows`, the mask only guards the reads).
+        let pair = |k: usize| _mm_loadu_pd(t.add(2 * (k & 127)).cast());
+        let [a, b, c, d] = lanes(k);
+        let lo = _mm256_set_m128d(pair(c), pair(a)); // tail_a sbits_a tail_c sbits_c
+        let hi = _mm256_set_m128d(pair(d), pair(b));
+        (_mm256_unpacklo_pd(lo, hi), _mm256_unpackhi_pd(lo, hi))
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn ge(a: V4, b: V4) -> V4 {
+        _mm256_cmp_pd::<_CMP_GE_OQ>(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn le(a: V4, b: V4) -> V4 {
+        _mm256_cmp_pd::<_CMP_LE_OQ>(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn eq(a: V4, b: V4) -> V4 {
+        _mm256_cmp_pd::<_CMP_EQ_OQ>(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn and_m(a: V4, b: V4) -> V4 {
+        _mm256_and_pd(a, b)
+    }
+    #[inline]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn andnot_m(a: V4, b: V4) -> V4 {
+        _mm256_andnot_pd(a, b)
+    }
 }
 
 /// `out[i] = pow(x[i], 2)` with libm's bits: the fast path where it settles
 /// the result, the port for the other lanes in its range (a group of four
-/// with no such lane skips it), `pow2` (libm) for the rest.
+/// with no such lane skips it), `slow` (`pow2`) for the rest.
 #[target_feature(enable = "avx2,fma")]
 pub(super) unsafe fn pow2_lanes(x: &[f64], out: &mut [f64], slow: fn(f64) -> f64) {
     let mut xs = x.chunks_exact(4);
@@ -257,21 +415,14 @@ pub(super) unsafe fn pow2_lanes(x: &[f64], out: &mut [f64], slow: fn(f64) -> f64
     for (xc, oc) in (&mut xs).zip(&mut os) {
         let v = _mm256_loadu_pd(xc.as_ptr());
         let (p, fast) = square_fast(v);
-        let all = _mm256_movemask_pd(fast);
-        if all == 0b1111 {
+        if _mm256_movemask_pd(fast) == 0b1111 {
             _mm256_storeu_pd(oc.as_mut_ptr(), p);
             continue;
         }
         let port = in_range(v);
         _mm256_storeu_pd(oc.as_mut_ptr(), _mm256_blendv_pd(pow2(v), p, fast));
         let libm = !_mm256_movemask_pd(_mm256_or_pd(fast, port)) & 0b1111;
-        if libm != 0 {
-            for (j, (o, &a)) in oc.iter_mut().zip(xc).enumerate() {
-                if libm >> j & 1 == 1 {
-                    *o = slow(a);
-                }
-            }
-        }
+        slow_lanes(libm as u32, xc, oc, slow);
     }
     for (o, &a) in os.into_remainder().iter_mut().zip(xs.remainder()) {
         *o = slow(a);
@@ -288,11 +439,7 @@ pub(super) unsafe fn pow2_port_lanes(x: &[f64], out: &mut [f64], slow: fn(f64) -
         let v = _mm256_loadu_pd(xc.as_ptr());
         _mm256_storeu_pd(oc.as_mut_ptr(), pow2(v));
         let outside = !_mm256_movemask_pd(in_range(v)) & 0b1111;
-        for (j, (o, &a)) in oc.iter_mut().zip(xc).enumerate() {
-            if outside >> j & 1 == 1 {
-                *o = slow(a);
-            }
-        }
+        slow_lanes(outside as u32, xc, oc, slow);
     }
     for (o, &a) in os.into_remainder().iter_mut().zip(xs.remainder()) {
         *o = slow(a);

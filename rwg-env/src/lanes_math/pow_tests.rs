@@ -20,16 +20,22 @@ fn check(x: &[f64]) {
     }
     for (name, f) in &impls {
         f(x, &mut out);
-        for i in 0..n {
-            let (v, want) = (x[i], pow2_libm(x[i]));
-            assert!(
-                out[i].to_bits() == want.to_bits() || (want.is_nan() && out[i].is_nan()),
-                "{name} pow({v:e} = {:#x}, 2): {:#x}, libm {:#x}",
-                v.to_bits(),
-                out[i].to_bits(),
-                want.to_bits()
-            );
-        }
+        assert_libm_bits(name, x, &out);
+    }
+}
+
+/// Asserts that `out[i]` has the bits of libm's `pow(x[i], 2)` (any NaN
+/// for a NaN), naming `name` and the argument otherwise.
+pub(super) fn assert_libm_bits(name: &str, x: &[f64], out: &[f64]) {
+    for (&v, &o) in x.iter().zip(out) {
+        let want = pow2_libm(v);
+        assert!(
+            o.to_bits() == want.to_bits() || (want.is_nan() && o.is_nan()),
+            "{name} pow({v:e} = {:#x}, 2): {:#x}, libm {:#x}",
+            v.to_bits(),
+            o.to_bits(),
+            want.to_bits()
+        );
     }
 }
 
