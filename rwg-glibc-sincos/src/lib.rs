@@ -1,30 +1,39 @@
 //! # rwg-glibc-sincos
 //!
 //! glibc 2.36's x86-64 `sin` and `cos` (the `__sin_fma` / `__cos_fma`
-//! variants its ifuncs pick on CPUs with AVX2 and FMA) four lanes at a time,
-//! for |x| < 105414350: the same operations in the same order with the same
-//! constants and table, so the same bits. Lanes beyond that range (huge,
-//! ±inf, NaN) go to the libm functions the caller passes in.
+//! variants its ifuncs pick on CPUs with AVX2 and FMA) over many arguments
+//! at once, for |x| < 105414350: the same operations in the same order with
+//! the same constants and table, so the same bits. Lanes beyond that range
+//! (huge, ±inf, NaN) go to the libm functions the caller passes in.
+//!
+//! Two widths, one algorithm (`kernel.rs`, written over a trait of vector
+//! operations, so both fuse the same products and round the same way):
+//!
+//! - [`sin_lanes`], [`cos_lanes`], [`sincos_lanes`]: four lanes with AVX2
+//!   and FMA (`fma.rs`);
+//! - [`avx512::sin_lanes`], [`avx512::cos_lanes`], [`avx512::sincos_lanes`]:
+//!   eight lanes with AVX-512F, DQ and VL (`avx512.rs`), same signatures.
 //!
 //! `rwg_env::lanes_math` uses this crate behind its `glibc-sincos` feature,
-//! only on CPUs with AVX2 and FMA and only after a one-time self-check
-//! against the process's own libm; that module is the interface to use (it
-//! falls back to one libm call per element whenever this crate is absent or
-//! does not apply). The entry points here are `unsafe`: calling them is
-//! sound only on a CPU with AVX2 and FMA. On other architectures the crate
-//! is empty.
+//! at the width `rwg_env::simd::level()` picks (`RWG_SIMD`), and only after
+//! a one-time self-check of that width against the process's own libm; that
+//! module is the interface to use (it falls back to one libm call per
+//! element whenever this crate is absent or does not apply). The entry
+//! points here are `unsafe`: calling them is sound only on a CPU with their
+//! instruction sets. On other architectures the crate is empty.
 //!
 //! # Origin and licence
 //!
 //! This crate is a translation into Rust (AVX2+FMA intrinsics over four
-//! lanes) of parts of the GNU C Library's libm, and is distributed under the
-//! same licence as they are: the **GNU Lesser General Public License,
-//! version 2.1 or (at your option) any later version** (`COPYING` beside
-//! this crate's `Cargo.toml`).
+//! lanes, AVX-512 intrinsics over eight) of parts of the GNU C Library's
+//! libm, and is distributed under the same licence as they are: the **GNU
+//! Lesser General Public License, version 2.1 or (at your option) any later
+//! version** (`COPYING` beside this crate's `Cargo.toml`).
 //!
-//! - `fma.rs`: the algorithm and constants of `__sin` / `__cos` (with their
-//!   helpers `do_sin`, `do_cos`, `reduce_sincos`, `TAYLOR_SIN`) from glibc's
-//!   `sysdeps/ieee754/dbl-64/s_sin.c`, IBM Accurate Mathematical Library,
+//! - `kernel.rs` (the algorithm and constants), `fma.rs` and `avx512.rs`
+//!   (its vector operations at four and eight lanes): `__sin` / `__cos`
+//!   (with their helpers `do_sin`, `do_cos`, `reduce_sincos`,
+//!   `TAYLOR_SIN`) from glibc's `sysdeps/ieee754/dbl-64/s_sin.c`, IBM Accurate Mathematical Library,
 //!   written by International Business Machines Corp., Copyright (C)
 //!   2001-2022 Free Software Foundation, Inc.; which products glibc's build
 //!   fuses was read off the machine code of `__sin_fma` / `__cos_fma` in
@@ -38,7 +47,11 @@
 //! this crate's source is part of rwg's source distribution.
 
 #[cfg(target_arch = "x86_64")]
+pub mod avx512;
+#[cfg(target_arch = "x86_64")]
 mod fma;
+#[cfg(target_arch = "x86_64")]
+mod kernel;
 #[cfg(target_arch = "x86_64")]
 mod table;
 #[cfg(all(test, target_arch = "x86_64"))]
