@@ -15,31 +15,40 @@
 //!
 //! # Implementations
 //!
-//! - **Vector** (x86-64 only): for `sin`/`cos`, a four-lane AVX2+FMA port
-//!   of glibc 2.36's `__sin_fma`/`__cos_fma` for |x| < 105414350 (the crate
+//! Three levels, the ones of [`crate::simd`]: [`simd::level`] picks one
+//! for the process (`RWG_SIMD=avx512|avx2|scalar`, unset: the CPU's
+//! widest), and each function runs it if its self-check passed there.
+//!
+//! - **AVX-512** ([`Simd::Avx512`], eight lanes) and **AVX2** ([`Simd::Avx2`],
+//!   four lanes), x86-64 only: for `sin`/`cos`, a port of glibc 2.36's
+//!   `__sin_fma`/`__cos_fma` for |x| < 105414350 (the crate
 //!   `rwg-glibc-sincos`, LGPL-2.1-or-later, present only with this crate's
-//!   `glibc-sincos` feature: see below); lanes beyond (huge, ±inf, NaN)
-//!   call libm. Used when (a) the CPU has AVX2 and FMA, the condition under
-//!   which glibc's ifunc selects those variants, and (b) a one-time
-//!   self-check on [`edge_arguments`] (every path, every path boundary, the
-//!   table's rounding points, the reduction's hard cases: a few thousand
-//!   arguments) gives this process's libm bits for all of them.
-//!   [`pow2_lanes`] settles most squares with [`crate::float::pow2`]'s fast
-//!   path (`x*x` when the exact square is within 0.48 ulp of it) and
-//!   computes the rest (about 4 %) with a four-lane port of glibc 2.36's
-//!   `__pow_fma` for `y = 2` (module `pow_fma`, 2^-60 <= |x| <= 2^32);
-//!   other lanes call libm. It has its own condition (b), a self-check on
-//!   [`pow2_edge_arguments`], so either port can run without the other.
-//!   Another glibc version, another libm (musl, macOS) or a CPU without FMA
-//!   fails (a) or (b) and gets the scalar loop, so the contract holds
+//!   `glibc-sincos` feature: see below; one algorithm at both widths);
+//!   lanes beyond (huge, ±inf, NaN) call libm. [`pow2_lanes`] settles most
+//!   squares with [`crate::float::pow2`]'s fast path (`x*x` when the exact
+//!   square is within 0.48 ulp of it) and computes the rest (about 4 %) with
+//!   a port of glibc 2.36's `__pow_fma` for `y = 2` (modules `pow_fma`, four
+//!   lanes, and `pow_avx512`, eight; 2^-60 <= |x| <= 2^32); other lanes
+//!   call libm. A level runs when (a) the CPU has it (AVX2 and FMA, the
+//!   condition under which glibc's ifunc selects those variants; AVX-512F,
+//!   DQ and VL besides for eight lanes) and (b) a one-time self-check of
+//!   that level's code gives this process's libm bits on all of its
+//!   arguments: [`edge_arguments`] for `sin`/`cos` (every path, every path
+//!   boundary, the table's rounding points, the reduction's hard cases: a
+//!   few thousand arguments), [`pow2_edge_arguments`] for `pow`, so either
+//!   port can run without the other. Another glibc version, another libm
+//!   (musl, macOS) or a CPU without FMA fails (a) or (b) and gets the
+//!   scalar loop (never the other vector level), so the contract holds
 //!   everywhere; only the speed differs.
-//! - **Scalar**: one libm call per element (for `pow`, [`crate::float::pow2`]
-//!   per element). Forced with the environment variable `RWG_SCALAR_LIBM=1`
-//!   (read once, e.g. for benchmarks).
+//! - **Scalar** ([`Simd::Scalar`]): one libm call per element (for `pow`,
+//!   [`crate::float::pow2`] per element). Forced with `RWG_SIMD=scalar`
+//!   (e.g. for benchmarks).
 //!
 //! [`implementation`] (sin/cos) and [`pow_implementation`] say which one
-//! runs and why. `rwg bench libm --check N` compares the two over N
-//! arguments on the user's machine.
+//! runs and why; [`implementation_at`] and [`pow_implementation_at`] decide
+//! for any level (each level's self-check runs once, when first asked).
+//! `rwg bench libm --check N` compares every vector level the CPU has with
+//! libm over N arguments on the user's machine.
 //!
 //! # The `glibc-sincos` feature
 //!
@@ -53,15 +62,15 @@
 //! (also [`Vector`]'s) call libm once per element: the same bits, more
 //! slowly. The `rwg` binary and the reference plugin turn it on.
 //!
-//! The vector `pow(x, 2)` (modules `pow_fma`, `pow_table`) is not affected:
-//! it follows Arm's optimized-routines `pow` (MIT OR Apache-2.0 WITH
-//! LLVM-exception), which glibc adopted in 2.28.
+//! The vector `pow(x, 2)` (modules `pow_fma`, `pow_avx512`, `pow_table`)
+//! is not affected: it follows Arm's optimized-routines `pow` (MIT OR
+//! Apache-2.0 WITH LLVM-exception), which glibc adopted in 2.28.
 
-mod pow_edges;
 #[cfg(target_arch = "x86_64")]
 mod pow_avx512;
 #[cfg(all(test, target_arch = "x86_64"))]
 mod pow_avx512_tests;
+mod pow_edges;
 #[cfg(target_arch = "x86_64")]
 mod pow_fma;
 #[cfg(target_arch = "x86_64")]
@@ -72,12 +81,13 @@ mod pow_tests;
 mod tests;
 
 use crate::float::{libm_cos, libm_sin};
+use crate::simd::{self, Simd};
 use std::sync::OnceLock;
 
 /// Whether this build has the vector `sin`/`cos` (the `glibc-sincos`
 /// feature); without it every `sin`/`cos` here is one libm call per
 /// element. (With it, the vector code still needs an x86-64 CPU with AVX2
-/// and FMA: [`implementation`].)
+/// and FMA, or AVX-512 for eight lanes: [`implementation`].)
 pub const SIN_COS_BUILT_IN: bool = cfg!(feature = "glibc-sincos");
 
 /// One libm call per element: the reference the vector code must match.
@@ -119,78 +129,116 @@ pub mod scalar {
     }
 }
 
-/// The vector implementation, available only on a CPU with AVX2 and FMA
+/// The vector implementation at one level ([`Simd::Avx2`]: four lanes,
+/// [`Simd::Avx512`]: eight), available only on a CPU that has that level
 /// (holding a `Vector` proves it). Whether its bits are this process's
 /// libm's is what the self-check (and `rwg bench libm --check`) tests:
 /// [`sin_lanes`] & co. use it only when that passed.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Vector {
-    _cpu_checked: (),
+    level: Simd,
 }
 
 impl Vector {
-    /// `Some` on an x86-64 CPU with AVX2 and FMA.
-    pub fn detect() -> Option<Vector> {
-        #[cfg(target_arch = "x86_64")]
-        {
-            (is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma"))
-                .then_some(Vector { _cpu_checked: () })
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        {
-            None
+    /// The vector code at `level`: `Some` for [`Simd::Avx2`] or
+    /// [`Simd::Avx512`] on a CPU that has that level, `None` for
+    /// [`Simd::Scalar`] or a level the CPU lacks.
+    pub fn at(level: Simd) -> Option<Vector> {
+        (level != Simd::Scalar && level.available()).then_some(Vector { level })
+    }
+
+    /// The vector code at every level this CPU has, narrowest first (for
+    /// checks and benchmarks that compare them).
+    pub fn all() -> Vec<Vector> {
+        Simd::available_levels()
+            .into_iter()
+            .filter_map(Vector::at)
+            .collect()
+    }
+
+    /// Its level ([`Simd::Avx2`] or [`Simd::Avx512`]).
+    pub fn level(self) -> Simd {
+        self.level
+    }
+
+    /// `f64` lanes per vector: 4 or 8.
+    pub fn lanes(self) -> usize {
+        match self.level {
+            Simd::Avx512 => 8,
+            _ => 4,
         }
     }
 
-    /// `out[i] = sin(x[i])`, four lanes at a time (one libm call per
-    /// element without [`SIN_COS_BUILT_IN`]).
+    /// The instruction set and width, e.g. "AVX-512, 8 lanes".
+    pub fn name(self) -> &'static str {
+        match self.level {
+            Simd::Avx512 => "AVX-512, 8 lanes",
+            _ => "AVX2+FMA, 4 lanes",
+        }
+    }
+
+    /// `out[i] = sin(x[i])`, [`Vector::lanes`] lanes at a time (one libm
+    /// call per element without [`SIN_COS_BUILT_IN`]).
     pub fn sin_lanes(self, x: &[f64], out: &mut [f64]) {
         assert_eq!(x.len(), out.len(), "sin_lanes: arguments and results");
         #[cfg(all(feature = "glibc-sincos", target_arch = "x86_64"))]
-        // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
+        // SAFETY: `self` exists only if the CPU has its level (`at`).
         unsafe {
-            rwg_glibc_sincos::sin_lanes(x, out, libm_sin)
+            match self.level {
+                Simd::Avx512 => rwg_glibc_sincos::avx512::sin_lanes(x, out, libm_sin),
+                _ => rwg_glibc_sincos::sin_lanes(x, out, libm_sin),
+            }
         }
         #[cfg(not(all(feature = "glibc-sincos", target_arch = "x86_64")))]
         scalar::sin_lanes(x, out)
     }
 
-    /// `out[i] = cos(x[i])`, four lanes at a time (one libm call per
-    /// element without [`SIN_COS_BUILT_IN`]).
+    /// `out[i] = cos(x[i])`, [`Vector::lanes`] lanes at a time (one libm
+    /// call per element without [`SIN_COS_BUILT_IN`]).
     pub fn cos_lanes(self, x: &[f64], out: &mut [f64]) {
         assert_eq!(x.len(), out.len(), "cos_lanes: arguments and results");
         #[cfg(all(feature = "glibc-sincos", target_arch = "x86_64"))]
-        // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
+        // SAFETY: `self` exists only if the CPU has its level (`at`).
         unsafe {
-            rwg_glibc_sincos::cos_lanes(x, out, libm_cos)
+            match self.level {
+                Simd::Avx512 => rwg_glibc_sincos::avx512::cos_lanes(x, out, libm_cos),
+                _ => rwg_glibc_sincos::cos_lanes(x, out, libm_cos),
+            }
         }
         #[cfg(not(all(feature = "glibc-sincos", target_arch = "x86_64")))]
         scalar::cos_lanes(x, out)
     }
 
-    /// `sin[i], cos[i] = sin(x[i]), cos(x[i])`, four lanes at a time (one
-    /// libm `sin` and one `cos` call per element without
+    /// `sin[i], cos[i] = sin(x[i]), cos(x[i])`, [`Vector::lanes`] lanes at a
+    /// time (one libm `sin` and one `cos` call per element without
     /// [`SIN_COS_BUILT_IN`]).
     pub fn sincos_lanes(self, x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
         assert_eq!(x.len(), sin.len(), "sincos_lanes: arguments and sines");
         assert_eq!(x.len(), cos.len(), "sincos_lanes: arguments and cosines");
         #[cfg(all(feature = "glibc-sincos", target_arch = "x86_64"))]
-        // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
+        // SAFETY: `self` exists only if the CPU has its level (`at`).
         unsafe {
-            rwg_glibc_sincos::sincos_lanes(x, sin, cos, libm_sin, libm_cos)
+            use rwg_glibc_sincos::avx512;
+            match self.level {
+                Simd::Avx512 => avx512::sincos_lanes(x, sin, cos, libm_sin, libm_cos),
+                _ => rwg_glibc_sincos::sincos_lanes(x, sin, cos, libm_sin, libm_cos),
+            }
         }
         #[cfg(not(all(feature = "glibc-sincos", target_arch = "x86_64")))]
         scalar::sincos_lanes(x, sin, cos)
     }
 
-    /// `out[i] = pow(x[i], 2)`: the fast path four lanes at a time, the
-    /// port of `__pow_fma` for the lanes it leaves.
+    /// `out[i] = pow(x[i], 2)`: the fast path [`Vector::lanes`] lanes at a
+    /// time, the port of `__pow_fma` for the lanes it leaves.
     pub fn pow2_lanes(self, x: &[f64], out: &mut [f64]) {
         assert_eq!(x.len(), out.len(), "pow2_lanes: arguments and results");
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
+        // SAFETY: `self` exists only if the CPU has its level (`at`).
         unsafe {
-            pow_fma::pow2_lanes(x, out, crate::float::pow2)
+            match self.level {
+                Simd::Avx512 => pow_avx512::pow2_lanes(x, out, crate::float::pow2),
+                _ => pow_fma::pow2_lanes(x, out, crate::float::pow2),
+            }
         }
         #[cfg(not(target_arch = "x86_64"))]
         pow2_each(x, out)
@@ -203,9 +251,13 @@ impl Vector {
     pub fn pow2_port_lanes(self, x: &[f64], out: &mut [f64]) {
         assert_eq!(x.len(), out.len(), "pow2_port_lanes: arguments and results");
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: `self` exists only if the CPU has AVX2 and FMA (`detect`).
+        // SAFETY: `self` exists only if the CPU has its level (`at`).
         unsafe {
-            pow_fma::pow2_port_lanes(x, out, crate::float::pow2_libm)
+            let libm = crate::float::pow2_libm;
+            match self.level {
+                Simd::Avx512 => pow_avx512::pow2_port_lanes(x, out, libm),
+                _ => pow_fma::pow2_port_lanes(x, out, libm),
+            }
         }
         #[cfg(not(target_arch = "x86_64"))]
         scalar::pow2_lanes(x, out)
@@ -252,8 +304,9 @@ impl Vector {
 /// ([`implementation`]) or [`pow2_lanes`] ([`pow_implementation`]) use.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Implementation {
-    /// The vector code: the CPU has AVX2 and FMA and the self-check passed.
-    Vector,
+    /// The vector code at this level ([`Simd::Avx2`] or [`Simd::Avx512`]):
+    /// the CPU has it and that level's self-check passed.
+    Vector(Simd),
     /// One libm call per element, for the reason given.
     Scalar(ScalarReason),
 }
@@ -261,81 +314,114 @@ pub enum Implementation {
 /// Why the scalar loop runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ScalarReason {
-    /// `RWG_SCALAR_LIBM=1` was set.
+    /// `RWG_SIMD=scalar` was set.
     Forced,
-    /// Not an x86-64 CPU with AVX2 and FMA.
-    NoCpuSupport,
+    /// The CPU lacks this level (x86-64 with AVX2 and FMA for
+    /// [`Simd::Avx2`], or also AVX-512F, DQ and VL for [`Simd::Avx512`]).
+    NoCpuSupport(Simd),
     /// The vector `sin`/`cos` is not in this build (the `glibc-sincos`
     /// feature is off: [`SIN_COS_BUILT_IN`]).
     NotBuiltIn,
-    /// The self-check found an argument (this one) where the vector code's
-    /// bits for this function (`"sin/cos"` or `"pow"`) differ from this
-    /// process's libm (another glibc or libm).
-    SelfCheckFailed(&'static str, f64),
+    /// The self-check of this level's vector code found an argument (this
+    /// one) where its bits for this function (`"sin/cos"` or `"pow"`)
+    /// differ from this process's libm (another glibc or libm).
+    SelfCheckFailed(Simd, &'static str, f64),
 }
 
 impl std::fmt::Display for Implementation {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Implementation::Vector => {
-                write!(f, "vector (AVX2+FMA, glibc 2.36's bits, self-check passed)")
+        let name = |level| Vector { level }.name();
+        match *self {
+            Implementation::Vector(level) => write!(
+                f,
+                "vector ({}, glibc 2.36's bits, self-check passed)",
+                name(level)
+            ),
+            Implementation::Scalar(ScalarReason::Forced) => {
+                write!(f, "scalar ({}=scalar)", simd::VAR)
             }
-            Implementation::Scalar(ScalarReason::Forced) => write!(f, "scalar (RWG_SCALAR_LIBM=1)"),
-            Implementation::Scalar(ScalarReason::NoCpuSupport) => {
+            Implementation::Scalar(ScalarReason::NoCpuSupport(Simd::Avx512)) => {
+                write!(f, "scalar (no AVX-512F, DQ and VL on this CPU)")
+            }
+            Implementation::Scalar(ScalarReason::NoCpuSupport(_)) => {
                 write!(f, "scalar (no x86-64 CPU with AVX2 and FMA)")
             }
             Implementation::Scalar(ScalarReason::NotBuiltIn) => write!(
                 f,
                 "scalar (vector sin/cos not built in: rwg-env's glibc-sincos feature is off)"
             ),
-            Implementation::Scalar(ScalarReason::SelfCheckFailed(function, x)) => write!(
+            Implementation::Scalar(ScalarReason::SelfCheckFailed(level, function, x)) => write!(
                 f,
-                "scalar (the vector {function} differs from this libm at x = {x:e} = {:#018x})",
+                "scalar (the vector {function} ({}) differs from this libm at x = {x:e} = {:#018x})",
+                name(level),
                 x.to_bits()
             ),
         }
     }
 }
 
-/// The implementation [`sin_lanes`], [`cos_lanes`] and [`sincos_lanes`] use,
-/// decided once per process (the self-check on [`edge_arguments`]; scalar
-/// without [`SIN_COS_BUILT_IN`]).
+/// The implementation [`sin_lanes`], [`cos_lanes`] and [`sincos_lanes`] use:
+/// [`implementation_at`] the level [`simd::level`] picks (`RWG_SIMD`, else
+/// the CPU's widest).
 pub fn implementation() -> Implementation {
-    static CHOICE: OnceLock<Implementation> = OnceLock::new();
-    *CHOICE.get_or_init(|| {
+    implementation_at(simd::level())
+}
+
+/// The implementation of `sin`/`cos` at `level`, decided once per process
+/// and level: the vector code of that level if the CPU has it and its
+/// self-check on [`edge_arguments`] passes, else scalar (always scalar
+/// without [`SIN_COS_BUILT_IN`]).
+pub fn implementation_at(level: Simd) -> Implementation {
+    static CHOICE: [OnceLock<Implementation>; 3] = [const { OnceLock::new() }; 3];
+    *CHOICE[level as usize].get_or_init(|| {
         if !SIN_COS_BUILT_IN {
             return Implementation::Scalar(ScalarReason::NotBuiltIn);
         }
-        decide(|v| v.first_mismatch(&edge_arguments()).map(|x| ("sin/cos", x)))
+        decide(level, |v| {
+            v.first_mismatch(&edge_arguments()).map(|x| ("sin/cos", x))
+        })
     })
 }
 
-/// The implementation [`pow2_lanes`] uses, decided once per process (the
-/// self-check on [`pow2_edge_arguments`]), apart from [`implementation`]:
-/// a libm whose `pow` the port does not match keeps the vector `sin`/`cos`
-/// if those match, and the other way round.
+/// The implementation [`pow2_lanes`] uses: [`pow_implementation_at`] the
+/// level [`simd::level`] picks. Its self-check is apart from
+/// [`implementation`]'s: a libm whose `pow` the port does not match keeps
+/// the vector `sin`/`cos` if those match, and the other way round.
 pub fn pow_implementation() -> Implementation {
-    static CHOICE: OnceLock<Implementation> = OnceLock::new();
-    *CHOICE.get_or_init(|| {
-        decide(|v| {
+    pow_implementation_at(simd::level())
+}
+
+/// The implementation of `pow(x, 2)` at `level`, decided once per process
+/// and level (the self-check on [`pow2_edge_arguments`]).
+pub fn pow_implementation_at(level: Simd) -> Implementation {
+    static CHOICE: [OnceLock<Implementation>; 3] = [const { OnceLock::new() }; 3];
+    *CHOICE[level as usize].get_or_init(|| {
+        decide(level, |v| {
             v.first_pow2_mismatch(&pow2_edge_arguments())
                 .map(|x| ("pow", x))
         })
     })
 }
 
-/// `RWG_SCALAR_LIBM=1`, then the CPU, then `mismatch` (the self-check: the
-/// function and the first argument where the vector code is not libm).
-fn decide(mismatch: impl FnOnce(Vector) -> Option<(&'static str, f64)>) -> Implementation {
-    if std::env::var_os("RWG_SCALAR_LIBM").is_some_and(|v| v == "1") {
-        return Implementation::Scalar(ScalarReason::Forced);
-    }
-    let Some(v) = Vector::detect() else {
-        return Implementation::Scalar(ScalarReason::NoCpuSupport);
+/// The CPU, then `mismatch` (the self-check: the function and the first
+/// argument where the vector code at `level` is not libm). `level` scalar
+/// is `RWG_SIMD=scalar` on a CPU with a vector level.
+fn decide(
+    level: Simd,
+    mismatch: impl FnOnce(Vector) -> Option<(&'static str, f64)>,
+) -> Implementation {
+    let Some(v) = Vector::at(level) else {
+        return Implementation::Scalar(if level == Simd::Scalar && Simd::cpu() > Simd::Scalar {
+            ScalarReason::Forced
+        } else {
+            ScalarReason::NoCpuSupport(level.max(Simd::Avx2))
+        });
     };
     match mismatch(v) {
-        None => Implementation::Vector,
-        Some((function, x)) => Implementation::Scalar(ScalarReason::SelfCheckFailed(function, x)),
+        None => Implementation::Vector(level),
+        Some((function, x)) => {
+            Implementation::Scalar(ScalarReason::SelfCheckFailed(level, function, x))
+        }
     }
 }
 
@@ -343,7 +429,8 @@ fn decide(mismatch: impl FnOnce(Vector) -> Option<(&'static str, f64)>) -> Imple
 #[inline]
 fn vector(choice: Implementation) -> Option<Vector> {
     match choice {
-        Implementation::Vector => Vector::detect(),
+        // Only `decide` returns `Vector(level)`, after `Vector::at(level)`.
+        Implementation::Vector(level) => Some(Vector { level }),
         Implementation::Scalar(_) => None,
     }
 }

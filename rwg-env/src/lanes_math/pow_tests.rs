@@ -3,8 +3,8 @@
 use super::*;
 use crate::float::{hard_square, pow2_libm};
 
-/// Checks the dispatched, the scalar and (where the CPU has it) the vector
-/// `pow2_lanes` and the port alone on `x` against one libm call per
+/// Checks the dispatched, the scalar and (at every level the CPU has) the
+/// vector `pow2_lanes` and the port alone on `x` against one libm call per
 /// argument.
 fn check(x: &[f64]) {
     let n = x.len();
@@ -14,8 +14,8 @@ fn check(x: &[f64]) {
         ("dispatched", Box::new(pow2_lanes)),
         ("scalar", Box::new(scalar::pow2_lanes)),
     ];
-    if let Some(v) = Vector::detect() {
-        impls.push(("vector", Box::new(move |x, o| v.pow2_lanes(x, o))));
+    for v in Vector::all() {
+        impls.push((v.name(), Box::new(move |x, o| v.pow2_lanes(x, o))));
         impls.push(("port", Box::new(move |x, o| v.pow2_port_lanes(x, o))));
     }
     for (name, f) in &impls {

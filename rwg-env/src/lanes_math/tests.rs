@@ -1,12 +1,13 @@
-//! The lanes' bits against libm's `sin` and `cos`, one call per argument.
+//! The lanes' bits against libm's `sin` and `cos`, one call per argument,
+//! at every level this CPU has; each level's decision and its printed form.
 
 use super::*;
 
 /// sin, cos and sincos (sin, cos) of the first slice into the others.
 type Impl = dyn Fn(&[f64], &mut [f64], &mut [f64], &mut [f64], &mut [f64]);
 
-/// Checks the dispatched, the scalar and (where the CPU has it) the vector
-/// functions on `x` against one libm call per argument.
+/// Checks the dispatched, the scalar and the vector functions of every
+/// level the CPU has on `x` against one libm call per argument.
 fn check(x: &[f64]) {
     let n = x.len();
     let (mut s, mut c, mut s2, mut c2) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
@@ -28,9 +29,9 @@ fn check(x: &[f64]) {
             }),
         ),
     ];
-    if let Some(v) = Vector::detect() {
+    for v in Vector::all() {
         impls.push((
-            "vector",
+            v.name(),
             Box::new(move |x, s, c, s2, c2| {
                 v.sin_lanes(x, s);
                 v.cos_lanes(x, c);
@@ -68,60 +69,132 @@ impl Rng {
 fn edge_arguments_give_libm_bits() {
     let x = edge_arguments();
     check(&x);
-    // Every short length and offset: the zero-padded tail.
-    for len in 0..=9 {
-        for start in 0..4 {
+    // Every short length and offset: the tails of four and eight lanes.
+    for len in 0..=17 {
+        for start in 0..8 {
             check(&x[start..(start + len).min(x.len())]);
         }
     }
 }
 
-#[test]
-fn dispatch_follows_cpu_and_self_check() {
-    let expected = |mismatch: &dyn Fn(Vector) -> Option<(&'static str, f64)>| {
-        if std::env::var_os("RWG_SCALAR_LIBM").is_some_and(|v| v == "1") {
-            Implementation::Scalar(ScalarReason::Forced)
+/// What `decide` should return at `level`, worked out from the CPU and the
+/// environment; `mismatch` is the self-check.
+fn expected(
+    level: Simd,
+    mismatch: &dyn Fn(Vector) -> Option<(&'static str, f64)>,
+) -> Implementation {
+    if level == Simd::Scalar {
+        return Implementation::Scalar(if Simd::cpu() == Simd::Scalar {
+            ScalarReason::NoCpuSupport(Simd::Avx2)
         } else {
-            match Vector::detect() {
-                None => Implementation::Scalar(ScalarReason::NoCpuSupport),
-                Some(v) => match mismatch(v) {
-                    None => Implementation::Vector,
-                    Some((f, x)) => Implementation::Scalar(ScalarReason::SelfCheckFailed(f, x)),
-                },
-            }
-        }
-    };
-    // Each decision has its own self-check. NaN != NaN: compare the printed
-    // form.
-    let sin_cos = implementation();
-    let want = if SIN_COS_BUILT_IN {
-        expected(&|v| v.first_mismatch(&edge_arguments()).map(|x| ("sin/cos", x)))
-    } else {
-        Implementation::Scalar(ScalarReason::NotBuiltIn)
-    };
-    assert_eq!(format!("{sin_cos}"), format!("{want}"));
-    let pow = pow_implementation();
-    let want = expected(&|v| {
-        v.first_pow2_mismatch(&pow2_edge_arguments())
-            .map(|x| ("pow", x))
-    });
-    assert_eq!(format!("{pow}"), format!("{want}"));
-    eprintln!("lanes_math: sin/cos {sin_cos}; pow {pow}");
+            ScalarReason::Forced
+        });
+    }
+    if !level.available() {
+        return Implementation::Scalar(ScalarReason::NoCpuSupport(level));
+    }
+    let v = Vector::all()
+        .into_iter()
+        .find(|v| v.level() == level)
+        .unwrap();
+    match mismatch(v) {
+        None => Implementation::Vector(level),
+        Some((f, x)) => Implementation::Scalar(ScalarReason::SelfCheckFailed(level, f, x)),
+    }
 }
 
-/// A failing self-check turns off only the functions it checked: each
-/// decision runs its own check.
 #[test]
-fn a_failed_self_check_names_its_function() {
-    if std::env::var_os("RWG_SCALAR_LIBM").is_some_and(|v| v == "1") || Vector::detect().is_none() {
-        return; // decided before any self-check (dispatch_follows_cpu_and_self_check)
+fn dispatch_follows_level_cpu_and_self_check() {
+    // Every level has its own decisions, one per function, each with its
+    // own self-check. NaN != NaN: compare the printed form.
+    for level in Simd::ALL {
+        let sin_cos = implementation_at(level);
+        let want = if SIN_COS_BUILT_IN {
+            expected(level, &|v| {
+                v.first_mismatch(&edge_arguments()).map(|x| ("sin/cos", x))
+            })
+        } else {
+            Implementation::Scalar(ScalarReason::NotBuiltIn)
+        };
+        assert_eq!(format!("{sin_cos}"), format!("{want}"), "{level}");
+        let pow = pow_implementation_at(level);
+        let want = expected(level, &|v| {
+            v.first_pow2_mismatch(&pow2_edge_arguments())
+                .map(|x| ("pow", x))
+        });
+        assert_eq!(format!("{pow}"), format!("{want}"), "{level}");
+        eprintln!("lanes_math at {level}: sin/cos {sin_cos}; pow {pow}");
     }
+    // The process's choice is that of RWG_SIMD's level (else the CPU's).
+    let level = crate::simd::level();
     assert_eq!(
-        decide(|_| Some(("pow", 1.5))),
-        Implementation::Scalar(ScalarReason::SelfCheckFailed("pow", 1.5))
+        format!("{}", implementation()),
+        format!("{}", implementation_at(level))
     );
-    assert_eq!(decide(|_| None), Implementation::Vector);
-    assert!(format!("{}", decide(|_| Some(("pow", 1.5)))).contains("the vector pow differs"));
+    assert_eq!(
+        format!("{}", pow_implementation()),
+        format!("{}", pow_implementation_at(level))
+    );
+}
+
+#[test]
+fn levels_are_named() {
+    let show = |i: Implementation| i.to_string();
+    assert_eq!(
+        show(Implementation::Vector(Simd::Avx512)),
+        "vector (AVX-512, 8 lanes, glibc 2.36's bits, self-check passed)"
+    );
+    assert_eq!(
+        show(Implementation::Vector(Simd::Avx2)),
+        "vector (AVX2+FMA, 4 lanes, glibc 2.36's bits, self-check passed)"
+    );
+    assert_eq!(
+        show(Implementation::Scalar(ScalarReason::Forced)),
+        "scalar (RWG_SIMD=scalar)"
+    );
+    let no = |l| show(Implementation::Scalar(ScalarReason::NoCpuSupport(l)));
+    assert_eq!(
+        no(Simd::Avx512),
+        "scalar (no AVX-512F, DQ and VL on this CPU)"
+    );
+    assert_eq!(no(Simd::Avx2), "scalar (no x86-64 CPU with AVX2 and FMA)");
+    let failed = ScalarReason::SelfCheckFailed(Simd::Avx512, "sin/cos", 1.5);
+    assert_eq!(
+        show(Implementation::Scalar(failed)),
+        "scalar (the vector sin/cos (AVX-512, 8 lanes) differs from this libm at x = 1.5e0 \
+         = 0x3ff8000000000000)"
+    );
+    for v in Vector::all() {
+        assert_eq!(v.lanes(), if v.level() == Simd::Avx512 { 8 } else { 4 });
+        assert!(v.name().contains(&format!("{} lanes", v.lanes())));
+    }
+}
+
+/// A failing self-check turns off only the functions it checked, at its
+/// level only: each decision runs its own check.
+#[test]
+fn a_failed_self_check_names_its_function_and_level() {
+    for v in Vector::all() {
+        let level = v.level();
+        assert_eq!(
+            decide(level, |_| Some(("pow", 1.5))),
+            Implementation::Scalar(ScalarReason::SelfCheckFailed(level, "pow", 1.5))
+        );
+        assert_eq!(decide(level, |_| None), Implementation::Vector(level));
+        let text = format!("{}", decide(level, |_| Some(("pow", 1.5))));
+        assert!(
+            text.contains("the vector pow") && text.contains(v.name()),
+            "{text}"
+        );
+    }
+    // Levels the CPU lacks are never checked.
+    for level in Simd::ALL.into_iter().filter(|l| !l.available()) {
+        assert_eq!(
+            decide(level, |_| panic!("no self-check at {level}")),
+            Implementation::Scalar(ScalarReason::NoCpuSupport(level))
+        );
+    }
+    assert!(Vector::at(Simd::Scalar).is_none());
 }
 
 #[test]

@@ -1,9 +1,11 @@
 //! `rwg bench libm`: the vector `sin`/`cos` and `pow(x, 2)` of
-//! `rwg_env::lanes_math` against this machine's libm, bit for bit over many
-//! arguments (`--check N`), and the cost per element of both on 16-lane
-//! slices, side by side. The vector `sin`/`cos` exists only in a build with
-//! the `glibc-sincos` feature (the default); without it only `pow` is
-//! checked and timed.
+//! `rwg_env::lanes_math` at every vector level this CPU has (four AVX2+FMA
+//! lanes, eight AVX-512 lanes) against this machine's libm, bit for bit over
+//! many arguments (`--check N`: one libm call per argument, compared with
+//! every level), and the cost per element of libm and of each level on
+//! 16-lane slices, side by side. The vector `sin`/`cos` exists only in a
+//! build with the `glibc-sincos` feature (the default); without it only
+//! `pow` is checked and timed.
 
 use super::{spread, Clock};
 use anyhow::{bail, Result};
@@ -135,10 +137,9 @@ impl Rng {
     }
 }
 
-/// Mismatch counts of one range.
+/// Mismatch counts of one range at one level.
 #[derive(Default)]
 struct Tally {
-    args: u64,
     sin: u64,
     cos: u64,
     sincos: u64,
@@ -151,13 +152,23 @@ pub fn run(a: LibmArgs) -> Result<()> {
         lanes_math::implementation(),
         lanes_math::pow_implementation()
     );
-    let Some(v) = Vector::detect() else {
+    let levels = Vector::all();
+    if levels.is_empty() {
         crate::outln!(
             "The vector code needs an x86-64 CPU with AVX2 and FMA: nothing to check or time \
              here (every lane calls libm)."
         );
         return Ok(());
-    };
+    }
+    for &v in &levels {
+        crate::outln!(
+            "  {} ({}): sin/cos {}; pow {}",
+            v.level(),
+            v.name(),
+            lanes_math::implementation_at(v.level()),
+            lanes_math::pow_implementation_at(v.level())
+        );
+    }
     let sin_cos = lanes_math::SIN_COS_BUILT_IN;
     if !sin_cos {
         crate::outln!(
@@ -165,12 +176,14 @@ pub fn run(a: LibmArgs) -> Result<()> {
              feature): every sin/cos lane calls libm, nothing to check or time there."
         );
     }
-    let bad = if sin_cos { check(v, &a)? } else { 0 } + check_pow(v, &a);
+    let bad = if sin_cos { check(&levels, &a)? } else { 0 } + check_pow(&levels, &a);
     if a.rounds > 0 {
-        if sin_cos {
-            time(v, a.rounds, a.seed);
+        for &v in &levels {
+            if sin_cos {
+                time(v, a.rounds, a.seed);
+            }
+            time_pow(v, a.rounds, a.seed);
         }
-        time_pow(v, a.rounds, a.seed);
     }
     if bad > 0 {
         bail!(
@@ -181,35 +194,53 @@ pub fn run(a: LibmArgs) -> Result<()> {
     Ok(())
 }
 
-/// Compares vector and libm bits over the edge set and `a.check` random
-/// arguments; prints a table; returns the number of differing results.
-fn check(v: Vector, a: &LibmArgs) -> Result<u64> {
+/// The columns of a table with `first` (width, alignment) columns, then
+/// `per_level` right-aligned columns of width `width` for each of `levels`
+/// vector levels, then a free "what" column.
+fn level_columns(
+    first: &[(usize, Align)],
+    per_level: usize,
+    width: usize,
+    levels: usize,
+) -> TextColumns {
+    let mut c = first.to_vec();
+    c.extend(std::iter::repeat_n(
+        (width, Align::Right),
+        per_level * levels,
+    ));
+    c.push((0, Align::Left));
+    TextColumns::new(&c, "  ")
+}
+
+/// The header cells `names` for each of `levels`, prefixed with the level's
+/// name when there are several.
+fn level_headers(levels: &[Vector], names: &[&str]) -> Vec<String> {
+    levels
+        .iter()
+        .flat_map(|v| {
+            names.iter().map(move |n| match levels.len() {
+                1 => n.to_string(),
+                _ => format!("{}:{n}", v.level()),
+            })
+        })
+        .collect()
+}
+
+/// Compares the bits of every vector level with libm's over the edge set
+/// and `a.check` random arguments; prints a table (three counts per
+/// level); returns the number of differing results.
+fn check(levels: &[Vector], a: &LibmArgs) -> Result<u64> {
     const CHUNK: usize = 1 << 16;
-    let cols = TextColumns::new(
-        &[
-            (8, Align::Left),
-            (14, Align::Right),
-            (9, Align::Right),
-            (9, Align::Right),
-            (9, Align::Right),
-            (0, Align::Left),
-        ],
-        "  ",
-    );
+    let cols = level_columns(&[(8, Align::Left), (14, Align::Right)], 3, 13, levels.len());
     crate::outln!(
-        "\nBits of sin, cos and sincos (both halves), vector vs one libm call per argument:"
+        "\nBits of sin, cos and sincos (both halves), each vector level ({}) vs one libm call \
+         per argument:",
+        level_names(levels)
     );
-    crate::outln!(
-        "{}",
-        cols.line(&[
-            "range",
-            "arguments",
-            "sin diff",
-            "cos diff",
-            "sincos",
-            "what"
-        ])
-    );
+    let mut header = vec!["range".to_string(), "arguments".to_string()];
+    header.extend(level_headers(levels, &["sin diff", "cos diff", "sincos"]));
+    header.push("what".into());
+    crate::outln!("{}", cols.line(&header));
     let started = Instant::now();
     let mut shown = 0;
     let mut total = 0;
@@ -221,7 +252,8 @@ fn check(v: Vector, a: &LibmArgs) -> Result<u64> {
         sets.push((r.name, r.what, n));
     }
     for (si, &(name, what, n)) in sets.iter().enumerate() {
-        let mut t = Tally::default();
+        let mut ts: Vec<Tally> = levels.iter().map(|_| Tally::default()).collect();
+        let mut args = 0u64;
         let mut rng = Rng::new(a.seed ^ (si as u64) << 56);
         let mut done = 0u64;
         loop {
@@ -239,37 +271,47 @@ fn check(v: Vector, a: &LibmArgs) -> Result<u64> {
                 (0..k).map(|_| rng.arg(draw)).collect()
             };
             done += x.len() as u64;
-            t.args += x.len() as u64;
-            buf.compare(v, &x, &mut t, |f, arg, want, got| {
-                if shown < a.show {
-                    crate::outln!(
-                        "  MISMATCH {f}({arg:e} = {:#018x}): libm {want:#018x}, vector {got:#018x}",
-                        arg.to_bits()
-                    );
-                }
-                shown += 1;
-            });
+            args += x.len() as u64;
+            buf.libm(&x);
+            for (&v, t) in levels.iter().zip(&mut ts) {
+                buf.compare(v, &x, t, |f, arg, want, got| {
+                    if shown < a.show {
+                        crate::outln!(
+                            "  MISMATCH {} {f}({arg:e} = {:#018x}): libm {want:#018x}, vector \
+                             {got:#018x}",
+                            v.level(),
+                            arg.to_bits()
+                        );
+                    }
+                    shown += 1;
+                });
+            }
         }
-        total += t.sin + t.cos + t.sincos;
-        crate::outln!(
-            "{}",
-            cols.line(&[
-                name.to_string(),
-                super::group(t.args),
-                super::group(t.sin),
-                super::group(t.cos),
-                super::group(t.sincos),
-                what.to_string(),
-            ])
-        );
+        let mut row = vec![name.to_string(), super::group(args)];
+        for t in &ts {
+            total += t.sin + t.cos + t.sincos;
+            row.extend([t.sin, t.cos, t.sincos].map(super::group));
+        }
+        row.push(what.to_string());
+        crate::outln!("{}", cols.line(&row));
     }
     let secs = started.elapsed().as_secs_f64();
     crate::outln!(
-        "{} arguments checked in {secs:.1} s; {} differing results.",
+        "{} arguments checked at {} in {secs:.1} s; {} differing results.",
         super::group(a.check + edges.len() as u64),
+        level_names(levels),
         super::group(total)
     );
     Ok(total)
+}
+
+/// The levels' names, e.g. "avx2, avx512".
+fn level_names(levels: &[Vector]) -> String {
+    levels
+        .iter()
+        .map(|v| v.level().name())
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Counts of `n` split evenly over `ranges` (the remainder to the last).
@@ -285,30 +327,22 @@ fn split(n: u64, ranges: usize) -> impl Iterator<Item = u64> {
 }
 
 /// Compares the port of glibc's `pow` alone (every argument in its range)
-/// and `pow2_lanes` (fast path + port) with libm over the edge set and
-/// `--pow-check` random arguments; prints a table; returns the number of
-/// differing results.
-fn check_pow(v: Vector, a: &LibmArgs) -> u64 {
+/// and `pow2_lanes` (fast path + port) of every vector level with libm over
+/// the edge set and `--pow-check` random arguments; prints a table (two
+/// counts per level); returns the number of differing results.
+fn check_pow(levels: &[Vector], a: &LibmArgs) -> u64 {
     const CHUNK: usize = 1 << 16;
     let n = a.pow_check.unwrap_or(a.check);
-    let cols = TextColumns::new(
-        &[
-            (8, Align::Left),
-            (14, Align::Right),
-            (9, Align::Right),
-            (9, Align::Right),
-            (0, Align::Left),
-        ],
-        "  ",
-    );
+    let cols = level_columns(&[(8, Align::Left), (14, Align::Right)], 2, 12, levels.len());
     crate::outln!(
-        "\nBits of pow(x, 2), the port alone and pow2_lanes (fast path + port) vs one libm \
-         pow call per argument:"
+        "\nBits of pow(x, 2), the port alone and pow2_lanes (fast path + port), each vector \
+         level ({}) vs one libm pow call per argument:",
+        level_names(levels)
     );
-    crate::outln!(
-        "{}",
-        cols.line(&["range", "arguments", "port", "lanes", "what"])
-    );
+    let mut header = vec!["range".to_string(), "arguments".to_string()];
+    header.extend(level_headers(levels, &["port", "lanes"]));
+    header.push("what".into());
+    crate::outln!("{}", cols.line(&header));
     let started = Instant::now();
     let (mut shown, mut total, mut checked) = (0, 0, 0u64);
     let (mut port, mut lanes, mut want) = (vec![0.0; CHUNK], vec![0.0; CHUNK], vec![0.0; CHUNK]);
@@ -322,7 +356,9 @@ fn check_pow(v: Vector, a: &LibmArgs) -> u64 {
     }
     for (si, &(name, what, k)) in sets.iter().enumerate() {
         let mut rng = Rng::new(a.seed ^ (0x90 + si as u64) << 56);
-        let (mut done, mut d_port, mut d_lanes) = (0u64, 0u64, 0u64);
+        let mut done = 0u64;
+        // Per level: differing results of the port and of pow2_lanes.
+        let mut diff = vec![[0u64; 2]; levels.len()];
         loop {
             let x: Vec<f64> = if si == 0 {
                 if done > 0 {
@@ -338,45 +374,46 @@ fn check_pow(v: Vector, a: &LibmArgs) -> u64 {
             };
             let m = x.len();
             done += m as u64;
-            v.pow2_port_lanes(&x, &mut port[..m]);
-            v.pow2_lanes(&x, &mut lanes[..m]);
             scalar::pow2_lanes(&x, &mut want[..m]);
-            for i in 0..m {
-                let w = want[i].to_bits();
-                for (f, got, count) in [
-                    ("port", port[i].to_bits(), &mut d_port),
-                    ("pow2_lanes", lanes[i].to_bits(), &mut d_lanes),
-                ] {
-                    if got != w && !(want[i].is_nan() && f64::from_bits(got).is_nan()) {
-                        *count += 1;
-                        if shown < a.show {
-                            crate::outln!(
-                                "  MISMATCH {f}({:e} = {:#018x}): libm {w:#018x}, vector {got:#018x}",
-                                x[i],
-                                x[i].to_bits()
-                            );
+            for (&v, [d_port, d_lanes]) in levels.iter().zip(&mut diff) {
+                v.pow2_port_lanes(&x, &mut port[..m]);
+                v.pow2_lanes(&x, &mut lanes[..m]);
+                for i in 0..m {
+                    let w = want[i].to_bits();
+                    for (f, got, count) in [
+                        ("port", port[i].to_bits(), &mut *d_port),
+                        ("pow2_lanes", lanes[i].to_bits(), &mut *d_lanes),
+                    ] {
+                        if got != w && !(want[i].is_nan() && f64::from_bits(got).is_nan()) {
+                            *count += 1;
+                            if shown < a.show {
+                                crate::outln!(
+                                    "  MISMATCH {} {f}({:e} = {:#018x}): libm {w:#018x}, vector \
+                                     {got:#018x}",
+                                    v.level(),
+                                    x[i],
+                                    x[i].to_bits()
+                                );
+                            }
+                            shown += 1;
                         }
-                        shown += 1;
                     }
                 }
             }
         }
         checked += done;
-        total += d_port + d_lanes;
-        crate::outln!(
-            "{}",
-            cols.line(&[
-                name.to_string(),
-                super::group(done),
-                super::group(d_port),
-                super::group(d_lanes),
-                what.to_string(),
-            ])
-        );
+        let mut row = vec![name.to_string(), super::group(done)];
+        for d in &diff {
+            total += d[0] + d[1];
+            row.extend(d.map(super::group));
+        }
+        row.push(what.to_string());
+        crate::outln!("{}", cols.line(&row));
     }
     crate::outln!(
-        "{} arguments checked in {:.1} s; {} differing results.",
+        "{} arguments checked at {} in {:.1} s; {} differing results.",
         super::group(checked),
+        level_names(levels),
         started.elapsed().as_secs_f64(),
         super::group(total)
     );
@@ -406,8 +443,16 @@ impl Buffers {
         }
     }
 
-    /// Vector vs libm on `x`; `report(function, x, libm bits, vector bits)`
-    /// for each differing result.
+    /// libm's `sin` and `cos` of `x`, for the following [`Buffers::compare`]s.
+    fn libm(&mut self, x: &[f64]) {
+        let n = x.len();
+        scalar::sin_lanes(x, &mut self.ws[..n]);
+        scalar::cos_lanes(x, &mut self.wc[..n]);
+    }
+
+    /// Vector level `v` vs libm (from [`Buffers::libm`] on the same `x`);
+    /// `report(function, x, libm bits, vector bits)` for each differing
+    /// result.
     fn compare(
         &mut self,
         v: Vector,
@@ -419,8 +464,6 @@ impl Buffers {
         v.sin_lanes(x, &mut self.s[..n]);
         v.cos_lanes(x, &mut self.c[..n]);
         v.sincos_lanes(x, &mut self.s2[..n], &mut self.c2[..n]);
-        scalar::sin_lanes(x, &mut self.ws[..n]);
-        scalar::cos_lanes(x, &mut self.wc[..n]);
         for (i, &arg) in x.iter().enumerate() {
             let (ws, wc) = (self.ws[i].to_bits(), self.wc[i].to_bits());
             if self.s[i].to_bits() != ws {
@@ -498,13 +541,14 @@ fn interleaved(
     [show(spread(&s)), show(spread(&v)), show(spread(&ratio))]
 }
 
-/// Prints libm vs vector `pow(x, 2)` ns per element for each of
-/// [`POW_RANGES`], `rounds` interleaved rounds.
+/// Prints libm vs vector level `v`'s `pow(x, 2)` ns per element for each
+/// of [`POW_RANGES`], `rounds` interleaved rounds.
 fn time_pow(v: Vector, rounds: usize, seed: u64) {
     const N: usize = 4096;
     crate::outln!(
-        "\npow(x, 2): CPU ns per element on 16-lane slices ({N} arguments per range), libm \
-         per element vs pow2_lanes, {rounds} interleaved rounds: median [min-max]:"
+        "\npow(x, 2), {}: CPU ns per element on 16-lane slices ({N} arguments per range), \
+         libm per element vs pow2_lanes, {rounds} interleaved rounds: median [min-max]:",
+        v.name()
     );
     let cols = TextColumns::new(
         &[
@@ -517,7 +561,7 @@ fn time_pow(v: Vector, rounds: usize, seed: u64) {
     );
     crate::outln!(
         "{}",
-        cols.line(&["range", "libm (scalar)", "vector", "speed-up"])
+        cols.line(&["range", "libm (scalar)", v.level().name(), "speed-up"])
     );
     let sf: Box<Lanes> = Box::new(|x, o, _| scalar::pow2_lanes(x, o));
     let vf: Box<Lanes> = Box::new(move |x, o, _| v.pow2_lanes(x, o));
@@ -530,13 +574,14 @@ fn time_pow(v: Vector, rounds: usize, seed: u64) {
     }
 }
 
-/// Prints scalar vs vector ns per element for each range and function,
-/// `rounds` interleaved rounds (the order alternating).
+/// Prints scalar vs vector level `v`'s ns per element for each range and
+/// function, `rounds` interleaved rounds (the order alternating).
 fn time(v: Vector, rounds: usize, seed: u64) {
     const N: usize = 4096;
     crate::outln!(
-        "\nCPU ns per element on 16-lane slices ({N} arguments per range), {rounds} interleaved \
-         rounds: median [min-max]; speed-up = per-round scalar / vector:"
+        "\nsin/cos, {}: CPU ns per element on 16-lane slices ({N} arguments per range), \
+         {rounds} interleaved rounds: median [min-max]; speed-up = per-round scalar / vector:",
+        v.name()
     );
     let cols = TextColumns::new(
         &[
@@ -550,7 +595,7 @@ fn time(v: Vector, rounds: usize, seed: u64) {
     );
     crate::outln!(
         "{}",
-        cols.line(&["range", "fn", "libm (scalar)", "vector", "speed-up"])
+        cols.line(&["range", "fn", "libm (scalar)", v.level().name(), "speed-up"])
     );
     let fns: [(&str, Box<Lanes>, Box<Lanes>); 3] = [
         (
