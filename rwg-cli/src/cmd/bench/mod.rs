@@ -96,6 +96,14 @@ excluded, as the peer reports them apart).
 Prints env steps per CPU-second of each side and their ratio per round: median \
 [min-max]. Env steps are the transitions inside episodes on both sides.
 
+rwg runs at the SIMD level it would run at (RWG_SIMD, else the CPU's widest), or at \
+each level --simd lists: then every round runs rwg once per level (its RWG_SIMD set to \
+it) beside the peer, rwg first in the listed order or the peer first and the levels \
+reversed, alternately; the table gets a column of rwg's rates and of its ratio to \
+gymnax-raw per level, and the last level's rate over the first's, paired by round. \
+Every level must score each workload identically (checked); a level this CPU lacks is \
+an error. --json keeps every measurement with its level.
+
 The peer scripts are the repository's benches/peers (--peers, relative to the current \
 directory: run from the repository's top folder). The peer needs a Python with jax and \
 gymnax: --python (or RWG_PEER_PYTHON), or the virtualenv --venv, which --create-venv \
@@ -107,7 +115,8 @@ Examples:
   python3 -m venv target/peers-venv
   target/peers-venv/bin/pip install numpy==2.4.6 gymnasium==1.3.0 jax==0.10.2 jaxlib==0.10.2 \\
     gymnax==1.0.1 flax==0.12.8 six==1.17.0
-  rwg bench peers")]
+  rwg bench peers
+  rwg bench peers --simd avx2,avx512 --env Pendulum-v1   # on a CPU with AVX-512")]
     Peers(peers::PeersArgs),
     /// Gymnasium envs through the bridge, beside a pure-Python ceiling loop and a peer script.
     #[command(after_help = "\
@@ -149,9 +158,9 @@ AVX-512 (the level RWG_SIMD picks, else the CPU's widest), a port of glibc 2.36'
 __sin_fma/__cos_fma meant to return exactly libm's bits, and Python's x**2 (libm pow(x, \
 2)) as x*x where the exact square is within 0.48 ulp of it, else by a port of glibc \
 2.36's __pow_fma; each level is used only when its one-time self-check on some thousands \
-of edge arguments passes. This command checks every level the CPU has on many more. sin/cos: the \
-fixed edge set plus N pseudo-random arguments split evenly over CartPole's |x| < 0.3, \
-MountainCarContinuous' |x| <= 3.6, Acrobot's |x| <= 20, Pendulum's |x| <= 200 and a \
+of edge arguments passes. This command checks every level the CPU has on many more. \
+sin/cos: the fixed edge set plus N pseudo-random arguments split evenly over CartPole's \
+|x| < 0.3, MountainCarContinuous' |x| <= 3.6, Acrobot's |x| <= 20, Pendulum's |x| <= 200 and a \
 log-uniform sweep 2^-30 <= |x| < 105414350 (every path of the vector code), comparing \
 sin, cos and sincos (both halves) with one libm sin and one libm cos call per argument. \
 pow: its edge set plus N (or --pow-check's) arguments split evenly over the envs' \
@@ -160,8 +169,8 @@ the port's range 2^-60 <= |x| <= 2^32, comparing the port alone (on every argume
 pow2_lanes with one libm pow call per argument. Differing results are printed \
 (argument, libm's bits, the vector's bits) and make the command fail. Then, for each \
 range, the CPU time per element of libm (one call per element) and of each level's \
-vector code on 16-lane slices, ROUNDS interleaved rounds: median [min-max]. Build with --release: a \
-debug build checks the same bits, slowly.
+vector code on 16-lane slices, ROUNDS interleaved rounds: median [min-max]. Build with \
+--release: a debug build checks the same bits, slowly.
 
 Examples:
   rwg bench libm --check 1000000000 --rounds 0   # 10^9 arguments each, several minutes
