@@ -126,6 +126,21 @@ fn bench_sampler_json_counts_every_step() {
         assert_eq!(r["env_steps"], r0["env_steps"], "{r} {r0}");
         assert_eq!(r["mean_score"], r0["mean_score"], "{r} {r0}");
     }
+    // At every SIMD level this CPU has (RWG_SIMD), reported as run: the same
+    // episodes and scores.
+    for level in rwg_env::simd::Simd::available_levels() {
+        let out = rwg_env(
+            &SAMPLER_JSON,
+            &[("RWG_SIMD", std::ffi::OsStr::new(level.name()))],
+        );
+        assert!(out.status.success(), "{out:?}");
+        let v1: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        for (r, r1) in rows.iter().zip(v1.as_array().unwrap()) {
+            assert_eq!(r1["simd"], level.name(), "{r1}");
+            assert_eq!(r["env_steps"], r1["env_steps"], "{level}: {r} {r1}");
+            assert_eq!(r["mean_score"], r1["mean_score"], "{level}: {r} {r1}");
+        }
+    }
 }
 
 #[test]
@@ -215,6 +230,47 @@ fn bench_peers_explains_a_missing_peer() {
     );
 }
 
+/// `--simd` takes levels this CPU has, each once, and says which it lacks;
+/// these errors come before the peer is looked for.
+#[test]
+fn bench_peers_checks_its_simd_levels() {
+    let err = bench_peers_err(&["--simd", "avx2,sse4", "--no-pin"]);
+    assert!(err.contains("\"sse4\" is not a SIMD level"), "{err}");
+    assert!(err.contains("scalar, avx2, avx512"), "{err}");
+    let err = bench_peers_err(&["--simd", "scalar,scalar", "--no-pin"]);
+    assert!(err.contains("--simd lists scalar twice"), "{err}");
+    let err = bench_peers_err(&["--simd", "", "--no-pin"]);
+    assert!(err.contains("\"\" is not a SIMD level"), "{err}");
+    use rwg_env::simd::Simd;
+    let lacking: Vec<&str> = Simd::ALL
+        .into_iter()
+        .filter(|l| !l.available())
+        .map(Simd::name)
+        .collect();
+    if !lacking.is_empty() {
+        let list = format!("scalar,{}", lacking.join(","));
+        let err = bench_peers_err(&["--simd", &list, "--no-pin"]);
+        assert!(
+            err.contains(&format!("this CPU has no {}", lacking.join(", "))),
+            "{err}"
+        );
+    }
+    // Levels the CPU has get past --simd, as far as the peer.
+    let dir = temp_dir("peers-simd");
+    let have: Vec<&str> = Simd::available_levels()
+        .into_iter()
+        .map(Simd::name)
+        .collect();
+    let err = bench_peers_err(&[
+        "--simd",
+        &have.join(","),
+        "--peers",
+        dir.to_str().unwrap(),
+        "--no-pin",
+    ]);
+    assert!(err.contains("gymnax_rwg.py not found"), "{err}");
+}
+
 /// Run from the repository's top folder, `rwg bench peers` finds the peer
 /// scripts of benches/peers without --peers: it gets as far as the peer's
 /// virtualenv.
@@ -240,7 +296,8 @@ fn bench_peers_finds_the_repositorys_scripts_by_default() {
 }
 
 /// Smoke test of `rwg bench peers` with the real peer on tiny sample counts:
-/// it runs both sides, parses them and computes the ratios. Needs
+/// it runs both sides, rwg at every SIMD level this CPU has, parses them and
+/// computes the ratios. Needs
 /// RWG_PEER_PYTHON (a Python with jax and gymnax, see `rwg bench peers
 /// --help`); the peer scripts are the repository's benches/peers (or
 /// RWG_PEERS_DIR). `.ci/run` makes that Python, and under CI a skip is a failure.
@@ -272,6 +329,13 @@ fn bench_peers_measures_both_sides_and_their_ratio() {
     // own working directory.
     let python = relative_to(&python_path(&python), parent);
     assert!(python.is_relative(), "{}", python.display());
+    // Every level this CPU has, widest first: the last over the first is
+    // the narrowest over the widest.
+    let levels: Vec<&str> = rwg_env::simd::Simd::available_levels()
+        .into_iter()
+        .rev()
+        .map(|l| l.name())
+        .collect();
     let out = std::process::Command::new(rwg_bin())
         .current_dir(parent)
         .args(["bench", "peers", "--python"])
@@ -279,6 +343,7 @@ fn bench_peers_measures_both_sides_and_their_ratio() {
         .arg("--peers")
         .arg(name)
         .args(["--work-dir", work.to_str().unwrap()])
+        .args(["--simd", &levels.join(",")])
         .args([
             "--env",
             "Pendulum-v1",
@@ -302,14 +367,11 @@ fn bench_peers_measures_both_sides_and_their_ratio() {
     let out = String::from_utf8(out.stdout).unwrap();
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["setup"]["pinned_cpu"], 0);
+    assert_eq!(v["setup"]["simd_levels"], serde_json::json!(levels));
     let rows = v["rows"].as_array().unwrap();
     assert_eq!(rows.len(), 1, "{out}");
     let r = &rows[0];
     assert_eq!(r["env"], "Pendulum-v1");
-    // Pendulum never terminates: every episode lasts its 200-step limit.
-    let steps = |side: &str| r[side]["env_steps"].as_array().unwrap().clone();
-    assert_eq!(steps("rwg"), [6 * 2 * 200, 6 * 2 * 200]);
-    assert_eq!(steps("gymnax_raw"), [4 * 2 * 200, 4 * 2 * 200]);
     let f = |v: &serde_json::Value| -> Vec<f64> {
         v.as_array()
             .unwrap()
@@ -317,26 +379,57 @@ fn bench_peers_measures_both_sides_and_their_ratio() {
             .map(|x| x.as_f64().unwrap())
             .collect()
     };
-    let (rs, gs) = (
-        f(&r["rwg"]["steps_per_cpu_s"]),
-        f(&r["gymnax_raw"]["steps_per_cpu_s"]),
-    );
-    let ratios = f(&r["ratio"]["values"]);
-    assert_eq!(ratios.len(), 2);
-    for i in 0..2 {
-        assert!(rs[i] > 0.0 && gs[i] > 0.0, "{out}");
-        assert_eq!(ratios[i], rs[i] / gs[i], "{out}");
-    }
-    let median = r["ratio"]["median"].as_f64().unwrap();
-    assert_eq!(median, (ratios[0] + ratios[1]) / 2.0, "{out}");
+    // Pendulum never terminates: every episode lasts its 200-step limit.
     assert_eq!(
-        r["ratio"]["min"].as_f64().unwrap(),
-        ratios[0].min(ratios[1])
+        r["gymnax_raw"]["env_steps"],
+        serde_json::json!([1600, 1600])
     );
-    // The run directory rwg wrote is a real run of the workload.
-    let scores =
-        std::fs::read_to_string(work.join("w0/cells/Pendulum-v1__1HL__nobias/scores.csv")).unwrap();
-    assert_eq!(scores.lines().count(), 1 + 6 * 2, "{scores}");
+    let gs = f(&r["gymnax_raw"]["steps_per_cpu_s"]);
+    let rwg = r["rwg"].as_array().unwrap();
+    assert_eq!(rwg.len(), levels.len(), "{out}");
+    for (side, level) in rwg.iter().zip(&levels) {
+        assert_eq!(side["simd"], *level, "{out}");
+        assert_eq!(side["env_steps"], serde_json::json!([2400, 2400]), "{out}");
+        let rs = f(&side["steps_per_cpu_s"]);
+        let ratios = f(&side["ratio"]["values"]);
+        assert_eq!(ratios.len(), 2);
+        for i in 0..2 {
+            assert!(rs[i] > 0.0 && gs[i] > 0.0, "{out}");
+            assert_eq!(ratios[i], rs[i] / gs[i], "{out}");
+        }
+        let median = side["ratio"]["median"].as_f64().unwrap();
+        assert_eq!(median, (ratios[0] + ratios[1]) / 2.0, "{out}");
+        assert_eq!(
+            side["ratio"]["min"].as_f64().unwrap(),
+            ratios[0].min(ratios[1])
+        );
+        // The run directory rwg wrote at this level is a real run of the
+        // workload, with the scores of every other level.
+        let scores = std::fs::read_to_string(work.join(format!(
+            "w0-{level}/cells/Pendulum-v1__1HL__nobias/scores.csv"
+        )))
+        .unwrap();
+        assert_eq!(scores.lines().count(), 1 + 6 * 2, "{scores}");
+        let first = work.join(format!(
+            "w0-{}/cells/Pendulum-v1__1HL__nobias/scores.csv",
+            levels[0]
+        ));
+        assert_eq!(scores, std::fs::read_to_string(first).unwrap(), "{level}");
+    }
+    let simd_ratio = &r["simd_ratio"];
+    if levels.len() == 1 {
+        assert!(simd_ratio.is_null(), "{out}");
+    } else {
+        let (first, last) = (&rwg[0], &rwg[levels.len() - 1]);
+        assert_eq!(simd_ratio["level"], last["simd"], "{out}");
+        assert_eq!(simd_ratio["over"], first["simd"], "{out}");
+        let (a, b) = (f(&last["steps_per_cpu_s"]), f(&first["steps_per_cpu_s"]));
+        assert_eq!(
+            f(&simd_ratio["values"]),
+            [a[0] / b[0], a[1] / b[1]],
+            "{out}"
+        );
+    }
 }
 
 /// benches/peers/side_by_side.py, the peers beside `rwg run` in one sitting,

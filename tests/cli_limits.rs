@@ -248,10 +248,10 @@ fn every_rwg_variable_is_checked_before_anything_is_created() {
         ("RWG_GYM_START_TIMEOUT", "0", "seconds from 0.001 to 604800"),
         ("RWG_COMMIT_LINGER", "inf", "seconds from 0 to 3600"),
         ("RWG_LOCKSTEP", "no", "0 or 1"),
-        ("RWG_LOCKSTEP_AVX2", "off", "0 or 1"),
+        ("RWG_SIMD", "avx1024", "one of scalar, avx2, avx512"),
+        ("RWG_SIMD", "AVX2", "one of scalar, avx2, avx512"),
         ("RWG_PLUGIN_BATCH", "false", "0 or 1"),
         ("RWG_PLUGIN_VEC", "2", "0 or 1"),
-        ("RWG_SCALAR_LIBM", "yes", "0 or 1"),
     ];
     for (var, value, expected) in bad {
         let o = rwg_env(
@@ -266,6 +266,25 @@ fn every_rwg_variable_is_checked_before_anything_is_created() {
         );
         assert_eq!(err.lines().count(), 1, "{err}");
         assert!(!out.exists(), "{var}={value}: nothing may be created");
+    }
+    // a SIMD level this CPU lacks (none on a CPU with AVX-512)
+    for level in rwg_env::simd::Simd::ALL {
+        if level.available() {
+            continue;
+        }
+        let o = rwg_env(
+            &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
+            &[("RWG_SIMD", std::ffi::OsStr::new(level.name()))],
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "RWG_SIMD={level}: {err}");
+        assert!(
+            err.starts_with(&format!(
+                "error: RWG_SIMD={level}: expected a level this CPU has: "
+            )),
+            "{err}"
+        );
+        assert!(!out.exists(), "RWG_SIMD={level}: nothing may be created");
     }
     // not UTF-8
     use std::os::unix::ffi::OsStrExt;
@@ -287,9 +306,8 @@ fn every_rwg_variable_is_checked_before_anything_is_created() {
             ("RWG_GYM_TIMEOUT", std::ffi::OsStr::new("2.5")),
             ("RWG_COMMIT_LINGER", std::ffi::OsStr::new("")),
             ("RWG_LOCKSTEP", std::ffi::OsStr::new("1")),
-            ("RWG_LOCKSTEP_AVX2", std::ffi::OsStr::new("0")),
+            ("RWG_SIMD", std::ffi::OsStr::new("scalar")),
             ("RWG_PLUGIN_BATCH", std::ffi::OsStr::new("1")),
-            ("RWG_SCALAR_LIBM", std::ffi::OsStr::new("0")),
         ],
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -13,8 +13,6 @@ pub const PROGRESS_INTERVAL_VAR: &str = "RWG_PROGRESS_INTERVAL";
 pub const DEFAULT_PROGRESS_INTERVAL_S: f64 = 5.0;
 /// How long finished blocks gather before a commit.
 pub const COMMIT_LINGER_VAR: &str = "RWG_COMMIT_LINGER";
-/// Forces one libm call per element in `rwg_env::lanes_math` (`1`).
-pub const SCALAR_LIBM_VAR: &str = "RWG_SCALAR_LIBM";
 
 /// [`PROGRESS_INTERVAL_VAR`]: seconds from 0 (a line per block) to a day.
 pub fn progress_interval() -> Result<Duration, VarError> {
@@ -45,7 +43,7 @@ type Check = fn() -> Result<(), VarError>;
 /// Every variable rwg reads with its check. `RWG_PLUGIN_PATH` (any list of
 /// folders) and the `rwg bench peers` variables (paths, read by its
 /// arguments) take any value.
-pub const CHECKS: [(&str, Check); 10] = [
+pub const CHECKS: [(&str, Check); 9] = [
     (PROGRESS_INTERVAL_VAR, || progress_interval().map(drop)),
     (COMMIT_LINGER_VAR, || commit_linger().map(drop)),
     (rwg_gym::TIMEOUT_VAR, || {
@@ -64,17 +62,7 @@ pub const CHECKS: [(&str, Check); 10] = [
     (rwg_study::runner::LOCKSTEP_VAR, || {
         rwg_study::runner::lockstep_setting().map(drop)
     }),
-    (rwg_envs::lockstep::AVX2_VAR, || {
-        rwg_envs::lockstep::avx2_setting().map(drop)
-    }),
-    (SCALAR_LIBM_VAR, || {
-        vars::switch(
-            SCALAR_LIBM_VAR,
-            false,
-            "1: one libm call per element instead of the vector sin/cos and pow",
-        )
-        .map(drop)
-    }),
+    (rwg_env::simd::VAR, || rwg_env::simd::setting().map(drop)),
 ];
 
 /// Checks every variable of [`CHECKS`]: the first bad one is the error.

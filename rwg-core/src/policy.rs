@@ -13,6 +13,7 @@
 
 use crate::tanh::{tanh, tanh_lanes};
 use rwg_env::env::Action;
+use rwg_env::simd::Simd;
 use rwg_env::space::Space;
 use serde::Serialize;
 
@@ -240,52 +241,17 @@ pub struct PolicyLanes<const K: usize> {
     /// Discrete actions of all lanes, from `forward`'s pass over all lanes;
     /// -1 where [`argmax_tanh`] must compare tanh values (`action` does).
     argmax: [i64; K],
-    /// The instruction set `forward` is compiled for.
+    /// The SIMD level `forward` runs at. Its builds differ only in how
+    /// many lanes one instruction handles: all are the same IEEE operations
+    /// in the same order (no fused multiply-add), so they give the same bits.
     simd: Simd,
 }
 
-/// The SIMD instruction sets [`PolicyLanes::forward`] has a version for. The
-/// versions differ only in how many lanes one instruction handles: all are
-/// the same IEEE operations in the same order (no fused multiply-add), so
-/// they give the same bits. (An AVX-512 version was measured slower on the
-/// whole sampler, although faster in isolation, and is left out.)
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Simd {
-    /// The target's baseline (SSE2 on x86-64).
-    Baseline,
-    /// AVX2 (x86-64, detected at run time).
-    Avx2,
-}
-
-/// The instruction set [`PolicyLanes::forward`] uses on this CPU: `"avx2"`
-/// or `"baseline"` (for benchmark reports; the results are the same).
+/// The SIMD level [`PolicyLanes::forward`] runs at on this process:
+/// `"avx512"`, `"avx2"` or `"scalar"` ([`rwg_env::simd::level`]; for
+/// benchmark reports, the results are the same).
 pub fn lanes_isa() -> &'static str {
-    match Simd::detect() {
-        Simd::Avx2 => "avx2",
-        Simd::Baseline => "baseline",
-    }
-}
-
-impl Simd {
-    /// The widest set this CPU has.
-    fn detect() -> Simd {
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2") {
-                return Simd::Avx2;
-            }
-        }
-        Simd::Baseline
-    }
-
-    /// Every set this CPU has (for tests).
-    #[cfg(test)]
-    fn available() -> Vec<Simd> {
-        match Simd::detect() {
-            Simd::Baseline => vec![Simd::Baseline],
-            Simd::Avx2 => vec![Simd::Baseline, Simd::Avx2],
-        }
-    }
+    rwg_env::simd::level().name()
 }
 
 impl<const K: usize> PolicyLanes<K> {
@@ -308,7 +274,7 @@ impl<const K: usize> PolicyLanes<K> {
             argmax: [0; K],
             shape,
             map,
-            simd: Simd::detect(),
+            simd: rwg_env::simd::level(),
         }
     }
 
@@ -336,14 +302,18 @@ impl<const K: usize> PolicyLanes<K> {
     /// observations one after the other (lane-major). Read the actions with
     /// [`PolicyLanes::action`].
     ///
-    /// Uses AVX2 where the CPU has it (the results are the same bits either
-    /// way).
+    /// Runs compiled for [`rwg_env::simd::level`]'s level: AVX-512, AVX2,
+    /// or the target's baseline (the results are the same bits at each).
     #[inline]
     pub fn forward(&mut self, obs: &[f64]) {
         #[cfg(target_arch = "x86_64")]
-        if self.simd == Simd::Avx2 {
-            // SAFETY: `Simd::detect` found AVX2 on this CPU.
-            return unsafe { self.forward_avx2(obs) };
+        match self.simd {
+            // SAFETY: `rwg_env::simd::level` names only a level the CPU has
+            // (and the tests set only `Simd::available_levels`).
+            Simd::Avx512 => return unsafe { self.forward_avx512(obs) },
+            // SAFETY: as above.
+            Simd::Avx2 => return unsafe { self.forward_avx2(obs) },
+            Simd::Scalar => {}
         }
         self.forward_generic(obs)
     }
@@ -355,6 +325,16 @@ impl<const K: usize> PolicyLanes<K> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn forward_avx2(&mut self, obs: &[f64]) {
+        self.forward_generic(obs)
+    }
+
+    /// [`PolicyLanes::forward`] compiled for AVX-512 (F, DQ and VL).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F, DQ and VL.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+    unsafe fn forward_avx512(&mut self, obs: &[f64]) {
         self.forward_generic(obs)
     }
 

@@ -436,31 +436,32 @@ fn golden_trajectories_through_lockstep() {
     }
 }
 
-/// The tests above, again in a child process with `RWG_LOCKSTEP_AVX2=0`:
-/// on an AVX2 CPU this process ran the step bodies compiled for AVX2, the
-/// child runs the baseline ones, so both builds are checked against the
-/// scalar envs (the choice is read once per process).
+/// The tests above, again in a child process per SIMD level this CPU has
+/// (`RWG_SIMD=scalar`, `avx2`, `avx512`; the level is read once per
+/// process), so the baseline, AVX2 and AVX-512 step bodies are each checked
+/// against the scalar envs, whatever level this process runs.
 #[test]
-fn the_baseline_step_bodies_match_too() {
-    if std::env::var_os("RWG_LOCKSTEP_AVX2").is_some() {
-        return; // already the child (or the whole run is pinned to one body)
-    }
+fn the_step_bodies_of_every_simd_level_match_too() {
     let exe = std::env::current_exe().unwrap();
-    for name in [
-        "every_lockstep_env_matches_the_scalar_env_lane_by_lane",
-        "long_episodes_match",
-        "golden_trajectories_through_lockstep",
-    ] {
-        let out = std::process::Command::new(&exe)
-            .args(["--exact", name, "--test-threads=1"])
-            .env("RWG_LOCKSTEP_AVX2", "0")
-            .output()
-            .unwrap();
-        let stdout = String::from_utf8_lossy(&out.stdout);
-        assert!(
-            out.status.success() && stdout.contains("1 passed"),
-            "{name} with RWG_LOCKSTEP_AVX2=0:\n{stdout}\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+    let levels = rwg_env::simd::Simd::available_levels();
+    assert_eq!(levels[0], rwg_env::simd::Simd::Scalar);
+    for level in levels {
+        for name in [
+            "every_lockstep_env_matches_the_scalar_env_lane_by_lane",
+            "long_episodes_match",
+            "golden_trajectories_through_lockstep",
+        ] {
+            let out = std::process::Command::new(&exe)
+                .args(["--exact", name, "--test-threads=1"])
+                .env(rwg_env::simd::VAR, level.name())
+                .output()
+                .unwrap();
+            let stdout = String::from_utf8_lossy(&out.stdout);
+            assert!(
+                out.status.success() && stdout.contains("1 passed"),
+                "{name} with RWG_SIMD={level}:\n{stdout}\n{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
     }
 }

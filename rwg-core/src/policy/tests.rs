@@ -181,7 +181,7 @@ fn lanes_act_as_single_policies() {
         ((s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0) * scale
     };
     const K: usize = 5;
-    for simd in Simd::available() {
+    for simd in Simd::available_levels() {
         for space in &spaces {
             for hidden in [vec![], vec![4], vec![3, 4], vec![7, 2, 5]] {
                 for bias in [false, true] {
@@ -261,7 +261,7 @@ fn lanes_argmax_matches_policy_on_edges() {
     for n in [2usize, 3] {
         let space = Space::Discrete { n };
         let shape = NetShape::new(n, &arch, n);
-        for simd in Simd::available() {
+        for simd in Simd::available_levels() {
             let mut lanes = PolicyLanes::<K>::new(shape.clone(), &space);
             lanes.simd = simd;
             let mut single = Policy::new(shape.clone(), &space);

@@ -34,8 +34,6 @@ pub mod mountain_car_continuous;
 pub mod pendulum;
 mod wide;
 
-pub use wide::{avx2_setting, AVX2_VAR};
-
 /// A lockstep env whose lanes' states can be read (as the scalar env's
 /// [`Environment::state`]), for tests and diagnostics.
 pub trait LockstepEnv: ManyEnv {

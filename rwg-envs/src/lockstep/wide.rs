@@ -1,55 +1,25 @@
-//! Whether the lockstep envs' steps run compiled for AVX2.
+//! Which instruction set the lockstep envs' steps run compiled for.
 //!
 //! rwg is built for baseline x86-64 (SSE2: two `f64` per vector). An env's
-//! step body is also compiled a second time with AVX2 enabled (four per
-//! vector) and chosen at run time. Both compile the same IEEE operations in
-//! the same order: Rust never contracts `a * b + c` into a fused
-//! multiply-add, and AVX2 alone does not enable FMA, so the two give the
-//! same bits (the lockstep tests compare lanes with the scalar envs under
-//! either). `RWG_LOCKSTEP_AVX2=0` (read once) forces the baseline body.
-
-/// The environment variable that turns the AVX2 step bodies off (`0`).
-pub const AVX2_VAR: &str = "RWG_LOCKSTEP_AVX2";
-
-/// [`AVX2_VAR`]: `1` or unset: the AVX2 bodies where the CPU has AVX2, `0`:
-/// the baseline; an error naming the variable for any other value.
-pub fn avx2_setting() -> Result<bool, rwg_env::vars::VarError> {
-    rwg_env::vars::switch(
-        AVX2_VAR,
-        true,
-        "0: the lockstep envs' baseline step bodies, not their AVX2 ones",
-    )
-}
-
-/// Whether to run the AVX2 bodies: the CPU has AVX2 and
-/// `RWG_LOCKSTEP_AVX2=0` is not set.
-#[cfg(target_arch = "x86_64")]
-pub(crate) fn avx2() -> bool {
-    use std::sync::atomic::{AtomicU8, Ordering::Relaxed};
-    // 0: not decided yet, 1: no, 2: yes.
-    static CHOICE: AtomicU8 = AtomicU8::new(0);
-    match CHOICE.load(Relaxed) {
-        1 => false,
-        2 => true,
-        _ => {
-            let on = avx2_setting().unwrap_or(true);
-            let yes = on && is_x86_feature_detected!("avx2");
-            CHOICE.store(if yes { 2 } else { 1 }, Relaxed);
-            yes
-        }
-    }
-}
+//! step body is also compiled with AVX2 enabled (four per vector) and with
+//! AVX-512F/DQ/VL enabled (eight per vector), and the build to run is
+//! [`rwg_env::simd::level`]'s (`RWG_SIMD`, else the CPU's widest). All
+//! three compile the same IEEE operations in the same order: Rust never
+//! contracts `a * b + c` into a fused multiply-add (and the step bodies
+//! call no `mul_add`), so they give the same bits (the lockstep tests
+//! compare lanes with the scalar envs at every level the CPU has).
 
 /// For a lockstep env type `$ty<N>` with an inherent, `#[inline(always)]`
 /// `step_body` (the arguments of [`rwg_env::many::ManyEnv::step_many`], the
 /// per-lane ones as arrays of `N`: [`crate::lockstep::lane_arrays`]),
-/// defines `step_dispatch`, which runs `step_body` compiled for AVX2 when
-/// [`avx2`] says so and the baseline build otherwise. The env's
-/// `step_many` is [`step_many_dispatched`]'s, which calls it.
+/// defines `step_dispatch`, which runs `step_body` compiled for the level
+/// [`rwg_env::simd::level`] names: AVX-512, AVX2, or the baseline build for
+/// `scalar`. The env's `step_many` is [`step_many_dispatched`]'s, which
+/// calls it.
 macro_rules! wide_step {
     ($ty:ident) => {
         impl<const N: usize> $ty<N> {
-            /// [`Self::step_body`], compiled for AVX2 or not
+            /// [`Self::step_body`], compiled for the SIMD level
             /// ([`crate::lockstep::wide`]).
             #[inline(always)]
             #[allow(clippy::too_many_arguments)]
@@ -68,13 +38,20 @@ macro_rules! wide_step {
                         mask, actions, rewards, terminated, truncated,
                     );
                 #[cfg(target_arch = "x86_64")]
-                if $crate::lockstep::wide::avx2() {
-                    // SAFETY: the CPU has AVX2 (checked at run time).
-                    unsafe {
+                match rwg_env::simd::level() {
+                    // SAFETY: `level` names only a level the CPU has.
+                    rwg_env::simd::Simd::Avx512 => unsafe {
+                        return self.step_avx512(
+                            mask, actions, obs, rewards, terminated, truncated, on_fail,
+                        );
+                    },
+                    // SAFETY: as above.
+                    rwg_env::simd::Simd::Avx2 => unsafe {
                         return self.step_avx2(
                             mask, actions, obs, rewards, terminated, truncated, on_fail,
                         );
-                    }
+                    },
+                    rwg_env::simd::Simd::Scalar => {}
                 }
                 self.step_body(mask, actions, obs, rewards, terminated, truncated, on_fail)
             }
@@ -84,6 +61,23 @@ macro_rules! wide_step {
             #[target_feature(enable = "avx2")]
             #[allow(clippy::too_many_arguments)]
             unsafe fn step_avx2(
+                &mut self,
+                mask: &[u8; N],
+                actions: &[f64; N],
+                obs: &mut [f64],
+                rewards: &mut [f64; N],
+                terminated: &mut [u8; N],
+                truncated: &mut [u8; N],
+                on_fail: &mut dyn FnMut(usize, EnvError),
+            ) {
+                self.step_body(mask, actions, obs, rewards, terminated, truncated, on_fail)
+            }
+
+            /// [`Self::step_body`] compiled with AVX-512F, DQ and VL enabled.
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+            #[allow(clippy::too_many_arguments)]
+            unsafe fn step_avx512(
                 &mut self,
                 mask: &[u8; N],
                 actions: &[f64; N],

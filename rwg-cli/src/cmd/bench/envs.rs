@@ -93,6 +93,11 @@ pub(super) struct EnvRow {
     /// this env's time per step over the built-in's (same steps, same actions).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) vs_builtin: Option<VsBuiltin>,
+    /// The process's SIMD level (`RWG_SIMD`, else the CPU's widest). The
+    /// scalar envs stepped here run no vector code, so their figures and
+    /// hash do not depend on it; the lockstep envs and the policies do
+    /// (`rwg bench sampler`).
+    simd: &'static str,
 }
 
 /// A plugin env compared with the built-in env it re-exports.
@@ -215,6 +220,7 @@ impl EnvBench {
             reward_sum: out.reward_sum,
             obs_hash: self.hash.then(|| format!("{:016x}", out.obs_hash)),
             vs_builtin: None,
+            simd: rwg_env::simd::level().name(),
         })
     }
 }
@@ -253,6 +259,12 @@ pub(super) fn run(args: EnvsArgs) -> Result<()> {
     }
     if args.json {
         crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        crate::outln!(
+            "SIMD level: {} ({}; the scalar envs stepped here run no vector code)",
+            rwg_env::simd::level(),
+            rwg_env::simd::VAR
+        );
     }
     Ok(())
 }

@@ -59,8 +59,10 @@ struct SamplerRow {
     /// `rwg run`'s default for built-in envs) or `"per-lane"` (one instance
     /// per lane; `RWG_LOCKSTEP=0`, as for `rwg run`).
     path: &'static str,
-    /// Instruction set of the policy's forward pass on this CPU.
-    forward_isa: &'static str,
+    /// The SIMD level (`RWG_SIMD`, else the CPU's widest) the policies'
+    /// forward pass and the lockstep envs' steps ran at: `"avx512"`,
+    /// `"avx2"` or `"scalar"` (the results are the same at each).
+    simd: &'static str,
 }
 
 /// Samples per block handed to a rayon task: as in `rwg run`.
@@ -207,7 +209,7 @@ pub(super) fn run(args: SamplerArgs) -> Result<()> {
             mean_score: score / (args.samples * args.episodes as u64) as f64,
             lanes: LANES,
             path,
-            forward_isa: rwg_core::policy::lanes_isa(),
+            simd: rwg_core::policy::lanes_isa(),
         };
         if !args.json {
             if rows.is_empty() {
@@ -219,6 +221,12 @@ pub(super) fn run(args: SamplerArgs) -> Result<()> {
     }
     if args.json {
         crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        crate::outln!(
+            "SIMD level: {} ({}: avx512, avx2 or scalar; the same results at each)",
+            rwg_core::policy::lanes_isa(),
+            rwg_env::simd::VAR
+        );
     }
     Ok(())
 }
