@@ -16,8 +16,7 @@
 //! loads and stores.
 //!
 //! The entry points [`pow2_lanes`] and [`pow2_port_lanes`] are `Vector`'s
-//! at the AVX-512 level (`allow(dead_code)` until that level dispatches to
-//! them).
+//! at the AVX-512 level.
 //!
 //! Every function is `unsafe` only because it is compiled for AVX-512F,
 //! DQ and VL with AVX2 and FMA (`#[target_feature]`): calling it is sound
@@ -172,7 +171,6 @@ impl Lanes for V8 {
 }
 
 /// The mask of the first `n` of eight lanes (`n` in 1..=8).
-#[allow(dead_code)]
 #[inline(always)]
 fn first(n: usize) -> __mmask8 {
     (0xffu16 >> (8 - n)) as __mmask8
@@ -182,7 +180,6 @@ fn first(n: usize) -> __mmask8 {
 /// the result, the port for the other lanes in its range (a group of eight
 /// with no such lane skips it), `slow` (`pow2`) for the rest. The slices
 /// must have equal lengths (panics otherwise).
-#[allow(dead_code)]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
 pub(super) unsafe fn pow2_lanes(x: &[f64], out: &mut [f64], slow: fn(f64) -> f64) {
     assert_eq!(x.len(), out.len(), "pow2_lanes: arguments and results");
@@ -208,7 +205,6 @@ pub(super) unsafe fn pow2_lanes(x: &[f64], out: &mut [f64], slow: fn(f64) -> f64
 /// The port alone for every lane in its range (libm `slow` for the rest),
 /// without the fast path: what `rwg bench libm --check` compares with libm.
 /// The slices must have equal lengths (panics otherwise).
-#[allow(dead_code)]
 #[target_feature(enable = "avx512f,avx512dq,avx512vl,avx2,fma")]
 pub(super) unsafe fn pow2_port_lanes(x: &[f64], out: &mut [f64], slow: fn(f64) -> f64) {
     assert_eq!(x.len(), out.len(), "pow2_port_lanes: arguments and results");
