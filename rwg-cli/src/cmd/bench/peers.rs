@@ -15,11 +15,17 @@
 //!
 //! Env steps on both sides are the transitions inside episodes (every step of
 //! every episode, up to and including the terminal or truncating one).
+//!
+//! rwg runs at each SIMD level of `--simd` (the child's `RWG_SIMD`), once per
+//! round and workload each, among the peer's run; every level must score the
+//! workload identically (checked), so the levels differ in speed only.
+//! [`report`] holds the measurements, their ratios and the table.
 
-use super::spread;
+mod report;
+
 use anyhow::{bail, Context, Result};
-use rwg_analysis::table::{Align, TextColumns};
-use serde::Serialize;
+use report::{cpu_model, load_avg, now_utc, print_table, Report, Row, Setup};
+use rwg_env::simd::Simd;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -92,101 +98,53 @@ pub struct PeersArgs {
     /// fresh directory under the system's temporary directory, removed at the end).
     #[arg(long, value_name = "DIR")]
     work_dir: Option<PathBuf>,
+    /// rwg's SIMD levels to measure, comma-separated (scalar, avx2, avx512;
+    /// e.g. avx2,avx512): rwg runs once per level in every round (its
+    /// RWG_SIMD set to it), and the last level is compared with the first.
+    /// Default: the level rwg runs (RWG_SIMD, else the CPU's widest).
+    #[arg(long, value_name = "LEVELS", value_delimiter = ',')]
+    simd: Vec<String>,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     json: bool,
 }
 
-/// One side's measurements of one workload, in round order.
-#[derive(Serialize, Debug, Default)]
-struct Side {
-    samples: u64,
-    /// Env steps of each measurement.
-    env_steps: Vec<u64>,
-    /// CPU seconds of each measurement (see the module doc for what each side counts).
-    cpu_s: Vec<f64>,
-    /// Wall seconds of each measurement (same span as `cpu_s`).
-    wall_s: Vec<f64>,
-    /// `env_steps / cpu_s`, per measurement.
-    steps_per_cpu_s: Vec<f64>,
-    /// Median of `steps_per_cpu_s`, and its range.
-    median: f64,
-    min: f64,
-    max: f64,
-}
-
-impl Side {
-    fn push(&mut self, steps: u64, cpu: f64, wall: f64) {
-        self.env_steps.push(steps);
-        self.cpu_s.push(cpu);
-        self.wall_s.push(wall);
-        self.steps_per_cpu_s.push(steps as f64 / cpu);
-        (self.median, self.min, self.max) = spread(&self.steps_per_cpu_s);
+/// The levels `--simd` names, in its order: each one this CPU has, none
+/// twice (an error naming every level the CPU lacks); the level rwg runs if
+/// none is named.
+fn simd_levels(names: &[String]) -> Result<Vec<Simd>> {
+    if names.is_empty() {
+        return Ok(vec![rwg_env::simd::level()]);
     }
-}
-
-/// Median, min and max of the paired ratios rwg / gymnax-raw.
-#[derive(Serialize, Debug, Default)]
-struct Ratio {
-    values: Vec<f64>,
-    median: f64,
-    min: f64,
-    max: f64,
-}
-
-/// One workload's comparison.
-#[derive(Serialize, Debug)]
-struct Row {
-    env: String,
-    hidden: Vec<usize>,
-    episodes: u32,
-    rwg: Side,
-    gymnax_raw: Side,
-    /// Per round: rwg steps/CPU-s over gymnax-raw steps/CPU-s of the same round.
-    ratio: Ratio,
-    /// gymnax-raw's XLA compile seconds, per measurement (excluded above).
-    gymnax_compile_s: Vec<f64>,
-}
-
-impl Row {
-    fn update_ratio(&mut self) {
-        let values: Vec<f64> = self
-            .rwg
-            .steps_per_cpu_s
-            .iter()
-            .zip(&self.gymnax_raw.steps_per_cpu_s)
-            .map(|(r, g)| r / g)
+    let (mut levels, mut lacking) = (Vec::new(), Vec::new());
+    for name in names {
+        let name = name.trim();
+        match (rwg_env::simd::parse(name), Simd::from_name(name)) {
+            (Ok(level), _) if levels.contains(&level) => bail!("--simd lists {level} twice"),
+            (Ok(level), _) => levels.push(level),
+            (Err(_), Some(level)) => {
+                if !lacking.contains(&level.name()) {
+                    lacking.push(level.name());
+                }
+            }
+            (Err(e), None) => bail!(
+                "--simd: {name:?} is not a SIMD level: expected {}",
+                e.expected
+            ),
+        }
+    }
+    if !lacking.is_empty() {
+        let have: Vec<&str> = Simd::available_levels()
+            .into_iter()
+            .map(Simd::name)
             .collect();
-        let (median, min, max) = spread(&values);
-        self.ratio = Ratio {
-            values,
-            median,
-            min,
-            max,
-        };
+        bail!(
+            "--simd: this CPU has no {} (the levels it has: {})",
+            lacking.join(", "),
+            have.join(", ")
+        );
     }
-}
-
-/// Where and how the comparison ran.
-#[derive(Serialize)]
-struct Setup {
-    date_utc: String,
-    cpu_model: String,
-    cpus: usize,
-    pinned_cpu: Option<usize>,
-    load_avg_start: String,
-    load_avg_end: String,
-    rounds: u32,
-    seed: u64,
-    rwg_binary: String,
-    rwg_command: String,
-    peer_command: String,
-}
-
-#[derive(Serialize)]
-struct Report {
-    setup: Setup,
-    rows: Vec<Row>,
+    Ok(levels)
 }
 
 /// What the peer's last stdout line (JSON) says.
@@ -222,16 +180,6 @@ fn parse_peer_output(stdout: &str) -> Result<PeerRun> {
         bail!("the peer reports no work ({line}); use more samples");
     }
     Ok(run)
-}
-
-/// `[]` -> `0HL`, `[4, 4]` -> `[4,4]`.
-fn hidden_label(h: &[usize]) -> String {
-    if h.is_empty() {
-        "0HL".into()
-    } else {
-        let v: Vec<String> = h.iter().map(|x| x.to_string()).collect();
-        format!("[{}]", v.join(","))
-    }
 }
 
 /// The one-cell manifest `rwg run` gets for a workload.
@@ -359,6 +307,23 @@ fn run_env_steps(dir: &Path) -> Result<u64> {
         .with_context(|| format!("{} has no env_steps", p.display()))
 }
 
+/// The bytes of the scores.csv of a finished one-cell run directory.
+fn cell_scores(dir: &Path) -> Result<Vec<u8>> {
+    let cells = dir.join(rwg_study::rundir::CELLS);
+    let read = || -> std::io::Result<Vec<u8>> {
+        let mut found = None;
+        for entry in std::fs::read_dir(&cells)? {
+            let path = entry?.path().join(rwg_study::rundir::SCORES_CSV);
+            if found.replace(path).is_some() {
+                return Err(std::io::Error::other("more than one cell"));
+            }
+        }
+        let path = found.ok_or_else(|| std::io::Error::other("no cell"))?;
+        std::fs::read(path)
+    };
+    read().with_context(|| format!("cannot read the scores of {}", cells.display()))
+}
+
 /// Runs `cmd` to completion; returns (stdout, child CPU seconds, wall seconds).
 fn measure(mut cmd: Command, what: &str) -> Result<(String, f64, f64)> {
     let cpu0 = children_cpu_seconds()?;
@@ -394,6 +359,7 @@ pub fn run(args: PeersArgs) -> Result<()> {
     if args.rwg_samples == 0 || args.peer_samples == 0 || args.episodes == 0 || args.rounds == 0 {
         bail!("--rwg-samples, --peer-samples, --episodes and --rounds must be at least 1");
     }
+    let levels = simd_levels(&args.simd)?;
     for e in &args.envs {
         if !PEER_WORKLOADS.iter().any(|w| w.0 == e) {
             bail!(
@@ -436,27 +402,22 @@ pub fn run(args: PeersArgs) -> Result<()> {
     let mut rows: Vec<Row> = PEER_WORKLOADS
         .iter()
         .filter(|w| args.envs.is_empty() || args.envs.iter().any(|e| e == w.0))
-        .map(|&(env, hidden)| Row {
-            env: env.to_string(),
-            hidden: hidden.to_vec(),
-            episodes: args.episodes,
-            rwg: Side {
-                samples: args.rwg_samples,
-                ..Side::default()
-            },
-            gymnax_raw: Side {
-                samples: args.peer_samples,
-                ..Side::default()
-            },
-            ratio: Ratio::default(),
-            gymnax_compile_s: vec![],
+        .map(|&(env, hidden)| {
+            Row::new(
+                env,
+                hidden,
+                args.episodes,
+                &levels,
+                args.rwg_samples,
+                args.peer_samples,
+            )
         })
         .collect();
     let setup_start = (now_utc(), load_avg());
 
     for round in 0..args.rounds {
         for (i, row) in rows.iter_mut().enumerate() {
-            let label = format!("{} {}", row.env, hidden_label(&row.hidden));
+            let label = row.label();
             let name = format!("w{i}");
             let manifest = work.join(format!("{name}.toml"));
             std::fs::write(
@@ -470,18 +431,26 @@ pub fn run(args: PeersArgs) -> Result<()> {
                 ),
             )
             .with_context(|| format!("cannot write {}", manifest.display()))?;
-            let run_dir = work.join(&name);
-            let rwg_first = (round + i as u32) % 2 == 0;
-            for side in [rwg_first, !rwg_first] {
-                if side {
+            let run_dir = |level: Simd| work.join(format!("{name}-{level}"));
+            // rwg at each level in the listed order, then the peer; every
+            // other time the reverse.
+            let mut order: Vec<Option<usize>> = (0..levels.len()).map(Some).chain([None]).collect();
+            if (round + i as u32) % 2 == 1 {
+                order.reverse();
+            }
+            for side in order {
+                if let Some(k) = side {
+                    let level = levels[k];
                     let mut cmd = Command::new(&rwg);
                     cmd.arg("run")
                         .arg(&manifest)
                         .args(["--threads", "1", "--force-new", "--out"])
-                        .arg(&run_dir);
-                    let (_, cpu, wall) = measure(cmd, &format!("rwg run ({label})"))?;
-                    let steps = run_env_steps(&run_dir)?;
-                    row.rwg.push(steps, cpu, wall);
+                        .arg(run_dir(level))
+                        .env(rwg_env::simd::VAR, level.name());
+                    let (_, cpu, wall) =
+                        measure(cmd, &format!("RWG_SIMD={level} rwg run ({label})"))?;
+                    let steps = run_env_steps(&run_dir(level))?;
+                    row.rwg[k].measured.push(steps, cpu, wall);
                 } else {
                     let mut cmd = Command::new(&python);
                     cmd.arg(&script)
@@ -509,15 +478,23 @@ pub fn run(args: PeersArgs) -> Result<()> {
                     row.gymnax_compile_s.push(p.compile_s);
                 }
             }
-            row.update_ratio();
-            let (r, g) = (&row.rwg, &row.gymnax_raw);
+            let first = cell_scores(&run_dir(levels[0]))?;
+            for &level in &levels[1..] {
+                if cell_scores(&run_dir(level))? != first {
+                    bail!(
+                        "{label}: rwg run at RWG_SIMD={level} wrote other scores than at \
+                         RWG_SIMD={} (every level must give the same bits; --work-dir keeps \
+                         the run directories)",
+                        levels[0]
+                    );
+                }
+            }
+            row.update_ratios();
             crate::errln!(
-                "round {}/{}  {label:<32} rwg {:.3e}  gymnax-raw {:.3e}  ratio {:.2}",
+                "round {}/{}  {label:<32}{}",
                 round + 1,
                 args.rounds,
-                r.steps_per_cpu_s.last().copied().unwrap_or(f64::NAN),
-                g.steps_per_cpu_s.last().copied().unwrap_or(f64::NAN),
-                row.ratio.values.last().copied().unwrap_or(f64::NAN)
+                row.progress()
             );
         }
     }
@@ -532,6 +509,7 @@ pub fn run(args: PeersArgs) -> Result<()> {
             load_avg_end: load_avg(),
             rounds: args.rounds,
             seed: args.seed,
+            simd_levels: levels.iter().map(|l| l.name()).collect(),
             rwg_binary: rwg.display().to_string(),
             rwg_command: format!(
                 "rwg run <one-cell manifest> --threads 1 --force-new --out <dir>  ({} networks x {} episodes, no bias, report included)",
@@ -550,100 +528,6 @@ pub fn run(args: PeersArgs) -> Result<()> {
         print_table(&report);
     }
     Ok(())
-}
-
-/// The human-readable report.
-fn print_table(r: &Report) {
-    let s = &r.setup;
-    crate::outln!(
-        "rwg bench peers, {} UTC, {} ({} CPUs), {}, {} rounds, load average {} -> {}",
-        s.date_utc,
-        s.cpu_model,
-        s.cpus,
-        s.pinned_cpu
-            .map_or("not pinned".into(), |c| format!("pinned to CPU {c}")),
-        s.rounds,
-        s.load_avg_start,
-        s.load_avg_end
-    );
-    crate::outln!("rwg:        {}", s.rwg_command);
-    crate::outln!("gymnax-raw: {}", s.peer_command);
-    crate::outln!(
-        "env steps per CPU-second, median [min-max]; rwg: whole process; gymnax-raw: its run, compile excluded\n"
-    );
-    let columns = TextColumns::new(
-        &[
-            (34, Align::Left),
-            (26, Align::Right),
-            (26, Align::Right),
-            (20, Align::Right),
-        ],
-        "  ",
-    );
-    crate::outln!(
-        "{}",
-        columns.line(&["workload", "rwg run", "gymnax-raw", "rwg / gymnax-raw"])
-    );
-    let sci = |s: &Side| format!("{:.3e} [{:.2e}-{:.2e}]", s.median, s.min, s.max);
-    for row in &r.rows {
-        crate::outln!(
-            "{}",
-            columns.line(&[
-                format!("{} {}", row.env, hidden_label(&row.hidden)),
-                sci(&row.rwg),
-                sci(&row.gymnax_raw),
-                format!(
-                    "{:.2}x [{:.2}-{:.2}]",
-                    row.ratio.median, row.ratio.min, row.ratio.max
-                ),
-            ])
-        );
-    }
-}
-
-/// The CPU's model name, where /proc/cpuinfo tells it.
-fn cpu_model() -> String {
-    std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, m)| m.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into())
-}
-
-/// The 1, 5 and 15-minute load averages, where /proc/loadavg tells them.
-fn load_avg() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .ok()
-        .map(|t| t.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_else(|| "unknown".into())
-}
-
-/// The current UTC time as `YYYY-MM-DD HH:MM`.
-fn now_utc() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs());
-    let (y, m, d) = civil_from_days((secs / 86_400) as i64);
-    let s = secs % 86_400;
-    format!("{y:04}-{m:02}-{d:02} {:02}:{:02}", s / 3600, s / 60 % 60)
-}
-
-/// Days since 1970-01-01 -> (year, month, day) in the proleptic Gregorian
-/// calendar (H. Hinnant's algorithm).
-fn civil_from_days(z: i64) -> (i64, u32, u32) {
-    let z = z + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
-    (yoe + era * 400 + i64::from(m <= 2), m, d)
 }
 
 #[cfg(test)]
@@ -675,36 +559,6 @@ mod tests {
     }
 
     #[test]
-    fn ratios_are_paired_by_round() {
-        let mut row = Row {
-            env: "CartPole-v0".into(),
-            hidden: vec![],
-            episodes: 20,
-            rwg: Side::default(),
-            gymnax_raw: Side::default(),
-            ratio: Ratio::default(),
-            gymnax_compile_s: vec![],
-        };
-        // rwg: 10, 30, 20 steps/CPU-s; gymnax: 5, 10, 20.
-        for (rs, rc, gs, gc) in [(10, 1.0, 10, 2.0), (30, 1.0, 10, 1.0), (40, 2.0, 20, 1.0)] {
-            row.rwg.push(rs, rc, rc);
-            row.gymnax_raw.push(gs, gc, gc);
-        }
-        row.update_ratio();
-        assert_eq!(row.rwg.steps_per_cpu_s, [10.0, 30.0, 20.0]);
-        assert_eq!(
-            (row.rwg.median, row.rwg.min, row.rwg.max),
-            (20.0, 10.0, 30.0)
-        );
-        assert_eq!(row.gymnax_raw.median, 10.0);
-        assert_eq!(row.ratio.values, [2.0, 3.0, 1.0]);
-        assert_eq!(
-            (row.ratio.median, row.ratio.min, row.ratio.max),
-            (2.0, 1.0, 3.0)
-        );
-    }
-
-    #[test]
     fn manifest_names_the_workload() {
         let t = manifest_text("Pendulum-v1", &[4, 4], 3000, 20, 7);
         for s in [
@@ -721,16 +575,40 @@ mod tests {
     }
 
     #[test]
-    fn workloads_name_builtin_envs() {
-        for (env, _) in PEER_WORKLOADS {
-            assert!(rwg_envs::registry::registration(env).is_some(), "{env}");
+    fn simd_levels_are_the_listed_ones_the_cpu_has() {
+        let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(simd_levels(&[]).unwrap(), [rwg_env::simd::level()]);
+        let have = Simd::available_levels();
+        let listed: Vec<&str> = have.iter().rev().map(|l| l.name()).collect();
+        let got = simd_levels(&names(&listed)).unwrap();
+        assert_eq!(got, have.iter().rev().copied().collect::<Vec<_>>());
+        assert_eq!(simd_levels(&names(&[" scalar"])).unwrap(), [Simd::Scalar]);
+        let e = simd_levels(&names(&["scalar", "sse4"]))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("\"sse4\" is not a SIMD level"), "{e}");
+        assert!(e.contains("scalar, avx2, avx512"), "{e}");
+        let e = simd_levels(&names(&["scalar", "scalar"]))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("lists scalar twice"), "{e}");
+        let lacking: Vec<&str> = Simd::ALL
+            .into_iter()
+            .filter(|l| !l.available())
+            .map(Simd::name)
+            .collect();
+        if !lacking.is_empty() {
+            let mut listed = names(&lacking);
+            listed.insert(0, "scalar".into());
+            let e = simd_levels(&listed).unwrap_err().to_string();
+            assert!(e.contains(&format!("has no {}", lacking.join(", "))), "{e}");
         }
     }
 
     #[test]
-    fn civil_dates() {
-        assert_eq!(civil_from_days(0), (1970, 1, 1));
-        assert_eq!(civil_from_days(19_723), (2024, 1, 1));
-        assert_eq!(civil_from_days(20_780), (2026, 11, 23));
+    fn workloads_name_builtin_envs() {
+        for (env, _) in PEER_WORKLOADS {
+            assert!(rwg_envs::registry::registration(env).is_some(), "{env}");
+        }
     }
 }
