@@ -96,7 +96,7 @@ pub(super) fn instantiate_vec<M: ManyEnv>(
         ActionKind::Discrete(_) => 1,
         ActionKind::Box(d) => d,
     };
-    let tail = if lanes % width == 0 {
+    let tail = if lanes.is_multiple_of(width) {
         Tail::default()
     } else {
         Tail {
