@@ -386,7 +386,7 @@ mod tests {
             &self.spec
         }
         fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
-            if seed % self.fail_every == 0 && seed % 3 == 0 {
+            if seed.is_multiple_of(self.fail_every) && seed.is_multiple_of(3) {
                 return Err(EnvError::Other(format!("reset {seed}")));
             }
             self.seed = seed;
@@ -397,7 +397,7 @@ mod tests {
         fn step(&mut self, a: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
             let a = rwg_env::env::discrete_action(a, 2)?;
             self.t += 1;
-            if self.seed % self.fail_every == 0 && self.t == 2 {
+            if self.seed.is_multiple_of(self.fail_every) && self.t == 2 {
                 return Err(EnvError::Other(format!("step {}", self.seed)));
             }
             obs[0] = obs[0] * 0.5 + a as f64;

@@ -40,7 +40,7 @@ impl Environment for Toy {
         &self.spec
     }
     fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
-        if seed % self.fail_every == 0 && seed % 2 == 1 {
+        if seed.is_multiple_of(self.fail_every) && seed % 2 == 1 {
             return Err(EnvError::Other(format!("reset {seed}")));
         }
         self.seed = seed;
@@ -55,7 +55,7 @@ impl Environment for Toy {
             Action::Continuous(v) => v[0],
         };
         self.t += 1;
-        if self.seed % self.fail_every == 0 && self.t == 2 {
+        if self.seed.is_multiple_of(self.fail_every) && self.t == 2 {
             return Err(EnvError::Other(format!("step {}", self.seed)));
         }
         obs[0] = obs[0] * 0.5 + a;

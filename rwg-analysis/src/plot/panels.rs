@@ -299,7 +299,7 @@ pub(crate) fn scores_panel<DB: DrawingBackend>(
         .step_by(step)
         .map(|r| (r as f64, cell.stats[order[r]].mean))
         .collect();
-    if (n - 1) % step != 0 {
+    if !(n - 1).is_multiple_of(step) {
         curve.push(((n - 1) as f64, cell.stats[order[n - 1]].mean));
     }
     chart

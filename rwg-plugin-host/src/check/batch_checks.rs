@@ -121,7 +121,7 @@ fn compare(ty: &PluginEnvType, config: &str, calls: LaneCalls, n: usize) -> Resu
     for k in 0..=TRAJ_STEPS {
         // Reset every lane at first, then the ended ones and a few at random.
         let resetting: Vec<bool> = (0..n)
-            .map(|i| alive[i] && (k == 0 || mask[i] == 2 || rng.next() % 64 == 0))
+            .map(|i| alive[i] && (k == 0 || mask[i] == 2 || rng.next().is_multiple_of(64)))
             .collect();
         for i in 0..n {
             mask[i] = u8::from(resetting[i]);
@@ -161,7 +161,9 @@ fn compare(ty: &PluginEnvType, config: &str, calls: LaneCalls, n: usize) -> Resu
             break;
         }
         // Step a random ~7/8 of the live lanes.
-        let stepping: Vec<bool> = (0..n).map(|i| alive[i] && rng.next() % 8 != 0).collect();
+        let stepping: Vec<bool> = (0..n)
+            .map(|i| alive[i] && !rng.next().is_multiple_of(8))
+            .collect();
         let mut owned = Vec::with_capacity(n);
         for i in 0..n {
             mask[i] = u8::from(stepping[i]);
