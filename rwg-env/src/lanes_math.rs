@@ -362,7 +362,7 @@ impl std::fmt::Display for Implementation {
 
 /// The implementation [`sin_lanes`], [`cos_lanes`] and [`sincos_lanes`] use:
 /// [`implementation_at`] the level [`simd::level`] picks (`RWG_SIMD`, else
-/// the CPU's widest).
+/// [`simd::Simd::default_level`]).
 pub fn implementation() -> Implementation {
     implementation_at(simd::level())
 }

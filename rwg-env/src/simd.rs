@@ -13,9 +13,17 @@
 //! - `RWG_SIMD=scalar`: the target's baseline (SSE2 on x86-64) and one libm
 //!   call per `sin`/`cos`/`pow` element.
 //!
-//! Unset (or empty), rwg runs the widest level the CPU has. A level the CPU
-//! lacks is an error naming the variable ([`setting`]); [`level`] then runs
-//! the CPU's widest, and `rwg` refuses to start.
+//! Unset (or empty), rwg runs [`Simd::default_level`]: AVX2 where the CPU
+//! has it, else scalar. AVX-512 runs only when asked for (`RWG_SIMD=avx512`
+//! on a CPU that has it): its code is compiled and its instructions checked
+//! (the same fused products as the AVX2 code, no others), its algorithms are
+//! tested at eight lanes in plain Rust on every CPU, and its own bit-for-bit
+//! tests run on any AVX-512 CPU (`cargo test` picks every level the CPU
+//! has), but the project's test machines have no AVX-512, so those tests
+//! have not run there. The `sin`/`cos`/`pow` code of each level still passes
+//! a self-check against libm before it is used (`lanes_math`). A level the
+//! CPU lacks is an error naming the variable ([`setting`]); [`level`] then
+//! runs the default, and `rwg` refuses to start.
 
 use crate::vars::VarError;
 use std::sync::OnceLock;
@@ -57,6 +65,13 @@ impl Simd {
     pub fn cpu() -> Simd {
         static CPU: OnceLock<Simd> = OnceLock::new();
         *CPU.get_or_init(detect)
+    }
+
+    /// The level rwg runs when `RWG_SIMD` is unset: the CPU's widest, but
+    /// at most [`Simd::Avx2`] (AVX-512 only when asked for: see the module
+    /// docs).
+    pub fn default_level() -> Simd {
+        Simd::cpu().min(Simd::Avx2)
     }
 
     /// Whether this CPU can run `self`.
@@ -131,10 +146,10 @@ pub fn parse(value: &str) -> Result<Simd, VarError> {
 }
 
 /// The level every vector path runs, decided once per process: `RWG_SIMD`
-/// if set to a level the CPU has, else the CPU's widest ([`Simd::cpu`]).
+/// if set to a level the CPU has, else [`Simd::default_level`].
 pub fn level() -> Simd {
     static LEVEL: OnceLock<Simd> = OnceLock::new();
-    *LEVEL.get_or_init(|| setting().ok().flatten().unwrap_or_else(Simd::cpu))
+    *LEVEL.get_or_init(|| setting().ok().flatten().unwrap_or_else(Simd::default_level))
 }
 
 #[cfg(test)]
@@ -173,5 +188,10 @@ mod tests {
         assert_eq!(have[0], Simd::Scalar);
         assert_eq!(*have.last().unwrap(), Simd::cpu());
         assert_eq!(have.len(), Simd::cpu() as usize + 1);
+        assert!(Simd::default_level() <= Simd::Avx2);
+        assert!(Simd::default_level().available());
+        if Simd::Avx2.available() {
+            assert_eq!(Simd::default_level(), Simd::Avx2);
+        }
     }
 }

@@ -3,7 +3,7 @@
 //! rwg is built for baseline x86-64 (SSE2: two `f64` per vector). An env's
 //! step body is also compiled with AVX2 enabled (four per vector) and with
 //! AVX-512F/DQ/VL enabled (eight per vector), and the build to run is
-//! [`rwg_env::simd::level`]'s (`RWG_SIMD`, else the CPU's widest). All
+//! [`rwg_env::simd::level`]'s (`RWG_SIMD`, else AVX2 where the CPU has it). All
 //! three compile the same IEEE operations in the same order: Rust never
 //! contracts `a * b + c` into a fused multiply-add (and the step bodies
 //! call no `mul_add`), so they give the same bits (the lockstep tests

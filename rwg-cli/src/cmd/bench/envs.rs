@@ -93,7 +93,7 @@ pub(super) struct EnvRow {
     /// this env's time per step over the built-in's (same steps, same actions).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) vs_builtin: Option<VsBuiltin>,
-    /// The process's SIMD level (`RWG_SIMD`, else the CPU's widest). The
+    /// The process's SIMD level (`RWG_SIMD`, else AVX2 where the CPU has it). The
     /// scalar envs stepped here run no vector code, so their figures and
     /// hash do not depend on it; the lockstep envs and the policies do
     /// (`rwg bench sampler`).

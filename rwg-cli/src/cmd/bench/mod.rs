@@ -96,7 +96,7 @@ excluded, as the peer reports them apart).
 Prints env steps per CPU-second of each side and their ratio per round: median \
 [min-max]. Env steps are the transitions inside episodes on both sides.
 
-rwg runs at the SIMD level it would run at (RWG_SIMD, else the CPU's widest), or at \
+rwg runs at the SIMD level it would run at (RWG_SIMD, else AVX2 where the CPU has it), or at \
 each level --simd lists: then every round runs rwg once per level (its RWG_SIMD set to \
 it) beside the peer, rwg first in the listed order or the peer first and the levels \
 reversed, alternately; the table gets a column of rwg's rates and of its ratio to \
@@ -154,7 +154,7 @@ Example:
     /// and speed.
     #[command(after_help = "\
 rwg_env::lanes_math computes sin and cos four lanes at a time with AVX2+FMA or eight with \
-AVX-512 (the level RWG_SIMD picks, else the CPU's widest), a port of glibc 2.36's \
+AVX-512 (the level RWG_SIMD picks, else AVX2 where the CPU has it), a port of glibc 2.36's \
 __sin_fma/__cos_fma meant to return exactly libm's bits, and Python's x**2 (libm pow(x, \
 2)) as x*x where the exact square is within 0.48 ulp of it, else by a port of glibc \
 2.36's __pow_fma; each level is used only when its one-time self-check on some thousands \

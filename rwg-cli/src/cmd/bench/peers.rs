@@ -101,7 +101,7 @@ pub struct PeersArgs {
     /// rwg's SIMD levels to measure, comma-separated (scalar, avx2, avx512;
     /// e.g. avx2,avx512): rwg runs once per level in every round (its
     /// RWG_SIMD set to it), and the last level is compared with the first.
-    /// Default: the level rwg runs (RWG_SIMD, else the CPU's widest).
+    /// Default: the level rwg runs (RWG_SIMD, else AVX2 where the CPU has it).
     #[arg(long, value_name = "LEVELS", value_delimiter = ',')]
     simd: Vec<String>,
     /// Print one JSON object instead of a table.

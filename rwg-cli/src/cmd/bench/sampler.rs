@@ -59,7 +59,7 @@ struct SamplerRow {
     /// `rwg run`'s default for built-in envs) or `"per-lane"` (one instance
     /// per lane; `RWG_LOCKSTEP=0`, as for `rwg run`).
     path: &'static str,
-    /// The SIMD level (`RWG_SIMD`, else the CPU's widest) the policies'
+    /// The SIMD level (`RWG_SIMD`, else AVX2 where the CPU has it) the policies'
     /// forward pass and the lockstep envs' steps ran at: `"avx512"`,
     /// `"avx2"` or `"scalar"` (the results are the same at each).
     simd: &'static str,
