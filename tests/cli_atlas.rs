@@ -77,18 +77,6 @@ fn numbers(text: &str) -> Vec<&str> {
         .collect()
 }
 
-/// Whether `shown` is `value` rounded to the digits `shown` has.
-fn shows(shown: &str, value: f64) -> bool {
-    let (mantissa, exp) = match shown.split_once(['e', 'E']) {
-        Some((m, e)) => (m, e.parse::<i32>().unwrap()),
-        None => (shown, 0),
-    };
-    let decimals = mantissa.split_once('.').map_or(0, |(_, d)| d.len()) as i32;
-    let unit = 10f64.powi(exp - decimals);
-    let v: f64 = shown.parse().unwrap();
-    (v - value).abs() <= 0.5 * unit * (1.0 + 1e-9) + 1e-12
-}
-
 fn field(row: &BTreeMap<String, String>, key: &str) -> f64 {
     row[key]
         .parse()

@@ -2,8 +2,8 @@
 //! every Markdown page under `docs/`, and in every `rwg <command> --help`
 //! Examples section, runs in the order shown. Each page runs in a scratch
 //! folder of its own laid out as a reader's clone of the repository (the
-//! `examples/` folder, the peer scripts of `benches/peers/` and the plugin
-//! header), with `rwg` on PATH and the release artefacts the pages build
+//! `examples/` folder, the peer scripts of `benches/peers/`, the plugin
+//! header and the committed runs of `docs/paper-blocks/`), with `rwg` on PATH and the release artefacts the pages build
 //! under `target/release/`; the `--help` examples run after the README's, in
 //! its folder. Each must exit 0 with output of the expected shape. A command
 //! is read as a reader's shell would: a `# comment` dropped, `\` lines
@@ -22,7 +22,8 @@
 //! - Studies are reduced: every `rwg run` gets `--samples 32 --episodes 4`
 //!   (replacing a `--samples` it has; `examples/atlas.toml`, 45 cells mostly
 //!   stepped in Python, `--samples 4 --episodes 1`), `plugin-overhead.sh` runs with
-//!   `SAMPLES=32 EPISODES=2`, `rwg bench envs` with `--steps 20000`,
+//!   `SAMPLES=32 EPISODES=2`, `examples/paper-runtime.py` with `--samples 8
+//!   --repeats 1`, `rwg bench envs` with `--steps 20000`,
 //!   `rwg bench sampler` and `rwg bench gym` with `--samples 16 --episodes 2`
 //!   (and `--repeats 1`), `rwg bench plugin` with `--samples 16 --episodes 2
 //!   --rounds 1`, `rwg bench libm` with `--check 20000 --rounds 1` (and
@@ -295,6 +296,8 @@ fn prepare(dir: &Path) -> PathBuf {
     std::fs::create_dir_all(dir.join("rwg-env")).unwrap();
     copy("examples");
     copy("benches");
+    std::fs::create_dir_all(dir.join("docs")).unwrap();
+    copy("docs/paper-blocks");
     copy("rwg-env/include");
     // built by make in the repository, maybe: the reader's clone has none
     for f in ["libchain.so", "libchain.dylib"] {
@@ -419,6 +422,12 @@ fn plan(e: &Example) -> Plan {
     }
     if c.contains("plugin-overhead.sh") {
         return Plan::Run(format!("SAMPLES=32 EPISODES=2 {c}"));
+    }
+    if c.contains("examples/paper-runtime.py") {
+        return Plan::Run(c.replace(
+            "examples/paper-runtime.py",
+            "examples/paper-runtime.py --samples 8 --repeats 1",
+        ));
     }
     if c.contains('\n') {
         // a here-document: a file or a script, as printed

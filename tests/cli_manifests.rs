@@ -1,11 +1,12 @@
 //! Every manifest shipped in `examples/` runs, and what `docs/paper.md` says of
-//! the three paper manifests holds, at a small scale.
+//! the paper manifests holds, at a small scale.
 //!
 //! `docs/paper.md` claims that network `n` of a cell has the same weights and
-//! reset seeds in `paper.toml`, `paper-exact.toml` and `paper-spread.toml`, so
-//! that the cells `paper-exact` shares with `paper` (every env whose time limit
-//! is at most 500 steps already) give byte-identical `scores.csv`, and that the
-//! first block of every `paper-spread` cell is that cell of `paper-exact`. The
+//! reset seeds in `paper.toml`, `paper-exact.toml` and the two
+//! `paper-blocks-*.toml`, so that the cells `paper-exact` shares with `paper`
+//! (every env whose time limit is at most 500 steps already) give
+//! byte-identical `scores.csv`, and that the first block of every
+//! `paper-blocks-*` cell is that cell of `paper-exact`. The
 //! manifests with Gymnasium envs need a Python and are run by the tests that
 //! own them (`cli_atlas.rs`, `cli_examples.rs` through the README).
 
@@ -83,7 +84,13 @@ fn every_example_manifest_without_python_runs() {
         }
         ran.push(name);
     }
-    for must in ["paper", "paper-exact", "paper-spread", "quick"] {
+    for must in [
+        "paper",
+        "paper-exact",
+        "paper-blocks-nobias",
+        "paper-blocks-bias",
+        "quick",
+    ] {
         assert!(
             ran.iter().any(|n| n == must),
             "examples/{must}.toml not run"
@@ -96,10 +103,9 @@ fn every_example_manifest_without_python_runs() {
 fn paper_manifests_share_networks_as_docs_paper_md_says() {
     let dir = temp_dir("paper-manifests");
     let ex = repo().join("examples");
-    let (paper, exact, spread) = (dir.join("paper"), dir.join("exact"), dir.join("spread"));
+    let (paper, exact) = (dir.join("paper"), dir.join("exact"));
     run_small(&ex.join("paper.toml"), &paper);
     run_small(&ex.join("paper-exact.toml"), &exact);
-    run_small(&ex.join("paper-spread.toml"), &spread);
 
     let doc = std::fs::read_to_string(repo().join("docs/paper.md")).unwrap();
     assert!(
@@ -133,13 +139,23 @@ fn paper_manifests_share_networks_as_docs_paper_md_says() {
             .any(|c| scores(&paper, c) != scores(&exact, c)),
         "paper-exact's cap changed no MountainCarContinuous-v0 cell"
     );
-    let spread_cells = cells(&spread);
-    assert!(!spread_cells.is_empty());
-    for cell in &spread_cells {
-        assert!(
-            scores(&spread, cell) == scores(&exact, cell),
-            "{cell}: paper-spread's first networks are not paper-exact's"
-        );
+    // The block manifests: each cell's first networks are paper-exact's.
+    let mut blocks_cells = Vec::new();
+    for name in ["paper-blocks-nobias", "paper-blocks-bias"] {
+        let out = dir.join(name);
+        run_small(&ex.join(format!("{name}.toml")), &out);
+        for cell in cells(&out) {
+            assert!(
+                scores(&out, &cell) == scores(&exact, &cell),
+                "{cell}: {name}'s first networks are not paper-exact's"
+            );
+            blocks_cells.push(cell);
+        }
     }
+    blocks_cells.sort();
+    assert_eq!(
+        blocks_cells, exact_cells,
+        "the block manifests cover paper-exact's cells"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -373,3 +373,17 @@ impl Drop for SmallDisk {
         let _ = std::process::Command::new("umount").arg(&self.0).status();
     }
 }
+
+/// Whether `shown` (a number as a page prints it: `-76.10`, `1.92e-5`,
+/// `2,858`) is `value` rounded to the digits `shown` has.
+pub fn shows(shown: &str, value: f64) -> bool {
+    let shown = shown.replace(',', "");
+    let (mantissa, exp) = match shown.split_once(['e', 'E']) {
+        Some((m, e)) => (m, e.parse::<i32>().unwrap()),
+        None => (&shown[..], 0),
+    };
+    let decimals = mantissa.split_once('.').map_or(0, |(_, d)| d.len()) as i32;
+    let unit = 10f64.powi(exp - decimals);
+    let v: f64 = shown.parse().unwrap();
+    (v - value).abs() <= 0.5 * unit * (1.0 + 1e-9) + 1e-12
+}
