@@ -126,6 +126,10 @@ fn published() -> Vec<(String, String, String, bool, String, f64)> {
         .collect()
 }
 
+/// A published value's place among blocks: (below, level, above, position
+/// u, statistic).
+type Placed = (usize, usize, usize, f64, String);
+
 /// Where `v` (printed to one decimal) lies among `blocks`: (below, level,
 /// above, position u).
 fn place(v: f64, blocks: &[f64]) -> (usize, usize, usize, f64) {
@@ -278,7 +282,7 @@ fn the_with_bias_table_and_the_fit_of_n_are_the_runs() {
         want.len(),
         "one row per published with-bias value"
     );
-    let mut fit: [Vec<(usize, usize, usize, f64, String)>; 2] = [vec![], vec![]];
+    let mut fit: [Vec<Placed>; 2] = [vec![], vec![]];
     for (row, (_, env, arch, _, stat, v)) in rows.iter().zip(want) {
         let what = format!("bias, {env} {arch} {stat}");
         assert_eq!((&row[0], &row[1]), (&env, &arch), "{what}: row order");
