@@ -1,10 +1,11 @@
 //! `rwg check` end to end: the reference plugin and the C example pass; the
 //! broken plugins fail, including one that segfaults, and rwg itself exits
-//! cleanly with status 1.
+//! cleanly with status 1; a manifest given by mistake says what to run.
 
 mod common;
 use common::*;
 use serde_json::Value;
+use std::path::PathBuf;
 
 fn check_json(args: &[&str]) -> (Option<i32>, Vec<Value>) {
     let mut all = vec!["check", "--json"];
@@ -237,4 +238,14 @@ fn a_hanging_plugin_is_killed_after_the_timeout() {
         msg.contains("did not finish within 2 s (hung?) and was killed"),
         "{msg}"
     );
+}
+
+#[test]
+fn a_manifest_given_to_check_says_what_to_run() {
+    let manifest = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../examples/quick.toml");
+    let m = manifest.to_str().unwrap();
+    let err = rwg_err(&["check", m]);
+    assert!(err.contains("is a manifest, not a plugin"), "{err}");
+    assert!(err.contains(&format!("`rwg run {m}`")), "{err}");
+    assert!(!err.contains("ELF"), "{err}");
 }

@@ -323,12 +323,22 @@ fn run_gym(args: &Args, id: &str) -> Result<()> {
 /// `rwg check ID` for a plugin env found on `RWG_PLUGIN_PATH`, as `rwg
 /// rollout ID` finds it: the library that provides it, checking that env
 /// only. A path that names no file and looks like a library is left as it
-/// is (the load check reports it).
+/// is (the load check reports it); a manifest given by mistake is refused
+/// with what to run instead.
 fn resolve_env_id(args: &mut Args) -> Result<()> {
     let library = |p: &Path| {
         p.extension()
             .is_some_and(|e| e == "so" || e == "dylib" || e == "dll")
     };
+    if args.plugin.extension().is_some_and(|e| e == "toml") && args.plugin.is_file() {
+        let m = args.plugin.display();
+        bail!(
+            "{m} is a manifest, not a plugin: `rwg run {m}` runs its study (add \
+             `--samples 8 --episodes 2` for a quick try); rwg check takes a plugin library \
+             file (.so, .dylib, .dll), the id of a plugin env on RWG_PLUGIN_PATH, or a \
+             gymnasium: env id"
+        );
+    }
     if args.plugin.exists() || library(&args.plugin) {
         return Ok(());
     }
