@@ -240,7 +240,11 @@ fn isolated_failure(manifest: &str, out: &Path, extra: &[&str], env: &str) -> St
         format!("error: cell {cell} (plugin {}", broken_plugin().display()),
         format!("plugin 'broken' env '{env}'"),
         "its isolated worker process".to_string(),
-        format!("resume with: rwg run {manifest} --out {}", out.display()),
+        format!(
+            "resume with: rwg run {} --out {} ",
+            out.join("manifest.toml").display(),
+            out.display()
+        ),
     ] {
         assert!(err.contains(&part), "{part:?} missing in:\n{err}");
     }

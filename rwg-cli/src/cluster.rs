@@ -216,9 +216,16 @@ pub fn sh_quote(s: &str) -> String {
     }
 }
 
-/// A path quoted for a POSIX shell.
+/// A path quoted for a POSIX shell, as a command's argument: a relative
+/// path starting with `-` is written `./-...`, so that no command parses it
+/// as an option.
 pub fn sh_path(p: &Path) -> String {
-    sh_quote(&p.to_string_lossy())
+    let s = p.to_string_lossy();
+    if s.starts_with('-') {
+        sh_quote(&format!("./{s}"))
+    } else {
+        sh_quote(&s)
+    }
 }
 
 #[cfg(test)]
@@ -232,6 +239,9 @@ mod tests {
         assert_eq!(sh_quote("it's"), r"'it'\''s'");
         assert_eq!(sh_quote(""), "''");
         assert_eq!(sh_quote("$HOME"), "'$HOME'");
+        assert_eq!(sh_path(Path::new("-run d")), "'./-run d'");
+        assert_eq!(sh_path(Path::new("-x/manifest.toml")), "./-x/manifest.toml");
+        assert_eq!(sh_path(Path::new("/tmp/-x")), "/tmp/-x");
     }
 
     #[test]

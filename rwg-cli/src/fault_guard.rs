@@ -87,8 +87,7 @@ impl Drop for Armed {
 /// Arms the handlers for a run (installed once per process) and starts the
 /// watchdog. `step_timeout_s` 0: no limit on a plugin call.
 pub fn arm(resume: String, resume_stopped: String, step_timeout_s: u64) -> Armed {
-    set_text(&RESUME, resume);
-    set_text(&RESUME_STOPPED, resume_stopped);
+    set_resume(resume, resume_stopped);
     STEP_TIMEOUT_S.store(step_timeout_s, SeqCst);
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
@@ -109,6 +108,14 @@ pub fn arm(resume: String, resume_stopped: String, step_timeout_s: u64) -> Armed
     });
     ARMED.store(true, SeqCst);
     Armed(())
+}
+
+/// Replaces what the handlers print after a fault (`resume`) and after an
+/// interruption that does not stop in time (`resume_stopped`): a run's
+/// resume command changes once its directory holds the study.
+pub fn set_resume(resume: String, resume_stopped: String) {
+    set_text(&RESUME, resume);
+    set_text(&RESUME_STOPPED, resume_stopped);
 }
 
 static INTERRUPT_AT: Mutex<Option<Instant>> = Mutex::new(None);

@@ -1,6 +1,7 @@
 //! `rwg run`: the RWG study described by a manifest, resumable and shardable.
 //! The study itself is `rwg_study::runner`; this is its arguments and output.
 
+use crate::cluster::sh_path;
 use crate::fault_guard;
 use crate::progress::{Lines, Silent};
 use anyhow::{Context, Result};
@@ -176,24 +177,10 @@ pub fn run(args: Args) -> Result<()> {
             out.display()
         );
     }
-    let resume = format!(
-        "rwg run {} --out {}{}",
-        args.manifest.display(),
-        out.display(),
-        shard_flag(args.shard)
-    );
-    let _armed = fault_guard::arm(
-        format!(
-            "Every committed block is kept in {}; once the plugin is fixed (or its env \
-             removed from the manifest), resume with: {resume}",
-            out.display(),
-        ),
-        format!(
-            "Every committed block is kept in {}; resume with: {resume}",
-            out.display(),
-        ),
-        args.step_timeout,
-    );
+    // Until the run directory holds the study, the command as given
+    // resumes it; from then on, the directory's own manifest.
+    let (resume, resume_stopped) = guard_texts(&out, &resume_command(&args, &out, false));
+    let _armed = fault_guard::arm(resume, resume_stopped, args.step_timeout);
     rwg_study::isolate::set_settings(rwg_study::isolate::IsolateSettings {
         timeout: (args.step_timeout > 0).then(|| std::time::Duration::from_secs(args.step_timeout)),
         ..Default::default()
@@ -218,6 +205,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut progress = WithChecks {
         display,
         checks: vec![],
+        started: Some(guard_texts(&out, &resume_command(&args, &out, true))),
     };
     let outcome = run_study(&mut m, &opts, &mut progress);
     // A failed run does not wait for the checks (a hanging plugin's would
@@ -247,11 +235,9 @@ pub fn run(args: Args) -> Result<()> {
         Ok(RunOutcome::Finished(report)) => report,
         Err(StudyError::Interrupted) => {
             crate::errln!(
-                "stopped; every finished block is saved in {}. Resume with:\n  rwg run {} --out {}{}",
+                "stopped; every finished block is saved in {}. Resume with:\n  {}",
                 out.display(),
-                args.manifest.display(),
-                out.display(),
-                shard_flag(args.shard)
+                resume_command(&args, &out, true)
             );
             fault_guard::disarm();
             std::process::exit(130)
@@ -260,10 +246,8 @@ pub fn run(args: Args) -> Result<()> {
             // (an isolated plugin's crash or hang, a Gymnasium worker's, an env error)
             crate::errln!("error: {}", crate::error_text(&e.into()));
             crate::errln!(
-                "Every committed block is kept; once the cause is fixed, resume with: rwg run {} --out {}{}",
-                args.manifest.display(),
-                out.display(),
-                shard_flag(args.shard)
+                "Every committed block is kept; once the cause is fixed, resume with: {}",
+                resume_command(&args, &out, true)
             );
             fault_guard::disarm();
             std::process::exit(1)
@@ -329,10 +313,74 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-fn shard_flag(s: Option<ShardMeta>) -> String {
-    s.map_or(String::new(), |s| {
-        format!(" --shard {}/{}", s.index, s.count)
-    })
+/// What the fault handlers print after a plugin's fault and after an
+/// interruption that does not stop in time, with `resume`, the command
+/// that resumes the run.
+fn guard_texts(out: &Path, resume: &str) -> (String, String) {
+    (
+        format!(
+            "Every committed block is kept in {}; once the plugin is fixed (or its env \
+             removed from the manifest), resume with: {resume}",
+            out.display(),
+        ),
+        format!(
+            "Every committed block is kept in {}; resume with: {resume}",
+            out.display(),
+        ),
+    )
+}
+
+/// The command that resumes this run, shell-quoted, working as printed.
+/// Once the run directory holds the study (`in_dir`), it runs the
+/// directory's `manifest.toml` (the study, every override applied: see
+/// [`crate::cmd::status::finish_command`]) with the options that are not
+/// part of the study; before, it is the command as given.
+fn resume_command(args: &Args, out: &Path, in_dir: bool) -> String {
+    let mut cmd = if in_dir {
+        crate::cmd::status::finish_command(out, args.shard)
+    } else {
+        format!("rwg run {} --out {}", sh_path(&args.manifest), sh_path(out))
+    };
+    let mut opt = |o: String| {
+        cmd.push(' ');
+        cmd.push_str(&o);
+    };
+    if !in_dir {
+        let study = [
+            ("samples", args.samples),
+            ("episodes", args.episodes.map(u64::from)),
+            ("seed", args.seed),
+        ];
+        for (name, v) in study {
+            if let Some(v) = v {
+                opt(format!("--{name} {v}"));
+            }
+        }
+        if let Some(s) = args.shard {
+            opt(format!("--shard {}/{}", s.index, s.count));
+        }
+        if args.force_new {
+            opt("--force-new".into());
+        }
+    }
+    if let Some(t) = args.threads {
+        opt(format!("--threads {t}"));
+    }
+    if args.step_timeout != fault_guard::DEFAULT_STEP_TIMEOUT_S {
+        opt(format!("--step-timeout {}", args.step_timeout));
+    }
+    let switches = [
+        ("--isolate", args.isolate),
+        ("--no-report", args.no_report),
+        ("--quiet", args.quiet),
+        ("--timing", args.timing),
+    ];
+    for (flag, given) in switches {
+        if given {
+            opt(flag.into());
+        }
+    }
+    cmd
 }
 
 /// Starts the contract checks of the study's plugin envs when the cells
@@ -342,6 +390,9 @@ struct WithChecks<'a> {
     /// `rwg check`'s determinism and thread-safety checks, one per plugin
     /// env, each giving the warnings to print.
     checks: Vec<std::thread::JoinHandle<Vec<String>>>,
+    /// What the fault handlers print once the run directory holds the
+    /// study (see [`resume_command`]), set when the run starts.
+    started: Option<(String, String)>,
 }
 
 impl Progress for WithChecks<'_> {
@@ -368,6 +419,10 @@ impl Progress for WithChecks<'_> {
     }
 
     fn start(&mut self, networks: u64) {
+        // The run directory holds the study (its manifest.toml is written).
+        if let Some((resume, resume_stopped)) = self.started.take() {
+            fault_guard::set_resume(resume, resume_stopped);
+        }
         self.display.start(networks);
     }
 

@@ -14,7 +14,7 @@ use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::rundir::status::{cell_dirs, progress, CellProgress, Totals};
 use rwg_study::rundir::study::{edited_message, manifest_edits};
 use rwg_study::rundir::{MANIFEST, RUN_JSON};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `rwg status`.
 #[derive(clap::Args)]
@@ -109,15 +109,7 @@ pub fn run(args: Args) -> Result<()> {
     print_cells(&cells, shard.is_some());
     let ended = meta.as_ref().is_some_and(|m| m.end_time.is_some());
     print_totals(&t, if shard.is_some() { "shard" } else { "run" }, ended);
-    let finish = format!(
-        "rwg run {} --out {}{}",
-        sh_path(&manifest_path),
-        sh_path(dir),
-        shard.map_or(String::new(), |s| format!(
-            " --shard {}/{}",
-            s.index, s.count
-        ))
-    );
+    let finish = finish_command(dir, shard);
     if !t.complete() || !ended {
         crate::outln!("Finish it with:\n  {finish}");
     } else if shard.is_some() {
@@ -131,6 +123,22 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// The command that finishes the run (or shard) in `dir` once the directory
+/// holds its study: `rwg run DIR/manifest.toml --out DIR [--shard K/N]`,
+/// shell-quoted. The directory's `manifest.toml` is the study with every
+/// override applied, so no override needs repeating.
+pub(crate) fn finish_command(dir: &Path, shard: Option<ShardMeta>) -> String {
+    format!(
+        "rwg run {} --out {}{}",
+        sh_path(&dir.join(MANIFEST)),
+        sh_path(dir),
+        shard.map_or(String::new(), |s| format!(
+            " --shard {}/{}",
+            s.index, s.count
+        ))
+    )
 }
 
 fn print_cells(cells: &[CellProgress], shard: bool) {
