@@ -88,3 +88,13 @@ fn docs_python_md_examples_run_as_printed() {
 fn dict_manifests_are_written_as_toml() {
     pytest("python_toml", "test_toml.py");
 }
+
+#[test]
+fn every_bad_argument_is_an_argument_error_and_odd_good_ones_work() {
+    pytest("python_arguments", "test_arguments.py");
+}
+
+#[test]
+fn run_stops_on_any_sigint_prints_a_working_resume_command_and_never_blocks() {
+    pytest("python_interrupts", "test_interrupts.py");
+}

@@ -14,6 +14,7 @@ from ._binary import find_rwg_bin
 from ._rundir import Run, load
 from ._runner import run
 from .errors import (
+    ArgumentError,
     NotARunError,
     RunDamagedError,
     RunError,
@@ -28,6 +29,7 @@ __all__ = [
     "Run",
     "find_rwg_bin",
     "RunError",
+    "ArgumentError",
     "NotARunError",
     "RunInProgressError",
     "RunDamagedError",

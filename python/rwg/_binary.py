@@ -29,9 +29,15 @@ def find_rwg_bin() -> str:
     env = os.environ.get(BIN_VAR)
     if env:
         if not os.path.isfile(env):
+            why = "a directory" if os.path.isdir(env) else "no such file"
             raise RwgNotFoundError(
-                f"{BIN_VAR}={env}: no such file; point {BIN_VAR} at an rwg binary "
+                f"{BIN_VAR}={env}: {why}; point {BIN_VAR} at an rwg binary "
                 "(e.g. target/release/rwg) or unset it"
+            )
+        if not os.access(env, os.X_OK):
+            raise RwgNotFoundError(
+                f"{BIN_VAR}={env}: not an executable file (no permission to run it); point "
+                f"{BIN_VAR} at an rwg binary (e.g. target/release/rwg) or unset it"
             )
         return env
     exe = "rwg" + (sysconfig.get_config_var("EXE") or "")
@@ -43,7 +49,7 @@ def find_rwg_bin() -> str:
     pkg_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     candidates.append(os.path.join(pkg_root, "bin", exe))
     for c in candidates:
-        if os.path.isfile(c):
+        if os.path.isfile(c) and os.access(c, os.X_OK):
             return c
     on_path = shutil.which(exe)
     if on_path:
@@ -53,4 +59,14 @@ def find_rwg_bin() -> str:
         + ", ".join(candidates)
         + f", nor on PATH; install the rwg wheel (pip install rwg-*.whl, or pip install . "
         f"in a clone), or set {BIN_VAR} to the binary"
+    )
+
+
+def start_error(binary: str, error: OSError) -> RwgNotFoundError:
+    """The error of an ``rwg`` binary that the system cannot start (not a
+    program for this machine, a broken interpreter line, ...)."""
+    via = f" (from {BIN_VAR})" if os.environ.get(BIN_VAR) == binary else ""
+    return RwgNotFoundError(
+        f"cannot start {binary}{via}: {error.strerror or error}; it is not an rwg binary this "
+        f"machine runs: reinstall the rwg wheel, or point {BIN_VAR} at target/release/rwg"
     )

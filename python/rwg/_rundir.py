@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import shlex
 import subprocess
 import sys
 import warnings
@@ -13,8 +14,8 @@ from typing import Any, Dict, List
 import numpy as np
 import pandas as pd
 
-from . import _verify
-from ._binary import find_rwg_bin
+from . import _args, _toml, _verify
+from ._binary import find_rwg_bin, start_error
 from .errors import (
     NotARunError,
     RunDamagedError,
@@ -63,7 +64,7 @@ class Run:
     """A finished rwg run directory (see ``rwg.load``).
 
     Attributes:
-        path: the run directory.
+        path: the run directory, made absolute when loaded.
         meta: ``run.json`` as a dict (version, seed, samples, episodes,
             weights, threads, times, env steps, ``cells``).
         cells: the cells of ``run.json``, one dict each (``dir``, ``env``,
@@ -74,13 +75,17 @@ class Run:
             by ``rwg stats`` when the run was made with ``--no-report``).
     """
 
-    def __init__(self, run_dir: "str | os.PathLike[str]", verify: bool = True):
-        self.path = os.fspath(run_dir)
+    def __init__(self, run_dir: "str | bytes | os.PathLike[str]", verify: bool = True):
+        where = "rwg.load"
+        # Absolute: the run read later is this one, whatever os.chdir does.
+        self.path = os.path.abspath(_args.path(run_dir, "run_dir=", where))
+        verify = _args.flag(verify, "verify", where)
         path = self.path
         run_json = os.path.join(path, "run.json")
         if not os.path.isdir(path):
+            what = "a file, not a run directory" if os.path.exists(path) else "no such directory"
             raise NotARunError(
-                f"{path}: no such directory; give the run directory rwg run wrote "
+                f"{path}: {what}; give the run directory rwg run wrote "
                 "(its --out, e.g. runs/quick)"
             )
         if not os.path.isfile(run_json):
@@ -125,7 +130,7 @@ class Run:
         total = self._cells_total()
         done = len(self.cells)
         if done < total or self.meta.get("end_time") is None:
-            resume = f"`rwg run {os.path.join(path, 'manifest.toml')} --out {path}`"
+            resume = f"`rwg run {shlex.quote(os.path.join(path, 'manifest.toml'))} --out {shlex.quote(path)}`"
             state = (
                 f"{done} of {total} cells finished"
                 if done < total
@@ -140,8 +145,29 @@ class Run:
         self.stats: pd.DataFrame = self._read_stats()
 
     def _cells_total(self) -> int:
+        """The number of cells of the study in ``manifest.toml`` (envs x
+        architectures x bias settings); a manifest.toml whose lists are not
+        lists (edited after rwg wrote it) is a damaged run."""
         m = self.manifest
-        return len(m.get("envs", [])) * len(m.get("architectures", [])) * len(m.get("bias", [False]))
+        counts = []
+        for key, default, what in [
+            ("envs", [], "a list of [[envs]] tables"),
+            ("architectures", [], "a list of [[architectures]] tables"),
+            ("bias", [False], "a list of true/false"),
+        ]:
+            value = m.get(key, default)
+            ok = isinstance(value, list) and (
+                key != "bias" or all(isinstance(b, bool) for b in value)
+            )
+            if not ok:
+                mp = os.path.join(self.path, "manifest.toml")
+                msg = (
+                    f"{mp}: {key} is {_toml.value_text(value)}, not {what} (the file was changed "
+                    "after rwg wrote it; run.json's study holds the original)"
+                )
+                raise RunDamagedError(msg, [msg])
+            counts.append(len(value))
+        return counts[0] * counts[1] * counts[2]
 
     def _verify_all(self) -> None:
         problems: List[str] = []
@@ -182,11 +208,15 @@ class Run:
                 f"{stats_csv}: missing (the run was made with --no-report), and rwg cannot be "
                 f"found to compute it: {e}. Run `rwg stats {self.path}` to write it."
             ) from e
-        res = subprocess.run(
-            [rwg, "stats", self.path, "--format", "csv", "--no-write"],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-        )
+        try:
+            res = subprocess.run(
+                [rwg, "stats", self.path, "--format", "csv", "--no-write"],
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+            )
+        except OSError as e:
+            raise start_error(rwg, e) from e
         if res.returncode != 0:
             raise RunError(
                 f"{stats_csv}: missing (the run was made with --no-report), and "
@@ -197,9 +227,15 @@ class Run:
 
     def cell(self, env: str, arch: str, bias: bool = False) -> Dict[str, Any]:
         """The ``run.json`` entry of the cell (env, architecture, bias); a
-        ``KeyError`` lists the run's cells when there is none."""
+        ``KeyError`` lists the run's cells when there is none. ``bias`` is
+        ``True`` or ``False`` (a numpy bool too); any other value raises
+        :class:`ArgumentError`."""
+        where = "Run.cell"
+        env = _args.text(env, "env", where, "the env's id as in the manifest")
+        arch = _args.text(arch, "arch", where, "the architecture's name as in the manifest")
+        bias = _args.flag(bias, "bias", where)
         for c in self.cells:
-            if c["env"] == env and c["arch"] == arch and bool(c["bias"]) == bool(bias):
+            if c["env"] == env and c["arch"] == arch and bool(c["bias"]) == bias:
                 return c
         have = ", ".join(f"({c['env']!r}, {c['arch']!r}, bias={c['bias']})" for c in self.cells)
         raise KeyError(f"{self.path}: no cell ({env!r}, {arch!r}, bias={bias}); the run has {have}")
@@ -230,7 +266,8 @@ class Run:
     def scores(self, env: str, arch: str, bias: bool = False) -> np.ndarray:
         """The cell's episode scores (``scores.csv``) as a float64 array of
         shape (networks, episodes): row ``n`` holds network ``n``'s scores in
-        episode order."""
+        episode order. The array is the caller's own: writeable, new on
+        every call."""
         c = self.cell(env, arch, bias)
         path, data = self._cell_file(c, "scores.csv")
         df = _read_csv(data, path, SCORES_HEADER, {"sample": np.int64, "episode": np.int64, "score": np.float64, "steps": np.int64})
@@ -246,7 +283,9 @@ class Run:
                 "run.json records for the cell"
             )
             raise RunDamagedError(msg, [msg])
-        return df["score"].to_numpy(dtype=np.float64).reshape(n, e)
+        # copy=True: a writeable array whatever pandas version (pandas 3
+        # hands out read-only views of its columns).
+        return df["score"].to_numpy(dtype=np.float64, copy=True).reshape(n, e)
 
     def samples(self, env: str, arch: str, bias: bool = False) -> pd.DataFrame:
         """The cell's per-network statistics (``samples.csv``): a DataFrame

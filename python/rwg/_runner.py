@@ -11,10 +11,10 @@ import tempfile
 import threading
 from typing import IO, Any, List, Mapping, Optional, Union
 
-from . import _toml
-from ._binary import find_rwg_bin
+from . import _args, _toml
+from ._binary import find_rwg_bin, start_error
 from ._rundir import Run, load, tomllib
-from .errors import RwgFailedError
+from .errors import ArgumentError, RwgFailedError
 
 #: The overrides ``run`` takes, and the ``rwg run`` flag each becomes
 #: (``True`` for the flags without a value).
@@ -59,62 +59,71 @@ def run(
     A directory holding the unfinished study is resumed. ``gymnasium:`` envs
     run in this interpreter (``RWG_PYTHON`` is set to ``sys.executable``
     unless it is set already; a manifest's ``python`` wins over both).
-    Ctrl-C (SIGINT) stops rwg as in a shell: it finishes the blocks in flight,
-    keeps every committed block, and ``KeyboardInterrupt`` is raised once it
-    has exited; calling ``run`` again resumes. A failure raises
-    :class:`RwgFailedError` with rwg's message.
+    Ctrl-C (SIGINT, raised in any thread) stops rwg as in a shell: it
+    finishes the blocks in flight, keeps every committed block, and
+    ``KeyboardInterrupt`` is raised once it has exited; calling ``run`` again
+    resumes. An interrupt that comes after rwg finished returns the finished
+    run. A failure raises :class:`RwgFailedError` with rwg's message; a bad
+    argument :class:`ArgumentError` before anything runs. Paths are ``str``,
+    ``bytes`` or ``os.PathLike``; the value options take whole numbers
+    (numpy integers too).
     """
+    where = "rwg.run"
     flags = _flags(overrides)
+    if out is not None:
+        out = _args.path(out, "out=", where)
+    if not isinstance(manifest, Mapping):
+        manifest = _args.path(
+            manifest, "manifest=", where, "the path of a TOML manifest or a dict"
+        )
     rwg = find_rwg_bin()
     with tempfile.TemporaryDirectory(prefix="rwg-manifest-") as tmp:
         manifest_text: Optional[str] = None
         if isinstance(manifest, Mapping):
             doc = _absolute_paths(manifest)
+            if doc.get("out") is not None:
+                doc["out"] = _args.path(doc["out"], "the dict's 'out' key", where)
             if out is None:
-                if not isinstance(doc.get("out"), str):
-                    raise ValueError(
+                if doc.get("out") is None:
+                    raise ArgumentError(
                         "rwg.run: a manifest given as a dict needs a run directory: "
                         "pass out=... or give the dict an 'out' key"
                     )
                 out = doc["out"]
             manifest_text = _toml.dumps(doc)
             # named after the run directory, as rwg's messages name the file
-            name = os.path.basename(os.path.normpath(os.fspath(out))) or "study"
+            name = os.path.basename(os.path.normpath(out)) or "study"
             path = os.path.join(tmp, name + ".toml")
             with open(path, "w", encoding="utf-8") as f:
                 f.write(manifest_text)
         else:
-            path = os.fspath(manifest)
+            path = manifest
             if out is None:
                 out = _default_out(path)
-        out = os.fspath(out)
-        cmd = [rwg, "run", path, "--out", out] + flags
+        cmd = [rwg, "run", _args.command_path(path), "--out", _args.command_path(out)] + flags
         _run_child(cmd, manifest_text)
     return load(out)
 
 
 def _flags(overrides: Mapping[str, Any]) -> List[str]:
     flags: List[str] = []
+    where = "rwg.run"
     for key, value in overrides.items():
         if key in VALUE_FLAGS:
             if value is None:
                 continue
-            if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-                raise TypeError(f"rwg.run: {key}= takes a number, not {value!r}")
-            flags += [VALUE_FLAGS[key], str(value)]
+            flags += [VALUE_FLAGS[key], str(_args.whole(value, key, where))]
         elif key in SWITCHES:
-            if not isinstance(value, bool):
-                raise TypeError(f"rwg.run: {key}= takes True or False, not {value!r}")
-            if value:
+            if _args.flag(value, key, where):
                 flags.append(SWITCHES[key])
         elif key == "shard":
-            raise TypeError(
+            raise ArgumentError(
                 "rwg.run: shards are not run from Python (the result is not a whole run); run "
                 "`rwg run MANIFEST --shard K/N --out DIR` per shard, `rwg merge`, then rwg.load"
             )
         else:
             known = ", ".join(sorted(list(VALUE_FLAGS) + list(SWITCHES)))
-            raise TypeError(f"rwg.run: unknown option {key}=; the options are out, {known}")
+            raise ArgumentError(f"rwg.run: unknown option {key}=; the options are out, {known}")
     return flags
 
 
@@ -161,15 +170,25 @@ def _forward(src: IO[bytes], dst_name: str, keep: Optional[List[str]]) -> None:
     ``keep``, also gathers its lines there."""
     for raw in iter(src.readline, b""):
         text = raw.decode("utf-8", "replace")
-        dst = getattr(sys, dst_name)
-        try:
-            dst.write(text)
-            dst.flush()
-        except (OSError, ValueError):
-            pass
+        _write_to(dst_name, text)
         if keep is not None:
             keep.append(text.rstrip("\r\n"))
     src.close()
+
+
+def _write_to(dst_name: str, text: str) -> None:
+    """Writes ``text`` to ``sys.stdout`` or ``sys.stderr`` as it is now. The
+    copying goes on whatever the stream does (``None`` under pythonw, a
+    closed file, a broken notebook stream): a copy that stopped would leave
+    rwg blocked on a full pipe."""
+    dst = getattr(sys, dst_name, None)
+    if dst is None:
+        return
+    try:
+        dst.write(text)
+        dst.flush()
+    except Exception:  # noqa: BLE001 - any stream's failure; the line is kept for errors
+        pass
 
 
 _ANSI = re.compile(rb"\x1b\[[0-9;?]*[A-Za-z]")
@@ -249,7 +268,7 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
             fcntl.ioctl(stderr, termios.TIOCSWINSZ, size)
         except OSError:
             pass
-        sys.stderr.flush()
+        _flush_stderr()
     try:
         proc = subprocess.Popen(
             cmd,
@@ -259,6 +278,10 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
             env=env,
             start_new_session=True,
         )
+    except OSError as e:
+        if master is not None:
+            os.close(master)
+        raise start_error(cmd[0], e) from e
     except BaseException:
         if master is not None:
             os.close(master)
@@ -274,22 +297,18 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
     ]
     for t in readers:
         t.start()
-    interrupted = False
-    while True:
-        try:
-            proc.wait()
-            break
-        except KeyboardInterrupt:
-            interrupted = True
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
+    interrupted = _wait(proc)
     for t in readers:
         t.join()
-    if interrupted:
+    if interrupted and proc.returncode == 0:
+        # Too late to stop: the study finished, and its result is returned.
+        _write_to("stderr", "rwg.run: interrupted after rwg finished the study; its result is kept\n")
+    elif interrupted:
         if manifest_text is not None:
-            sys.stderr.write(
+            _write_to(
+                "stderr",
                 "rwg.run: every committed block is kept; to resume, call rwg.run again with the "
-                "same manifest and out\n"
+                "same manifest and out\n",
             )
         raise KeyboardInterrupt
     if proc.returncode != 0:
@@ -303,3 +322,32 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
         raise RwgFailedError(message, proc.returncode, stderr, cmd, manifest_text)
 
 
+#: How often the wait for rwg lets Python's signal handlers run (seconds).
+_POLL_S = 0.1
+
+
+def _wait(proc: "subprocess.Popen[bytes]") -> bool:
+    """Waits for rwg to exit; returns whether a ``KeyboardInterrupt`` came
+    meanwhile. Each is passed on to rwg as SIGINT, as a shell does: the
+    first stops it after the blocks in flight, a second at once. The wait is in short steps, so that a SIGINT delivered to another
+    thread (``signal.raise_signal`` from a timer, as job runners do) is seen
+    within one: Python runs its handlers in the main thread only, between
+    steps, never during a blocking ``waitpid``."""
+    interrupted = False
+    while True:
+        try:
+            proc.wait(timeout=_POLL_S)
+            return interrupted
+        except subprocess.TimeoutExpired:
+            continue
+        except KeyboardInterrupt:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+            interrupted = True
+
+
+def _flush_stderr() -> None:
+    try:
+        sys.stderr.flush()
+    except Exception:  # noqa: BLE001 - no usable stderr: nothing to flush
+        pass

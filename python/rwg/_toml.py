@@ -14,13 +14,15 @@ import os
 import re
 from typing import Any, List, Mapping
 
+from .errors import ArgumentError
+
 _BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
 
 
 def dumps(doc: Mapping[str, Any]) -> str:
     """``doc`` as TOML text (which ``tomllib.loads`` reads back as ``doc``)."""
     if not isinstance(doc, Mapping):
-        raise TypeError(f"a manifest must be a dict, not {type(doc).__name__}")
+        raise ArgumentError(f"a manifest must be a dict, not {type(doc).__name__}")
     lines: List[str] = []
     _table(doc, [], lines)
     return "\n".join(lines).lstrip("\n") + "\n"
@@ -28,7 +30,7 @@ def dumps(doc: Mapping[str, Any]) -> str:
 
 def _key(k: Any, path: List[str]) -> str:
     if not isinstance(k, str):
-        raise TypeError(f"{_dotted(path)}: keys must be strings, not {k!r}")
+        raise ArgumentError(f"{_dotted(path)}: keys must be strings, not {k!r}")
     return k if _BARE_KEY.match(k) else _string(k)
 
 
@@ -85,7 +87,7 @@ def _value(v: Any, path: List[str]) -> str:
         return "{ " + items + " }" if items else "{}"
     if isinstance(v, (list, tuple)):
         return "[" + ", ".join(_value(x, path) for x in v) + "]"
-    raise TypeError(
+    raise ArgumentError(
         f"manifest key {_dotted(path)}: cannot write a {type(v).__name__} ({v!r}) as TOML; "
         "use a string, number, boolean, list or dict"
     )
@@ -104,3 +106,12 @@ def _string(s: str) -> str:
         else:
             out.append(c)
     return '"' + "".join(out) + '"'
+
+
+def value_text(v: Any) -> str:
+    """``v`` as a TOML value, for messages (its ``repr`` if TOML cannot
+    write it)."""
+    try:
+        return _value(v, [])
+    except ArgumentError:
+        return repr(v)

@@ -10,6 +10,12 @@ class RunError(Exception):
     read, or an ``rwg`` command that failed."""
 
 
+class ArgumentError(RunError, TypeError, ValueError):
+    """An argument of the package's functions has the wrong type or value
+    (the message names the argument and what it takes). Raised before
+    anything runs or is read; also a ``TypeError`` and a ``ValueError``."""
+
+
 class NotARunError(RunError):
     """The path is not an rwg run directory (no ``run.json``), or it is one shard
     of a study rather than a whole run."""

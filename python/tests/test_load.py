@@ -137,7 +137,7 @@ def test_directories_that_are_not_runs_are_refused(tmp_path, small_run):
         rwg.load(tmp_path)
     with pytest.raises(rwg.NotARunError, match="no such directory"):
         rwg.load(tmp_path / "nothing")
-    with pytest.raises(rwg.NotARunError, match="no such directory"):
+    with pytest.raises(rwg.NotARunError, match="run.json: a file, not a run directory"):
         rwg.load(small_run / "run.json")
     # one shard of a study
     rwg_cli("run", small_run / "manifest.toml", "--shard", "0/2", "--out", tmp_path / "s0", "-q")

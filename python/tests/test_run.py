@@ -34,7 +34,7 @@ STUDY = {
 def test_a_dict_manifest_with_overrides_gives_the_cli_s_bytes(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     run = rwg.run(STUDY, out="api", samples=40, episodes=2, seed=9, threads=1, quiet=True)
-    assert isinstance(run, rwg.Run) and run.path == "api"
+    assert isinstance(run, rwg.Run) and run.path == str(tmp_path / "api")
     assert (run.meta["samples"], run.meta["episodes"], run.meta["seed"]) == (40, 2, 9)
     assert run.manifest["weights"] == {"distribution": "uniform", "scale": 0.5}
     assert len(run.cells) == 8 and len(run.stats) == 8
@@ -61,7 +61,7 @@ def test_a_manifest_file_runs_into_its_out_with_no_report(tmp_path, monkeypatch,
     monkeypatch.chdir(tmp_path)
     (tmp_path / "small.toml").write_text('out = "runs/from-file"\n' + SMALL)
     run = rwg.run("small.toml", samples=32, no_report=True)
-    assert run.path == "runs/from-file"
+    assert run.path == str(tmp_path / "runs/from-file")
     assert not (tmp_path / "runs/from-file/stats.csv").exists()
     assert len(run.stats) == 8 and (run.stats["samples"] == 32).all()
     # rwg's summary reached sys.stdout, its progress sys.stderr
@@ -70,7 +70,7 @@ def test_a_manifest_file_runs_into_its_out_with_no_report(tmp_path, monkeypatch,
     # without `out` anywhere: runs/NAME, as rwg picks
     (tmp_path / "plain.toml").write_text(SMALL)
     run = rwg.run(tmp_path / "plain.toml", samples=32, episodes=1, quiet=True)
-    assert run.path == os.path.join("runs", "plain") and run.meta["episodes"] == 1
+    assert run.path == str(tmp_path / "runs" / "plain") and run.meta["episodes"] == 1
 
 
 def test_options_are_checked_before_running(tmp_path):
