@@ -27,6 +27,17 @@ def path(value: Any, name: str, where: str, what: str = "the run directory's pat
     raise ArgumentError(f"{where}: {name} takes {what}, not {value!r}")
 
 
+def absolute(p: str, name: str, where: str) -> str:
+    """``p`` made absolute from the current directory."""
+    try:
+        return os.path.abspath(p)
+    except OSError as e:  # the current directory was deleted
+        raise ArgumentError(
+            f"{where}: {name} {p!r} is relative and the current directory cannot be read "
+            f"({e.strerror or e}); give an absolute path"
+        ) from e
+
+
 def flag(value: Any, name: str, where: str) -> bool:
     """``value`` as a bool: ``True``/``False`` or a numpy bool, nothing else."""
     if isinstance(value, (bool, np.bool_)):

@@ -9,7 +9,7 @@ import shlex
 import subprocess
 import sys
 import warnings
-from typing import Any, Dict, List
+from typing import Any, Dict, List, Optional
 
 import numpy as np
 import pandas as pd
@@ -47,7 +47,10 @@ def load(run_dir: "str | os.PathLike[str]", verify: bool = True) -> "Run":
     against its recorded SHA-256, as ``rwg verify`` does. Raises
     :class:`NotARunError` for a directory that is not a run (or is a shard),
     :class:`RunDamagedError` for files that do not match their checksums,
-    :class:`RunInProgressError` for a study not finished yet (``K of N cells``).
+    :class:`RunInProgressError` for a study not finished yet (``K of N cells``),
+    :class:`ArgumentError` for a ``run_dir`` that is not a path or a
+    ``verify`` that is not a bool. The path is made absolute; the returned
+    :class:`Run` reads the files as loaded (see :meth:`Run.scores`).
     """
     return Run(run_dir, verify=verify)
 
@@ -78,8 +81,31 @@ class Run:
     def __init__(self, run_dir: "str | bytes | os.PathLike[str]", verify: bool = True):
         where = "rwg.load"
         # Absolute: the run read later is this one, whatever os.chdir does.
-        self.path = os.path.abspath(_args.path(run_dir, "run_dir=", where))
+        self.path = _args.absolute(_args.path(run_dir, "run_dir=", where), "run_dir=", where)
         verify = _args.flag(verify, "verify", where)
+        self.meta: Dict[str, Any] = self._read_meta()
+        self.manifest: Dict[str, Any] = self._read_manifest()
+        self.cells: List[Dict[str, Any]] = self._read_cells()
+        self._verified = self.meta.get("format", 1) >= RUN_FORMAT
+        if not self._verified:
+            warnings.warn(
+                f"{self.path}: run format {self.meta.get('format', 1)}: written by an older rwg "
+                "without checksums, so nothing in it can be verified",
+                stacklevel=3,
+            )
+        elif verify:
+            self._verify_all()
+        self._check_finished(len(self.cells))
+        # The digests of the cells' files as loaded: what scores() and
+        # samples() read later must be these bytes (not a run rwg wrote
+        # there since).
+        self._sums: Dict[str, Optional[Dict[str, str]]] = (
+            {c["dir"]: self._cell_sums(c["dir"]) for c in self.cells} if self._verified else {}
+        )
+        self.stats: pd.DataFrame = self._read_stats()
+
+    def _read_meta(self) -> Dict[str, Any]:
+        """``run.json``, after checking that the directory is a whole run."""
         path = self.path
         run_json = os.path.join(path, "run.json")
         if not os.path.isdir(path):
@@ -89,46 +115,53 @@ class Run:
                 "(its --out, e.g. runs/quick)"
             )
         if not os.path.isfile(run_json):
+            if os.path.isfile(os.path.join(path, "manifest.toml")):
+                # rwg run writes run.json just after manifest.toml
+                self.meta, self.manifest = {}, self._read_manifest()
+                self._check_finished(0)
             raise NotARunError(
                 f"{path}: not an rwg run directory (no run.json in it); give the directory "
                 "rwg run wrote (its --out, e.g. runs/quick)"
             )
-        self.meta: Dict[str, Any] = _read_json(run_json)
-        if not isinstance(self.meta, dict) or not isinstance(self.meta.get("cells"), list):
+        meta = _read_json(run_json)
+        if not isinstance(meta, dict) or not isinstance(meta.get("cells"), list):
             raise NotARunError(f"{run_json}: not an rwg run.json (no list of cells in it)")
-        shard = self.meta.get("shard")
+        shard = meta.get("shard")
         if shard:
             raise NotARunError(
                 f"{path}: shard {shard.get('index')}/{shard.get('count')} of a study, not a whole "
                 "run; combine the shards with `rwg merge SHARD_DIR... --out DIR` and load DIR"
             )
-        manifest_path = os.path.join(path, "manifest.toml")
+        return meta
+
+    def _read_manifest(self) -> Dict[str, Any]:
+        manifest_path = os.path.join(self.path, "manifest.toml")
         try:
             with open(manifest_path, "rb") as f:
-                self.manifest: Dict[str, Any] = tomllib.load(f)
+                return tomllib.load(f)
         except (OSError, tomllib.TOMLDecodeError) as e:
             raise RunDamagedError(
                 f"{manifest_path}: cannot be read: {e}", [f"{manifest_path}: {e}"]
             ) from e
-        self.cells: List[Dict[str, Any]] = list(self.meta["cells"])
-        for c in self.cells:
+
+    def _read_cells(self) -> List[Dict[str, Any]]:
+        """``run.json``'s cells, each with a directory name that stays in the run."""
+        run_json = os.path.join(self.path, "run.json")
+        cells = list(self.meta["cells"])
+        for c in cells:
             d = c.get("dir") if isinstance(c, dict) else None
             if not isinstance(d, str) or d in ("", ".", "..") or "/" in d or "\\" in d:
                 raise RunDamagedError(
                     f"{run_json}: a cell's dir {d!r} is not a cell directory name",
                     [f"{run_json}: cell dir {d!r}"],
                 )
-        self._verified = self.meta.get("format", 1) >= RUN_FORMAT
-        if not self._verified:
-            warnings.warn(
-                f"{path}: run format {self.meta.get('format', 1)}: written by an older rwg "
-                "without checksums, so nothing in it can be verified",
-                stacklevel=3,
-            )
-        elif verify:
-            self._verify_all()
+        return cells
+
+    def _check_finished(self, done: int) -> None:
+        """Raises :class:`RunInProgressError` unless all the study's cells
+        are finished and the run recorded its end."""
         total = self._cells_total()
-        done = len(self.cells)
+        path = self.path
         if done < total or self.meta.get("end_time") is None:
             resume = f"`rwg run {shlex.quote(os.path.join(path, 'manifest.toml'))} --out {shlex.quote(path)}`"
             state = (
@@ -142,7 +175,14 @@ class Run:
                 done,
                 total,
             )
-        self.stats: pd.DataFrame = self._read_stats()
+
+    def _cell_sums(self, cell_dir: str) -> Optional[Dict[str, str]]:
+        """A finished cell's ``SHA256SUMS``; ``None`` where it cannot be read
+        (reading the cell's files then says why)."""
+        try:
+            return _verify.read_sums(os.path.join(self.path, "cells", cell_dir, _verify.SUMS), strict=True)
+        except _verify.SumsError:
+            return None
 
     def _cells_total(self) -> int:
         """The number of cells of the study in ``manifest.toml`` (envs x
@@ -241,33 +281,50 @@ class Run:
         raise KeyError(f"{self.path}: no cell ({env!r}, {arch!r}, bias={bias}); the run has {have}")
 
     def _cell_file(self, cell: Dict[str, Any], name: str) -> "tuple[str, bytes]":
+        """The bytes of a finished cell's file, checked against the digest
+        the cell's ``SHA256SUMS`` held when the run was loaded."""
         cdir = os.path.join(self.path, "cells", cell["dir"])
         path = os.path.join(cdir, name)
+        if not os.path.isdir(self.path):
+            raise NotARunError(
+                f"{self.path}: no longer exists (moved or deleted since it was loaded); "
+                "rwg.load the run where it is now"
+            )
         try:
             with open(path, "rb") as f:
                 data = f.read()
         except OSError as e:
             raise RunDamagedError(f"cannot read {path}: {e}", [f"{path}: {e}"]) from e
-        if self._verified:
-            try:
-                sums = _verify.read_sums(os.path.join(cdir, _verify.SUMS), strict=True)
-            except _verify.SumsError as e:
-                raise RunDamagedError(str(e), [str(e)]) from e
-            want = (sums or {}).get(name)
-            if want is None:
-                msg = f"{path}: not listed in {os.path.join(cdir, _verify.SUMS)}, so it cannot be verified"
-                raise RunDamagedError(msg, [msg])
-            got = _verify.sha256_hex(data)
-            if got != want:
-                msg = _verify.mismatch(path, want, got)
-                raise RunDamagedError(msg, [msg])
+        if not self._verified:
+            return path, data
+        sums = self._sums.get(cell["dir"])
+        try:
+            now = _verify.read_sums(os.path.join(cdir, _verify.SUMS), strict=True)
+        except _verify.SumsError as e:
+            raise RunDamagedError(str(e), [str(e)]) from e
+        if sums is not None and now is not None and now != sums:
+            raise RunError(
+                f"{cdir}: the cell's files changed since the run was loaded (rwg wrote "
+                "another run there, e.g. with --force-new); rwg.load it again to read the "
+                "run it holds now"
+            )
+        want = (sums if sums is not None else now or {}).get(name)
+        if want is None:
+            msg = f"{path}: not listed in {os.path.join(cdir, _verify.SUMS)}, so it cannot be verified"
+            raise RunDamagedError(msg, [msg])
+        got = _verify.sha256_hex(data)
+        if got != want:
+            msg = _verify.mismatch(path, want, got)
+            raise RunDamagedError(msg, [msg])
         return path, data
 
     def scores(self, env: str, arch: str, bias: bool = False) -> np.ndarray:
         """The cell's episode scores (``scores.csv``) as a float64 array of
         shape (networks, episodes): row ``n`` holds network ``n``'s scores in
         episode order. The array is the caller's own: writeable, new on
-        every call."""
+        every call. Raises :class:`RunError` if rwg wrote another run into
+        the directory since it was loaded, :class:`NotARunError` if the
+        directory was moved or deleted."""
         c = self.cell(env, arch, bias)
         path, data = self._cell_file(c, "scores.csv")
         df = _read_csv(data, path, SCORES_HEADER, {"sample": np.int64, "episode": np.int64, "score": np.float64, "steps": np.int64})

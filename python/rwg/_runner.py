@@ -81,7 +81,9 @@ def run(
         manifest_text: Optional[str] = None
         if isinstance(manifest, Mapping):
             doc = _absolute_paths(manifest)
-            if doc.get("out") is not None:
+            if doc.get("out") is None:
+                doc.pop("out", None)  # None: no out, as an absent key
+            else:
                 doc["out"] = _args.path(doc["out"], "the dict's 'out' key", where)
             if out is None:
                 if doc.get("out") is None:
@@ -297,9 +299,11 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
     ]
     for t in readers:
         t.start()
-    interrupted = _wait(proc)
+    interrupted, pending = _wait(proc)
     for t in readers:
         t.join()
+    if pending is not None:
+        raise pending
     if interrupted and proc.returncode == 0:
         # Too late to stop: the study finished, and its result is returned.
         _write_to("stderr", "rwg.run: interrupted after rwg finished the study; its result is kept\n")
@@ -326,24 +330,32 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
 _POLL_S = 0.1
 
 
-def _wait(proc: "subprocess.Popen[bytes]") -> bool:
+def _wait(proc: "subprocess.Popen[bytes]") -> "tuple[bool, Optional[BaseException]]":
     """Waits for rwg to exit; returns whether a ``KeyboardInterrupt`` came
-    meanwhile. Each is passed on to rwg as SIGINT, as a shell does: the
-    first stops it after the blocks in flight, a second at once. The wait is in short steps, so that a SIGINT delivered to another
-    thread (``signal.raise_signal`` from a timer, as job runners do) is seen
-    within one: Python runs its handlers in the main thread only, between
-    steps, never during a blocking ``waitpid``."""
+    meanwhile, and the first other exception that did (``SystemExit`` from
+    a SIGTERM handler, say), to raise once rwg has exited. Each is passed on
+    to rwg as SIGINT, as a shell does: the first stops it after the blocks
+    in flight, a second at once; rwg, in a session of its own, is never left
+    running behind an exception. The wait is in short steps, so that a
+    signal delivered to another thread (``signal.raise_signal`` from a
+    timer, as job runners do) is seen within one: Python runs its handlers
+    in the main thread only, between steps, never during a blocking
+    ``waitpid``."""
     interrupted = False
+    pending: Optional[BaseException] = None
     while True:
         try:
             proc.wait(timeout=_POLL_S)
-            return interrupted
+            return interrupted, pending
         except subprocess.TimeoutExpired:
             continue
-        except KeyboardInterrupt:
+        except BaseException as e:  # noqa: BLE001 - re-raised once rwg has exited
             if proc.poll() is None:
                 proc.send_signal(signal.SIGINT)
-            interrupted = True
+            if isinstance(e, KeyboardInterrupt):
+                interrupted = True
+            elif pending is None:
+                pending = e
 
 
 def _flush_stderr() -> None:

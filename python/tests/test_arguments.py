@@ -89,6 +89,8 @@ def test_numpy_integers_path_out_keys_and_bytes_paths_are_taken(tmp_path, monkey
     assert run.path == str(tmp_path / "from-key")
     assert (run.meta["samples"], run.meta["episodes"], run.meta["seed"]) == (16, 1, 3)
     assert rwg.load(b"from-key").meta["seed"] == 3
+    # an out key of None is no out key
+    assert rwg.run(dict(TINY, out=None), out="kw", quiet=True).path == str(tmp_path / "kw")
     Path("t.toml").write_text(SMALL)
     run = rwg.run(b"t.toml", out=b"t-out", samples=8, episodes=1, quiet=True, no_report=True)
     assert run.path == str(tmp_path / "t-out")

@@ -157,3 +157,25 @@ def test_without_stderr_or_stdout_rwg_never_blocks(tmp_path):
     )
     stdout, stderr = finish(proc, out, 120, "rwg.run blocked with sys.stderr = None")
     assert proc.returncode == 0 and "returned 25600" in stdout, (stdout, stderr)
+
+
+def test_another_exception_while_rwg_runs_stops_it_before_it_is_raised(tmp_path):
+    # A job runner's SIGTERM handler raising SystemExit: rwg (a session of
+    # its own) must not go on running behind the exiting Python.
+    out = tmp_path / "run"
+    proc = python(
+        f"""
+        import signal, sys, threading, rwg
+        signal.signal(signal.SIGTERM, lambda *a: sys.exit(3))
+        threading.Timer(1.0, signal.raise_signal, (signal.SIGTERM,)).start()
+        rwg.run({STUDY!r}, out={str(out)!r}, samples=400000, threads=1, quiet=True)
+        """
+    )
+    _, stderr = finish(proc, out, 60, "rwg.run still running 60 s after SystemExit")
+    assert proc.returncode == 3, stderr
+    assert "interrupted: finishing the blocks in flight" in stderr, stderr
+    pid = int(re.search(r"\d+", (out / "rwg.lock").read_text()).group(0))
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)
+    with pytest.raises(rwg.RunInProgressError):
+        rwg.load(out)

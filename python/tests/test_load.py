@@ -23,6 +23,17 @@ else:
     import tomli as tomllib
 
 
+SMALL_ONE_CELL = """\
+samples = 32
+episodes = 2
+[[architectures]]
+name = "0HL"
+hidden = []
+[[envs]]
+id = "CartPole-v1"
+"""
+
+
 def rows(path):
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
@@ -162,6 +173,15 @@ id = "Acrobot-v1"
 """
 
 
+def recorded_cells(out):
+    """How many cells run.json lists as finished (0 while it is unreadable)."""
+    try:
+        with open(out / "run.json") as f:
+            return len(json.load(f)["cells"])
+    except (OSError, ValueError, KeyError):
+        return 0
+
+
 def test_a_run_in_progress_is_refused_naming_k_of_n_cells(tmp_path):
     (tmp_path / "long.toml").write_text(LONG)
     out = tmp_path / "run"
@@ -176,7 +196,11 @@ def test_a_run_in_progress_is_refused_naming_k_of_n_cells(tmp_path):
     try:
         deadline = time.monotonic() + 300
         # CartPole's two cells are finished and Acrobot's first has committed blocks
-        while not (acrobot / "SHA256SUMS").is_file() or (acrobot / "SHA256SUMS").stat().st_size < 200:
+        while (
+            not (acrobot / "SHA256SUMS").is_file()
+            or (acrobot / "SHA256SUMS").stat().st_size < 200
+            or recorded_cells(out) < 2  # recorded by a thread of its own, maybe later
+        ):
             assert proc.poll() is None, "the study ended before it could be observed in progress"
             assert time.monotonic() < deadline, "no committed Acrobot block after 300 s"
             time.sleep(0.05)
@@ -199,3 +223,46 @@ def test_a_run_in_progress_is_refused_naming_k_of_n_cells(tmp_path):
     with pytest.raises(rwg.RunDamagedError, match=re.escape(f"{acrobot / committed}: checksum mismatch")):
         rwg.load(out)
     shutil.rmtree(tmp_path)
+
+
+def test_a_run_rewritten_after_load_is_never_read_as_the_loaded_one(tmp_path):
+    study = tmp_path / "s.toml"
+    study.write_text(SMALL_ONE_CELL)
+    rwg_cli("run", study, "--out", tmp_path / "run", "--seed", "1", "-q")
+    run = rwg.load(tmp_path / "run")
+    before = run.scores("CartPole-v1", "0HL")
+    rwg_cli("run", study, "--out", tmp_path / "run", "--seed", "2", "--force-new", "-q")
+    with pytest.raises(rwg.RunError, match=r"changed since the run was loaded.*rwg.load it again"):
+        run.scores("CartPole-v1", "0HL")
+    with pytest.raises(rwg.RunError, match=r"changed since the run was loaded"):
+        run.samples("CartPole-v1", "0HL")
+    again = rwg.load(tmp_path / "run")
+    assert again.meta["seed"] == 2 and not np.array_equal(again.scores("CartPole-v1", "0HL"), before)
+
+
+def test_a_run_moved_after_load_says_so(run_copy, tmp_path):
+    run = rwg.load(run_copy)
+    run_copy.rename(tmp_path / "elsewhere")
+    with pytest.raises(rwg.NotARunError, match=r"no longer exists \(moved or deleted since it was loaded\)"):
+        run.scores("CartPole-v0", "0HL")
+    assert rwg.load(tmp_path / "elsewhere").scores("CartPole-v0", "0HL").shape == (40, 3)
+
+
+def test_a_relative_path_from_a_deleted_directory_is_an_argument_error(tmp_path, monkeypatch, small_run):
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    gone.rmdir()
+    with pytest.raises(rwg.ArgumentError, match=r"run_dir= 'run' is relative and the current directory cannot be read"):
+        rwg.load("run")
+    assert len(rwg.load(small_run).cells) == 8
+
+
+def test_a_run_that_is_starting_is_in_progress_not_a_non_run(run_copy):
+    # What rwg run has written just before run.json: the run directory and its manifest.
+    for p in ["run.json", "stats.csv"]:
+        (run_copy / p).unlink()
+    shutil.rmtree(run_copy / "cells")
+    with pytest.raises(rwg.RunInProgressError, match=r"run in progress: 0 of 8 cells finished") as e:
+        rwg.load(run_copy)
+    assert (e.value.cells_done, e.value.cells_total) == (0, 8)
