@@ -68,7 +68,7 @@ def test_after_ctrl_c_the_printed_command_finishes_a_dict_run(tmp_path):
     proc = python(
         f"""
         import rwg
-        rwg.run({STUDY!r}, out={str(out)!r}, samples=2000, seed=11, threads=2)
+        rwg.run({STUDY!r}, out={str(out)!r}, samples=1000, seed=11, threads=2)
         """,
         RWG_COMMIT_LINGER=0,
     )
@@ -84,7 +84,7 @@ def test_after_ctrl_c_the_printed_command_finishes_a_dict_run(tmp_path):
     line = re.search(r"Resume with:\n  (.*)", stderr).group(1)
     res = shell_with_rwg(line, tmp_path)
     assert res.returncode == 0, (line, res.stderr)
-    ref = rwg.run(STUDY, out=tmp_path / "reference", samples=2000, seed=11, quiet=True)
+    ref = rwg.run(STUDY, out=tmp_path / "reference", samples=1000, seed=11, quiet=True)
     for c in ref.cells:
         for f in ["scores.csv", "samples.csv"]:
             a = (out / "cells" / c["dir"] / f).read_bytes()
@@ -129,7 +129,7 @@ def test_a_sigint_that_comes_after_the_study_finished_loses_nothing(tmp_path):
         f"""
         import signal, threading, rwg
         threading.Timer(0.5, signal.raise_signal, (signal.SIGINT,)).start()
-        run = rwg.run({STUDY!r}, out={str(out)!r}, samples=4000, threads=1, quiet=True)
+        run = rwg.run({STUDY!r}, out={str(out)!r}, samples=1000, threads=1, quiet=True)
         print("returned", len(run.cells), run.meta["samples"])
         """,
         RWG_BIN=wrapper,
@@ -137,7 +137,7 @@ def test_a_sigint_that_comes_after_the_study_finished_loses_nothing(tmp_path):
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 0, stderr
     assert "wrapper got SIGINT" in stderr, stderr
-    assert "returned 4 4000" in stdout, (stdout, stderr)
+    assert "returned 4 1000" in stdout, (stdout, stderr)
     assert "interrupted after rwg finished the study; its result is kept" in stderr, stderr
 
 
