@@ -11,13 +11,10 @@ use rwg_env::EnvError;
 use std::ops::Range;
 
 /// Draws the weights of the block's networks `samples`, network `k`'s at
-/// `out[k * nw..(k + 1) * nw]` (`out` resized to fit).
-pub(crate) fn draw_block_weights(
-    plan: &CellPlan,
-    samples: &Range<u64>,
-    nw: usize,
-    out: &mut Vec<f64>,
-) {
+/// `out[k * nw..(k + 1) * nw]` (`out` resized to fit): the draw every
+/// source uses (also the sources outside this crate that run networks
+/// their own way, such as rwg-jax's compiled calls).
+pub fn draw_block_weights(plan: &CellPlan, samples: &Range<u64>, nw: usize, out: &mut Vec<f64>) {
     let n = (samples.end - samples.start) as usize;
     out.resize(n * nw, 0.0);
     for (k, w) in out.chunks_exact_mut(nw.max(1)).take(n).enumerate() {

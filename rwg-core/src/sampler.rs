@@ -6,7 +6,8 @@
 //! over rayon ([`run_blocks`], [`run_cell`]). Nothing depends on
 //! scheduling, thread count or on which other cells a manifest contains.
 
-use crate::block::{draw_block_weights, record_failure, BlockRun, Lane};
+pub use crate::block::draw_block_weights;
+use crate::block::{record_failure, BlockRun, Lane};
 pub use crate::plan::{
     draw_weights, reset_seed, weight_rng, CellPlan, EpisodeResult, SampleError, WeightDist,
 };

@@ -5,6 +5,28 @@
 //! episode into one call over a chunk of networks. Only weights and reset
 //! seeds go to Python; only per-episode returns, lengths and fault bits come
 //! back.
+//!
+//! The worker program ([`WORKER_PY`]) ships inside rwg and is handed to
+//! `python -c`; it compiles `jit(vmap(networks, vmap(episodes, episode)))`
+//! once per cell at one shape (`networks_per_call` networks; a short chunk
+//! is padded), so a network's results are the same bits whatever the
+//! chunking of blocks, the threads, shards or a resume. The weights are
+//! rwg's draw ([`rwg_core::sampler::draw_block_weights`]); the episode's key
+//! is `PRNGKey(r)` of rwg's reset seed `r`.
+//!
+//! # Modules
+//!
+//! - [`protocol`]: the messages (hello, cell, chunk, ready, outcome).
+//! - `worker`: one worker process, its handshake, compiles and chunks.
+//! - [`chunks`]: blocks cut into chunks, outcomes put back into blocks in order.
+//! - `run`: the chunks handed to the workers, one in flight each.
+
+pub mod chunks;
+pub mod protocol;
+mod run;
+mod worker;
+
+use worker::JaxWorker;
 
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError};
 use rwg_env::EnvSpec;
@@ -38,6 +60,12 @@ pub const DEFAULT_NETWORKS_CPU: u32 = 256;
 /// Default networks per compiled call on a GPU or TPU device.
 pub const DEFAULT_NETWORKS_ACCELERATOR: u32 = 4096;
 
+/// The largest flat observation accepted (values).
+pub const MAX_OBS: usize = 4096;
+
+/// The environment variable naming the default Python interpreter.
+pub const PYTHON_VAR: &str = "RWG_PYTHON";
+
 /// Which library an env comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum JaxKind {
@@ -52,20 +80,26 @@ pub enum JaxKind {
 impl JaxKind {
     /// The id prefix (`gymnax:`).
     pub fn prefix(self) -> &'static str {
-        unimplemented!()
+        PREFIXES[self as usize]
     }
 
     /// The source's name in the worker protocol (`gymnax`, `brax`, `jax`).
     pub fn source(self) -> &'static str {
-        unimplemented!()
+        match self {
+            JaxKind::Gymnax => "gymnax",
+            JaxKind::Brax => "brax",
+            JaxKind::Custom => "jax",
+        }
     }
 }
 
 /// The kind and seed id of a JAX env id (`gymnax:CartPole-v1` ->
 /// `(Gymnax, "CartPole-v1")`), or `None` for any other id.
 pub fn jax_id(id: &str) -> Option<(JaxKind, &str)> {
-    let _ = id;
-    unimplemented!()
+    const KINDS: [JaxKind; 3] = [JaxKind::Gymnax, JaxKind::Brax, JaxKind::Custom];
+    KINDS
+        .into_iter()
+        .find_map(|k| id.strip_prefix(k.prefix()).map(|rest| (k, rest)))
 }
 
 /// The float type the policy and the env compute in.
@@ -84,13 +118,16 @@ impl Precision {
 
     /// `float32` or `float64`.
     pub fn name(self) -> &'static str {
-        unimplemented!()
+        Self::NAMES[self as usize]
     }
 
     /// The precision named `name` ([`Precision::NAMES`]).
     pub fn from_name(name: &str) -> Option<Precision> {
-        let _ = name;
-        unimplemented!()
+        match name {
+            "float32" => Some(Precision::F32),
+            "float64" => Some(Precision::F64),
+            _ => None,
+        }
     }
 }
 
@@ -125,31 +162,49 @@ impl JaxConfig {
     /// Python from [`default_python`], no kwargs, the env's own time limit,
     /// float32, the default device and call size, [`default_timeout`].
     pub fn new(kind: JaxKind, id: &str) -> Self {
-        let _ = (kind, id);
-        unimplemented!()
+        JaxConfig {
+            kind,
+            id: id.to_string(),
+            python: default_python(),
+            kwargs: Default::default(),
+            max_episode_steps: None,
+            precision: Precision::F32,
+            device: None,
+            networks_per_call: None,
+            timeout: default_timeout(),
+        }
     }
 
     /// The full rwg id (`gymnax:CartPole-v1`).
     pub fn rwg_id(&self) -> String {
-        unimplemented!()
+        format!("{}{}", self.kind.prefix(), self.id)
     }
 }
 
 /// `RWG_PYTHON` if set, else `python3` (as for `gymnasium:` envs).
 pub fn default_python() -> String {
-    unimplemented!()
+    rwg_env::vars::text(PYTHON_VAR)
+        .ok()
+        .flatten()
+        .unwrap_or_else(|| "python3".into())
 }
 
 /// [`TIMEOUT_VAR`] (seconds from 0.001 to [`MAX_TIMEOUT_S`]) if set, else
 /// [`DEFAULT_TIMEOUT_S`]; an error naming the variable for any other value.
 pub fn timeout_setting() -> Result<Duration, rwg_env::vars::VarError> {
-    unimplemented!()
+    rwg_env::vars::seconds(
+        TIMEOUT_VAR,
+        0.001,
+        MAX_TIMEOUT_S,
+        Duration::from_secs_f64(DEFAULT_TIMEOUT_S),
+        "how long a JAX worker may take to start, to compile a cell or to run one call",
+    )
 }
 
 /// [`timeout_setting`], or [`DEFAULT_TIMEOUT_S`] if that is an error (the
 /// `rwg` binary checks the variable before it runs a command).
 pub fn default_timeout() -> Duration {
-    unimplemented!()
+    timeout_setting().unwrap_or(Duration::from_secs_f64(DEFAULT_TIMEOUT_S))
 }
 
 /// The environment as the worker described it.
@@ -177,15 +232,21 @@ pub struct JaxInfo {
 #[derive(Debug, Error)]
 pub enum JaxError {
     /// The interpreter could not be started.
-    #[error("cannot run Python '{python}': {source}")]
+    #[error(
+        "cannot run Python '{python}': {source}; install Python 3 with JAX ({python} -m pip \
+         install jax, or \"jax[cuda12]\" for an NVIDIA GPU) and the env's package, or name the \
+         interpreter with `python = \"...\"` in the manifest or the {PYTHON_VAR} environment \
+         variable"
+    )]
     NoPython {
         /// The interpreter.
         python: String,
         /// Why it did not start.
         source: std::io::Error,
     },
-    /// The worker reported a fatal error.
-    #[error("{}", error.message)]
+    /// The worker reported a fatal error (`kind` says which: `import`,
+    /// `unknown-env`, `make`, `space`, `device`, `compile`, `oom`, `run`...).
+    #[error("{}", worker_error_text(.python, .error))]
     Worker {
         /// The interpreter.
         python: String,
@@ -193,24 +254,46 @@ pub enum JaxError {
         error: WorkerError,
     },
     /// The worker process ended.
-    #[error("the JAX worker {how}")]
+    #[error("the JAX worker {how} while {doing}{}", tail(.stderr))]
     Died {
-        /// How it ended.
+        /// How it ended ("was killed by signal 11 (SIGSEGV)").
         how: String,
+        /// What it was doing (`starting`, `compiling`, `running a chunk`).
+        doing: &'static str,
         /// The end of its stderr.
         stderr: String,
     },
     /// The worker did not answer in time.
-    #[error("the JAX worker did not answer within {secs} s")]
+    #[error("the JAX worker did not answer within {secs} s while {doing} and was killed; set \
+             {TIMEOUT_VAR} (seconds) to allow more{}", tail(.stderr))]
     Timeout {
         /// The limit.
         secs: f64,
-        /// The end of its stderr.
+        /// What it was doing (`starting`, `compiling`, `running a chunk`).
+        doing: &'static str,
+        /// The end of its stderr (with the traceback of where it hung).
         stderr: String,
     },
+    /// A worker started later describes the env otherwise than the first.
+    #[error(
+        "another JAX worker process of the env reports {0}; the workers of one env must \
+             agree (does the env depend on the process?)"
+    )]
+    OtherInfo(String),
     /// The worker said something unexpected.
     #[error("JAX worker protocol error: {0}")]
     Protocol(String),
+}
+
+use rwg_worker::stderr_tail_text as tail;
+
+fn worker_error_text(python: &str, e: &WorkerError) -> String {
+    let mut s = format!("{} (Python {python})", e.message);
+    if !e.traceback.trim().is_empty() {
+        s.push_str("\nPython traceback:\n");
+        s.push_str(e.traceback.trim_end());
+    }
+    s
 }
 
 /// One JAX environment of a study: its config, its description, and the
@@ -218,6 +301,7 @@ pub enum JaxError {
 pub struct JaxSource {
     config: JaxConfig,
     info: JaxInfo,
+    pool: std::sync::Mutex<Vec<JaxWorker>>,
 }
 
 impl std::fmt::Debug for JaxSource {
@@ -232,8 +316,12 @@ impl JaxSource {
     /// Starts one worker (imports, makes the env, checks its spaces and the
     /// device) and keeps it for the run.
     pub fn open(config: JaxConfig) -> Result<JaxSource, JaxError> {
-        let _ = config;
-        unimplemented!()
+        let (first, info) = JaxWorker::spawn(&config)?;
+        Ok(JaxSource {
+            config,
+            info,
+            pool: std::sync::Mutex::new(vec![first]),
+        })
     }
 
     /// The environment as the worker described it.
@@ -248,25 +336,60 @@ impl JaxSource {
 
     /// Networks per compiled call: the config's, else the platform's default.
     pub fn networks_per_call(&self) -> u32 {
-        unimplemented!()
+        self.config.networks_per_call.unwrap_or(if self.on_cpu() {
+            DEFAULT_NETWORKS_CPU
+        } else {
+            DEFAULT_NETWORKS_ACCELERATOR
+        })
+    }
+
+    fn on_cpu(&self) -> bool {
+        self.info.platform == "cpu"
     }
 
     /// Worker processes a run with `threads` threads uses: `threads` on a
     /// CPU device, 1 on a GPU or TPU.
     pub fn workers_for(&self, threads: usize) -> usize {
-        let _ = threads;
-        unimplemented!()
+        if self.on_cpu() {
+            threads.max(1)
+        } else {
+            1
+        }
     }
 
     /// CPU seconds used so far by the idle worker processes, where the OS
     /// reports it.
     pub fn workers_cpu_seconds(&self) -> Option<f64> {
-        unimplemented!()
+        self.lock_pool().iter().map(|w| w.cpu_seconds()).sum()
+    }
+
+    fn lock_pool(&self) -> std::sync::MutexGuard<'_, Vec<JaxWorker>> {
+        self.pool.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// An idle worker, or a new one (which must describe the env as the
+    /// first did).
+    fn take_worker(&self) -> Result<JaxWorker, JaxError> {
+        if let Some(w) = self.lock_pool().pop() {
+            return Ok(w);
+        }
+        let (w, info) = JaxWorker::spawn(&self.config)?;
+        if info != self.info {
+            return Err(JaxError::OtherInfo(format!(
+                "{info:?} where the first reported {:?}",
+                self.info
+            )));
+        }
+        Ok(w)
     }
 
     /// Runs `blocks` of a cell on [`JaxSource::workers_for`]`(threads)`
-    /// workers, in chunks of [`JaxSource::networks_per_call`] networks, and
-    /// hands the results to `on_block` in block order.
+    /// workers (kept between calls), in chunks of
+    /// [`JaxSource::networks_per_call`] networks of consecutive blocks, one
+    /// chunk in flight per worker, and hands the results to `on_block` in
+    /// block order. Stops at the first failure in network order (a fault
+    /// bit, a worker's error, death or timeout) or the first error
+    /// `on_block` returns; the blocks handed out before stay valid.
     pub fn run_blocks<G, X>(
         &self,
         plan: &CellPlan,
@@ -278,7 +401,6 @@ impl JaxSource {
         G: FnMut(BlockResult) -> Result<(), X>,
         X: From<SampleError> + Send,
     {
-        let _ = (plan, blocks, threads, on_block);
-        unimplemented!()
+        run::run_blocks(self, plan, blocks, threads, on_block)
     }
 }
