@@ -1,5 +1,6 @@
 //! The command-line options of `gymnasium:` envs (`--kwargs`, `--python`),
-//! shared by `rwg envs`, `rollout` and `check`.
+//! shared by `rwg envs`, `rollout` and `check`; `rwg envs` gives them to
+//! JAX envs (`gymnax:`, `brax:`, `jax:`) too.
 
 use rwg_gym::GymConfig;
 
@@ -26,6 +27,21 @@ impl GymArgs {
         config_from_args(id, self.kwargs.as_deref(), self.python.as_deref())
     }
 
+    /// The config of `id` (a `gymnax:`, `brax:` or `jax:` id) with these
+    /// options (the kwargs are the env's: see the manifest's `kwargs`).
+    pub fn jax_config(&self, id: &str) -> anyhow::Result<rwg_jax::JaxConfig> {
+        let (kind, rest) =
+            rwg_jax::jax_id(id).ok_or_else(|| anyhow::anyhow!("{id} is not a JAX env id"))?;
+        let mut cfg = rwg_jax::JaxConfig::new(kind, rest);
+        if let Some(k) = &self.kwargs {
+            cfg.kwargs = kwargs_json(k)?;
+        }
+        if let Some(p) = &self.python {
+            cfg.python = p.clone();
+        }
+        Ok(cfg)
+    }
+
     /// An error if options were given for an env that is not a Gymnasium one.
     pub fn refuse_for(&self, id: &str) -> anyhow::Result<()> {
         if self.kwargs.is_some() || self.python.is_some() {
@@ -47,22 +63,23 @@ pub fn config_from_args(
     let gid = rwg_gym::gym_id(id).ok_or_else(|| anyhow::anyhow!("{id} is not a gymnasium: id"))?;
     let mut cfg = GymConfig::new(gid);
     if let Some(k) = kwargs {
-        let v: serde_json::Value = serde_json::from_str(k)
-            .map_err(|e| anyhow::anyhow!("--kwargs: not a JSON object ({e}): {k}"))?;
-        match v {
-            serde_json::Value::Object(m) => {
-                cfg.kwargs = m
-                    .into_iter()
-                    .map(|(k, v)| (k, rwg_gym::kwargs::escape(v)))
-                    .collect()
-            }
-            _ => {
-                anyhow::bail!("--kwargs: expected a JSON object such as '{{\"continuous\": true}}'")
-            }
-        }
+        cfg.kwargs = kwargs_json(k)?;
     }
     if let Some(p) = python {
         cfg.python = p.to_string();
     }
     Ok(cfg)
+}
+
+/// `--kwargs` JSON as the workers read it (nan/inf escaped).
+fn kwargs_json(k: &str) -> anyhow::Result<serde_json::Map<String, serde_json::Value>> {
+    let v: serde_json::Value = serde_json::from_str(k)
+        .map_err(|e| anyhow::anyhow!("--kwargs: not a JSON object ({e}): {k}"))?;
+    match v {
+        serde_json::Value::Object(m) => Ok(m
+            .into_iter()
+            .map(|(k, v)| (k, rwg_gym::kwargs::escape(v)))
+            .collect()),
+        _ => anyhow::bail!("--kwargs: expected a JSON object such as '{{\"continuous\": true}}'"),
+    }
 }

@@ -50,6 +50,11 @@ fn resolve_env(
     plugins: &mut Plugins,
 ) -> Result<(EnvSource, EnvSpec), ManifestError> {
     let e: &EnvEntry = &m.envs[i];
+    if crate::jax_source::is_jax(&e.id) {
+        let src = crate::jax_source::open_entry(m, i)?;
+        let spec = src.info().spec.clone();
+        return Ok((EnvSource::Jax(std::sync::Arc::new(src)), spec));
+    }
     if crate::gym_source::is_gym(&e.id) {
         let src = crate::gym_source::open_entry(m, i)?;
         let spec = src.info().spec.clone();
@@ -195,9 +200,7 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
             (None, Some(t)) => (Some(t), Some("env".to_string())),
             (None, None) => (None, None),
         };
-        // The id that enters the seeds: a Gymnasium env's id without the
-        // `gymnasium:` prefix, so it meets what the built-in of that id meets.
-        let seed_id = rwg_gym::gym_id(&e.id).unwrap_or(&e.id).to_string();
+        let seed_id = seed_id(&e.id).to_string();
         for (j, a) in m.architectures.iter().enumerate() {
             for &bias in &m.bias {
                 owners.push((i, j));
@@ -295,15 +298,29 @@ fn collision(
     )
 }
 
+/// The id that enters the seeds: a Gymnasium or JAX env's id without its
+/// prefix (`gymnasium:`, `gymnax:`, `brax:`, `jax:`), so that it meets what
+/// the built-in env of that id meets (network n has the same weights).
+pub fn seed_id(id: &str) -> &str {
+    rwg_gym::gym_id(id)
+        .or(rwg_jax::jax_id(id).map(|(_, rest)| rest))
+        .unwrap_or(id)
+}
+
 impl Cell {
     /// The dtype the env's continuous actions are computed in: the manifest's
     /// for a built-in env; float64 for a plugin env (actions cross the ABI as
-    /// doubles; what the plugin does with them is up to it and its config).
+    /// doubles; what the plugin does with them is up to it and its config);
+    /// a JAX env's precision.
     pub fn action_dtype(&self) -> ActionDtype {
         match &self.source {
             EnvSource::Builtin(opts) => opts.action_dtype,
             EnvSource::Plugin(_) => ActionDtype::F64,
             EnvSource::Gym(g) => g.config().action_dtype,
+            EnvSource::Jax(j) => match j.config().precision {
+                rwg_jax::Precision::F32 => ActionDtype::F32,
+                rwg_jax::Precision::F64 => ActionDtype::F64,
+            },
         }
     }
 
@@ -314,13 +331,20 @@ impl Cell {
             EnvSource::Builtin(opts) => rwg_envs::make(&self.plan.env_id, opts)?,
             EnvSource::Plugin(p) => Box::new(p.make()?),
             EnvSource::Gym(g) => Box::new(g.make_single().map_err(rwg_env::EnvError::from)?),
+            EnvSource::Jax(_) => {
+                return Err(StudyError::Refused(format!(
+                    "{}: a JAX env runs whole episodes in compiled calls, not step by step \
+                     through rwg; its episodes are replayed through a JAX worker",
+                    self.spec.id
+                )))
+            }
         })
     }
 
     /// The env as this cell runs it, for the cell's `env.json`
     /// ([`crate::rundir::env_record`]).
     pub fn env_record(&self) -> crate::rundir::env_record::EnvRecord {
-        use crate::rundir::env_record::{EnvRecord, GymRecord};
+        use crate::rundir::env_record::{EnvRecord, GymRecord, JaxRecord};
         let gymnasium = match &self.source {
             EnvSource::Gym(g) => Some(GymRecord {
                 observation_space: g.info().observation_space.clone(),
@@ -331,7 +355,19 @@ impl Cell {
             }),
             _ => None,
         };
-        EnvRecord::new(&self.spec, gymnasium)
+        let record = EnvRecord::new(&self.spec, gymnasium);
+        match &self.source {
+            EnvSource::Jax(j) => record.with_jax(JaxRecord {
+                observation_space: j.info().observation_space.clone(),
+                action_space: j.info().action_space.clone(),
+                versions: j.info().versions.clone(),
+                device_kind: j.info().device_kind.clone(),
+                platform: j.info().platform.clone(),
+                precision: j.info().precision.name().to_string(),
+                networks_per_call: j.networks_per_call(),
+            }),
+            _ => record,
+        }
     }
 
     /// The cell's metadata for `run.json` / `cell.json`.
@@ -397,11 +433,14 @@ impl Cell {
                 cell: self.id.dir.clone(),
                 plugin: match &self.source {
                     EnvSource::Plugin(p) => Some(p.path().to_path_buf()),
-                    EnvSource::Builtin(_) | EnvSource::Gym(_) => None,
+                    EnvSource::Builtin(_) | EnvSource::Gym(_) | EnvSource::Jax(_) => None,
                 },
                 gym: match &self.source {
                     EnvSource::Gym(g) => {
                         Some(format!("{}, Python {}", self.spec.id, g.config().python))
+                    }
+                    EnvSource::Jax(j) => {
+                        Some(format!("{}, Python {}", self.spec.id, j.config().python))
                     }
                     _ => None,
                 },

@@ -1,7 +1,9 @@
 //! Where environments come from: built in (`rwg-envs`, statically
 //! dispatched) or a plugin library (an explicit file, or the
 //! `RWG_PLUGIN_PATH` scan, which never shadows a built-in id), or a Gymnasium
-//! env (`gymnasium:ID`, run by `rwg-gym`'s Python workers). A new kind of
+//! env (`gymnasium:ID`, run by `rwg-gym`'s Python workers), or a JAX env
+//! (`gymnax:ID`, `brax:NAME`, `jax:module:callable`, run by `rwg-jax`'s
+//! Python workers, one compiled call per chunk of networks). A new kind of
 //! environment source is a new [`EnvSource`] variant here.
 
 use rwg_env::{EnvError, TimeLimit};
@@ -23,6 +25,9 @@ pub enum EnvSource {
     /// A Gymnasium env run by Python worker processes (`gymnasium:ID`); its
     /// workers are shared by the env's cells.
     Gym(std::sync::Arc<rwg_gym::GymSource>),
+    /// A JAX env run by Python worker processes (`gymnax:`, `brax:`,
+    /// `jax:`); its workers are shared by the env's cells.
+    Jax(std::sync::Arc<rwg_jax::JaxSource>),
 }
 
 /// A plugin environment as a cell builds it.

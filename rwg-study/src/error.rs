@@ -71,7 +71,7 @@ pub enum StudyError {
         cell: String,
         /// The plugin file of the cell's env, if it is a plugin env.
         plugin: Option<PathBuf>,
-        /// For a Gymnasium env: its id and the Python that runs it.
+        /// For a Gymnasium or JAX env: its id and the Python that runs it.
         gym: Option<String>,
         /// The run directory.
         out: PathBuf,

@@ -84,15 +84,16 @@ pub fn open_entry(m: &Manifest, i: usize) -> Result<GymSource, ManifestError> {
     Ok(src)
 }
 
-/// The error for `kwargs`/`python` given to an env that is not a Gymnasium one.
+/// The error for `kwargs`/`python` given to an env that is neither a
+/// Gymnasium nor a JAX one.
 pub fn check_not_gym_fields(m: &Manifest, i: usize) -> Result<(), ManifestError> {
     let e = &m.envs[i];
     match e.kwargs_span.clone().or(e.python_span.clone()) {
         Some(at) => Err(m.error_at(
             at,
             format!(
-                "envs[{i}]: `kwargs` and `python` apply to Gymnasium environments only \
-                 (write the id as gymnasium:{})",
+                "envs[{i}]: `kwargs` and `python` apply to Gymnasium and JAX environments \
+                 only (write the id as gymnasium:{}, or gymnax:, brax:, jax:module:callable)",
                 e.id
             ),
         )),

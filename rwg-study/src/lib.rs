@@ -7,15 +7,18 @@
 //! where it stopped and shards ([`merge`]) combine into the same bytes.
 //! [`stats`] summarises a finished run (`stats.json`, `stats.csv`, and the
 //! runner's console summary). Environments come from an [`env_source`]:
-//! built in (`rwg-envs`), a plugin (`rwg-plugin-host`), or a Gymnasium env
-//! run by Python worker processes (`rwg-gym`, see [`gym_source`]); a plugin
+//! built in (`rwg-envs`), a plugin (`rwg-plugin-host`), a Gymnasium env
+//! run by Python worker processes (`rwg-gym`, see [`gym_source`]), or a JAX
+//! env run by Python workers in compiled calls (`rwg-jax`, see
+//! [`jax_source`]); a plugin
 //! env may run isolated in worker processes of its own ([`isolate`]).
 //!
 //! # Modules
 //!
 //! - [`manifest`] (with [`manifest_text`]: bytes to text, located messages;
 //!   [`limits`]: every maximum), [`cells`]: manifest to cells, `CellId`.
-//! - [`env_source`]: built-in, plugin or Gymnasium ([`gym_source`]); [`isolate`]:
+//! - [`env_source`]: built-in, plugin, Gymnasium ([`gym_source`]) or JAX
+//!   ([`jax_source`]); [`isolate`]:
 //!   a plugin env in `rwg __plugin-worker` processes, both sides;
 //!   [`plugin_batch`]: an in-process plugin's lanes through its vector env or
 //!   batched calls as a `ManyEnv`.
@@ -36,6 +39,7 @@ pub mod error;
 pub mod fault_context;
 pub mod gym_source;
 pub mod isolate;
+pub mod jax_source;
 pub mod limits;
 pub mod manifest;
 pub mod manifest_text;

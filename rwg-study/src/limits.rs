@@ -30,6 +30,9 @@ pub const MAX_HIDDEN_LAYERS: usize = 64;
 pub const MAX_WEIGHTS: usize = 1_000_000;
 /// `[[architectures]]` entries of a manifest.
 pub const MAX_ARCHITECTURES: usize = 256;
+/// Networks in one compiled call of a JAX env (`networks_per_call`): the
+/// weights of a call's networks are sent at once.
+pub const MAX_NETWORKS_PER_CALL: u32 = 65_536;
 /// `[[envs]]` entries of a manifest.
 pub const MAX_ENVS: usize = 256;
 /// Bytes of an architecture name (it is part of a directory name).

@@ -34,6 +34,12 @@
 //! id = "gymnasium:LunarLander-v3"   # a Gymnasium env, run through Python (rwg-gym)
 //! kwargs = { continuous = true }     # optional: gym.make's keyword arguments
 //! python = ".venv/bin/python"        # optional: default RWG_PYTHON, then python3
+//!
+//! [[envs]]
+//! id = "gymnax:CartPole-v1"          # a JAX env (also brax:NAME, jax:module:callable), rwg-jax
+//! precision = "float64"              # optional: float32 (default) or float64; part of the study
+//! device = "gpu:1"                   # optional: the JAX device (default: JAX's first)
+//! networks_per_call = 1024           # optional: networks in one compiled call (a multiple of 32)
 //! ```
 //!
 //! Unknown keys and bad values are errors that name the file, line, column
@@ -157,6 +163,9 @@ struct RawEnv {
     kwargs: Option<Spanned<kwargs::RawKwargs>>,
     python: Option<Spanned<String>>,
     isolate: Option<Spanned<bool>>,
+    precision: Option<Spanned<String>>,
+    device: Option<Spanned<String>>,
+    networks_per_call: Option<Spanned<i64>>,
 }
 
 /// A named architecture of the manifest.
@@ -210,6 +219,26 @@ pub struct EnvEntry {
     /// [`Manifest::study_differences`]).
     #[serde(skip_serializing_if = "std::ops::Not::not")]
     pub isolate: bool,
+    /// The precision a JAX env (`gymnax:`, `brax:`, `jax:`) computes in:
+    /// the manifest's, else float32; `None` for every other env. Part of
+    /// the study.
+    #[serde(
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "jax_keys::serialize_precision"
+    )]
+    pub precision: Option<rwg_jax::Precision>,
+    /// The JAX device a JAX env runs on (`cpu`, `gpu:1`; `None`: JAX's
+    /// first). How, not what: not part of the study (the device used is
+    /// recorded in each cell's `env.json`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub device: Option<String>,
+    /// Networks in one compiled call of a JAX env (`None`: rwg-jax's
+    /// default for the device's platform). Part of the study.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub networks_per_call: Option<u32>,
+    /// Where the `device` value stands, if given.
+    #[serde(skip)]
+    pub device_span: Option<Range<usize>>,
     /// Where the `kwargs` value stands, if given.
     #[serde(skip)]
     pub kwargs_span: Option<Range<usize>>,
@@ -533,6 +562,7 @@ impl Manifest {
                     .parse()
                     .map_err(|m: String| err(d.span(), format!("{key}.action_dtype: {m}")))?,
             };
+            let jax = jax_keys::check(&key, &id, e).map_err(|(span, msg)| err(span, msg))?;
             let plugin = e.plugin.as_ref().map(|p| {
                 let p = Path::new(p.get_ref());
                 if p.is_absolute() {
@@ -565,6 +595,10 @@ impl Manifest {
                     }
                 }),
                 isolate: e.isolate.as_ref().is_some_and(|i| *i.get_ref()),
+                precision: jax.precision,
+                device: jax.device,
+                networks_per_call: jax.networks_per_call,
+                device_span: e.device.as_ref().map(|d| d.span()),
                 kwargs_span: e.kwargs.as_ref().map(|k| k.span()),
                 python_span: e.python.as_ref().map(|p| p.span()),
                 id_span: e.id.span(),
@@ -626,13 +660,16 @@ impl Manifest {
 
     /// How the study of `other` differs from this one (empty: the same study).
     /// Compares what [`Manifest::to_toml`] writes, key by key, except the
-    /// envs' `isolate` (it changes where an env runs, not its results).
+    /// envs' `isolate` and `device` (they change where an env runs, not its
+    /// results; the device a JAX cell ran on is compared through its
+    /// `env.json`, [`crate::rundir::env_record`]).
     pub fn study_differences(&self, other: &Manifest) -> Vec<String> {
         let study = |m: &Manifest| {
             let mut t: toml::Table = toml::from_str(&m.to_toml()).expect("valid TOML");
             if let Some(toml::Value::Array(envs)) = t.get_mut("envs") {
                 for e in envs.iter_mut().filter_map(|e| e.as_table_mut()) {
                     e.remove("isolate");
+                    e.remove("device");
                 }
             }
             t
@@ -672,6 +709,7 @@ fn unknown_field_suggestion(msg: &str) -> Option<String> {
         .map(|s| format!(" (did you mean `{s}`?)"))
 }
 
+mod jax_keys;
 pub mod kwargs;
 
 #[cfg(test)]

@@ -291,6 +291,13 @@ pub fn run_study(
                     format!("env '{}', cell {}", cell.plan.env_id, cell.id.dir)
                 }
                 EnvSource::Gym(_) => format!("env '{}', cell {}", cell.spec.id, cell.id.dir),
+                EnvSource::Jax(j) => format!(
+                    "JAX env '{}' ({} on {}), cell {}",
+                    cell.spec.id,
+                    j.info().precision.name(),
+                    j.info().device,
+                    cell.id.dir
+                ),
             });
             let blocks: Vec<_> = (0..nb)
                 .filter(|&b| owned(ci, b) && !indexes[ci].done(b))
@@ -453,7 +460,8 @@ pub fn lockstep_setting() -> Result<bool, rwg_env::vars::VarError> {
 /// generic sampler as `Watched<TimeLimit<PluginEnv>>`, or, when the plugin has
 /// ABI 1.1's batched calls, through the in-process batched sampler
 /// (`plugin_batch`); isolated plugin envs and Gymnasium envs through the
-/// batched sampler (`rwg_core::batch`). Each finished block goes to
+/// batched sampler (`rwg_core::batch`); JAX envs through their workers'
+/// compiled calls (`rwg_jax`). Each finished block goes to
 /// `on_done`, then to `committer`; the cell stops after a block when a flag
 /// of `stop` is set.
 fn run_cell_blocks(
@@ -558,6 +566,14 @@ fn run_cell_blocks(
         EnvSource::Gym(g) => {
             let wave = rayon::current_num_threads() * 2;
             g.run_blocks(&cell.plan, blocks, wave, |b: BlockResult| {
+                runner.on_block(b)
+            })
+        }
+        // Compiled calls of many networks: one worker process per thread on
+        // a CPU device, one on a GPU or TPU (rwg_jax::JaxSource::workers_for).
+        EnvSource::Jax(j) => {
+            let threads = rayon::current_num_threads();
+            j.run_blocks(&cell.plan, blocks, threads, |b: BlockResult| {
                 runner.on_block(b)
             })
         }

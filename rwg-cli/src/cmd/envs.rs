@@ -26,10 +26,13 @@ Examples:
 
 A gymnasium: id is described by Gymnasium itself (a Python worker is started):
 its spaces as rwg sees them (flattened), Gymnasium's own text of them, its
-registered time limit and reward threshold.")]
+registered time limit and reward threshold. A JAX id (gymnax:ID, brax:NAME,
+jax:module:callable) is described by a JAX worker: its spaces, time limit,
+the versions of JAX and the env's library, and the device JAX runs it on.")]
 pub struct Args {
     /// Describe these gymnasium: envs (gymnasium:ID or gymnasium:module:ID)
-    /// instead of listing the built-in and plugin ones.
+    /// or JAX envs (gymnax:ID, brax:NAME, jax:module:callable) instead of
+    /// listing the built-in and plugin ones.
     ids: Vec<String>,
     #[command(flatten)]
     gym: crate::gym::GymArgs,
@@ -53,6 +56,76 @@ struct Row {
     /// For a gymnasium: env: what Gymnasium says about it.
     #[serde(skip_serializing_if = "Option::is_none")]
     gymnasium: Option<GymRow>,
+    /// For a JAX env: what its worker says about it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    jax: Option<JaxRow>,
+}
+
+#[derive(Serialize)]
+struct JaxRow {
+    observation_space: String,
+    action_space: String,
+    obs_dim: usize,
+    versions: std::collections::BTreeMap<String, String>,
+    device: String,
+    device_kind: String,
+    platform: String,
+    precision: &'static str,
+    networks_per_call: u32,
+    python: String,
+}
+
+/// A JAX env's row, from a worker started for it.
+fn jax_row(id: &str, gym: &crate::gym::GymArgs) -> Result<Row> {
+    let cfg = gym.jax_config(id)?;
+    let python = cfg.python.clone();
+    let src = rwg_jax::JaxSource::open(cfg).map_err(|e| anyhow::anyhow!("{id}: {e}"))?;
+    let info = src.info().clone();
+    Ok(Row {
+        summary: format!("{} -> {}", info.observation_space, info.action_space),
+        action_dtype_sensitive: false,
+        plugin: None,
+        gymnasium: None,
+        jax: Some(JaxRow {
+            observation_space: info.observation_space,
+            action_space: info.action_space,
+            obs_dim: info.spec.obs_dim(),
+            versions: info.versions,
+            device: info.device,
+            device_kind: info.device_kind,
+            platform: info.platform,
+            precision: info.precision.name(),
+            networks_per_call: src.networks_per_call(),
+            python,
+        }),
+        spec: info.spec,
+    })
+}
+
+/// What is printed below the table about a JAX env: its library's spaces,
+/// versions and device.
+fn jax_lines(id: &str, j: &JaxRow) -> String {
+    let mut versions: Vec<String> = j
+        .versions
+        .iter()
+        .filter(|(k, _)| *k != "python")
+        .map(|(k, v)| format!("{k} {v}"))
+        .collect();
+    if let Some(p) = j.versions.get("python") {
+        versions.push(format!("Python {p} ({})", j.python));
+    }
+    format!(
+        "\n{id}\n  observation: {}\n  action: {}\n  versions: {}\n  device: {} ({}, \
+         platform {}), {}, {} networks per call",
+        j.observation_space,
+        j.action_space,
+        versions.join(", "),
+        j.device,
+        j.device_kind,
+        j.platform,
+        j.precision,
+        j.networks_per_call
+    )
 }
 
 #[derive(Serialize)]
@@ -72,6 +145,7 @@ fn plugin_rows(p: &Plugin) -> impl Iterator<Item = Row> + '_ {
         action_dtype_sensitive: false,
         plugin: Some(ty.plugin().path.clone()),
         gymnasium: None,
+        jax: None,
     })
 }
 
@@ -80,9 +154,14 @@ pub fn run(args: Args) -> Result<()> {
     let mut rows: Vec<Row> = vec![];
     if !args.ids.is_empty() {
         for id in &args.ids {
+            if rwg_jax::jax_id(id).is_some() {
+                rows.push(jax_row(id, &args.gym)?);
+                continue;
+            }
             if !crate::gym::is_gym(id) {
                 anyhow::bail!(
-                    "'{id}': only gymnasium: ids are described one by one (rwg envs lists the others)"
+                    "'{id}': only gymnasium: and JAX (gymnax:, brax:, jax:) ids are described \
+                     one by one (rwg envs lists the others)"
                 );
             }
             let cfg = args.gym.config(id)?;
@@ -100,6 +179,7 @@ pub fn run(args: Args) -> Result<()> {
                     python_version: info.python.clone(),
                     python: cfg.python.clone(),
                 }),
+                jax: None,
                 spec: info.spec,
             });
         }
@@ -114,6 +194,7 @@ pub fn run(args: Args) -> Result<()> {
                 action_dtype_sensitive: r.dtype_sensitive,
                 plugin: None,
                 gymnasium: None,
+                jax: None,
             }
         }));
         let scan = scan_plugin_path();
@@ -139,6 +220,10 @@ pub fn run(args: Args) -> Result<()> {
         )?;
         return Ok(());
     }
+    let jax_lines: Vec<String> = rows
+        .iter()
+        .filter_map(|r| r.jax.as_ref().map(|j| jax_lines(&r.spec.id, j)))
+        .collect();
     let with_plugins = rows.iter().any(|r| r.plugin.is_some());
     let table: Vec<Vec<String>> = rows
         .iter()
@@ -176,6 +261,9 @@ pub fn run(args: Args) -> Result<()> {
     writeln!(out, "{}", columns.line(&header))?;
     for row in &rows {
         writeln!(out, "{}", columns.line(row))?;
+    }
+    for line in &jax_lines {
+        writeln!(out, "{line}")?;
     }
     Ok(())
 }

@@ -3,13 +3,15 @@
 use crate::step_lines::StepLines;
 use anyhow::{bail, Context, Result};
 use rwg_core::policy::Policy;
-use rwg_core::sampler::{reset_seed, run_episode};
+use rwg_core::sampler::{reset_seed, run_episode, BlockResult, EpisodeResult, SampleError};
 use rwg_env::float::fmt_f64;
 use rwg_env::{Environment, Space};
 use rwg_study::cells::{plan_cells, Cell};
+use rwg_study::env_source::EnvSource;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir;
 use rwg_study::rundir::data::Run;
+use rwg_study::rundir::env_record::check_record;
 use rwg_study::rundir::export::csv_writer;
 use serde::Serialize;
 use std::io::{BufWriter, Write};
@@ -22,6 +24,10 @@ Without --episode: prints every episode's reset seed, score and steps, next to t
 stored score, and fails if any differs. With --episode: prints that episode step by
 step, like `rwg rollout`. --export-weights writes the network as JSON so it can be
 rebuilt in numpy and run in Gymnasium (docs/guide.md shows how).
+
+A JAX env's cell (gymnax:, brax:, jax:) is replayed through a JAX worker, in a
+compiled call of the cell's shape on the device kind its env.json records, so
+the returns are the run's bit for bit; its episodes are not shown step by step.
 
 Example:
   rwg replay runs/quick --env CartPole-v0 --arch 0HL --sample 17 --episode 3")]
@@ -183,7 +189,8 @@ fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Ex
             .map(|e| reset_seed(cell.plan.seed, &cell.plan.env_id, sample, e))
             .collect(),
         gym_kwargs: match &cell.source {
-            rwg_study::env_source::EnvSource::Gym(g) => Some(g.config().kwargs.clone()),
+            EnvSource::Gym(g) => Some(g.config().kwargs.clone()),
+            EnvSource::Jax(j) => Some(j.config().kwargs.clone()),
             _ => None,
         },
     }
@@ -203,16 +210,13 @@ pub fn run(args: Args) -> Result<()> {
             m.samples - 1
         );
     }
+    if let EnvSource::Jax(j) = &cell.source {
+        return replay_jax(&args, &m, cell, j);
+    }
     let mut env = cell.make_env()?;
     let mut policy = cell.plan.policy(&cell.spec, args.sample);
     let mut obs = vec![0.0; cell.spec.obs_dim()];
-
-    if let Some(path) = &args.export_weights {
-        let _lock = crate::cmd::lock_if_inside(&args.run_dir, path)?;
-        let e = export(cell, &policy, args.sample, m.episodes);
-        crate::cmd::write_named_file(path, serde_json::to_string_pretty(&e)?.as_bytes())?;
-        crate::errln!("wrote {}", path.display());
-    }
+    write_export(&args, cell, &policy, m.episodes)?;
 
     let stdout = crate::stdio::stdout();
     let mut out = BufWriter::new(stdout.lock());
@@ -256,7 +260,34 @@ pub fn run(args: Args) -> Result<()> {
     }
 
     let stored = stored_scores(&args.run_dir, &cell.id.dir, args.sample)?;
-    let mut csv = csv_writer(&mut out);
+    compare_episodes(&mut out, cell, args.sample, m.episodes, &stored, |e, r| {
+        run_episode(&mut env, &mut policy, &mut obs, r)
+            .map_err(|(step, err)| anyhow::anyhow!("episode {e}, step {step}: {err}"))
+    })
+}
+
+/// With --export-weights: writes the network's export.
+fn write_export(args: &Args, cell: &Cell, policy: &Policy, episodes: u32) -> Result<()> {
+    if let Some(path) = &args.export_weights {
+        let _lock = crate::cmd::lock_if_inside(&args.run_dir, path)?;
+        let e = export(cell, policy, args.sample, episodes);
+        crate::cmd::write_named_file(path, serde_json::to_string_pretty(&e)?.as_bytes())?;
+        crate::errln!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+/// Prints each episode's reset seed, score and steps (from `run(e, seed)`)
+/// next to the stored score; fails if any differs.
+fn compare_episodes(
+    out: &mut impl Write,
+    cell: &Cell,
+    sample: u64,
+    episodes: u32,
+    stored: &[f64],
+    mut run: impl FnMut(u32, u64) -> Result<EpisodeResult>,
+) -> Result<()> {
+    let mut csv = csv_writer(&mut *out);
     csv.write_record([
         "episode",
         "reset_seed",
@@ -266,10 +297,9 @@ pub fn run(args: Args) -> Result<()> {
         "same",
     ])?;
     let mut differ = 0;
-    for e in 0..m.episodes {
-        let r = reset_seed(cell.plan.seed, &cell.plan.env_id, args.sample, e);
-        let res = run_episode(&mut env, &mut policy, &mut obs, r)
-            .map_err(|(step, err)| anyhow::anyhow!("episode {e}, step {step}: {err}"))?;
+    for e in 0..episodes {
+        let r = reset_seed(cell.plan.seed, &cell.plan.env_id, sample, e);
+        let res = run(e, r)?;
         let st = stored.get(e as usize).copied();
         let same = st.is_some_and(|s| s.to_bits() == res.score.to_bits());
         differ += usize::from(!same);
@@ -289,4 +319,46 @@ pub fn run(args: Args) -> Result<()> {
         bail!("{differ} episode(s) differ from the stored scores");
     }
     Ok(())
+}
+
+/// What a replay under another JAX env than the cell's says to do.
+const JAX_REPLAY_REFUSED: &str = "a JAX cell is replayed under the JAX, env library, kind of \
+    device, precision and call size its blocks were computed under (other ones may give other \
+    bits): run the replay where they are the same";
+
+/// `rwg replay` of a JAX env's cell: the network's episodes in one compiled
+/// call of the cell's shape, through a worker of the cell's env.
+fn replay_jax(args: &Args, m: &Manifest, cell: &Cell, j: &rwg_jax::JaxSource) -> Result<()> {
+    let policy = cell.plan.policy(&cell.spec, args.sample);
+    write_export(args, cell, &policy, m.episodes)?;
+    if args.episode.is_some() {
+        bail!(
+            "{}: a JAX env runs its episodes whole in compiled calls, so they are not shown \
+             step by step; without --episode, rwg replay runs the network's episodes through a \
+             JAX worker and compares their returns with the stored ones",
+            cell.id.env
+        );
+    }
+    let dir = rundir::cell_dir(&args.run_dir, &cell.id.dir);
+    check_record(&dir, &cell.env_record(), JAX_REPLAY_REFUSED)?;
+    let stored = stored_scores(&args.run_dir, &cell.id.dir, args.sample)?;
+    let mut results: Vec<EpisodeResult> = vec![];
+    let network = args.sample..args.sample + 1;
+    j.run_blocks(&cell.plan, &[network], 1, |b: BlockResult| {
+        results = b.episodes;
+        Ok::<(), SampleError>(())
+    })?;
+    if results.len() != m.episodes as usize {
+        bail!(
+            "the JAX worker returned {} episodes of network {}, not {}",
+            results.len(),
+            args.sample,
+            m.episodes
+        );
+    }
+    let stdout = crate::stdio::stdout();
+    let mut out = BufWriter::new(stdout.lock());
+    compare_episodes(&mut out, cell, args.sample, m.episodes, &stored, |e, _| {
+        Ok(results[e as usize])
+    })
 }

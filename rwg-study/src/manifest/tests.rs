@@ -313,3 +313,132 @@ fn a_gymnasium_id_listed_twice_names_the_way_out() {
     );
     assert!(e.contains("gymnasium:LunarLanderContinuous-v3"), "{e}");
 }
+
+/// A study of one JAX env with `extra` lines in its entry.
+fn jax_study(id: &str, extra: &str) -> String {
+    format!(
+        "samples = 10\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
+         [[envs]]\nid = \"{id}\"\n{extra}\n"
+    )
+}
+
+#[test]
+fn jax_envs_write_their_precision_and_call_size_into_the_study() {
+    let m = parse(&jax_study("gymnax:CartPole-v1", "")).unwrap();
+    assert_eq!(m.envs[0].precision, Some(rwg_jax::Precision::F32));
+    assert!(
+        m.to_toml().contains("precision = \"float32\""),
+        "{}",
+        m.to_toml()
+    );
+    // an explicit float32 is the default's study
+    let f32 = parse(&jax_study("gymnax:CartPole-v1", "precision = \"float32\"")).unwrap();
+    assert!(m.study_differences(&f32).is_empty());
+    let f64 = parse(&jax_study("gymnax:CartPole-v1", "precision = \"float64\"")).unwrap();
+    let d = m.study_differences(&f64);
+    assert!(d.len() == 1 && d[0].contains("float64"), "{d:?}");
+    let calls = parse(&jax_study("brax:ant", "networks_per_call = 64")).unwrap();
+    let again = parse(&calls.to_toml()).unwrap();
+    assert_eq!(again.envs[0].networks_per_call, Some(64));
+    let other = parse(&jax_study("brax:ant", "networks_per_call = 128")).unwrap();
+    assert_eq!(calls.study_differences(&other).len(), 1);
+    // the device is how, not what
+    let gpu = parse(&jax_study(
+        "brax:ant",
+        "networks_per_call = 64\ndevice = \"gpu:1\"",
+    ))
+    .unwrap();
+    assert_eq!(gpu.envs[0].device.as_deref(), Some("gpu:1"));
+    assert!(gpu.to_toml().contains("device = \"gpu:1\""));
+    assert!(calls.study_differences(&gpu).is_empty());
+    // built-in envs have none of it
+    let b = parse(GOOD).unwrap();
+    assert!(b.envs.iter().all(|e| e.precision.is_none()));
+    assert!(!b.to_toml().contains("precision"));
+}
+
+#[test]
+fn jax_keys_are_checked_where_they_stand() {
+    for (id, extra, says) in [
+        (
+            "gymnax:CartPole-v1",
+            "precision = \"float16\"",
+            "m.toml:8:13: envs[0].precision: expected \"float32\" or \"float64\"",
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "networks_per_call = 33",
+            "m.toml:8:21: envs[0].networks_per_call: must be a multiple of 32",
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "networks_per_call = 0",
+            "envs[0].networks_per_call: must be a multiple of 32",
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "networks_per_call = 131072",
+            "to 65536 (rwg's limit), got 131072",
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "device = \"gpu:x\"",
+            "m.toml:8:10: envs[0].device: expected a JAX device kind",
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "device = \"\"",
+            "envs[0].device: expected",
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "plugin = \"x.so\"",
+            "m.toml:8:10: envs[0].plugin: 'gymnax:CartPole-v1' is a JAX environment",
+        ),
+        (
+            "brax:ant",
+            "config = \"a\"",
+            "envs[0].config: 'brax:ant' is a JAX environment",
+        ),
+        (
+            "brax:ant",
+            "isolate = true",
+            "envs[0].isolate: 'brax:ant' is a JAX environment",
+        ),
+        (
+            "jax:m:f",
+            "action_dtype = \"float32\"",
+            "envs[0].action_dtype: 'jax:m:f' is a JAX environment",
+        ),
+        (
+            "jax:my_module",
+            "",
+            "m.toml:7:6: envs[0].id: 'jax:my_module' names no callable",
+        ),
+        (
+            "CartPole-v1",
+            "precision = \"float64\"",
+            "m.toml:8:13: envs[0].precision: applies to JAX environments only",
+        ),
+        (
+            "gymnasium:Ant-v5",
+            "device = \"cpu\"",
+            "envs[0].device: applies to JAX environments only",
+        ),
+        (
+            "CartPole-v1",
+            "networks_per_call = 32",
+            "envs[0].networks_per_call: applies to JAX",
+        ),
+    ] {
+        let e = error_of(&jax_study(id, extra));
+        assert!(e.contains(says), "{id} {extra}: {e}");
+    }
+    for ok in ["cpu", "gpu", "gpu:1", "tpu:0", "cuda"] {
+        parse(&jax_study(
+            "gymnax:CartPole-v1",
+            &format!("device = \"{ok}\""),
+        ))
+        .unwrap();
+    }
+}

@@ -1,6 +1,9 @@
 //! A cell's `env.json`: the environment as it was when the cell started
 //! (its spaces, time limit and reward threshold, and for a Gymnasium env
-//! Gymnasium's own text of its spaces and the workers' `PYTHONHASHSEED`).
+//! Gymnasium's own text of its spaces and the workers' `PYTHONHASHSEED`; for
+//! a JAX env the library's text of its spaces, the versions of JAX and the
+//! env's library, the device's kind and platform, the precision and the
+//! networks per compiled call).
 //! Every block of a cell must be computed under the same env, so a resume
 //! or a merge compares the env as it is now with this record and is refused
 //! when they differ, naming the difference (a new version of the env's
@@ -11,6 +14,7 @@ use crate::rundir::meta::{load_json, JsonFileError};
 use crate::StudyError;
 use rwg_env::{EnvSpec, Space};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The file's name in a cell's directory.
@@ -32,6 +36,83 @@ pub struct EnvRecord {
     /// For a Gymnasium env: what its workers reported.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gymnasium: Option<GymRecord>,
+    /// For a JAX env: what its worker reported and how it computes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub jax: Option<JaxRecord>,
+}
+
+/// What a JAX env's worker reported, in [`EnvRecord`]: every block of a
+/// cell is computed by the same JAX, env library, kind of device, precision
+/// and call size.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct JaxRecord {
+    /// The library's text of the observation space.
+    pub observation_space: String,
+    /// The library's text of the action space.
+    pub action_space: String,
+    /// Versions: `python` (shown, not compared), `jax`, `jaxlib`, and
+    /// `gymnax`, `brax` or `module` (compared).
+    pub versions: BTreeMap<String, String>,
+    /// The device's kind (`cpu`, `NVIDIA H200`).
+    pub device_kind: String,
+    /// JAX's platform (`cpu`, `gpu`, `tpu`).
+    pub platform: String,
+    /// `float32` or `float64`.
+    pub precision: String,
+    /// Networks per compiled call.
+    pub networks_per_call: u32,
+}
+
+/// The version key shown in a record but not compared.
+const SHOWN_VERSION: &str = "python";
+
+impl JaxRecord {
+    /// What differs between this record (then) and `now`, each as
+    /// `(what, then, now)`.
+    fn differences(&self, now: &JaxRecord) -> Vec<(String, String, String)> {
+        let mut out = vec![];
+        let mut differ = |what: &str, then: &str, now: &str| {
+            if then != now {
+                out.push((what.to_string(), then.to_string(), now.to_string()));
+            }
+        };
+        differ(
+            "observation space",
+            &self.observation_space,
+            &now.observation_space,
+        );
+        differ("action space", &self.action_space, &now.action_space);
+        let mut keys: Vec<&String> = self.versions.keys().chain(now.versions.keys()).collect();
+        keys.sort();
+        keys.dedup();
+        for k in keys.into_iter().filter(|k| *k != SHOWN_VERSION) {
+            let get = |v: &BTreeMap<String, String>| v.get(k).cloned().unwrap_or("none".into());
+            differ(k, &get(&self.versions), &get(&now.versions));
+        }
+        differ("device kind", &self.device_kind, &now.device_kind);
+        differ("platform", &self.platform, &now.platform);
+        differ("precision", &self.precision, &now.precision);
+        differ(
+            "networks per call",
+            &self.networks_per_call.to_string(),
+            &now.networks_per_call.to_string(),
+        );
+        out
+    }
+
+    /// The versions as a message shows them (`jax 0.10.2, gymnax 1.0.1, Python 3.11.7`).
+    fn versions_text(&self) -> String {
+        let mut parts: Vec<String> = self
+            .versions
+            .iter()
+            .filter(|(k, _)| *k != SHOWN_VERSION)
+            .map(|(k, v)| format!("{k} {v}"))
+            .collect();
+        if let Some(p) = self.versions.get(SHOWN_VERSION) {
+            parts.push(format!("Python {p}"));
+        }
+        parts.join(", ")
+    }
 }
 
 /// What a Gymnasium env's workers reported, in [`EnvRecord`].
@@ -59,7 +140,7 @@ fn space_text(s: &Space) -> String {
 
 impl EnvRecord {
     /// The record of an env described by `spec` (and `gymnasium`, for a
-    /// Gymnasium env).
+    /// Gymnasium env; [`EnvRecord::with_jax`] adds a JAX env's).
     pub fn new(spec: &EnvSpec, gymnasium: Option<GymRecord>) -> EnvRecord {
         EnvRecord {
             env: spec.id.clone(),
@@ -68,7 +149,14 @@ impl EnvRecord {
             max_episode_steps: spec.max_episode_steps,
             reward_threshold: spec.reward_threshold,
             gymnasium,
+            jax: None,
         }
+    }
+
+    /// This record with a JAX env's part.
+    pub fn with_jax(mut self, jax: JaxRecord) -> EnvRecord {
+        self.jax = Some(jax);
+        self
     }
 
     /// What differs between this record (then) and `now`, one entry each:
@@ -99,6 +187,16 @@ impl EnvRecord {
                 b.python_hash_seed.clone(),
             );
         }
+        match (&self.jax, &now.jax) {
+            (Some(a), Some(b)) => {
+                for (what, then, now) in a.differences(b) {
+                    differ(&what, then, now);
+                }
+            }
+            (None, Some(_)) => differ("JAX worker", "none".into(), "one".into()),
+            (Some(_), None) => differ("JAX worker", "one".into(), "none".into()),
+            (None, None) => {}
+        }
         differ(
             "flat observation space",
             self.observation_space.clone(),
@@ -124,6 +222,9 @@ impl EnvRecord {
 
     /// Versions, for a refusal's message (`Gymnasium 1.4.0, Python 3.11.2`).
     fn versions(&self) -> String {
+        if let Some(j) = &self.jax {
+            return format!(" ({})", j.versions_text());
+        }
         self.gymnasium.as_ref().map_or(String::new(), |g| {
             format!(
                 " (Gymnasium {}, Python {})",
@@ -252,6 +353,56 @@ mod tests {
         std::fs::write(dir.join(ENV_JSON), "{").unwrap();
         let err = read_record(&dir).unwrap_err().to_string();
         assert!(err.contains("is not an rwg env.json"), "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    fn jax(jax: &str, python: &str, kind: &str) -> JaxRecord {
+        JaxRecord {
+            observation_space: "Box(-inf, inf, (1,), float32)".into(),
+            action_space: "Box(-1.0, 1.0, (1,), float32)".into(),
+            versions: [
+                ("jax", jax),
+                ("jaxlib", jax),
+                ("gymnax", "1.0.1"),
+                ("python", python),
+            ]
+            .into_iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect(),
+            device_kind: kind.into(),
+            platform: "cpu".into(),
+            precision: "float32".into(),
+            networks_per_call: 256,
+        }
+    }
+
+    #[test]
+    fn a_jax_record_compares_versions_device_precision_and_call_size() {
+        let dir = std::env::temp_dir().join(format!("rwg-env-record-jax-{}", std::process::id()));
+        let then =
+            EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(jax("0.10.2", "3.11.7", "cpu"));
+        write_record(&dir, &then).unwrap();
+        assert_eq!(read_record(&dir).unwrap().as_ref(), Some(&then));
+        // Python's version is shown, not compared
+        let other_python =
+            EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(jax("0.10.2", "3.12.1", "cpu"));
+        assert!(check_record(&dir, &other_python, "refused").unwrap());
+        let mut now = jax("0.4.30", "3.11.7", "NVIDIA H200");
+        now.precision = "float64".into();
+        now.networks_per_call = 4096;
+        let now = EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(now);
+        let err = check_record(&dir, &now, "do this").unwrap_err().to_string();
+        for s in [
+            "jax: 0.10.2 then, 0.4.30 now",
+            "jaxlib: 0.10.2 then, 0.4.30 now",
+            "device kind: cpu then, NVIDIA H200 now",
+            "precision: float32 then, float64 now",
+            "networks per call: 256 then, 4096 now",
+            "(gymnax 1.0.1, jax 0.10.2, jaxlib 0.10.2, Python 3.11.7)",
+        ] {
+            assert!(err.contains(s), "{s:?} missing in {err}");
+        }
+        assert!(!err.contains("gymnax: "), "{err}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -1,0 +1,170 @@
+//! The keys of JAX envs (`gymnax:`, `brax:`, `jax:module:callable`) in an
+//! `[[envs]]` entry: `precision`, `device`, `networks_per_call`, checked
+//! where they stand, and the keys a JAX env does not take (`plugin`,
+//! `config`, `isolate`, `action_dtype`) refused there; the same three keys
+//! on any other env are refused too.
+
+use super::RawEnv;
+use crate::limits;
+use rwg_jax::Precision;
+use std::ops::Range;
+use toml::Spanned;
+
+/// The JAX keys of one entry, checked.
+pub(super) struct JaxKeys {
+    /// `Some` for a JAX env (the manifest's, else float32), `None` for others.
+    pub precision: Option<Precision>,
+    /// The device asked for, if any.
+    pub device: Option<String>,
+    /// Networks per compiled call, if given.
+    pub networks_per_call: Option<u32>,
+}
+
+/// What a located error is made of: where, and the message.
+type Located = (Range<usize>, String);
+
+/// Checks the JAX keys of entry `key` (`envs[i]`) with id `id`.
+pub(super) fn check(key: &str, id: &str, e: &RawEnv) -> Result<JaxKeys, Located> {
+    let given: [(&str, Option<Range<usize>>); 3] = [
+        ("precision", e.precision.as_ref().map(Spanned::span)),
+        ("device", e.device.as_ref().map(Spanned::span)),
+        (
+            "networks_per_call",
+            e.networks_per_call.as_ref().map(Spanned::span),
+        ),
+    ];
+    let Some((kind, rest)) = rwg_jax::jax_id(id) else {
+        if let Some((name, Some(at))) = given.into_iter().find(|(_, s)| s.is_some()) {
+            return Err((
+                at,
+                format!(
+                    "{key}.{name}: applies to JAX environments only (ids gymnax:ID, brax:NAME \
+                     or jax:module:callable); '{id}' is not one"
+                ),
+            ));
+        }
+        return Ok(JaxKeys {
+            precision: None,
+            device: None,
+            networks_per_call: None,
+        });
+    };
+    refuse_other_keys(key, id, e)?;
+    if matches!(kind, rwg_jax::JaxKind::Custom) && !rest.contains(':') {
+        return Err((
+            e.id.span(),
+            format!(
+                "{key}.id: '{id}' names no callable; a jax: id is jax:module:callable \
+                 (e.g. jax:my_pkg.envs:make_env, where make_env(**kwargs) returns (env, params))"
+            ),
+        ));
+    }
+    let precision = match &e.precision {
+        None => Precision::F32,
+        Some(p) => Precision::from_name(p.get_ref()).ok_or_else(|| {
+            (
+                p.span(),
+                format!(
+                    "{key}.precision: expected \"float32\" or \"float64\" (the precision JAX \
+                     computes the env and the networks in), got {:?}",
+                    p.get_ref()
+                ),
+            )
+        })?,
+    };
+    let device = match &e.device {
+        None => None,
+        Some(d) => Some(device(key, d)?),
+    };
+    let networks_per_call = match &e.networks_per_call {
+        None => None,
+        Some(n) => Some(networks_per_call(key, n)?),
+    };
+    Ok(JaxKeys {
+        precision: Some(precision),
+        device,
+        networks_per_call,
+    })
+}
+
+/// `plugin`, `config`, `isolate` and an `action_dtype` other than the
+/// default on a JAX env.
+fn refuse_other_keys(key: &str, id: &str, e: &RawEnv) -> Result<(), Located> {
+    let other: [(&str, Option<Range<usize>>); 4] = [
+        ("plugin", e.plugin.as_ref().map(Spanned::span)),
+        ("config", e.config.as_ref().map(Spanned::span)),
+        ("isolate", e.isolate.as_ref().map(Spanned::span)),
+        // (float64, the default every resolved manifest writes, changes nothing)
+        (
+            "action_dtype",
+            e.action_dtype
+                .as_ref()
+                .filter(|d| d.get_ref() != "float64")
+                .map(Spanned::span),
+        ),
+    ];
+    match other.into_iter().find(|(_, s)| s.is_some()) {
+        Some((name, Some(at))) => Err((
+            at,
+            format!(
+                "{key}.{name}: '{id}' is a JAX environment, which takes no `{name}`: its \
+                 arguments go in `kwargs = {{ ... }}`, its arithmetic in `precision` \
+                 (\"float32\" or \"float64\"), and it always runs in JAX worker processes"
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// `device = "kind[:index]"`: a JAX platform name and an optional index.
+fn device(key: &str, d: &Spanned<String>) -> Result<String, Located> {
+    let v = d.get_ref();
+    let (kind, index) = match v.split_once(':') {
+        Some((k, i)) => (k, Some(i)),
+        None => (v.as_str(), None),
+    };
+    let kind_ok = !kind.is_empty()
+        && kind.len() <= 32
+        && kind.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+    let index_ok = index
+        .is_none_or(|i| !i.is_empty() && i.len() <= 6 && i.bytes().all(|b| b.is_ascii_digit()));
+    if kind_ok && index_ok {
+        Ok(v.clone())
+    } else {
+        Err((
+            d.span(),
+            format!(
+                "{key}.device: expected a JAX device kind with an optional index, such as \
+                 \"cpu\", \"gpu\", \"gpu:1\" or \"tpu\", got {v:?}"
+            ),
+        ))
+    }
+}
+
+/// `networks_per_call`: a multiple of 32 (rwg's blocks) up to rwg's limit.
+fn networks_per_call(key: &str, n: &Spanned<i64>) -> Result<u32, Located> {
+    let v = *n.get_ref();
+    let max = limits::MAX_NETWORKS_PER_CALL;
+    let block = crate::rundir::blocks::BLOCK_SAMPLES as i64;
+    if v < block || v > i64::from(max) || v % block != 0 {
+        return Err((
+            n.span(),
+            format!(
+                "{key}.networks_per_call: must be a multiple of {block} (rwg's blocks of \
+                 networks) from {block} to {max} (rwg's limit), got {v}"
+            ),
+        ));
+    }
+    Ok(v as u32)
+}
+
+/// Writes an env's precision as the manifest spells it (`"float32"`).
+pub(super) fn serialize_precision<S: serde::Serializer>(
+    p: &Option<Precision>,
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    match p {
+        Some(p) => s.serialize_str(p.name()),
+        None => s.serialize_none(),
+    }
+}
