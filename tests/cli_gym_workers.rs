@@ -322,38 +322,6 @@ fn an_isolated_create_that_hangs_gets_the_step_timeout() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The process ids of `pid`'s children.
-#[cfg(target_os = "linux")]
-fn children(pid: u32) -> Vec<u32> {
-    let mut out = vec![];
-    for e in std::fs::read_dir("/proc").unwrap().flatten() {
-        let Ok(child) = e.file_name().to_string_lossy().parse::<u32>() else {
-            continue;
-        };
-        let Ok(stat) = std::fs::read_to_string(e.path().join("stat")) else {
-            continue;
-        };
-        // pid (comm) state ppid ...
-        let rest = &stat[stat.rfind(')').unwrap() + 2..];
-        if rest.split_whitespace().nth(1) == Some(&pid.to_string()) {
-            out.push(child);
-        }
-    }
-    out
-}
-
-/// Whether process `pid` is running (not gone, not a zombie).
-#[cfg(target_os = "linux")]
-fn alive(pid: u32) -> bool {
-    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
-        Ok(stat) => !matches!(
-            stat[stat.rfind(')').unwrap() + 2..].chars().next(),
-            Some('Z' | 'X')
-        ),
-        Err(_) => false,
-    }
-}
-
 /// Starts `cmd` (an `rwg run` whose env hangs), waits until `ready` says
 /// the workers run, sends `signal` to rwg alone, and checks that rwg and
 /// every worker it started end. Returns rwg's exit code and stderr.

@@ -387,3 +387,35 @@ pub fn shows(shown: &str, value: f64) -> bool {
     let v: f64 = shown.parse().unwrap();
     (v - value).abs() <= 0.5 * unit * (1.0 + 1e-9) + 1e-12
 }
+
+/// The process ids of `pid`'s children.
+#[cfg(target_os = "linux")]
+pub fn children(pid: u32) -> Vec<u32> {
+    let mut out = vec![];
+    for e in std::fs::read_dir("/proc").unwrap().flatten() {
+        let Ok(child) = e.file_name().to_string_lossy().parse::<u32>() else {
+            continue;
+        };
+        let Ok(stat) = std::fs::read_to_string(e.path().join("stat")) else {
+            continue;
+        };
+        // pid (comm) state ppid ...
+        let rest = &stat[stat.rfind(')').unwrap() + 2..];
+        if rest.split_whitespace().nth(1) == Some(&pid.to_string()) {
+            out.push(child);
+        }
+    }
+    out
+}
+
+/// Whether process `pid` is running (not gone, not a zombie).
+#[cfg(target_os = "linux")]
+pub fn alive(pid: u32) -> bool {
+    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+        Ok(stat) => !matches!(
+            stat[stat.rfind(')').unwrap() + 2..].chars().next(),
+            Some('Z' | 'X')
+        ),
+        Err(_) => false,
+    }
+}

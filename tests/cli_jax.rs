@@ -1,0 +1,590 @@
+//! JAX envs (`gymnax:`, `brax:`, `jax:module:callable`) end to end with the
+//! real `rwg` binary: a study writes the run directory every study writes,
+//! with the bytes of `scores.csv`, `samples.csv` and `stats.csv` the same for
+//! any thread count, for merged shards and for a resumed run; network n has
+//! the weights of the built-in env's network n; what a resume or merge must
+//! keep (precision, the versions and device recorded in `env.json`) is
+//! checked; bad manifest values are refused at their line; a non-finite
+//! observation stops the run naming the network and episode; `rwg envs` and
+//! `rwg replay` work for JAX envs; the workers end with rwg.
+//!
+//! Needs `RWG_PEER_PYTHON`: a Python with jax 0.10.2, gymnax 1.0.1 and brax
+//! 0.14.2 (`.ci/run` makes one); without it each test prints `SKIPPED` (and
+//! fails under `CI=true` or `RWG_NO_SKIP=1`). The `jax:` test envs are
+//! `tests/data/rwg_jax_envs.py`.
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The JAX Python (`RWG_PEER_PYTHON`), or `None` after a visible skip.
+fn python() -> Option<String> {
+    match std::env::var("RWG_PEER_PYTHON") {
+        Ok(p) if !p.is_empty() => Some(p),
+        _ => {
+            let thread = std::thread::current();
+            skip(
+                thread.name().unwrap_or("cli_jax"),
+                "set RWG_PEER_PYTHON to a Python with jax==0.10.2, gymnax==1.0.1 and \
+                 brax==0.14.2 to run this test",
+            );
+            None
+        }
+    }
+}
+
+/// `rwg` with the `jax:` test envs importable and no JAX variable of the caller.
+fn rwg_cmd(args: &[&str]) -> Command {
+    let mut c = Command::new(rwg_bin());
+    c.args(args)
+        .env("PYTHONPATH", data_dir())
+        .env_remove("RWG_JAX_TIMEOUT")
+        .env_remove("RWG_PYTHON")
+        .env_remove("XLA_FLAGS")
+        .env_remove("JAX_PLATFORMS");
+    c
+}
+
+/// Runs `rwg`, requires success, returns stdout.
+fn ok(args: &[&str]) -> String {
+    let out = rwg_cmd(args).output().unwrap();
+    assert!(
+        out.status.success(),
+        "rwg {args:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+/// Runs `rwg`, requires failure, returns stderr.
+fn err(args: &[&str]) -> String {
+    let out: Output = rwg_cmd(args).output().unwrap();
+    let e = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(
+        !out.status.success(),
+        "rwg {args:?} should have failed: {e}"
+    );
+    e
+}
+
+/// A study of one env: `samples` networks x `episodes`, architectures 0HL
+/// (and 1HL = [4] with `two_archs`), the env entry's lines `entry` after its
+/// id, with `python = py`.
+fn manifest(
+    py: &str,
+    id: &str,
+    entry: &str,
+    samples: u32,
+    episodes: u32,
+    two_archs: bool,
+) -> String {
+    let mut m = format!(
+        "seed = 5\nsamples = {samples}\nepisodes = {episodes}\n\
+         [[architectures]]\nname = \"0HL\"\nhidden = []\n"
+    );
+    if two_archs {
+        m.push_str("[[architectures]]\nname = \"1HL\"\nhidden = [4]\n");
+    }
+    m.push_str(&format!(
+        "[[envs]]\nid = \"{id}\"\npython = {py:?}\n{entry}\n"
+    ));
+    m
+}
+
+/// Writes `body` to `dir/name`; returns the path.
+fn write(dir: &Path, name: &str, body: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, body).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The bytes that must not depend on how a study was run: each cell's
+/// `scores.csv` and `samples.csv`, and the run's `stats.csv`.
+fn results(run: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut cells: Vec<PathBuf> = std::fs::read_dir(run.join("cells"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    cells.sort();
+    let mut out = vec![];
+    for c in cells {
+        let name = c.file_name().unwrap().to_string_lossy().into_owned();
+        for f in ["scores.csv", "samples.csv"] {
+            let p = c.join(f);
+            out.push((
+                format!("{name}/{f}"),
+                std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display())),
+            ));
+        }
+    }
+    out.push((
+        "stats.csv".into(),
+        std::fs::read(run.join("stats.csv")).unwrap(),
+    ));
+    out
+}
+
+fn assert_same(a: &Path, b: &Path) {
+    let (ra, rb) = (results(a), results(b));
+    assert_eq!(ra.len(), rb.len());
+    for ((na, fa), (nb, fb)) in ra.iter().zip(&rb) {
+        assert_eq!(na, nb);
+        assert!(
+            fa == fb,
+            "{na} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
+    }
+}
+
+const CARTPOLE: &str = "gymnax=CartPole-v1";
+
+/// The `layers` of `rwg replay --export-weights` for network `sample`.
+fn exported_layers(
+    run: &Path,
+    env: &str,
+    arch: &str,
+    sample: u64,
+    file: &Path,
+) -> serde_json::Value {
+    ok(&[
+        "replay",
+        s(run),
+        "--env",
+        env,
+        "--arch",
+        arch,
+        "--sample",
+        &sample.to_string(),
+        "--export-weights",
+        s(file),
+    ]);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
+    v["layers"].clone()
+}
+
+/// A gymnax CartPole study (0HL and [4], 64 networks x 3 episodes) writes
+/// the run directory, its env record and stats.csv; its networks are the
+/// built-in CartPole-v1's; `rwg replay` of one prints the returns of
+/// scores.csv.
+#[test]
+fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-cartpole");
+    let m = write(
+        &dir,
+        "m.toml",
+        &manifest(&py, "gymnax:CartPole-v1", "", 64, 3, true),
+    );
+    let run = dir.join("run");
+    ok(&["run", &m, "--out", s(&run), "--threads", "2"]);
+    for f in [
+        "manifest.toml",
+        "run.json",
+        "stats.csv",
+        "stats.json",
+        "report.html",
+    ] {
+        assert!(run.join(f).is_file(), "{f} missing");
+    }
+    for arch in ["0HL", "1HL"] {
+        let cell = run.join(format!("cells/{CARTPOLE}__{arch}__nobias"));
+        for f in [
+            "scores.csv",
+            "samples.csv",
+            "cell.json",
+            "env.json",
+            "SHA256SUMS",
+        ] {
+            assert!(cell.join(f).is_file(), "{arch}: {f} missing");
+        }
+        let scores = std::fs::read_to_string(cell.join("scores.csv")).unwrap();
+        assert_eq!(scores.lines().count(), 1 + 64 * 3, "{arch}");
+        let record: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(cell.join("env.json")).unwrap()).unwrap();
+        let jax = &record["jax"];
+        assert_eq!(jax["precision"], "float32", "{record}");
+        assert_eq!(jax["platform"], "cpu", "{record}");
+        assert_eq!(jax["networks_per_call"], 256, "{record}");
+        assert_eq!(jax["versions"]["jax"], "0.10.2", "{record}");
+        assert_eq!(jax["versions"]["gymnax"], "1.0.1", "{record}");
+    }
+    let stats = std::fs::read_to_string(run.join("stats.csv")).unwrap();
+    assert!(stats.contains("gymnax:CartPole-v1"), "{stats}");
+
+    // network n's weights are the built-in CartPole-v1's network n
+    let builtin = write(
+        &dir,
+        "builtin.toml",
+        "seed = 5\nsamples = 64\nepisodes = 3\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
+         [[architectures]]\nname = \"1HL\"\nhidden = [4]\n[[envs]]\nid = \"CartPole-v1\"\n",
+    );
+    let brun = dir.join("builtin");
+    rwg_ok(&["run", &builtin, "--out", s(&brun), "--no-report"]);
+    for (arch, n) in [("0HL", 0), ("1HL", 37), ("1HL", 63)] {
+        let a = exported_layers(&run, "gymnax:CartPole-v1", arch, n, &dir.join("a.json"));
+        let b = exported_layers(&brun, "CartPole-v1", arch, n, &dir.join("b.json"));
+        assert!(a.as_array().is_some_and(|l| !l.is_empty()), "{a}");
+        assert_eq!(a, b, "{arch} network {n}");
+    }
+
+    // replay runs network 17's episodes through a worker: scores.csv's returns
+    let shown = ok(&[
+        "replay",
+        s(&run),
+        "--env",
+        "gymnax:CartPole-v1",
+        "--arch",
+        "1HL",
+        "--sample",
+        "17",
+    ]);
+    let scores =
+        std::fs::read_to_string(run.join(format!("cells/{CARTPOLE}__1HL__nobias/scores.csv")))
+            .unwrap();
+    let stored: Vec<&str> = scores.lines().filter(|l| l.starts_with("17,")).collect();
+    assert_eq!(stored.len(), 3);
+    let lines: Vec<&str> = shown.lines().collect();
+    assert_eq!(
+        lines[0], "episode,reset_seed,score,steps,stored_score,same",
+        "{shown}"
+    );
+    for (e, row) in stored.iter().enumerate() {
+        let f: Vec<&str> = row.split(',').collect();
+        let r: Vec<&str> = lines[1 + e].split(',').collect();
+        assert_eq!(
+            (r[0], r[2], r[3], r[5]),
+            (f[1], f[2], f[3], "true"),
+            "{shown}"
+        );
+    }
+    let e = err(&[
+        "replay",
+        s(&run),
+        "--env",
+        "gymnax:CartPole-v1",
+        "--arch",
+        "0HL",
+        "--sample",
+        "1",
+        "--episode",
+        "0",
+    ]);
+    assert!(e.contains("step by step"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// 1 vs 2 threads, two shards merged, and a run stopped by Ctrl-C after its
+/// first block and resumed give the same bytes; a resume whose env.json
+/// records another jax version, or with another precision, is refused.
+#[test]
+fn threads_shards_and_resume_give_the_same_bytes_under_the_same_jax() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-bytes");
+    let body = manifest(
+        &py,
+        "gymnax:CartPole-v1",
+        "networks_per_call = 32",
+        320,
+        3,
+        true,
+    );
+    let m = write(&dir, "m.toml", &body);
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.join(name);
+        let mut args = vec!["run", &m, "--out", s(&out)];
+        args.extend_from_slice(extra);
+        ok(&args);
+        out
+    };
+    let t1 = run("t1", &["--threads", "1"]);
+    let t2 = run("t2", &["--threads", "2"]);
+    assert_same(&t1, &t2);
+
+    let s0 = run("s0", &["--shard", "0/2", "--threads", "2"]);
+    let s1 = run("s1", &["--shard", "1/2", "--threads", "1"]);
+    let merged = dir.join("merged");
+    ok(&["merge", s(&s0), s(&s1), "--out", s(&merged)]);
+    assert_same(&t1, &merged);
+
+    // stopped after its first block (committed at once), then resumed
+    let stopped = dir.join("stopped");
+    let mut cmd = rwg_cmd(&["run", &m, "--out", s(&stopped), "--threads", "2"]);
+    cmd.env("RWG_COMMIT_LINGER", "0");
+    let cell = stopped.join(format!("cells/{CARTPOLE}__0HL__nobias"));
+    ctrl_c_after_first_block(cmd, &cell.join("blocks"));
+
+    // a copy whose env.json says the blocks were computed under another jax
+    let other = dir.join("other-jax");
+    let cp = Command::new("cp")
+        .args(["-a", s(&stopped), s(&other)])
+        .status()
+        .unwrap();
+    assert!(cp.success());
+    let record = other.join(format!("cells/{CARTPOLE}__0HL__nobias/env.json"));
+    let text = std::fs::read_to_string(&record).unwrap();
+    assert!(text.contains("\"jax\": \"0.10.2\""), "{text}");
+    std::fs::write(
+        &record,
+        text.replace("\"jax\": \"0.10.2\"", "\"jax\": \"0.4.30\""),
+    )
+    .unwrap();
+    let e = err(&["run", &m, "--out", s(&other)]);
+    assert!(e.contains("jax: 0.4.30 then, 0.10.2 now"), "{e}");
+    assert!(e.contains("env.json"), "{e}");
+
+    // another precision is another study
+    let f64_body = body.replace(
+        "networks_per_call = 32",
+        "networks_per_call = 32\nprecision = \"float64\"",
+    );
+    let m64 = write(&dir, "m64.toml", &f64_body);
+    let e = err(&["run", &m64, "--out", s(&stopped)]);
+    assert!(e.contains("holds a different study"), "{e}");
+    assert!(e.contains("float64"), "{e}");
+
+    ok(&["run", &m, "--out", s(&stopped), "--threads", "1"]);
+    assert_same(&t1, &stopped);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A tiny Brax study runs, with Brax's spaces recorded.
+#[test]
+fn a_brax_env_runs_a_study() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-brax");
+    let m = write(
+        &dir,
+        "m.toml",
+        &manifest(
+            &py,
+            "brax:inverted_pendulum",
+            "max_episode_steps = 20\nnetworks_per_call = 32",
+            32,
+            1,
+            false,
+        ),
+    );
+    let run = dir.join("run");
+    ok(&["run", &m, "--out", s(&run), "--no-report"]);
+    let cell = run.join("cells/brax=inverted_pendulum__0HL__nobias");
+    let scores = std::fs::read_to_string(cell.join("scores.csv")).unwrap();
+    assert_eq!(scores.lines().count(), 33, "{scores}");
+    let record = std::fs::read_to_string(cell.join("env.json")).unwrap();
+    assert!(record.contains("\"brax\": \"0.14.2\""), "{record}");
+    assert!(record.contains("\"max_episode_steps\": 20"), "{record}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A `jax:module:callable` env of the user's runs; one whose observation
+/// turns NaN stops the run naming the network and episode, keeps the blocks
+/// committed before it, and the run resumes once the env is fixed.
+#[test]
+fn a_jax_env_of_ones_own_runs_and_a_nan_observation_stops_it() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-custom");
+    let nan_file = dir.join("nan-seed");
+    // network 70's episode 1: in the third call of 32 networks
+    let seed = rwg_core::sampler::reset_seed(5, "rwg_jax_envs:make_slider", 70, 1);
+    std::fs::write(&nan_file, seed.to_string()).unwrap();
+    let entry = format!(
+        "kwargs = {{ nan_file = {:?} }}\nnetworks_per_call = 32",
+        s(&nan_file)
+    );
+    let m = write(
+        &dir,
+        "m.toml",
+        &manifest(&py, "jax:rwg_jax_envs:make_slider", &entry, 128, 2, false),
+    );
+    let run = dir.join("run");
+    let mut cmd = rwg_cmd(&["run", &m, "--out", s(&run), "--threads", "1", "--no-report"]);
+    let out = cmd.env("RWG_COMMIT_LINGER", "0").output().unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{e}");
+    assert!(e.contains("sample 70, episode 1"), "{e}");
+    assert!(e.contains("observation"), "{e}");
+    let blocks = run.join("cells/jax=rwg_jax_envs=make_slider__0HL__nobias/blocks");
+    for b in ["b0000000.csv", "b0000001.csv"] {
+        assert!(blocks.join(b).is_file(), "{b} not kept: {e}");
+    }
+    std::fs::remove_file(&nan_file).unwrap();
+    ok(&["run", &m, "--out", s(&run), "--threads", "1", "--no-report"]);
+    let fresh = dir.join("fresh");
+    ok(&[
+        "run",
+        &m,
+        "--out",
+        s(&fresh),
+        "--threads",
+        "2",
+        "--no-report",
+    ]);
+    let cell = "cells/jax=rwg_jax_envs=make_slider__0HL__nobias/scores.csv";
+    assert!(std::fs::read(run.join(cell)).unwrap() == std::fs::read(fresh.join(cell)).unwrap());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Bad JAX entries are refused at their manifest line, saying why.
+#[test]
+fn bad_jax_entries_are_refused_at_their_line() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-errors");
+    let cases: [(&str, &str, &str, &[&str]); 6] = [
+        (
+            "gymnax:CartPole-v9",
+            "",
+            ":8:",
+            &["CartPole-v9", "CartPole-v1", "Acrobot-v1"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "precision = \"float16\"",
+            ":10:",
+            &["precision", "float32", "float64"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "networks_per_call = 33",
+            ":10:",
+            &["networks_per_call", "multiple of 32"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "device = \"gpu\"",
+            ":10:",
+            &["device", "gpu", "cpu"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "plugin = \"x.so\"",
+            ":10:",
+            &["plugin", "JAX"],
+        ),
+        (
+            "CartPole-v1",
+            "precision = \"float64\"",
+            ":10:",
+            &["precision", "JAX"],
+        ),
+    ];
+    for (id, entry, line, says) in cases {
+        let body = manifest(&py, id, entry, 32, 1, false);
+        let body = if id.contains(':') {
+            body
+        } else {
+            body.replace(&format!("python = {py:?}\n"), "")
+        };
+        // (the built-in id's entry has no python line: its key sits a line up)
+        let line = if id.contains(':') { line } else { ":9:" };
+        let m = write(&dir, "m.toml", &body);
+        let e = err(&["run", &m, "--out", s(&dir.join("r")), "--no-report"]);
+        assert!(e.contains(&format!("m.toml{line}")), "{id} {entry}: {e}");
+        for w in says {
+            assert!(e.contains(w), "{id} {entry}: {w:?} missing in {e}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `rwg envs gymnax:CartPole-v1` describes the env: spaces, time limit,
+/// versions, device.
+#[test]
+fn envs_describes_a_gymnax_env() {
+    let Some(py) = python() else { return };
+    let shown = ok(&["envs", "gymnax:CartPole-v1", "--python", &py]);
+    for w in [
+        "gymnax:CartPole-v1",
+        "Discrete(2)",
+        "500",
+        "jax 0.10.2",
+        "gymnax 1.0.1",
+        "cpu",
+    ] {
+        assert!(shown.contains(w), "{w:?} missing in {shown}");
+    }
+    let json = ok(&["envs", "gymnax:CartPole-v1", "--python", &py, "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v[0]["max_episode_steps"], 500, "{json}");
+    assert_eq!(v[0]["jax"]["platform"], "cpu", "{json}");
+}
+
+/// SIGTERM to rwg alone while its JAX workers run: rwg ends and no worker
+/// outlives it.
+#[cfg(target_os = "linux")]
+#[test]
+fn jax_workers_end_with_rwg_on_sigterm() {
+    use std::time::{Duration, Instant};
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-sigterm");
+    let m = write(
+        &dir,
+        "m.toml",
+        &manifest(
+            &py,
+            "gymnax:CartPole-v1",
+            "networks_per_call = 32",
+            100_000,
+            20,
+            true,
+        ),
+    );
+    let mut child = rwg_cmd(&[
+        "run",
+        &m,
+        "--out",
+        s(&dir.join("r")),
+        "--threads",
+        "2",
+        "-q",
+    ])
+    .stdout(std::process::Stdio::null())
+    .stderr(std::process::Stdio::null())
+    .spawn()
+    .unwrap();
+    let t0 = Instant::now();
+    let workers = loop {
+        let w = children(child.id());
+        if w.len() >= 2 {
+            break w;
+        }
+        assert!(
+            t0.elapsed() < Duration::from_secs(120),
+            "no workers started"
+        );
+        assert!(child.try_wait().unwrap().is_none(), "rwg ended");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    std::thread::sleep(Duration::from_secs(2));
+    let kill = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let t0 = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed() > Duration::from_secs(40) {
+            let _ = child.kill();
+            panic!("rwg did not end");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let t0 = Instant::now();
+    while workers.iter().any(|&w| alive(w)) && t0.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let left: Vec<u32> = workers.iter().copied().filter(|&w| alive(w)).collect();
+    for &w in &left {
+        let _ = Command::new("kill")
+            .args(["-KILL", &w.to_string()])
+            .status();
+    }
+    assert!(left.is_empty(), "workers {left:?} outlived rwg");
+    let _ = std::fs::remove_dir_all(&dir);
+}

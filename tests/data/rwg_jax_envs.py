@@ -1,0 +1,96 @@
+"""JAX envs of rwg's end-to-end tests (tests/cli_jax.rs), written to the
+functional interface of a `jax:module:callable` env: the callable returns
+`(env, params)`; `env.reset(key, params) -> (obs, state)`,
+`env.step(key, state, action, params) -> (obs, state, reward, done, info)`,
+`env.observation_space(params)`, `env.action_space(params)`.
+
+`make_slider`: a point on a line pushed by a force in [-2, 2], rewarded for
+staying near 0, done when it leaves [-3, 3]. With `nan_file`, a file holding
+one of rwg's reset seeds: the episode reset from that seed observes NaN from
+its first step on (read when the env is made, so deleting the file "fixes"
+the env without changing the study).
+"""
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+
+class Box(NamedTuple):
+    """A box space as the interface reads one: `.low`, `.high`, `.shape`."""
+
+    low: jax.Array
+    high: jax.Array
+    shape: tuple
+
+
+class Params(NamedTuple):
+    """The env's parameters; rwg reads the time limit from them."""
+
+    max_steps_in_episode: int = 60
+
+
+class State(NamedTuple):
+    """Position, velocity, and whether the episode observes NaN."""
+
+    x: jax.Array
+    v: jax.Array
+    poison: jax.Array
+
+
+def _key_words(key):
+    """A key's data as uint32 words, for a typed or a raw key."""
+    if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+        return jax.random.key_data(key)
+    return key
+
+
+class Slider:
+    """The slider env (see the module's doc)."""
+
+    def __init__(self, poisoned_reset_key):
+        self.poisoned = poisoned_reset_key
+
+    def _obs(self, s):
+        o = jnp.stack([s.x, s.v])
+        return jnp.where(s.poison, jnp.nan, o)
+
+    def reset(self, key, params):
+        x = jax.random.uniform(key, (), minval=-1.0, maxval=1.0)
+        if self.poisoned is None:
+            poison = jnp.array(False)
+        else:
+            poison = jnp.all(_key_words(key) == self.poisoned)
+        s = State(x, jnp.zeros_like(x), poison)
+        return jnp.stack([s.x, s.v]), s
+
+    def step(self, key, state, action, params):
+        force = jnp.clip(jnp.ravel(action)[0], -2.0, 2.0)
+        v = state.v + 0.1 * force + 0.01 * jax.random.normal(key, (), state.x.dtype)
+        x = state.x + 0.1 * v
+        s = State(x, v, state.poison)
+        return self._obs(s), s, 1.0 - x * x, jnp.abs(x) > 3.0, {}
+
+    def observation_space(self, params):
+        inf = jnp.full((2,), jnp.inf)
+        return Box(-inf, inf, (2,))
+
+    def action_space(self, params):
+        return Box(jnp.array([-2.0]), jnp.array([2.0]), (1,))
+
+
+def make_slider(nan_file=None, max_steps_in_episode=60):
+    """The slider env and its params (see the module's doc)."""
+    poisoned = None
+    if nan_file is not None:
+        try:
+            with open(nan_file) as f:
+                r = int(f.read().strip())
+        except FileNotFoundError:
+            r = None
+        if r is not None:
+            # rwg's key of reset seed r, split as rwg splits it: the reset's key
+            key = jnp.array([r >> 32, r & 0xFFFFFFFF], dtype=jnp.uint32)
+            poisoned = _key_words(jax.random.split(key)[0])
+    return Slider(poisoned), Params(max_steps_in_episode=max_steps_in_episode)
