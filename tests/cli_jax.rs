@@ -588,3 +588,41 @@ fn jax_workers_end_with_rwg_on_sigterm() {
     assert!(left.is_empty(), "workers {left:?} outlived rwg");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Commands that step an env one call at a time refuse a JAX env, saying
+/// what works for one (no Python is started).
+#[test]
+fn rollout_and_check_refuse_jax_envs_naming_what_works() {
+    for (cmd, id) in [("rollout", "gymnax:CartPole-v1"), ("check", "brax:ant")] {
+        let e = err(&[cmd, id]);
+        assert!(e.contains(&format!("'{id}' is a JAX env")), "{e}");
+        assert!(e.contains(&format!("rwg envs {id}")), "{e}");
+    }
+}
+
+/// `rwg slurm` on a machine without the device a JAX env names (a login
+/// node without GPUs) checks the env on JAX's default device and keeps the
+/// manifest's device for the shards.
+#[test]
+fn slurm_checks_a_jax_env_without_the_device_the_shards_will_have() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-slurm");
+    let m = write(
+        &dir,
+        "m.toml",
+        &manifest(&py, "gymnax:CartPole-v1", "device = \"gpu\"", 64, 1, false),
+    );
+    let study = dir.join("study");
+    ok(&[
+        "slurm",
+        &m,
+        "--shards",
+        "2",
+        "--out",
+        s(&study),
+        "--dry-run",
+    ]);
+    let resolved = std::fs::read_to_string(study.join("slurm/manifest.toml")).unwrap();
+    assert!(resolved.contains("device = \"gpu\""), "{resolved}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -9,6 +9,20 @@ pub fn is_gym(id: &str) -> bool {
     rwg_gym::gym_id(id).is_some()
 }
 
+/// An error for `command` (which steps an env a call at a time) given a
+/// JAX env id, saying what works for one instead.
+pub fn refuse_jax(id: &str, command: &str) -> anyhow::Result<()> {
+    if rwg_jax::jax_id(id).is_some() {
+        anyhow::bail!(
+            "'{id}' is a JAX env, which runs whole episodes in compiled calls: {command} \
+             steps an env one call at a time and cannot run it; describe it with \
+             `rwg envs {id}`, run it in a study (`rwg run`), and replay a network's episodes \
+             with `rwg replay`"
+        );
+    }
+    Ok(())
+}
+
 /// The command-line options of a `gymnasium:` env.
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct GymArgs {

@@ -372,6 +372,7 @@ pub fn run(mut args: Args) -> Result<()> {
     if let Some(id) = args.plugin.to_str().filter(|s| crate::gym::is_gym(s)) {
         return run_gym(&args, id);
     }
+    crate::gym::refuse_jax(&args.plugin.display().to_string(), "rwg check")?;
     args.gym.refuse_for(&args.plugin.display().to_string())?;
     resolve_env_id(&mut args)?;
     let timeout = Duration::from_secs(args.timeout.max(1));

@@ -180,6 +180,7 @@ fn make_env(args: &Args, opts: &EnvOptions) -> Result<Box<dyn Environment + Send
         cfg.action_dtype = opts.action_dtype;
         return Ok(Box::new(rwg_gym::make_single(&cfg)?));
     }
+    crate::gym::refuse_jax(&args.env, "rwg rollout")?;
     args.gym.refuse_for(&args.env)?;
     let mut plugins = Plugins::default();
     if let Some(path) = &args.plugin {

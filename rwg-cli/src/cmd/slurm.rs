@@ -76,10 +76,26 @@ pub struct Args {
     dry_run: bool,
 }
 
+/// Checks that every env of `m` builds here and resolves its plugin files
+/// into `m`. A JAX env is checked on JAX's default device: the device the
+/// manifest names is the compute nodes' (a GPU), which this machine (a
+/// login node) need not have; the shards check it when they start.
+fn check_envs(m: &mut Manifest) -> Result<()> {
+    let mut here = m.clone();
+    for e in &mut here.envs {
+        e.device = None;
+    }
+    plan_cells(&mut here)?;
+    for (e, checked) in m.envs.iter_mut().zip(here.envs) {
+        e.plugin = checked.plugin;
+    }
+    Ok(())
+}
+
 /// Runs `rwg slurm`.
 pub fn run(args: Args) -> Result<()> {
     let mut m = Manifest::load(&args.manifest)?;
-    plan_cells(&mut m)?; // checks every env, resolves plugin files
+    check_envs(&mut m)?;
     if args.isolate {
         // (how the shards run, not what: a resubmission may change it)
         for e in &mut m.envs {
