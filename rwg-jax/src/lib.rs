@@ -404,3 +404,38 @@ impl JaxSource {
         run::run_blocks(self, plan, blocks, threads, on_block)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn jax_ids_name_their_kind_and_seed_id() {
+        assert_eq!(
+            jax_id("gymnax:CartPole-v1"),
+            Some((JaxKind::Gymnax, "CartPole-v1"))
+        );
+        assert_eq!(
+            jax_id("brax:inverted_pendulum"),
+            Some((JaxKind::Brax, "inverted_pendulum"))
+        );
+        assert_eq!(
+            jax_id("jax:my_pkg.envs:make_env"),
+            Some((JaxKind::Custom, "my_pkg.envs:make_env"))
+        );
+        assert_eq!(jax_id("gymnasium:CartPole-v1"), None);
+        assert_eq!(jax_id("CartPole-v1"), None);
+        let cfg = JaxConfig::new(JaxKind::Custom, "m:f");
+        assert_eq!(cfg.rwg_id(), "jax:m:f");
+        assert_eq!(jax_id(&cfg.rwg_id()), Some((JaxKind::Custom, "m:f")));
+    }
+
+    #[test]
+    fn precisions_go_by_their_manifest_names() {
+        for p in [Precision::F32, Precision::F64] {
+            assert_eq!(Precision::from_name(p.name()), Some(p));
+        }
+        assert_eq!(Precision::from_name("float16"), None);
+        assert_eq!(Precision::default(), Precision::F32);
+    }
+}

@@ -243,3 +243,19 @@ fn start_errors_say_what_is_wrong() {
         "{err}"
     );
 }
+
+#[test]
+fn a_worker_that_dies_in_a_call_names_the_call_and_how_it_ended() {
+    let Some(py) = python() else { return };
+    let src = JaxSource::open(config(&py, JaxKind::Custom, "rwg_jax_test_envs:dying")).unwrap();
+    let p = plan("rwg_jax_test_envs:dying", &[], false, 2);
+    let err = run(&src, &p, &[4..6, 6..7], 1).unwrap_err().to_string();
+    assert!(err.contains("networks 4 to 6"), "{err}");
+    assert!(
+        err.contains("exited with status 3 while running a chunk"),
+        "{err}"
+    );
+    // the next run starts a new worker
+    let err = run(&src, &p, &[0..1], 1).unwrap_err().to_string();
+    assert!(err.contains("networks 0 to 0"), "{err}");
+}

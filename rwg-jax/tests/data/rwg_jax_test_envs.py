@@ -1,8 +1,11 @@
 """Small JAX envs for rwg-jax's tests (jax:rwg_jax_test_envs:NAME), in gymnax's
 functional interface: NAME(**kwargs) -> (env, params)."""
 
+import os
+
 import jax
 import jax.numpy as jnp
+import numpy as np
 from gymnax.environments import spaces
 
 
@@ -62,3 +65,21 @@ class DictObs(Line):
 
 def dict_obs():
     return DictObs(), Params(50)
+
+
+class Dying(Line):
+    """A Line whose process exits (status 3) at step 2 of an episode."""
+
+    def step(self, key, state, action, params):
+        out = super().step(key, state, action, params)
+
+        def die(t):
+            if (np.asarray(t) >= 2).any():
+                os._exit(3)
+
+        jax.debug.callback(die, out[1][1])
+        return out
+
+
+def dying():
+    return Dying(), Params(50)
