@@ -1,0 +1,134 @@
+//! JAX envs refused or described, end to end with the real `rwg` binary:
+//! bad JAX entries are refused at their manifest line, `rwg envs` describes
+//! a JAX env, `rwg rollout` and `rwg check` refuse one saying what works, and
+//! `rwg slurm` checks one without the device its shards will have.
+//!
+//! Needs `RWG_PEER_PYTHON` (see `cli_jax.rs`) except for the refusals that
+//! start no Python.
+
+mod common;
+mod jax_common;
+use common::*;
+use jax_common::*;
+
+/// Bad JAX entries are refused at their manifest line, saying why.
+#[test]
+fn bad_jax_entries_are_refused_at_their_line() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-errors");
+    let cases: [(&str, &str, &str, &[&str]); 6] = [
+        (
+            "gymnax:CartPole-v9",
+            "",
+            ":8:",
+            &["CartPole-v9", "CartPole-v1", "Acrobot-v1"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "precision = \"float16\"",
+            ":10:",
+            &["precision", "float32", "float64"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "networks_per_call = 33",
+            ":10:",
+            &["networks_per_call", "multiple of 32"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "device = \"gpu\"",
+            ":10:",
+            &["device", "gpu", "cpu"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "plugin = \"x.so\"",
+            ":10:",
+            &["plugin", "JAX"],
+        ),
+        (
+            "CartPole-v1",
+            "precision = \"float64\"",
+            ":10:",
+            &["precision", "JAX"],
+        ),
+    ];
+    for (id, entry, line, says) in cases {
+        let body = manifest(&py, id, entry, 32, 1, false);
+        let body = if id.contains(':') {
+            body
+        } else {
+            body.replace(&format!("python = {py:?}\n"), "")
+        };
+        // (the built-in id's entry has no python line: its key sits a line up)
+        let line = if id.contains(':') { line } else { ":9:" };
+        let m = write(&dir, "m.toml", &body);
+        let e = err(&["run", &m, "--out", s(&dir.join("r")), "--no-report"]);
+        assert!(e.contains(&format!("m.toml{line}")), "{id} {entry}: {e}");
+        for w in says {
+            assert!(e.contains(w), "{id} {entry}: {w:?} missing in {e}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `rwg envs gymnax:CartPole-v1` describes the env: spaces, time limit,
+/// versions, device.
+#[test]
+fn envs_describes_a_gymnax_env() {
+    let Some(py) = python() else { return };
+    let shown = ok(&["envs", "gymnax:CartPole-v1", "--python", &py]);
+    for w in [
+        "gymnax:CartPole-v1",
+        "Discrete(2)",
+        "500",
+        "jax 0.10.2",
+        "gymnax 1.0.1",
+        "cpu",
+    ] {
+        assert!(shown.contains(w), "{w:?} missing in {shown}");
+    }
+    let json = ok(&["envs", "gymnax:CartPole-v1", "--python", &py, "--json"]);
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert_eq!(v[0]["max_episode_steps"], 500, "{json}");
+    assert_eq!(v[0]["jax"]["platform"], "cpu", "{json}");
+}
+
+/// Commands that step an env one call at a time refuse a JAX env, saying
+/// what works for one (no Python is started).
+#[test]
+fn rollout_and_check_refuse_jax_envs_naming_what_works() {
+    for (cmd, id) in [("rollout", "gymnax:CartPole-v1"), ("check", "brax:ant")] {
+        let e = err(&[cmd, id]);
+        assert!(e.contains(&format!("'{id}' is a JAX env")), "{e}");
+        assert!(e.contains(&format!("rwg envs {id}")), "{e}");
+    }
+}
+
+/// `rwg slurm` on a machine without the device a JAX env names (a login
+/// node without GPUs) checks the env on JAX's default device and keeps the
+/// manifest's device for the shards.
+#[test]
+fn slurm_checks_a_jax_env_without_the_device_the_shards_will_have() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-slurm");
+    let m = write(
+        &dir,
+        "m.toml",
+        &manifest(&py, "gymnax:CartPole-v1", "device = \"gpu\"", 64, 1, false),
+    );
+    let study = dir.join("study");
+    ok(&[
+        "slurm",
+        &m,
+        "--shards",
+        "2",
+        "--out",
+        s(&study),
+        "--dry-run",
+    ]);
+    let resolved = std::fs::read_to_string(study.join("slurm/manifest.toml")).unwrap();
+    assert!(resolved.contains("device = \"gpu\""), "{resolved}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
