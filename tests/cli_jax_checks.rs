@@ -132,3 +132,44 @@ fn slurm_checks_a_jax_env_without_the_device_the_shards_will_have() {
     assert!(resolved.contains("device = \"gpu\""), "{resolved}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--isolate` (every plugin env isolated) leaves a JAX env, which takes no
+/// `isolate`, as it is: the resolved manifests of `rwg run` and `rwg slurm`
+/// read back, and a run resumes from its own manifest.toml.
+#[test]
+fn isolate_leaves_jax_envs_alone() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-isolate");
+    let m = write(
+        &dir,
+        "m.toml",
+        &manifest(
+            &py,
+            "gymnax:CartPole-v1",
+            "networks_per_call = 32",
+            32,
+            1,
+            false,
+        ),
+    );
+    let run = dir.join("run");
+    ok(&["run", &m, "--out", s(&run), "--isolate", "--no-report"]);
+    let own = run.join("manifest.toml");
+    let resolved = std::fs::read_to_string(&own).unwrap();
+    assert!(!resolved.contains("isolate"), "{resolved}");
+    ok(&["run", s(&own), "--out", s(&run), "--no-report"]);
+    let study = dir.join("study");
+    ok(&[
+        "slurm",
+        &m,
+        "--shards",
+        "2",
+        "--out",
+        s(&study),
+        "--isolate",
+        "--dry-run",
+    ]);
+    let shards = std::fs::read_to_string(study.join("slurm/manifest.toml")).unwrap();
+    assert!(!shards.contains("isolate"), "{shards}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

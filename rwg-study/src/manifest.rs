@@ -658,6 +658,16 @@ impl Manifest {
         toml::to_string(&o).expect("manifest serialises")
     }
 
+    /// Runs every env that can be isolated in worker processes
+    /// (`--isolate`): all but JAX envs, which always run in worker processes
+    /// of their own and take no `isolate` (the resolved manifest must read
+    /// back).
+    pub fn isolate_all(&mut self) {
+        for e in &mut self.envs {
+            e.isolate = !crate::jax_source::is_jax(&e.id);
+        }
+    }
+
     /// How the study of `other` differs from this one (empty: the same study).
     /// Compares what [`Manifest::to_toml`] writes, key by key, except the
     /// envs' `isolate` and `device` (they change where an env runs, not its

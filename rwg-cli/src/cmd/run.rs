@@ -156,9 +156,7 @@ fn apply_overrides(m: &mut Manifest, args: &Args) -> Result<()> {
     )
     .map_err(flag)?;
     if args.isolate {
-        for e in &mut m.envs {
-            e.isolate = true;
-        }
+        m.isolate_all();
     }
     Ok(())
 }

@@ -98,9 +98,7 @@ pub fn run(args: Args) -> Result<()> {
     check_envs(&mut m)?;
     if args.isolate {
         // (how the shards run, not what: a resubmission may change it)
-        for e in &mut m.envs {
-            e.isolate = true;
-        }
+        m.isolate_all();
     }
     let out = match (&args.out, &m.out) {
         (Some(o), _) | (None, Some(o)) => o.clone(),

@@ -442,3 +442,13 @@ fn jax_keys_are_checked_where_they_stand() {
         .unwrap();
     }
 }
+
+#[test]
+fn isolate_all_leaves_jax_envs_alone() {
+    let two = format!("{GOOD}[[envs]]\nid = \"gymnax:CartPole-v1\"\n");
+    let mut m = parse(&two).unwrap();
+    m.isolate_all();
+    let isolated: Vec<bool> = m.envs.iter().map(|e| e.isolate).collect();
+    assert_eq!(isolated, [true, true, false]);
+    parse(&m.to_toml()).unwrap();
+}
