@@ -94,28 +94,8 @@ fn exported_layers(
 /// the blocks in flight or, when a worker is still compiling its call, after
 /// the 10 s rwg gives them (what a cell holds then depends on timing; what a
 /// resume gives must not).
-fn ctrl_c_once(mut cmd: Command, first: &Path) {
-    use std::os::unix::process::CommandExt;
-    use std::process::Stdio;
-    use std::time::{Duration, Instant};
-    let child = cmd
-        .process_group(0)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t0 = Instant::now();
-    while !first.exists() {
-        assert!(t0.elapsed() < Duration::from_secs(120), "no first block");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let group = format!("-{}", child.id());
-    let kill = Command::new("kill")
-        .args(["-INT", "--", &group])
-        .status()
-        .unwrap();
-    assert!(kill.success());
-    let res = child.wait_with_output().unwrap();
+fn ctrl_c_once(cmd: Command, first: &Path) {
+    let res = ctrl_c_when(cmd, first, std::time::Duration::from_secs(120));
     let err = String::from_utf8_lossy(&res.stderr);
     assert_eq!(res.status.code(), Some(130), "{err}");
     assert!(err.to_lowercase().contains("resume with"), "{err}");

@@ -288,14 +288,12 @@ pub fn check_page_in_browser(
     dom
 }
 
-/// Ctrl-C on a terminal, after the run's first block: starts `cmd` (an `rwg
-/// run`) in a process group of its own with piped output, waits (up to 60 s)
-/// until `blocks/b0000000.csv` exists, sends SIGINT to the whole group (rwg
-/// and any worker processes, as a terminal does), and checks what every
-/// interrupted run must show: exit status 130, the message that the finished
-/// blocks are saved, and the first block still there. Returns rwg's stderr.
+/// Ctrl-C on a terminal once `file` exists: starts `cmd` (an `rwg run`) in
+/// a process group of its own with piped output, waits (up to `wait`) until
+/// `file` exists, sends SIGINT to the whole group (rwg and any worker
+/// processes, as a terminal does) and returns rwg's output once it ends.
 #[cfg(unix)]
-pub fn ctrl_c_after_first_block(mut cmd: Command, blocks: &Path) -> String {
+pub fn ctrl_c_when(mut cmd: Command, file: &Path, wait: std::time::Duration) -> Output {
     use std::os::unix::process::CommandExt;
     use std::process::Stdio;
     use std::time::{Duration, Instant};
@@ -305,10 +303,9 @@ pub fn ctrl_c_after_first_block(mut cmd: Command, blocks: &Path) -> String {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let first = blocks.join("b0000000.csv");
     let t0 = Instant::now();
-    while !first.exists() && t0.elapsed() < Duration::from_secs(60) {
-        std::thread::sleep(Duration::from_millis(100));
+    while !file.exists() && t0.elapsed() < wait {
+        std::thread::sleep(Duration::from_millis(20));
     }
     let group = format!("-{}", child.id());
     let kill = Command::new("kill")
@@ -316,7 +313,17 @@ pub fn ctrl_c_after_first_block(mut cmd: Command, blocks: &Path) -> String {
         .status()
         .unwrap();
     assert!(kill.success());
-    let res = child.wait_with_output().unwrap();
+    child.wait_with_output().unwrap()
+}
+
+/// Ctrl-C on a terminal, after the run's first block ([`ctrl_c_when`]
+/// `blocks/b0000000.csv` exists, waiting up to 60 s), and checks what every
+/// interrupted run must show: exit status 130, the message that the finished
+/// blocks are saved, and the first block still there. Returns rwg's stderr.
+#[cfg(unix)]
+pub fn ctrl_c_after_first_block(cmd: Command, blocks: &Path) -> String {
+    let first = blocks.join("b0000000.csv");
+    let res = ctrl_c_when(cmd, &first, std::time::Duration::from_secs(60));
     let err = String::from_utf8_lossy(&res.stderr).into_owned();
     assert_eq!(res.status.code(), Some(130), "{err}");
     assert!(
