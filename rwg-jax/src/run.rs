@@ -1,6 +1,7 @@
-//! [`crate::JaxSource::run_blocks`]: the chunks of a cell handed to the
-//! workers (one thread each, one chunk in flight each), their outcomes put
-//! back together in chunk order.
+//! [`crate::JaxSource::run_blocks`]: the chunks of a cell handed round
+//! robin to the workers (one thread each, one chunk in flight each, the next
+//! chunk's weights and seeds drawn while the worker computes), their
+//! outcomes put back together in chunk order.
 
 use crate::chunks::{chunk_len, chunks, results, Assembly, Chunk};
 use crate::protocol::{CellShape, Outcome};
@@ -9,15 +10,11 @@ use crate::{JaxError, JaxSource};
 use rwg_core::policy::NetShape;
 use rwg_core::sampler::{draw_block_weights, reset_seed, BlockResult, CellPlan, SampleError};
 use rwg_env::EnvError;
-use std::collections::BTreeMap;
 use std::ops::Range;
-use std::sync::mpsc::{channel, Receiver, Sender};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 
-/// Chunks handed out ahead of the first one not yet put back, per worker.
+/// Outcomes a worker thread may have ready before they are put back.
 const AHEAD_PER_WORKER: usize = 2;
-
-/// A worker thread's answer: (thread, chunk, outcome).
-type Answer = (usize, usize, Result<Outcome, JaxError>);
 
 /// See [`crate::JaxSource::run_blocks`].
 pub fn run_blocks<G, X>(
@@ -51,18 +48,16 @@ where
     }
     let workers = src.workers_for(threads).min(all.len());
     std::thread::scope(|scope| {
-        let (answer_tx, answers) = channel::<Answer>();
-        let mut jobs = vec![];
+        let mut outcomes = vec![];
         let mut handles = vec![];
         for t in 0..workers {
-            let (job_tx, job_rx) = channel::<usize>();
-            jobs.push(job_tx);
-            let (answer_tx, cell, all) = (answer_tx.clone(), &cell, &all);
-            handles.push(scope.spawn(move || serve(src, plan, cell, all, t, job_rx, answer_tx)));
+            let (tx, rx) = sync_channel(AHEAD_PER_WORKER);
+            outcomes.push(rx);
+            let (cell, all) = (&cell, &all);
+            handles.push(scope.spawn(move || serve(src, plan, cell, all, (t, workers), tx)));
         }
-        drop(answer_tx);
-        let r = collect(plan, &all, &jobs, &answers, &mut assembly, &mut on_block);
-        drop(jobs); // the threads end after their chunk in flight
+        let r = collect(plan, &all, &outcomes, &mut assembly, &mut on_block);
+        drop(outcomes); // the threads end after their chunk in flight
         for h in handles {
             if let Ok(Some(w)) = h.join() {
                 src.lock_pool().push(w);
@@ -72,14 +67,13 @@ where
     })
 }
 
-/// The main thread's loop: hands chunks to free workers (at most
-/// [`AHEAD_PER_WORKER`] per worker past the first chunk not yet put back),
-/// puts their outcomes back in chunk order, stops at the first failure.
+/// The main thread's loop: takes chunk `c`'s outcome from worker
+/// `c % workers`, puts the outcomes back in chunk order, stops at the first
+/// failure.
 fn collect<G, X>(
     plan: &CellPlan,
     all: &[Chunk],
-    jobs: &[Sender<usize>],
-    answers: &Receiver<Answer>,
+    outcomes: &[Receiver<Result<Outcome, JaxError>>],
     assembly: &mut Assembly<'_>,
     on_block: &mut G,
 ) -> Result<(), X>
@@ -87,35 +81,15 @@ where
     G: FnMut(BlockResult) -> Result<(), X>,
     X: From<SampleError> + Send,
 {
-    let window = AHEAD_PER_WORKER * jobs.len();
-    let mut idle: Vec<usize> = (0..jobs.len()).rev().collect();
-    let mut next_job = 0;
-    let mut next_done = 0;
-    let mut pending: BTreeMap<usize, Result<Outcome, JaxError>> = BTreeMap::new();
-    let mut failed = false;
-    while next_done < all.len() {
-        while !failed && next_job < all.len() && next_job < next_done + window {
-            let Some(t) = idle.pop() else { break };
-            if jobs[t].send(next_job).is_err() {
-                continue; // its worker is gone (its failure is on the way)
-            }
-            next_job += 1;
-        }
-        let Ok((t, c, outcome)) = answers.recv() else {
-            unreachable!("a thread ended with chunks in flight");
-        };
-        failed |= outcome.is_err();
-        idle.push(t);
-        pending.insert(c, outcome);
-        while let Some(outcome) = pending.remove(&next_done) {
-            let chunk = &all[next_done];
-            let outcome = outcome.map_err(|e| chunk_error(plan, chunk, e))?;
-            let (ok, failure) = results(&plan.env_id, chunk, plan.episodes, &outcome);
-            assembly.add(&ok, on_block)?;
-            if let Some(f) = failure {
-                return Err(f.into());
-            }
-            next_done += 1;
+    for (c, chunk) in all.iter().enumerate() {
+        let outcome = outcomes[c % outcomes.len()]
+            .recv()
+            .unwrap_or_else(|_| unreachable!("a worker thread ended before its chunk {c}"));
+        let outcome = outcome.map_err(|e| chunk_error(plan, chunk, e))?;
+        let (ok, failure) = results(&plan.env_id, chunk, plan.episodes, &outcome);
+        assembly.add(&ok, on_block)?;
+        if let Some(f) = failure {
+            return Err(f.into());
         }
     }
     Ok(())
@@ -138,38 +112,44 @@ fn chunk_error(plan: &CellPlan, chunk: &Chunk, e: JaxError) -> SampleError {
     }
 }
 
-/// A worker thread: takes a worker (idle or new), compiles the cell, runs
-/// the chunks it is handed. Returns the worker if it is still sound.
+/// A worker thread `t` of `workers`: takes a worker (idle or new),
+/// compiles the cell, runs chunks `t`, `t + workers`, ... in order, drawing
+/// each chunk's inputs while the worker runs the one before. Returns the
+/// worker if it is still sound.
 fn serve(
     src: &JaxSource,
     plan: &CellPlan,
     cell: &CellShape,
     all: &[Chunk],
-    t: usize,
-    jobs: Receiver<usize>,
-    answers: Sender<Answer>,
+    (t, workers): (usize, usize),
+    outcomes: SyncSender<Result<Outcome, JaxError>>,
 ) -> Option<JaxWorker> {
-    let mut worker = src.take_worker();
-    if let Ok(w) = &mut worker {
-        if let Err(e) = w.set_cell(cell) {
-            worker = Err(e);
-        }
-    }
-    let mut weights = vec![];
-    let mut seeds = vec![];
-    for c in jobs {
+    let mut worker = match src.take_worker() {
+        Ok(mut w) => w.set_cell(cell).map(|_| w),
+        Err(e) => Err(e),
+    };
+    let mut inputs = (vec![], vec![]);
+    let mut next = (vec![], vec![]);
+    chunk_inputs(plan, cell, &all[t], &mut next);
+    for c in (t..all.len()).step_by(workers) {
+        std::mem::swap(&mut inputs, &mut next);
         let w = match worker {
             Ok(ref mut w) => w,
             Err(e) => {
                 // a start-up or compile failure, reported for its first chunk
-                let _ = answers.send((t, c, Err(e)));
+                let _ = outcomes.send(Err(e));
                 return None;
             }
         };
-        chunk_inputs(plan, cell, &all[c], &mut weights, &mut seeds);
-        let outcome = w.run_chunk(chunk_len(&all[c]), &weights, &seeds);
+        let n = chunk_len(&all[c]);
+        let outcome = w.send_chunk(n, &inputs.0, &inputs.1).and_then(|()| {
+            if let Some(after) = all.get(c + workers) {
+                chunk_inputs(plan, cell, after, &mut next);
+            }
+            w.recv_outcome(inputs.1.len())
+        });
         let broken = outcome.is_err();
-        if answers.send((t, c, outcome)).is_err() || broken {
+        if outcomes.send(outcome).is_err() || broken {
             return None;
         }
     }
@@ -182,8 +162,7 @@ fn chunk_inputs(
     plan: &CellPlan,
     cell: &CellShape,
     chunk: &Chunk,
-    weights: &mut Vec<f64>,
-    seeds: &mut Vec<u64>,
+    (weights, seeds): &mut (Vec<f64>, Vec<u64>),
 ) {
     let nw = cell.n_weights;
     weights.clear();

@@ -80,8 +80,7 @@ impl JaxWorker {
 
     /// Sends `msg` and reads the answer (tag, payload in `self.buf[5..]`);
     /// `doing` names the wait in a timeout.
-    fn exchange(&mut self, msg: Option<&[u8]>, doing: &'static str) -> Result<u8, JaxError> {
-        let msg = msg.unwrap_or(&self.buf);
+    fn exchange(&mut self, msg: &[u8], doing: &'static str) -> Result<u8, JaxError> {
         self.worker
             .send(msg)
             .map_err(|e| JaxError::from_proc(e, doing))?;
@@ -98,31 +97,35 @@ impl JaxWorker {
         }
         self.cell = None;
         let msg = message(TAG_CELL, cell.json().to_string().as_bytes());
-        let tag = self.exchange(Some(&msg), "compiling")?;
+        let tag = self.exchange(&msg, "compiling")?;
         let payload = self.buf.split_off(5);
         let k: serde_json::Value = self.expect(tag, &payload, TAG_COMPILED)?;
         self.cell = Some(cell.clone());
         Ok(k["compile_s"].as_f64())
     }
 
-    /// Runs a chunk of `n` networks (`weights`, network-major) with the
-    /// reset seeds `seeds` (`n * episodes`) on the current cell.
-    pub fn run_chunk(
-        &mut self,
-        n: usize,
-        weights: &[f64],
-        seeds: &[u64],
-    ) -> Result<Outcome, JaxError> {
+    /// Sends a chunk of `n` networks (`weights`, network-major) with the
+    /// reset seeds `seeds` (`n * episodes`) to run on the current cell; its
+    /// outcome is [`JaxWorker::recv_outcome`]'s.
+    pub fn send_chunk(&mut self, n: usize, weights: &[f64], seeds: &[u64]) -> Result<(), JaxError> {
         let episodes = self.cell.as_ref().expect("a cell is set").episodes;
-        let mut msg = std::mem::take(&mut self.buf);
-        encode_chunk(&mut msg, n, episodes, weights, seeds);
-        self.buf = msg;
-        let tag = self.exchange(None, "running a chunk")?;
+        encode_chunk(&mut self.buf, n, episodes, weights, seeds);
+        self.worker
+            .send(&self.buf)
+            .map_err(|e| JaxError::from_proc(e, "running a chunk"))
+    }
+
+    /// The outcome of the chunk sent last, of `m` episodes.
+    pub fn recv_outcome(&mut self, m: usize) -> Result<Outcome, JaxError> {
+        let tag = self
+            .worker
+            .recv_message(&mut self.buf, self.timeout)
+            .map_err(|e| JaxError::from_proc(e, "running a chunk"))?;
         if tag != TAG_OUTCOME {
             let payload = self.buf.split_off(5);
             return Err(self.unexpected(tag, &payload));
         }
-        decode_outcome(&self.buf[5..], seeds.len())
+        decode_outcome(&self.buf[5..], m)
     }
 
     /// CPU seconds the process used so far (Linux).
