@@ -103,10 +103,11 @@ fn fault_text(fault: u8, steps: u32) -> String {
     if what.is_empty() {
         what.push("a value (unknown fault bits)");
     }
+    let verb = if what.len() > 1 { "were" } else { "was" };
     format!(
-        "{} was not finite (NaN or infinite) in this episode of {steps} steps (in JAX, the \
-         step is not known); the env computes non-finite values for this network: fix the \
-         env, or bound its observations and rewards",
+        "{} {verb} not finite (NaN or infinite) in this episode, which ran {steps} steps (the \
+         compiled episode does not say at which step); the env computes non-finite values for \
+         this network: fix the env, or bound its observations and rewards",
         what.join(" and ")
     )
 }
