@@ -20,6 +20,7 @@ mod timing_table;
 
 use anyhow::Result;
 use clap::{Parser, Subcommand};
+use std::process::ExitCode;
 
 /// Measure how hard an RL benchmark really is by Random Weight Guessing:
 /// sample small neural-network controllers with random weights, run them, and
@@ -109,31 +110,38 @@ fn install_panic_hook() {
     }));
 }
 
-fn main() {
+/// The exit status of `--help`, `--version` or a usage error, printed by
+/// clap; a closed pipe is told as for any other output.
+fn clap_status(e: clap::Error) -> i32 {
+    let status = e.exit_code();
+    match e.print() {
+        Err(io) if status == 0 && io.kind() == std::io::ErrorKind::BrokenPipe => {
+            stdio::CLOSED_PIPE_STATUS
+        }
+        Err(io) if status == 0 => {
+            errln!("error: cannot write to standard output: {io}");
+            1
+        }
+        _ => status,
+    }
+}
+
+/// `status` (0, 1, 2 or [`stdio::CLOSED_PIPE_STATUS`]) as the process's exit code.
+fn exit_code(status: i32) -> ExitCode {
+    ExitCode::from(u8::try_from(status).unwrap_or(1))
+}
+
+fn main() -> ExitCode {
     install_panic_hook();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
-        Err(e) => {
-            // --help, --version or a usage error, printed by clap; a closed
-            // pipe is told as for any other output
-            let status = e.exit_code();
-            match e.print() {
-                Err(io) if status == 0 && io.kind() == std::io::ErrorKind::BrokenPipe => {
-                    std::process::exit(stdio::CLOSED_PIPE_STATUS)
-                }
-                Err(io) if status == 0 => {
-                    errln!("error: cannot write to standard output: {io}");
-                    std::process::exit(1)
-                }
-                _ => std::process::exit(status),
-            }
-        }
+        Err(e) => return exit_code(clap_status(e)),
     };
     // From here on, what a plugin prints goes to stderr, never into rwg's output.
     stdio::protect();
     if let Err(e) = env_vars::check_all() {
         errln!("error: {e}");
-        std::process::exit(1);
+        return exit_code(1);
     }
     let result: Result<()> = match cli.command {
         Command::Envs(a) => cmd::envs::run(a),
@@ -179,5 +187,5 @@ fn main() {
             1
         }
     };
-    std::process::exit(stdio::exit_status(status));
+    exit_code(stdio::exit_status(status))
 }
