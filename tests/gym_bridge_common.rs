@@ -1,7 +1,7 @@
 //! Helpers of the Gymnasium bridge's end-to-end tests (`cli_gym_bridge.rs`,
 //! `cli_gym_bridge_faults.rs`): the test Python, `rwg` with it, small files.
 
-#![allow(dead_code)]
+#![allow(dead_code, reason = "each test file uses part of these helpers")]
 
 use crate::common::*;
 use std::path::{Path, PathBuf};

@@ -6,7 +6,7 @@
 //! Needs Debian's `slurm-wlm` and `munge` packages and root (slurmd runs the
 //! jobs); [`Cluster::start`] says why when it cannot run here.
 
-#![allow(dead_code)]
+#![allow(dead_code, reason = "each test file uses part of these helpers")]
 
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};

@@ -28,8 +28,6 @@
 //!
 //! The constants come from `rwg-core/tools/tanh_constants.py` (mpmath).
 
-#![allow(clippy::excessive_precision, clippy::unreadable_literal)]
-
 /// Below this `|x|` the polynomial is used (tanh(0.55) = 0.5005 >= 0.5).
 const SMALL: f64 = 0.55;
 /// `|x|` is clamped to this before the exponential: tanh(x) rounds to 1 for

@@ -41,7 +41,10 @@ pub trait ManyEnv {
 
     /// Steps each masked lane with its action: observation, reward and flags
     /// (0 or 1; `truncated` includes the time limit) into lane `i`'s slots.
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "one argument per buffer, as the C ABI's batched call has them"
+    )]
     fn step_many(
         &mut self,
         mask: &[u8],

@@ -151,13 +151,20 @@ impl Lanes for __m256d {
             _mm_setzero_si128(),
         );
         let mut ks = [0u32; 4];
-        _mm_storeu_si128(ks.as_mut_ptr().cast(), _mm_slli_epi32::<2>(k));
+        // SAFETY: `ks` is 16 writable bytes (an unaligned store).
+        unsafe { _mm_storeu_si128(ks.as_mut_ptr().cast(), _mm_slli_epi32::<2>(k)) };
         let t = SINCOSTAB.0.as_ptr();
-        // SAFETY (for the caller's unsafe block): each row 4k..4k+3 <= 439 < 440.
-        let r0 = _mm256_load_pd(t.add(ks[0] as usize));
-        let r1 = _mm256_load_pd(t.add(ks[1] as usize));
-        let r2 = _mm256_load_pd(t.add(ks[2] as usize));
-        let r3 = _mm256_load_pd(t.add(ks[3] as usize));
+        // SAFETY: each row 4k..4k+3 <= 439 < 440 is in the table (k is
+        // clamped into 0..=TABLE_MAX_K above), and the table and its rows of
+        // four are 32-byte aligned.
+        let (r0, r1, r2, r3) = unsafe {
+            (
+                _mm256_load_pd(t.add(ks[0] as usize)),
+                _mm256_load_pd(t.add(ks[1] as usize)),
+                _mm256_load_pd(t.add(ks[2] as usize)),
+                _mm256_load_pd(t.add(ks[3] as usize)),
+            )
+        };
         let t0 = _mm256_unpacklo_pd(r0, r1); // sn0 sn1 cs0 cs1
         let t1 = _mm256_unpackhi_pd(r0, r1); // ssn0 ssn1 ccs0 ccs1
         let t2 = _mm256_unpacklo_pd(r2, r3);
@@ -172,22 +179,26 @@ impl Lanes for __m256d {
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn load(x: &[f64]) -> Self {
-        if x.len() == 4 {
-            _mm256_loadu_pd(x.as_ptr())
+        let mut pad = [0.0; 4];
+        let four: &[f64] = if x.len() == 4 {
+            x
         } else {
-            let mut pad = [0.0; 4];
             pad[..x.len()].copy_from_slice(x);
-            _mm256_loadu_pd(pad.as_ptr())
-        }
+            &pad
+        };
+        // SAFETY: `four` holds four readable `f64` (an unaligned load).
+        unsafe { _mm256_loadu_pd(four.as_ptr()) }
     }
     #[inline]
     #[target_feature(enable = "avx2,fma")]
     unsafe fn store(self, out: &mut [f64]) {
         if out.len() == 4 {
-            _mm256_storeu_pd(out.as_mut_ptr(), self);
+            // SAFETY: `out` holds four writable `f64` (an unaligned store).
+            unsafe { _mm256_storeu_pd(out.as_mut_ptr(), self) };
         } else {
             let mut tmp = [0.0; 4];
-            _mm256_storeu_pd(tmp.as_mut_ptr(), self);
+            // SAFETY: as above, for `tmp`.
+            unsafe { _mm256_storeu_pd(tmp.as_mut_ptr(), self) };
             out.copy_from_slice(&tmp[..out.len()]);
         }
     }

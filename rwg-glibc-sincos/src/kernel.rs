@@ -147,75 +147,97 @@ pub(crate) trait Lanes: Copy {
 /// `TAYLOR_SIN(a * a, a, da)`.
 #[inline(always)]
 unsafe fn taylor_sin<V: Lanes>(a: V, da: V) -> V {
-    let xx = a.mul(a);
-    let mut p = xx.fmadd(V::splat(S5), V::splat(S4));
-    p = xx.fmadd(p, V::splat(S3));
-    p = xx.fmadd(p, V::splat(S2));
-    p = xx.fmadd(p, V::splat(S1));
-    let q = p.fmsub(a, da.mul(V::splat(0.5)));
-    a.add(xx.fmadd(q, da))
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point's) guarantees.
+    unsafe {
+        let xx = a.mul(a);
+        let mut p = xx.fmadd(V::splat(S5), V::splat(S4));
+        p = xx.fmadd(p, V::splat(S3));
+        p = xx.fmadd(p, V::splat(S2));
+        p = xx.fmadd(p, V::splat(S1));
+        let q = p.fmsub(a, da.mul(V::splat(0.5)));
+        a.add(xx.fmadd(q, da))
+    }
 }
 
 /// `BIG + |a|`: its low bits index the table.
 #[inline(always)]
 unsafe fn table_key<V: Lanes>(a: V) -> V {
-    a.abs().add(V::splat(BIG))
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point's) guarantees.
+    unsafe { a.abs().add(V::splat(BIG)) }
 }
 
 /// `do_sin(a, da)` for |a| >= 0.126 (the table path); `u = table_key(a)`,
 /// `rows = lookup(u)`.
 #[inline(always)]
 unsafe fn sin_table<V: Lanes>(a: V, da: V, u: V, rows: [V; 4]) -> V {
-    let le0 = a.le(V::splat(0.0));
-    let dx = da.pick(da.neg(), le0);
-    let x = a.abs().sub(u.sub(V::splat(BIG)));
-    let xx = x.mul(x);
-    let p = xx.fmadd(V::splat(SN5), V::splat(SN3));
-    let s = x.add(x.mul(xx).fmadd(p, dx));
-    let q = xx.fmadd(xx.fmadd(V::splat(CS6), V::splat(CS4)), V::splat(CS2));
-    let c = x.fmadd(dx, xx.mul(q));
-    let [sn, ssn, cs, ccs] = rows;
-    let cor = s.fmadd(cs, c.fnmadd(sn, s.fmadd(ccs, ssn)));
-    sn.add(cor).copysign(a)
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point's) guarantees.
+    unsafe {
+        let le0 = a.le(V::splat(0.0));
+        let dx = da.pick(da.neg(), le0);
+        let x = a.abs().sub(u.sub(V::splat(BIG)));
+        let xx = x.mul(x);
+        let p = xx.fmadd(V::splat(SN5), V::splat(SN3));
+        let s = x.add(x.mul(xx).fmadd(p, dx));
+        let q = xx.fmadd(xx.fmadd(V::splat(CS6), V::splat(CS4)), V::splat(CS2));
+        let c = x.fmadd(dx, xx.mul(q));
+        let [sn, ssn, cs, ccs] = rows;
+        let cor = s.fmadd(cs, c.fnmadd(sn, s.fmadd(ccs, ssn)));
+        sn.add(cor).copysign(a)
+    }
 }
 
 /// `do_sin(a, da)`: Taylor below 0.126, the table above (both computed:
 /// a branch on the lanes' mix would be mispredicted often).
 #[inline(always)]
 unsafe fn do_sin<V: Lanes>(a: V, da: V, u: V, rows: [V; 4]) -> V {
-    let taylor = a.abs().lt(V::splat(TAYLOR_MAX));
-    sin_table(a, da, u, rows).pick(taylor_sin(a, da), taylor)
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point's) guarantees.
+    unsafe {
+        let taylor = a.abs().lt(V::splat(TAYLOR_MAX));
+        sin_table(a, da, u, rows).pick(taylor_sin(a, da), taylor)
+    }
 }
 
 /// `do_cos(a, da)`; `u = table_key(a)`, `rows = lookup(u)`.
 #[inline(always)]
 unsafe fn do_cos<V: Lanes>(a: V, da: V, u: V, rows: [V; 4]) -> V {
-    let lt0 = a.lt(V::splat(0.0));
-    let dx = da.pick(da.neg(), lt0);
-    let x = a.abs().sub(u.sub(V::splat(BIG))).add(dx);
-    let xx = x.mul(x);
-    let p = xx.fmadd(V::splat(SN5), V::splat(SN3));
-    let s = x.mul(xx).fmadd(p, x);
-    let q = xx.fmadd(xx.fmadd(V::splat(CS6), V::splat(CS4)), V::splat(CS2));
-    let c = xx.mul(q);
-    let [sn, ssn, cs, ccs] = rows;
-    let cor = s.fnmadd(sn, c.fnmadd(cs, s.fnmadd(ssn, ccs)));
-    cs.add(cor)
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point's) guarantees.
+    unsafe {
+        let lt0 = a.lt(V::splat(0.0));
+        let dx = da.pick(da.neg(), lt0);
+        let x = a.abs().sub(u.sub(V::splat(BIG))).add(dx);
+        let xx = x.mul(x);
+        let p = xx.fmadd(V::splat(SN5), V::splat(SN3));
+        let s = x.mul(xx).fmadd(p, x);
+        let q = xx.fmadd(xx.fmadd(V::splat(CS6), V::splat(CS4)), V::splat(CS2));
+        let c = xx.mul(q);
+        let [sn, ssn, cs, ccs] = rows;
+        let cor = s.fnmadd(sn, c.fnmadd(cs, s.fnmadd(ssn, ccs)));
+        cs.add(cor)
+    }
 }
 
 /// `reduce_sincos(x)`: `(a, da, n)` with `a + da` = x - n pi/2 (n mod 4 as
 /// the low bits of the returned integer lanes).
 #[inline(always)]
 unsafe fn reduce<V: Lanes>(x: V) -> (V, V, V::I) {
-    let t = x.fmadd(V::splat(HPINV), V::splat(TOINT));
-    let xn = t.sub(V::splat(TOINT));
-    let y = xn.fnmadd(V::splat(MP1), x);
-    let y = xn.fnmadd(V::splat(MP2), y);
-    let t2 = xn.fnmadd(V::splat(PP3), y);
-    let db = xn.fnmadd(V::splat(PP3), y.sub(t2));
-    let b = xn.fnmadd(V::splat(PP4), t2);
-    let db = db.add(xn.fnmadd(V::splat(PP4), t2.sub(b)));
-    (b, db, t.to_bits())
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point's) guarantees.
+    unsafe {
+        let t = x.fmadd(V::splat(HPINV), V::splat(TOINT));
+        let xn = t.sub(V::splat(TOINT));
+        let y = xn.fnmadd(V::splat(MP1), x);
+        let y = xn.fnmadd(V::splat(MP2), y);
+        let t2 = xn.fnmadd(V::splat(PP3), y);
+        let db = xn.fnmadd(V::splat(PP3), y.sub(t2));
+        let b = xn.fnmadd(V::splat(PP4), t2);
+        let db = db.add(xn.fnmadd(V::splat(PP4), t2.sub(b)));
+        (b, db, t.to_bits())
+    }
 }
 
 /// sin and/or cos of `V::N` lanes, and the mask (bit `i` for lane `i`) of
@@ -223,87 +245,91 @@ unsafe fn reduce<V: Lanes>(x: V) -> (V, V, V::I) {
 /// meaningless.
 #[inline(always)]
 unsafe fn eval<V: Lanes, const SIN: bool, const COS: bool>(x: V) -> (V, V, u32) {
-    let all = (1u32 << V::N) - 1;
-    let zero = V::splat(0.0);
-    let ax = x.abs();
-    let ok = ax.lt(V::splat(REDUCE));
-    let small = ax.lt(V::splat(SMALL));
-    let below_mid = ax.lt(V::splat(MID));
-    let mid = V::andnot_m(small, below_mid);
-    let red = V::andnot_m(below_mid, ok);
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point's) guarantees.
+    unsafe {
+        let all = (1u32 << V::N) - 1;
+        let zero = V::splat(0.0);
+        let ax = x.abs();
+        let ok = ax.lt(V::splat(REDUCE));
+        let small = ax.lt(V::splat(SMALL));
+        let below_mid = ax.lt(V::splat(MID));
+        let mid = V::andnot_m(small, below_mid);
+        let red = V::andnot_m(below_mid, ok);
 
-    // Arguments of do_sin (sa, sda) and do_cos (ca, cda) per lane.
-    let (mut sa, mut sda, mut ca, mut cda) = (x, zero, x, zero);
-    let (mut sin_c, mut cos_c) = (mid, small);
-    let (mut sin_neg, mut cos_neg) = (V::none(), V::none());
-    // Middle path (computed whatever the lanes: cheaper than a branch).
-    // sin: do_cos(hp0 - |x|, hp1); cos: do_sin of that, split in two.
-    let t = V::splat(HP0).sub(ax);
-    ca = ca.pick(t, mid);
-    cda = cda.pick(V::splat(HP1), mid);
-    if COS {
-        let a = t.add(V::splat(HP1));
-        let da = t.sub(a).add(V::splat(HP1));
-        sa = sa.pick(a, mid);
-        sda = sda.pick(da, mid);
-    }
-    if V::bits(red) != 0 {
-        let (a, da, n) = reduce(x);
-        sa = sa.pick(a, red);
-        sda = sda.pick(da, red);
-        ca = ca.pick(a, red);
-        cda = cda.pick(da, red);
-        let odd = V::and_m(V::bit_set(n, 1), red);
-        sin_c = V::or_m(sin_c, odd);
-        cos_c = V::or_m(cos_c, V::andnot_m(odd, red));
-        sin_neg = V::and_m(V::bit_set(n, 2), red);
-        cos_neg = V::and_m(V::bit_set(V::add_i(n, 1), 2), red);
-    }
-
-    // Which kernels some wanted lane needs.
-    let mut need_s = V::none();
-    let mut need_c = V::none();
-    if SIN {
-        need_s = V::or_m(need_s, V::andnot_m(sin_c, ok));
-        need_c = V::or_m(need_c, V::and_m(sin_c, ok));
-    }
-    if COS {
-        need_s = V::or_m(need_s, V::andnot_m(cos_c, ok));
-        need_c = V::or_m(need_c, V::and_m(cos_c, ok));
-    }
-    // One table lookup when both kernels read the same rows (the usual case
-    // when both run: the same argument, or pi/2 - |x| and its split).
-    let (us, uc) = (table_key(sa), table_key(ca));
-    let (run_s, run_c) = (V::bits(need_s) != 0, V::bits(need_c) != 0);
-    let (ks, kc) = match (run_s, run_c) {
-        (true, false) => (do_sin(sa, sda, us, V::lookup(us)), zero),
-        (false, true) => (zero, do_cos(ca, cda, uc, V::lookup(uc))),
-        (false, false) => (zero, zero),
-        (true, true) => {
-            let rs = V::lookup(us);
-            let rc = if V::bits(us.eq(uc)) == all {
-                rs
-            } else {
-                V::lookup(uc)
-            };
-            (do_sin(sa, sda, us, rs), do_cos(ca, cda, uc, rc))
+        // Arguments of do_sin (sa, sda) and do_cos (ca, cda) per lane.
+        let (mut sa, mut sda, mut ca, mut cda) = (x, zero, x, zero);
+        let (mut sin_c, mut cos_c) = (mid, small);
+        let (mut sin_neg, mut cos_neg) = (V::none(), V::none());
+        // Middle path (computed whatever the lanes: cheaper than a branch).
+        // sin: do_cos(hp0 - |x|, hp1); cos: do_sin of that, split in two.
+        let t = V::splat(HP0).sub(ax);
+        ca = ca.pick(t, mid);
+        cda = cda.pick(V::splat(HP1), mid);
+        if COS {
+            let a = t.add(V::splat(HP1));
+            let da = t.sub(a).add(V::splat(HP1));
+            sa = sa.pick(a, mid);
+            sda = sda.pick(da, mid);
         }
-    };
+        if V::bits(red) != 0 {
+            let (a, da, n) = reduce(x);
+            sa = sa.pick(a, red);
+            sda = sda.pick(da, red);
+            ca = ca.pick(a, red);
+            cda = cda.pick(da, red);
+            let odd = V::and_m(V::bit_set(n, 1), red);
+            sin_c = V::or_m(sin_c, odd);
+            cos_c = V::or_m(cos_c, V::andnot_m(odd, red));
+            sin_neg = V::and_m(V::bit_set(n, 2), red);
+            cos_neg = V::and_m(V::bit_set(V::add_i(n, 1), 2), red);
+        }
 
-    let mut s = zero;
-    if SIN {
-        s = ks.pick(kc, sin_c);
-        s = s.pick(s.copysign(x), mid);
-        s = s.pick(s.neg(), sin_neg);
-        s = s.pick(x, ax.lt(V::splat(SIN_TINY)));
+        // Which kernels some wanted lane needs.
+        let mut need_s = V::none();
+        let mut need_c = V::none();
+        if SIN {
+            need_s = V::or_m(need_s, V::andnot_m(sin_c, ok));
+            need_c = V::or_m(need_c, V::and_m(sin_c, ok));
+        }
+        if COS {
+            need_s = V::or_m(need_s, V::andnot_m(cos_c, ok));
+            need_c = V::or_m(need_c, V::and_m(cos_c, ok));
+        }
+        // One table lookup when both kernels read the same rows (the usual case
+        // when both run: the same argument, or pi/2 - |x| and its split).
+        let (us, uc) = (table_key(sa), table_key(ca));
+        let (run_s, run_c) = (V::bits(need_s) != 0, V::bits(need_c) != 0);
+        let (ks, kc) = match (run_s, run_c) {
+            (true, false) => (do_sin(sa, sda, us, V::lookup(us)), zero),
+            (false, true) => (zero, do_cos(ca, cda, uc, V::lookup(uc))),
+            (false, false) => (zero, zero),
+            (true, true) => {
+                let rs = V::lookup(us);
+                let rc = if V::bits(us.eq(uc)) == all {
+                    rs
+                } else {
+                    V::lookup(uc)
+                };
+                (do_sin(sa, sda, us, rs), do_cos(ca, cda, uc, rc))
+            }
+        };
+
+        let mut s = zero;
+        if SIN {
+            s = ks.pick(kc, sin_c);
+            s = s.pick(s.copysign(x), mid);
+            s = s.pick(s.neg(), sin_neg);
+            s = s.pick(x, ax.lt(V::splat(SIN_TINY)));
+        }
+        let mut c = zero;
+        if COS {
+            c = ks.pick(kc, cos_c);
+            c = c.pick(c.neg(), cos_neg);
+            c = c.pick(V::splat(1.0), ax.lt(V::splat(COS_TINY)));
+        }
+        (s, c, !V::bits(ok) & all)
     }
-    let mut c = zero;
-    if COS {
-        c = ks.pick(kc, cos_c);
-        c = c.pick(c.neg(), cos_neg);
-        c = c.pick(V::splat(1.0), ax.lt(V::splat(COS_TINY)));
-    }
-    (s, c, !V::bits(ok) & all)
 }
 
 /// sin (if `SIN`) and cos (if `COS`) of every element of `x` into `sin` /
@@ -322,12 +348,16 @@ pub(crate) unsafe fn run<V: Lanes, const SIN: bool, const COS: bool>(
     let mut i = 0;
     while i < x.len() {
         let n = (x.len() - i).min(V::N);
-        let (s, c, bad) = eval::<V, SIN, COS>(V::load(&x[i..i + n]));
+        // SAFETY: `n <= V::N` elements, on a CPU with `V`'s instruction set
+        // (the caller's guarantee).
+        let (s, c, bad) = unsafe { eval::<V, SIN, COS>(V::load(&x[i..i + n])) };
         if SIN {
-            s.store(&mut sin[i..i + n]);
+            // SAFETY: as above.
+            unsafe { s.store(&mut sin[i..i + n]) };
         }
         if COS {
-            c.store(&mut cos[i..i + n]);
+            // SAFETY: as above.
+            unsafe { c.store(&mut cos[i..i + n]) };
         }
         if bad != 0 {
             for l in (0..n).filter(|l| bad >> l & 1 == 1) {
@@ -355,7 +385,8 @@ macro_rules! entry_points {
         #[inline]
         #[target_feature(enable = $features)]
         pub unsafe fn sin_lanes(x: &[f64], out: &mut [f64], libm_sin: fn(f64) -> f64) {
-            $crate::kernel::run::<$v, true, false>(x, out, &mut [], libm_sin, libm_sin);
+            // SAFETY: this function's target features are `$v`'s.
+            unsafe { $crate::kernel::run::<$v, true, false>(x, out, &mut [], libm_sin, libm_sin) };
         }
 
         /// `out[i] = cos(x[i])`, lanes beyond the vector range through
@@ -366,7 +397,8 @@ macro_rules! entry_points {
         #[inline]
         #[target_feature(enable = $features)]
         pub unsafe fn cos_lanes(x: &[f64], out: &mut [f64], libm_cos: fn(f64) -> f64) {
-            $crate::kernel::run::<$v, false, true>(x, &mut [], out, libm_cos, libm_cos);
+            // SAFETY: this function's target features are `$v`'s.
+            unsafe { $crate::kernel::run::<$v, false, true>(x, &mut [], out, libm_cos, libm_cos) };
         }
 
         /// `sin[i], cos[i] = sin(x[i]), cos(x[i])` (the bits of the two
@@ -384,7 +416,8 @@ macro_rules! entry_points {
             libm_sin: fn(f64) -> f64,
             libm_cos: fn(f64) -> f64,
         ) {
-            $crate::kernel::run::<$v, true, true>(x, sin, cos, libm_sin, libm_cos);
+            // SAFETY: this function's target features are `$v`'s.
+            unsafe { $crate::kernel::run::<$v, true, true>(x, sin, cos, libm_sin, libm_cos) };
         }
     };
 }

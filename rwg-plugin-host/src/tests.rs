@@ -589,7 +589,8 @@ fn handshake_tag_names_and_functions() {
 }
 
 unsafe extern "C" fn failing_init(_: *const RwgHost, buf: *mut c_char, len: usize) -> Status {
-    write_c_message(buf, len, "no licence for the simulator");
+    // SAFETY: the host passes a buffer valid for `len` bytes (the ABI).
+    unsafe { write_c_message(buf, len, "no licence for the simulator") };
     RWG_ERR_INTERNAL
 }
 

@@ -273,7 +273,7 @@ mod tests {
         assert_eq!(at("[weights]"), None);
         #[derive(serde::Deserialize, Debug)]
         struct Seed {
-            #[allow(dead_code)]
+            #[expect(dead_code, reason = "read only to check that it parses")]
             seed: i64,
         }
         let (span, msg) = from_toml::<Seed>("seed = 18446744073709551615").unwrap_err();

@@ -190,7 +190,10 @@ fn record_loop(
 /// finalises the cell on `pool` (its `wall_s` runs from `t_cell` to the last
 /// commit, as it did when the runner waited for the commits itself), keeping
 /// its episodes in memory if `keep`.
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the cell's parts, each handed to the thread that finishes it"
+)]
 pub(crate) fn spawn_cell_end<'scope>(
     scope: &'scope Scope<'scope, '_>,
     cell: &'scope Cell,

@@ -447,7 +447,6 @@ mod tests {
     }
 
     /// [`indexed`] before the lookup table, verbatim: the reference.
-    #[allow(clippy::type_complexity)]
     fn indexed_reference(pixels: &[u8]) -> Option<(Vec<u8>, Vec<u8>, Vec<u8>)> {
         let mut colours: std::collections::HashMap<[u8; 4], u8> = std::collections::HashMap::new();
         let (mut palette, mut alpha) = (Vec::new(), Vec::new());

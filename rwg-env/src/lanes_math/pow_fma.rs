@@ -134,74 +134,90 @@ pub(super) trait Lanes: Copy {
 /// `log_inline(|x|)`: `(hi, lo)` with `hi + lo` = log|x| to ~2^-68.
 #[inline(always)]
 unsafe fn log_hi_lo<V: Lanes>(x: V) -> (V, V) {
-    let ix = x.abs().to_bits();
-    let tmp = V::sub_i(ix, V::splat_i(OFF));
-    // i = (tmp >> 45) % 128; k = (int64) tmp >> 52.
-    let i = V::and_i(V::shr45(tmp), V::splat_i(127));
-    let kd = V::top12(tmp);
-    let iz = V::sub_i(ix, V::and_i(tmp, V::splat_i(0xfff << 52)));
-    let z = V::from_bits(iz);
-    let [invc, logc, logctail] = V::log_rows(i);
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point) guarantees.
+    unsafe {
+        let ix = x.abs().to_bits();
+        let tmp = V::sub_i(ix, V::splat_i(OFF));
+        // i = (tmp >> 45) % 128; k = (int64) tmp >> 52.
+        let i = V::and_i(V::shr45(tmp), V::splat_i(127));
+        let kd = V::top12(tmp);
+        let iz = V::sub_i(ix, V::and_i(tmp, V::splat_i(0xfff << 52)));
+        let z = V::from_bits(iz);
+        let [invc, logc, logctail] = V::log_rows(i);
 
-    let r = z.fmadd(invc, V::splat(-1.0));
-    let t1 = kd.fmadd(V::splat(LN2HI), logc);
-    let lo1 = kd.fmadd(V::splat(LN2LO), logctail);
-    let t2 = t1.add(r);
-    let lo2 = t1.sub(t2).add(r);
-    let ar = V::splat(A0).mul(r);
-    let ar2 = r.mul(ar);
-    let ar3 = r.mul(ar2);
-    let hi = t2.add(ar2);
-    let lo3 = ar.fmsub(r, ar2);
-    let lo4 = t2.sub(hi).add(ar2);
-    // p = ar3 * (A1 + r A2 + ar2 (A3 + r A4 + ar2 (A5 + r A6))), the last
-    // product fused into the sum of the lo terms.
-    let q5 = r.fmadd(V::splat(A6), V::splat(A5));
-    let q3 = ar2.fmadd(q5, r.fmadd(V::splat(A4), V::splat(A3)));
-    let q1 = ar2.fmadd(q3, r.fmadd(V::splat(A2), V::splat(A1)));
-    let lo = lo1.add(lo2).add(lo3).add(lo4);
-    let lo = ar3.fmadd(q1, lo);
-    let y = hi.add(lo);
-    let tail = hi.sub(y).add(lo);
-    (y, tail)
+        let r = z.fmadd(invc, V::splat(-1.0));
+        let t1 = kd.fmadd(V::splat(LN2HI), logc);
+        let lo1 = kd.fmadd(V::splat(LN2LO), logctail);
+        let t2 = t1.add(r);
+        let lo2 = t1.sub(t2).add(r);
+        let ar = V::splat(A0).mul(r);
+        let ar2 = r.mul(ar);
+        let ar3 = r.mul(ar2);
+        let hi = t2.add(ar2);
+        let lo3 = ar.fmsub(r, ar2);
+        let lo4 = t2.sub(hi).add(ar2);
+        // p = ar3 * (A1 + r A2 + ar2 (A3 + r A4 + ar2 (A5 + r A6))), the last
+        // product fused into the sum of the lo terms.
+        let q5 = r.fmadd(V::splat(A6), V::splat(A5));
+        let q3 = ar2.fmadd(q5, r.fmadd(V::splat(A4), V::splat(A3)));
+        let q1 = ar2.fmadd(q3, r.fmadd(V::splat(A2), V::splat(A1)));
+        let lo = lo1.add(lo2).add(lo3).add(lo4);
+        let lo = ar3.fmadd(q1, lo);
+        let y = hi.add(lo);
+        let tail = hi.sub(y).add(lo);
+        (y, tail)
+    }
 }
 
 /// `exp_inline(x, xtail, 0)` for 2^-54 <= |x| < 512.
 #[inline(always)]
 unsafe fn exp_hi_lo<V: Lanes>(x: V, xtail: V) -> V {
-    let kd = x.fmadd(V::splat(INVLN2N), V::splat(SHIFT));
-    let ki = kd.to_bits();
-    let kd = kd.sub(V::splat(SHIFT));
-    let r = kd.fmadd(V::splat(NEGLN2HIN), x);
-    let r = kd.fmadd(V::splat(NEGLN2LON), r);
-    let r = r.add(xtail);
-    let top = V::shl45(ki);
-    let (tail, sbits) = V::exp_pairs(V::and_i(ki, V::splat_i(127)));
-    let sbits = V::add_i(sbits.to_bits(), top);
-    let r2 = r.mul(r);
-    let tmp = r.fmadd(V::splat(C3), V::splat(C2)).fmadd(r2, r.add(tail));
-    let tmp = r.fmadd(V::splat(C5), V::splat(C4)).fmadd(r2.mul(r2), tmp);
-    let scale = V::from_bits(sbits);
-    tmp.fmadd(scale, scale)
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point) guarantees.
+    unsafe {
+        let kd = x.fmadd(V::splat(INVLN2N), V::splat(SHIFT));
+        let ki = kd.to_bits();
+        let kd = kd.sub(V::splat(SHIFT));
+        let r = kd.fmadd(V::splat(NEGLN2HIN), x);
+        let r = kd.fmadd(V::splat(NEGLN2LON), r);
+        let r = r.add(xtail);
+        let top = V::shl45(ki);
+        let (tail, sbits) = V::exp_pairs(V::and_i(ki, V::splat_i(127)));
+        let sbits = V::add_i(sbits.to_bits(), top);
+        let r2 = r.mul(r);
+        let tmp = r.fmadd(V::splat(C3), V::splat(C2)).fmadd(r2, r.add(tail));
+        let tmp = r.fmadd(V::splat(C5), V::splat(C4)).fmadd(r2.mul(r2), tmp);
+        let scale = V::from_bits(sbits);
+        tmp.fmadd(scale, scale)
+    }
 }
 
 /// glibc's `pow(x, 2.0)` for 2^-60 <= |x| <= 2^32, |x| != 1 (other lanes
 /// get meaningless values).
 #[inline(always)]
 pub(super) unsafe fn pow2<V: Lanes>(x: V) -> V {
-    let (hi, lo) = log_hi_lo(x);
-    let ehi = V::splat(Y).mul(hi);
-    let elo = V::splat(Y).fmadd(lo, hi.fmsub(V::splat(Y), ehi));
-    exp_hi_lo(ehi, elo)
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point) guarantees.
+    unsafe {
+        let (hi, lo) = log_hi_lo(x);
+        let ehi = V::splat(Y).mul(hi);
+        let elo = V::splat(Y).fmadd(lo, hi.fmsub(V::splat(Y), ehi));
+        exp_hi_lo(ehi, elo)
+    }
 }
 
 /// Lanes where the port applies: 2^-60 <= |x| <= 2^32 and |x| != 1 (false
 /// for NaN).
 #[inline(always)]
 pub(super) unsafe fn in_range<V: Lanes>(x: V) -> V::M {
-    let ax = x.abs();
-    let inside = V::and_m(V::ge(ax, V::splat(MIN)), V::le(ax, V::splat(MAX)));
-    V::andnot_m(V::eq(ax, V::splat(1.0)), inside)
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point) guarantees.
+    unsafe {
+        let ax = x.abs();
+        let inside = V::and_m(V::ge(ax, V::splat(MIN)), V::le(ax, V::splat(MAX)));
+        V::andnot_m(V::eq(ax, V::splat(1.0)), inside)
+    }
 }
 
 /// `p = x*x` and the lanes where `p` is `pow(x, 2)` for certain
@@ -209,17 +225,21 @@ pub(super) unsafe fn in_range<V: Lanes>(x: V) -> V::M {
 /// the exact square within 0.48 ulp of `p`).
 #[inline(always)]
 pub(super) unsafe fn square_fast<V: Lanes>(x: V) -> (V, V::M) {
-    let p = x.mul(x);
-    let e = x.fmsub(x, p).abs();
-    // ulp(p) = 2^(exponent - 52); p >= 2^-120 is normal here.
-    let ulp = V::from_bits(V::sub_i(
-        V::and_i(p.to_bits(), V::splat_i(0x7ff0_0000_0000_0000)),
-        V::splat_i(52 << 52),
-    ));
-    let ax = x.abs();
-    let tight = V::and_m(V::ge(ax, V::splat(MIN)), V::le(ax, V::splat(MAX)));
-    let near = V::le(e, V::splat(0.48).mul(ulp));
-    (p, V::and_m(tight, near))
+    // SAFETY: `Lanes` methods only: sound on a CPU with `V`'s instruction
+    // set, which the caller (an entry point) guarantees.
+    unsafe {
+        let p = x.mul(x);
+        let e = x.fmsub(x, p).abs();
+        // ulp(p) = 2^(exponent - 52); p >= 2^-120 is normal here.
+        let ulp = V::from_bits(V::sub_i(
+            V::and_i(p.to_bits(), V::splat_i(0x7ff0_0000_0000_0000)),
+            V::splat_i(52 << 52),
+        ));
+        let ax = x.abs();
+        let tight = V::and_m(V::ge(ax, V::splat(MIN)), V::le(ax, V::splat(MAX)));
+        let near = V::le(e, V::splat(0.48).mul(ulp));
+        (p, V::and_m(tight, near))
+    }
 }
 
 /// `out[j] = slow(x[j])` for every lane `j` whose bit is set in `lanes`.
@@ -242,7 +262,8 @@ type I4 = __m256i;
 #[target_feature(enable = "avx2,fma")]
 unsafe fn lanes(v: I4) -> [usize; 4] {
     let mut k = [0u64; 4];
-    _mm256_storeu_si256(k.as_mut_ptr().cast(), v);
+    // SAFETY: `k` is 32 writable bytes (an unaligned store).
+    unsafe { _mm256_storeu_si256(k.as_mut_ptr().cast(), v) };
     k.map(|k| k as usize)
 }
 
@@ -333,11 +354,14 @@ impl Lanes for V4 {
         // |k| < 2^51.
         let top = _mm256_srli_epi64::<52>(a);
         let k = _mm256_sub_epi64(
-            _mm256_xor_si256(top, Self::splat_i(0x800)),
-            Self::splat_i(0x800),
+            _mm256_xor_si256(top, _mm256_set1_epi64x(0x800)),
+            _mm256_set1_epi64x(0x800),
         );
         _mm256_sub_pd(
-            _mm256_castsi256_pd(_mm256_add_epi64(k, Self::splat_i(SHIFT.to_bits() as i64))),
+            _mm256_castsi256_pd(_mm256_add_epi64(
+                k,
+                _mm256_set1_epi64x(SHIFT.to_bits() as i64),
+            )),
             _mm256_set1_pd(SHIFT),
         )
     }
@@ -346,11 +370,12 @@ impl Lanes for V4 {
     #[target_feature(enable = "avx2,fma")]
     unsafe fn log_rows(i: I4) -> [V4; 3] {
         let t = LOG_TAB.0.as_ptr();
-        // SAFETY (for the caller's unsafe block): `k & 127` is a row of the
-        // table (the caller's indices are in 0..128 already; the mask makes
-        // the reads safe whatever they are).
-        let row = |k: usize| _mm256_load_pd(t.add(k & 127).cast());
-        let [a, b, c, d] = lanes(i);
+        // SAFETY: `k & 127` is a row of the table, 32-byte aligned (the
+        // caller's indices are in 0..128 already; the mask makes the reads
+        // safe whatever they are).
+        let row = |k: usize| unsafe { _mm256_load_pd(t.add(k & 127).cast()) };
+        // SAFETY: the CPU has AVX2 (this function's own precondition).
+        let [a, b, c, d] = unsafe { lanes(i) };
         let (r0, r1, r2, r3) = (row(a), row(b), row(c), row(d));
         let t0 = _mm256_unpacklo_pd(r0, r1); // invc0 invc1 logctail0 logctail1
         let t1 = _mm256_unpackhi_pd(r0, r1); // logc0 logc1 0 0
@@ -367,10 +392,11 @@ impl Lanes for V4 {
     #[target_feature(enable = "avx2,fma")]
     unsafe fn exp_pairs(k: I4) -> (V4, V4) {
         let t = EXP_TAB.as_ptr();
-        // SAFETY (for the caller's unsafe block): with `k & 127`, 2k + 1 <
-        // 256 (as for `log_rows`, the mask only guards the reads).
-        let pair = |k: usize| _mm_loadu_pd(t.add(2 * (k & 127)).cast());
-        let [a, b, c, d] = lanes(k);
+        // SAFETY: with `k & 127`, 2k + 1 < 256 (as for `log_rows`, the mask
+        // only guards the reads; an unaligned load).
+        let pair = |k: usize| unsafe { _mm_loadu_pd(t.add(2 * (k & 127)).cast()) };
+        // SAFETY: the CPU has AVX2 (this function's own precondition).
+        let [a, b, c, d] = unsafe { lanes(k) };
         let lo = _mm256_set_m128d(pair(c), pair(a)); // tail_a sbits_a tail_c sbits_c
         let hi = _mm256_set_m128d(pair(d), pair(b));
         (_mm256_unpacklo_pd(lo, hi), _mm256_unpackhi_pd(lo, hi))
@@ -410,14 +436,21 @@ pub(super) unsafe fn pow2_lanes(x: &[f64], out: &mut [f64], slow: fn(f64) -> f64
     let mut xs = x.chunks_exact(4);
     let mut os = out.chunks_exact_mut(4);
     for (xc, oc) in (&mut xs).zip(&mut os) {
-        let v = _mm256_loadu_pd(xc.as_ptr());
-        let (p, fast) = square_fast(v);
+        // SAFETY: `xc` and `oc` are four `f64` each (unaligned loads and
+        // stores); the CPU has AVX2 and FMA (this function's precondition),
+        // what the kernels need.
+        let v = unsafe { _mm256_loadu_pd(xc.as_ptr()) };
+        // SAFETY: as above.
+        let (p, fast) = unsafe { square_fast(v) };
         if _mm256_movemask_pd(fast) == 0b1111 {
-            _mm256_storeu_pd(oc.as_mut_ptr(), p);
+            // SAFETY: as above.
+            unsafe { _mm256_storeu_pd(oc.as_mut_ptr(), p) };
             continue;
         }
-        let port = in_range(v);
-        _mm256_storeu_pd(oc.as_mut_ptr(), _mm256_blendv_pd(pow2(v), p, fast));
+        // SAFETY: as above.
+        let (port, q) = unsafe { (in_range(v), pow2(v)) };
+        // SAFETY: as above.
+        unsafe { _mm256_storeu_pd(oc.as_mut_ptr(), _mm256_blendv_pd(q, p, fast)) };
         let libm = !_mm256_movemask_pd(_mm256_or_pd(fast, port)) & 0b1111;
         slow_lanes(libm as u32, xc, oc, slow);
     }
@@ -433,9 +466,13 @@ pub(super) unsafe fn pow2_port_lanes(x: &[f64], out: &mut [f64], slow: fn(f64) -
     let mut xs = x.chunks_exact(4);
     let mut os = out.chunks_exact_mut(4);
     for (xc, oc) in (&mut xs).zip(&mut os) {
-        let v = _mm256_loadu_pd(xc.as_ptr());
-        _mm256_storeu_pd(oc.as_mut_ptr(), pow2(v));
-        let outside = !_mm256_movemask_pd(in_range(v)) & 0b1111;
+        // SAFETY: as in `pow2_lanes`.
+        let v = unsafe { _mm256_loadu_pd(xc.as_ptr()) };
+        // SAFETY: as in `pow2_lanes`.
+        let (q, inside) = unsafe { (pow2(v), in_range(v)) };
+        // SAFETY: as in `pow2_lanes`.
+        unsafe { _mm256_storeu_pd(oc.as_mut_ptr(), q) };
+        let outside = !_mm256_movemask_pd(inside) & 0b1111;
         slow_lanes(outside as u32, xc, oc, slow);
     }
     for (o, &a) in os.into_remainder().iter_mut().zip(xs.remainder()) {

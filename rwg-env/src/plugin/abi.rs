@@ -397,8 +397,11 @@ pub unsafe fn write_c_message(buf: *mut c_char, len: usize, msg: &str) {
     while !msg.is_char_boundary(n) {
         n -= 1;
     }
-    std::ptr::copy_nonoverlapping(msg.as_ptr(), buf.cast::<u8>(), n);
-    *buf.add(n) = 0;
+    // SAFETY: `n < len` bytes into a buffer valid for `len` (the caller's
+    // promise), from `msg`, which cannot overlap it (it is borrowed).
+    unsafe { std::ptr::copy_nonoverlapping(msg.as_ptr(), buf.cast::<u8>(), n) };
+    // SAFETY: `n < len`: within the buffer.
+    unsafe { *buf.add(n) = 0 };
 }
 
 #[cfg(test)]

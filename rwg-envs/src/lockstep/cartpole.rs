@@ -101,7 +101,10 @@ wide_step!(CartPoleLanes);
 impl<const N: usize> CartPoleLanes<N> {
     /// The step of every lane ([`ManyEnv::step_many`]).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "`ManyEnv::step_many`'s buffers, one argument each"
+    )]
     fn step_body(
         &mut self,
         mask: &[u8; N],
@@ -138,7 +141,10 @@ impl<const N: usize> CartPoleLanes<N> {
             new[3][i] = theta_dot + TAU * thetaacc;
             // Strict comparisons: a NaN state does not terminate (as the
             // scalar env).
-            #[allow(clippy::manual_range_contains)]
+            #[expect(
+                clippy::manual_range_contains,
+                reason = "a range's `contains` is true for NaN, Gymnasium's comparisons are not"
+            )]
             // `|`, not `||`: no branch, so the loop vectorises.
             let t = (x < -X_THRESHOLD) | (x > X_THRESHOLD) | (theta < -th) | (theta > th);
             term[i] = t;

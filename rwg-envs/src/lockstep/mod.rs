@@ -19,7 +19,10 @@
 
 // Loops over lanes index several arrays by the lane: the layout this module
 // is about.
-#![allow(clippy::needless_range_loop)]
+#![expect(
+    clippy::needless_range_loop,
+    reason = "lane loops index several arrays by the lane"
+)]
 
 use crate::EnvOptions;
 use rwg_env::env::{continuous_action, discrete_action};
@@ -202,7 +205,10 @@ pub(crate) fn finish_flags<const N: usize>(
 /// call than the built-in's). Every lockstep env has one action value per
 /// lane (a `Discrete` space or a one-dimensional `Box`).
 #[inline(always)]
-#[allow(clippy::type_complexity)]
+#[expect(
+    clippy::type_complexity,
+    reason = "the five per-lane buffers as arrays of the lane count"
+)]
 pub(crate) fn lane_arrays<'a, const N: usize>(
     mask: &'a [u8],
     actions: &'a [f64],

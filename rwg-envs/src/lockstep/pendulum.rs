@@ -267,7 +267,10 @@ wide_step!(PendulumLanes);
 impl<const N: usize> PendulumLanes<N> {
     /// The step of every lane ([`ManyEnv::step_many`]).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "`ManyEnv::step_many`'s buffers, one argument each"
+    )]
     fn step_body(
         &mut self,
         mask: &[u8; N],

@@ -21,7 +21,10 @@ macro_rules! wide_step {
             /// [`Self::step_body`], compiled for the SIMD level
             /// ([`crate::lockstep::wide`]).
             #[inline(always)]
-            #[allow(clippy::too_many_arguments)]
+            #[expect(
+                clippy::too_many_arguments,
+                reason = "`ManyEnv::step_many`'s buffers, one argument each"
+            )]
             fn step_dispatch(
                 &mut self,
                 mask: &[u8],
@@ -52,7 +55,10 @@ macro_rules! wide_step {
             /// [`Self::step_body`] compiled with AVX2 enabled.
             #[cfg(target_arch = "x86_64")]
             #[target_feature(enable = "avx2")]
-            #[allow(clippy::too_many_arguments)]
+            #[expect(
+                clippy::too_many_arguments,
+                reason = "`ManyEnv::step_many`'s buffers, one argument each"
+            )]
             unsafe fn step_avx2(
                 &mut self,
                 mask: &[u8; N],

@@ -283,7 +283,10 @@ impl PluginBatch {
     /// reward into `rewards[i]`, flags (0 or 1, `truncated` including the
     /// time limit) into `terminated[i]` and `truncated[i]`. Failing lanes go
     /// to `on_fail` (the others are stepped all the same).
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "`ManyEnv::step_many`'s buffers, one argument each"
+    )]
     pub fn step_many(
         &mut self,
         mask: &[u8],
@@ -362,7 +365,10 @@ impl PluginBatch {
     /// call until every lane is done (`first`: the result of a first call
     /// on every lane already made), then every lane's outputs checked, the
     /// failures reported, the time limit applied to the others.
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "`step_many`'s buffers and its first call's result"
+    )]
     #[cold]
     #[inline(never)]
     fn step_rest(

@@ -103,7 +103,7 @@ pub(super) fn all_ones(mask: &[u8]) -> bool {
 /// per value: `x - x` is 0 for a finite `x` and NaN for an infinite or NaN
 /// one, and a NaN stays in a sum.
 #[inline]
-#[allow(clippy::eq_op)] // `x - x` is the test, not a mistake
+#[expect(clippy::eq_op, reason = "`x - x` is the test, not a mistake")]
 pub(super) fn all_finite(values: &[f64]) -> bool {
     let mut chunks = values.chunks_exact(4);
     let mut acc = [0.0f64; 4];
@@ -122,7 +122,7 @@ pub(super) fn all_finite(values: &[f64]) -> bool {
 /// vector add per two values; finite values whose sum overflows fail it
 /// too (the caller then checks them one by one).
 #[inline]
-#[allow(clippy::eq_op)] // `s - s` is the test, not a mistake
+#[expect(clippy::eq_op, reason = "`s - s` is the test, not a mistake")]
 pub(super) fn sum_is_finite(values: &[f64]) -> bool {
     let s = sum(values);
     s - s == 0.0

@@ -70,7 +70,11 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
         path: origin.to_path_buf(),
         kind,
     };
-    let p = entry(ABI_MAJOR, ABI_MINOR);
+    // SAFETY (of every block below): the plugin keeps the header's contract
+    // (this function's precondition): the pointers it returns are NULL or
+    // point to what the header says, its functions are callable as declared,
+    // and every struct is at least as large as its `struct_size` says.
+    let p = unsafe { entry(ABI_MAJOR, ABI_MINOR) };
     if p.is_null() {
         return Err(err(PluginLoadErrorKind::Declined {
             host_major: ABI_MAJOR,
@@ -79,7 +83,8 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
     }
     // struct_size, abi_major and abi_minor lead the entry struct of every
     // ABI version; read them before trusting the rest of the layout.
-    let head = p.cast::<[u32; 3]>().read();
+    // SAFETY: see above.
+    let head = unsafe { p.cast::<[u32; 3]>().read() };
     let [size, major, minor] = head;
     if major != ABI_MAJOR {
         return Err(err(PluginLoadErrorKind::AbiMajor {
@@ -96,23 +101,29 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
             needed: ENTRY_SIZE_V1_0,
         }));
     }
-    let e = p.read();
+    // SAFETY: see above (`size` is at least the 1.0 entry's, all it has).
+    let e = unsafe { p.read() };
     let tag = if e.abi_tag.is_null() {
         "NULL".to_string()
     } else {
-        CStr::from_ptr(e.abi_tag).to_string_lossy().into_owned()
+        // SAFETY: see above (a NUL-terminated string).
+        unsafe { CStr::from_ptr(e.abi_tag) }
+            .to_string_lossy()
+            .into_owned()
     };
     if tag.as_bytes() != ABI_TAG.to_bytes() {
         return Err(err(PluginLoadErrorKind::AbiTag { found: tag }));
     }
-    let plugin_id = read_str(e.plugin_id, "plugin_id", false).map_err(err)?;
+    // SAFETY: see above (NULL or a NUL-terminated string).
+    let plugin_id = unsafe { read_str(e.plugin_id, "plugin_id", false) }.map_err(err)?;
     if plugin_id.is_empty() {
         return Err(err(PluginLoadErrorKind::BadString {
             what: "plugin_id",
             reason: "empty".into(),
         }));
     }
-    let version = read_str(e.plugin_version, "plugin_version", true).map_err(err)?;
+    // SAFETY: see above.
+    let version = unsafe { read_str(e.plugin_version, "plugin_version", true) }.map_err(err)?;
     let env_count = e
         .env_count
         .ok_or_else(|| err(PluginLoadErrorKind::Null("env_count")))?;
@@ -125,7 +136,8 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
 
     if let Some(init) = e.init {
         let mut buf = [0 as c_char; ERR_BUF_LEN];
-        let status = init(&HOST.0, buf.as_mut_ptr(), buf.len());
+        // SAFETY: see above; `buf` is writable for its length.
+        let status = unsafe { init(&HOST.0, buf.as_mut_ptr(), buf.len()) };
         if status != RWG_OK {
             return Err(err(PluginLoadErrorKind::InitFailed {
                 status,
@@ -140,7 +152,8 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
         version,
         abi: (major, minor),
     });
-    let n = env_count();
+    // SAFETY: see above.
+    let n = unsafe { env_count() };
     if n == 0 || n > MAX_ENVS {
         return Err(err(PluginLoadErrorKind::EnvCount(n)));
     }
@@ -153,11 +166,13 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
                 reason,
             })
         };
-        let d = env_desc(index);
+        // SAFETY: see above (`index < n`).
+        let d = unsafe { env_desc(index) };
         if d.is_null() {
             return Err(env_err(None, "env_desc returned NULL".into()));
         }
-        let dsize = d.cast::<u32>().read();
+        // SAFETY: see above (non-NULL: a descriptor, `struct_size` first).
+        let dsize = unsafe { d.cast::<u32>().read() };
         if dsize < ENV_DESC_SIZE_V1_0 {
             return Err(env_err(
                 None,
@@ -166,8 +181,11 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
                 ),
             ));
         }
-        let d = d.read();
-        let id = read_str(d.id, "id", false).map_err(|k| env_err(None, k.to_string()))?;
+        // SAFETY: see above (at least the 1.0 size, all it has).
+        let d = unsafe { d.read() };
+        // SAFETY: see above (NULL or a NUL-terminated string).
+        let id =
+            unsafe { read_str(d.id, "id", false) }.map_err(|k| env_err(None, k.to_string()))?;
         check_env_id(&id).map_err(|r| env_err((!id.is_empty()).then_some(id.as_str()), r))?;
         if let Some(first) = envs.iter().find(|t| t.spec.id == id) {
             return Err(err(PluginLoadErrorKind::DuplicateId {
@@ -176,9 +194,11 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
                 second: index,
             }));
         }
-        let summary =
-            read_str(d.summary, "summary", true).map_err(|k| env_err(Some(&id), k.to_string()))?;
-        let observation_space = read_space(&d.observation_space)
+        // SAFETY: see above.
+        let summary = unsafe { read_str(d.summary, "summary", true) }
+            .map_err(|k| env_err(Some(&id), k.to_string()))?;
+        // SAFETY: see above (a Box's bounds hold `n` values).
+        let observation_space = unsafe { read_space(&d.observation_space) }
             .map_err(|r| env_err(Some(&id), format!("observation space: {r}")))?;
         if !matches!(observation_space, Space::Box(_)) {
             return Err(env_err(
@@ -186,7 +206,8 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
                 "observation space: must be a Box".into(),
             ));
         }
-        let action_space = read_space(&d.action_space)
+        // SAFETY: see above.
+        let action_space = unsafe { read_space(&d.action_space) }
             .map_err(|r| env_err(Some(&id), format!("action space: {r}")))?;
         let reward_threshold = if d.reward_threshold.is_nan() {
             None
@@ -208,11 +229,13 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
             max_episode_steps: (d.max_episode_steps != 0).then_some(d.max_episode_steps),
             reward_threshold,
         };
-        let vt = env_vtable(index);
+        // SAFETY: see above (`index < n`).
+        let vt = unsafe { env_vtable(index) };
         if vt.is_null() {
             return Err(env_err(Some(&id), "env_vtable returned NULL".into()));
         }
-        let vsize = vt.cast::<u32>().read();
+        // SAFETY: see above (non-NULL: a table, `struct_size` first).
+        let vsize = unsafe { vt.cast::<u32>().read() };
         if vsize < ENV_VTABLE_SIZE_V1_0 {
             return Err(env_err(
                 Some(&id),
@@ -223,12 +246,17 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
         }
         // Read no further than the plugin's struct_size: a 1.0 table ends at
         // last_error. Fields it does not have stay zero (None).
-        let mut v: RwgEnvVtable = std::mem::zeroed();
-        std::ptr::copy_nonoverlapping(
-            vt.cast::<u8>(),
-            (&mut v as *mut RwgEnvVtable).cast::<u8>(),
-            (vsize as usize).min(std::mem::size_of::<RwgEnvVtable>()),
-        );
+        // SAFETY: all zeros is a valid table (every function `None`).
+        let mut v: RwgEnvVtable = unsafe { std::mem::zeroed() };
+        // SAFETY: see above: the plugin's table has `vsize` bytes, `v` at
+        // least the copied count, and they cannot overlap (`v` is local).
+        unsafe {
+            std::ptr::copy_nonoverlapping(
+                vt.cast::<u8>(),
+                (&mut v as *mut RwgEnvVtable).cast::<u8>(),
+                (vsize as usize).min(std::mem::size_of::<RwgEnvVtable>()),
+            )
+        };
         let null = |f: &str| env_err(Some(&id), format!("env_vtable: {f} is NULL"));
         if v.reset_many.is_some() != v.step_many.is_some() {
             let (set, unset) = if v.reset_many.is_some() {
@@ -308,6 +336,9 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
 }
 
 /// Reads a plugin string. `nullable`: NULL reads as "".
+///
+/// # Safety
+/// `p` is NULL or a NUL-terminated string.
 unsafe fn read_str(
     p: *const c_char,
     what: &'static str,
@@ -320,7 +351,8 @@ unsafe fn read_str(
             Err(PluginLoadErrorKind::Null(what))
         };
     }
-    CStr::from_ptr(p)
+    // SAFETY: non-NULL: NUL-terminated (the contract).
+    unsafe { CStr::from_ptr(p) }
         .to_str()
         .map(str::to_string)
         .map_err(|e| PluginLoadErrorKind::BadString {
@@ -361,6 +393,9 @@ pub fn check_env_id(id: &str) -> Result<(), String> {
 }
 
 /// Validates and copies a space from a descriptor.
+///
+/// # Safety
+/// A Box's `low` and `high` are NULL or hold `n` values each.
 unsafe fn read_space(s: &RwgSpace) -> Result<Space, String> {
     match s.kind {
         RWG_SPACE_DISCRETE => {
@@ -377,8 +412,10 @@ unsafe fn read_space(s: &RwgSpace) -> Result<Space, String> {
                 return Err("Box low or high is NULL".into());
             }
             let n = s.n as usize;
-            let low = std::slice::from_raw_parts(s.low, n).to_vec();
-            let high = std::slice::from_raw_parts(s.high, n).to_vec();
+            // SAFETY: non-NULL: `n` values each (the contract).
+            let low = unsafe { std::slice::from_raw_parts(s.low, n) }.to_vec();
+            // SAFETY: as above.
+            let high = unsafe { std::slice::from_raw_parts(s.high, n) }.to_vec();
             for i in 0..n {
                 let (lo, hi) = (low[i], high[i]);
                 if lo.is_nan() || hi.is_nan() {

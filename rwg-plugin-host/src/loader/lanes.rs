@@ -98,7 +98,10 @@ impl PluginLanes {
     }
 
     /// [`PluginVecEnv::step_many`] or [`PluginBatch::step_many`].
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "`ManyEnv::step_many`'s buffers, one argument each"
+    )]
     pub fn step_many(
         &mut self,
         mask: &[u8],

@@ -283,7 +283,10 @@ impl PluginVecEnv {
     /// reward into `rewards[i]`, flags (0 or 1, `truncated` including the
     /// time limit) into `terminated[i]` and `truncated[i]`. Failing lanes go
     /// to `on_fail` (the others are stepped all the same).
-    #[allow(clippy::too_many_arguments)]
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "`ManyEnv::step_many`'s buffers, one argument each"
+    )]
     pub fn step_many(
         &mut self,
         mask: &[u8],

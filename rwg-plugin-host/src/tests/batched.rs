@@ -8,8 +8,11 @@ use crate::loader::{PluginBatch, PluginEnv};
 use rwg_env::time_limit::TimeLimit;
 
 unsafe extern "C" fn v1_0_vtable(i: u32) -> *const RwgEnvVtable {
-    let e = &*entry_v1::<TestPlugin>(ABI_MAJOR, ABI_MINOR);
-    let mut vt = *(e.env_vtable.unwrap())(i);
+    // SAFETY: the test plugin's entry returns its static entry struct, whose
+    // `env_vtable` returns a valid table for every index the host asks for.
+    let e = unsafe { &*entry_v1::<TestPlugin>(ABI_MAJOR, ABI_MINOR) };
+    // SAFETY: as above.
+    let mut vt = unsafe { *(e.env_vtable.unwrap())(i) };
     // A 1.0 table: whatever lies past last_error is not the plugin's.
     vt.struct_size = ENV_VTABLE_SIZE_V1_0;
     assert!(vt.step_many.is_some());

@@ -184,8 +184,11 @@ fn the_host_passes_has_seed_1_and_the_shim_refuses_other_values() {
 }
 
 unsafe extern "C" fn bigger_vtable(i: u32) -> *const RwgEnvVtable {
-    let e = &*entry_v1::<TestPlugin>(ABI_MAJOR, ABI_MINOR);
-    let mut vt = *(e.env_vtable.unwrap())(i);
+    // SAFETY: the test plugin's entry returns its static entry struct, whose
+    // `env_vtable` returns a valid table for every index the host asks for.
+    let e = unsafe { &*entry_v1::<TestPlugin>(ABI_MAJOR, ABI_MINOR) };
+    // SAFETY: as above.
+    let mut vt = unsafe { *(e.env_vtable.unwrap())(i) };
     vt.struct_size += 64;
     Box::leak(Box::new(vt))
 }

@@ -9,7 +9,7 @@
 //! C plugins: compiled here with the system C compiler (`cc`, or `$CC`) into
 //! `<profile>/rwg-c-plugins/<test>/`.
 
-#![allow(dead_code)]
+#![allow(dead_code, reason = "each test file uses part of these helpers")]
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

@@ -25,9 +25,10 @@ unsafe fn refused(n: usize, pointers_ok: bool, mask: *const u8) -> bool {
     }
     // One pass without a branch per lane (vectorised): any value above 1
     // has a bit above bit 0.
+    // SAFETY: a non-NULL `mask` is valid for `n` reads (the caller's promise).
     !pointers_ok
         || (!mask.is_null()
-            && std::slice::from_raw_parts(mask, n)
+            && unsafe { std::slice::from_raw_parts(mask, n) }
                 .iter()
                 .fold(0, |a, &m| a | m)
                 > 1)
@@ -40,8 +41,9 @@ unsafe fn refused(n: usize, pointers_ok: bool, mask: *const u8) -> bool {
 /// `mask` is NULL or valid for `n` reads.
 #[inline]
 unsafe fn simplified(n: usize, mask: *const u8) -> *const u8 {
+    // SAFETY: a non-NULL `mask` is valid for `n` reads (the caller's promise).
     if mask.is_null()
-        || std::slice::from_raw_parts(mask, n)
+        || unsafe { std::slice::from_raw_parts(mask, n) }
             .iter()
             .fold(1, |a, &m| a & m)
             == 1
@@ -52,15 +54,25 @@ unsafe fn simplified(n: usize, mask: *const u8) -> *const u8 {
     }
 }
 
+/// Whether lane `i` is to be called: no mask, or its value is 1.
+///
+/// # Safety
+/// `mask` is NULL or valid for reads at `i`.
 #[inline(always)]
 unsafe fn masked(mask: *const u8, i: usize) -> bool {
-    mask.is_null() || *mask.add(i) == 1
+    // SAFETY: a non-NULL `mask` is readable at `i` (the caller's promise).
+    mask.is_null() || unsafe { *mask.add(i) } == 1
 }
 
+/// Writes `i` to `*failed`, unless `failed` is NULL.
+///
+/// # Safety
+/// `failed` is NULL or valid for a write.
 #[inline(always)]
 unsafe fn report(failed: *mut usize, i: usize) {
     if !failed.is_null() {
-        *failed = i;
+        // SAFETY: non-NULL, so writable (the caller's promise).
+        unsafe { *failed = i };
     }
 }
 
@@ -74,27 +86,40 @@ pub(super) unsafe extern "C" fn reset_many<E: Environment>(
     obs_len: usize,
     failed: *mut usize,
 ) -> Status {
-    if refused(
-        n,
-        !envs.is_null() && !seeds.is_null() && !obs.is_null(),
-        mask,
-    ) {
-        report(failed, n);
+    // SAFETY (of every block below): the ABI's contract for `reset_many`:
+    // `mask` is NULL or has `n` values, `failed` is NULL or writable, and
+    // (checked non-NULL here) `envs` and `seeds` have `n` entries, `obs`
+    // `n * obs_len`; `envs[i]` are instances of this table's type `E`.
+    let refuse = unsafe {
+        refused(
+            n,
+            !envs.is_null() && !seeds.is_null() && !obs.is_null(),
+            mask,
+        )
+    };
+    if refuse {
+        // SAFETY: see above.
+        unsafe { report(failed, n) };
         return RWG_ERR_INVALID_ARGUMENT;
     }
     for i in 0..n {
-        if !masked(mask, i) {
+        // SAFETY: see above.
+        if !unsafe { masked(mask, i) } {
             continue;
         }
-        let status = reset::<E>(
-            *envs.add(i),
-            1,
-            *seeds.add(i),
-            obs.add(i * obs_len),
-            obs_len,
-        );
+        // SAFETY: see above (lane `i < n` of each array).
+        let status = unsafe {
+            reset::<E>(
+                *envs.add(i),
+                1,
+                *seeds.add(i),
+                obs.add(i * obs_len),
+                obs_len,
+            )
+        };
         if status != RWG_OK {
-            report(failed, i);
+            // SAFETY: see above.
+            unsafe { report(failed, i) };
             return status;
         }
     }
@@ -103,7 +128,6 @@ pub(super) unsafe extern "C" fn reset_many<E: Environment>(
 
 /// `step_many`: `step(envs[i], ...)` on every masked lane, its reward and
 /// flags scattered into the three arrays.
-#[allow(clippy::too_many_arguments)]
 pub(super) unsafe extern "C" fn step_many<E: Environment>(
     envs: *const *mut RwgEnv,
     n: usize,
@@ -123,8 +147,14 @@ pub(super) unsafe extern "C" fn step_many<E: Environment>(
         && !rewards.is_null()
         && !terminated.is_null()
         && !truncated.is_null();
-    if refused(n, pointers_ok, mask) {
-        report(failed, n);
+    // SAFETY (of every block below): the ABI's contract for `step_many`:
+    // `mask` is NULL or has `n` values, `failed` is NULL or writable, and
+    // (checked non-NULL here) `envs`, `rewards`, `terminated` and
+    // `truncated` have `n` entries, `actions` `n * action_len`, `obs`
+    // `n * obs_len`; `envs[i]` are instances of this table's type `E`.
+    if unsafe { refused(n, pointers_ok, mask) } {
+        // SAFETY: see above.
+        unsafe { report(failed, n) };
         return RWG_ERR_INVALID_ARGUMENT;
     }
     let keys = call_keys(obs_len, action_len);
@@ -132,42 +162,54 @@ pub(super) unsafe extern "C" fn step_many<E: Environment>(
     // into the lane's slots; anything unusual goes through the single call.
     // `Err` stops the call at the lane that failed.
     let step_lane = |i: usize, action: *const f64, o: *mut f64| -> Result<(), Status> {
-        let env = *envs.add(i);
-        let status = match step_fast::<E>(env, keys, action, action_len, o, obs_len) {
+        // SAFETY: see above (lane `i < n`; `action` and `o` are its slots).
+        let env = unsafe { *envs.add(i) };
+        // SAFETY: see above.
+        let fast = unsafe { step_fast::<E>(env, keys, action, action_len, o, obs_len) };
+        let status = match fast {
             Ok(s) => {
-                *rewards.add(i) = s.reward;
-                *terminated.add(i) = u8::from(s.terminated);
-                *truncated.add(i) = u8::from(s.truncated);
+                // SAFETY: see above.
+                unsafe {
+                    *rewards.add(i) = s.reward;
+                    *terminated.add(i) = u8::from(s.terminated);
+                    *truncated.add(i) = u8::from(s.truncated);
+                }
                 return Ok(());
             }
             Err(Some(status)) => status,
-            Err(None) => lane_checked::<E>(
-                env,
-                action,
-                action_len,
-                o,
-                obs_len,
-                rewards.add(i),
-                terminated.add(i),
-                truncated.add(i),
-            ),
+            // SAFETY: see above.
+            Err(None) => unsafe {
+                lane_checked::<E>(
+                    env,
+                    action,
+                    action_len,
+                    o,
+                    obs_len,
+                    rewards.add(i),
+                    terminated.add(i),
+                    truncated.add(i),
+                )
+            },
         };
         if status == RWG_OK {
             Ok(())
         } else {
-            report(failed, i);
+            // SAFETY: see above.
+            unsafe { report(failed, i) };
             Err(status)
         }
     };
     // Lane i's action and observation, advanced lane by lane (no multiply);
     // a loop without a mask test when every lane steps.
     let (mut action, mut o) = (actions, obs);
-    let every = simplified(n, mask).is_null();
+    // SAFETY: see above.
+    let every = unsafe { simplified(n, mask) }.is_null();
     for i in 0..n {
         let lane = (action, o);
         action = action.wrapping_add(action_len);
         o = o.wrapping_add(obs_len);
-        if every || *mask.add(i) == 1 {
+        // SAFETY: see above (`mask` is not NULL unless `every`).
+        if every || unsafe { *mask.add(i) } == 1 {
             if let Err(status) = step_lane(i, lane.0, lane.1) {
                 return status;
             }
@@ -178,9 +220,16 @@ pub(super) unsafe extern "C" fn step_many<E: Environment>(
 
 /// A lane the fast path refused, through the single call (which finds
 /// and reports what is wrong, or steps the env if nothing is).
+///
+/// # Safety
+/// `step_inline`'s contract, and `reward`, `terminated`, `truncated`
+/// writable.
 #[cold]
 #[inline(never)]
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "one lane's slots of `step_many`'s buffers"
+)]
 unsafe fn lane_checked<E: Environment>(
     env: *mut RwgEnv,
     action: *const f64,
@@ -197,11 +246,15 @@ unsafe fn lane_checked<E: Environment>(
         truncated: 0,
         reserved: [0; 6],
     };
-    let status = step_inline::<E>(env, action, action_len, obs, obs_len, &mut out);
+    // SAFETY: this function's contract is `step_inline`'s.
+    let status = unsafe { step_inline::<E>(env, action, action_len, obs, obs_len, &mut out) };
     if status == RWG_OK {
-        *reward = out.reward;
-        *terminated = out.terminated;
-        *truncated = out.truncated;
+        // SAFETY: the three are writable (this function's contract).
+        unsafe {
+            *reward = out.reward;
+            *terminated = out.terminated;
+            *truncated = out.truncated;
+        }
     }
     status
 }

@@ -55,18 +55,22 @@ pub(super) unsafe extern "C" fn init<P: PluginStatic>(
     err_len: usize,
 ) -> Status {
     let fail = |msg: &str| {
-        write_c_message(err_buf, err_len, msg);
+        // SAFETY: `err_buf` is NULL or valid for `err_len` bytes (the ABI).
+        unsafe { write_c_message(err_buf, err_len, msg) };
         RWG_ERR_INVALID_ARGUMENT
     };
     if host.is_null() {
         return fail("init: host is NULL");
     }
-    let host = &*host;
+    // SAFETY: a non-NULL `host` points to a host table (the ABI), of at
+    // least the 1.0 size it starts with.
+    let host = unsafe { &*host };
     if host.struct_size < HOST_SIZE_V1_0 || host.abi_major != ABI_MAJOR {
         return fail("init: incompatible host table");
     }
     if plugin::<P>().is_none() {
-        write_c_message(err_buf, err_len, "init: the entry function failed");
+        // SAFETY: as in `fail`.
+        unsafe { write_c_message(err_buf, err_len, "init: the entry function failed") };
         return RWG_ERR_INTERNAL;
     }
     RWG_OK
@@ -195,21 +199,28 @@ pub(super) unsafe extern "C" fn create<P: PluginStatic>(
     err_buf: *mut c_char,
     err_len: usize,
 ) -> Status {
-    creation::<P, RwgEnv>(
-        "create",
-        env_index,
-        config,
-        out_env,
-        err_buf,
-        err_len,
-        |e, c| (e.make)(c, e.obs_dim, e.action),
-    )
+    // SAFETY: `creation`'s contract is `create`'s (the ABI's).
+    unsafe {
+        creation::<P, RwgEnv>(
+            "create",
+            env_index,
+            config,
+            out_env,
+            err_buf,
+            err_len,
+            |e, c| (e.make)(c, e.obs_dim, e.action),
+        )
+    }
 }
 
 /// The body of `create` and `vec_create` (`what`): the arguments checked,
 /// `make` called with the environment's export and the config, panics
 /// caught, the object handed out through `out` or the failure's message
 /// written to `err_buf`.
+///
+/// # Safety
+/// `config` is NULL or a NUL-terminated string, `out` NULL or writable,
+/// `err_buf` NULL or valid for `err_len` bytes.
 pub(super) unsafe fn creation<P: PluginStatic, T>(
     what: &str,
     env_index: u32,
@@ -232,7 +243,8 @@ pub(super) unsafe fn creation<P: PluginStatic, T>(
         let config = if config.is_null() {
             ""
         } else {
-            CStr::from_ptr(config)
+            // SAFETY: a non-NULL `config` is NUL-terminated (the contract).
+            unsafe { CStr::from_ptr(config) }
                 .to_str()
                 .map_err(|_| invalid(format!("{what}: config is not UTF-8")))?
         };
@@ -240,7 +252,8 @@ pub(super) unsafe fn creation<P: PluginStatic, T>(
     }));
     let (status, msg) = match result {
         Ok(Ok(ptr)) => {
-            *out = ptr;
+            // SAFETY: `out` was checked non-NULL above: writable (the contract).
+            unsafe { *out = ptr };
             return RWG_OK;
         }
         Ok(Err(e)) => e,
@@ -249,7 +262,8 @@ pub(super) unsafe fn creation<P: PluginStatic, T>(
             format!("{what} panicked: {}", panic_message(&*p)),
         ),
     };
-    write_c_message(err_buf, err_len, &msg);
+    // SAFETY: `err_buf` is NULL or valid for `err_len` bytes (the contract).
+    unsafe { write_c_message(err_buf, err_len, &msg) };
     status
 }
 
@@ -257,7 +271,9 @@ pub(super) unsafe extern "C" fn destroy<E>(env: *mut RwgEnv) {
     if env.is_null() {
         return;
     }
-    let inst = Box::from_raw(env.cast::<Instance<E>>());
+    // SAFETY: a non-NULL `env` is an instance of `E` this table's `create`
+    // made with `Box::into_raw`, destroyed once (the ABI).
+    let inst = unsafe { Box::from_raw(env.cast::<Instance<E>>()) };
     // A panicking Drop must not unwind into C; whatever it left is leaked.
     let _ = catch_unwind(AssertUnwindSafe(move || drop(inst)));
 }
@@ -273,11 +289,16 @@ pub fn status_of(e: &EnvError) -> Status {
 }
 
 /// Runs `f` on the instance behind `env`, catching panics and recording errors.
+///
+/// # Safety
+/// `env` is NULL or an instance of `E` (made by this table's `create`), not
+/// in use elsewhere during the call.
 unsafe fn with_instance<E>(
     env: *mut RwgEnv,
     f: impl FnOnce(&mut E, usize, ActionKind) -> Result<(), (Status, String)>,
 ) -> Status {
-    let Some(inst) = env.cast::<Instance<E>>().as_mut() else {
+    // SAFETY: the contract above.
+    let Some(inst) = (unsafe { env.cast::<Instance<E>>().as_mut() }) else {
         return RWG_ERR_INVALID_ARGUMENT;
     };
     if let Some(p) = &inst.poisoned {
@@ -306,6 +327,11 @@ unsafe fn with_instance<E>(
     }
 }
 
+/// The observation buffer as a slice, if it is not NULL and has the
+/// space's length.
+///
+/// # Safety
+/// `obs` is NULL or valid for `obs_len` writes, not aliased during `'a`.
 unsafe fn obs_slice<'a>(
     obs: *mut f64,
     obs_len: usize,
@@ -317,7 +343,8 @@ unsafe fn obs_slice<'a>(
             format!("obs buffer has length {obs_len}, the observation space has {obs_dim}"),
         ));
     }
-    Ok(std::slice::from_raw_parts_mut(obs, obs_len))
+    // SAFETY: non-NULL, so valid for `obs_len` writes (the contract).
+    Ok(unsafe { std::slice::from_raw_parts_mut(obs, obs_len) })
 }
 
 fn env_err(e: EnvError) -> (Status, String) {
@@ -332,7 +359,7 @@ pub(super) unsafe extern "C" fn reset<E: Environment>(
     obs: *mut f64,
     obs_len: usize,
 ) -> Status {
-    with_instance(env, |e: &mut E, obs_dim, _| {
+    let call = |e: &mut E, obs_dim: usize, _: ActionKind| {
         match has_seed {
             1 => {}
             0 => {
@@ -348,9 +375,13 @@ pub(super) unsafe extern "C" fn reset<E: Environment>(
                 ))
             }
         }
-        let obs = obs_slice(obs, obs_len, obs_dim)?;
+        // SAFETY: `obs` is NULL or valid for `obs_len` writes (the ABI).
+        let obs = unsafe { obs_slice(obs, obs_len, obs_dim) }?;
         e.reset(seed, obs).map_err(env_err)
-    })
+    };
+    // SAFETY: the ABI's contract for `reset`: `env` is NULL or an instance of
+    // this table's, `obs` NULL or valid for `obs_len` writes.
+    unsafe { with_instance(env, call) }
 }
 
 /// Converts the C action to an [`Action`], checking it against the space.
@@ -406,10 +437,16 @@ pub(super) unsafe extern "C" fn step<E: Environment>(
     obs_len: usize,
     out: *mut RwgStepOut,
 ) -> Status {
-    step_inline::<E>(env, action, action_len, obs, obs_len, out)
+    // SAFETY: `step_inline`'s contract is `step`'s (the ABI's).
+    unsafe { step_inline::<E>(env, action, action_len, obs, obs_len, out) }
 }
 
 /// The body of [`step`].
+///
+/// # Safety
+/// The ABI's contract for `step`: `env` is NULL or an instance of `E` made
+/// by this table, `action` NULL or valid for `action_len` reads, `obs` NULL
+/// or valid for `obs_len` writes, `out` NULL or writable.
 #[inline(always)]
 pub(super) unsafe fn step_inline<E: Environment>(
     env: *mut RwgEnv,
@@ -421,13 +458,17 @@ pub(super) unsafe fn step_inline<E: Environment>(
 ) -> Status {
     if !out.is_null() && !obs.is_null() && !action.is_null() {
         let keys = call_keys(obs_len, action_len);
-        match step_fast::<E>(env, keys, action, action_len, obs, obs_len) {
+        // SAFETY: the contract above, the three pointers checked non-NULL.
+        match unsafe { step_fast::<E>(env, keys, action, action_len, obs, obs_len) } {
             Ok(s) => {
-                *out = RwgStepOut {
-                    reward: s.reward,
-                    terminated: u8::from(s.terminated),
-                    truncated: u8::from(s.truncated),
-                    reserved: [0; 6],
+                // SAFETY: `out` is non-NULL, so writable.
+                unsafe {
+                    *out = RwgStepOut {
+                        reward: s.reward,
+                        terminated: u8::from(s.terminated),
+                        truncated: u8::from(s.truncated),
+                        reserved: [0; 6],
+                    }
                 };
                 return RWG_OK;
             }
@@ -435,7 +476,8 @@ pub(super) unsafe fn step_inline<E: Environment>(
             Err(None) => {}
         }
     }
-    step_checked::<E>(env, action, action_len, obs, obs_len, out)
+    // SAFETY: `step_checked`'s contract is this function's.
+    unsafe { step_checked::<E>(env, action, action_len, obs, obs_len, out) }
 }
 
 /// What the fast path of a step compares an instance with: the call's
@@ -487,6 +529,9 @@ pub(super) fn call_keys(obs_len: usize, action_len: usize) -> (FastKey, FastKey)
 /// the problem, so the two paths behave the same. `Err(Some(status))` if the
 /// env failed or panicked (recorded in the instance, as `step_checked`
 /// records it).
+///
+/// # Safety
+/// `step_inline`'s contract, with `action` and `obs` not NULL.
 #[inline(always)]
 pub(super) unsafe fn step_fast<E: Environment>(
     env: *mut RwgEnv,
@@ -496,13 +541,16 @@ pub(super) unsafe fn step_fast<E: Environment>(
     obs: *mut f64,
     obs_len: usize,
 ) -> Result<Step, Option<Status>> {
-    let Some(inst) = env.cast::<Instance<E>>().as_mut() else {
+    // SAFETY: `env` is NULL or an instance of `E` (the contract).
+    let Some(inst) = (unsafe { env.cast::<Instance<E>>().as_mut() }) else {
         return Err(None);
     };
-    let Some(a) = action_fast(inst, keys, action, action_len) else {
+    // SAFETY: `action` is valid for `action_len` reads (the contract).
+    let Some(a) = (unsafe { action_fast(inst, keys, action, action_len) }) else {
         return Err(None);
     };
-    let o = std::slice::from_raw_parts_mut(obs, obs_len);
+    // SAFETY: `obs` is valid for `obs_len` writes (the contract).
+    let o = unsafe { std::slice::from_raw_parts_mut(obs, obs_len) };
     let env = &mut inst.env;
     match catch_unwind(AssertUnwindSafe(|| env.step(a, o))) {
         Ok(Ok(s)) => Ok(s),
@@ -525,20 +573,23 @@ unsafe fn action_fast<'a, E>(
     len: usize,
 ) -> Option<Action<'a>> {
     if inst.fast == discrete {
-        let v = *action;
+        // SAFETY: the key says `len` is 1: one read (the contract).
+        let v = unsafe { *action };
         // 0 <= v < n (false for NaN; n is at most 2^53, exact) and
         // integral: exactly the valid actions, in two comparisons and one
         // round trip through i64 (in range, so the unchecked conversion is
         // exact truncation). -0.0 is action 0, as in `action_of`.
         if v >= 0.0 && v < inst.action_n {
-            let i = v.to_int_unchecked::<i64>();
+            // SAFETY: 0 <= v < 2^53: finite and within i64.
+            let i = unsafe { v.to_int_unchecked::<i64>() };
             if i as f64 == v {
                 return Some(Action::Discrete(i));
             }
         }
         None
     } else if inst.fast == continuous {
-        let a = std::slice::from_raw_parts(action, len);
+        // SAFETY: `action` is valid for `len` reads (the contract).
+        let a = unsafe { std::slice::from_raw_parts(action, len) };
         a.iter()
             .all(|x| x.is_finite())
             .then_some(Action::Continuous(a))
@@ -563,6 +614,9 @@ fn step_panic<E>(inst: &mut Instance<E>, p: Box<dyn std::any::Any + Send>) -> St
 }
 
 /// `step` with every argument checked and every problem reported.
+///
+/// # Safety
+/// `step_inline`'s contract.
 #[cold]
 #[inline(never)]
 unsafe fn step_checked<E: Environment>(
@@ -573,7 +627,7 @@ unsafe fn step_checked<E: Environment>(
     obs_len: usize,
     out: *mut RwgStepOut,
 ) -> Status {
-    with_instance(env, |e: &mut E, obs_dim, kind| {
+    let call = |e: &mut E, obs_dim: usize, kind: ActionKind| {
         let invalid = |m: String| (RWG_ERR_INVALID_ARGUMENT, m);
         if out.is_null() {
             return Err(invalid("step: out is NULL".into()));
@@ -583,23 +637,31 @@ unsafe fn step_checked<E: Environment>(
         } else if action.is_null() {
             return Err(invalid("step: action is NULL".into()));
         } else {
-            std::slice::from_raw_parts(action, action_len)
+            // SAFETY: non-NULL: valid for `action_len` reads (the contract).
+            unsafe { std::slice::from_raw_parts(action, action_len) }
         };
         let a = action_of(a, kind).map_err(invalid)?;
-        let obs = obs_slice(obs, obs_len, obs_dim)?;
+        // SAFETY: `obs` is NULL or valid for `obs_len` writes (the contract).
+        let obs = unsafe { obs_slice(obs, obs_len, obs_dim) }?;
         let s = e.step(a, obs).map_err(env_err)?;
-        *out = RwgStepOut {
-            reward: s.reward,
-            terminated: u8::from(s.terminated),
-            truncated: u8::from(s.truncated),
-            reserved: [0; 6],
+        // SAFETY: `out` was checked non-NULL: writable (the contract).
+        unsafe {
+            *out = RwgStepOut {
+                reward: s.reward,
+                terminated: u8::from(s.terminated),
+                truncated: u8::from(s.truncated),
+                reserved: [0; 6],
+            }
         };
         Ok(())
-    })
+    };
+    // SAFETY: the contract (`env` NULL or an instance of `E`).
+    unsafe { with_instance(env, call) }
 }
 
 pub(super) unsafe extern "C" fn last_error<E>(env: *const RwgEnv) -> *const c_char {
-    match env.cast::<Instance<E>>().as_ref() {
+    // SAFETY: `env` is NULL or an instance of `E` (the ABI's contract).
+    match unsafe { env.cast::<Instance<E>>().as_ref() } {
         Some(inst) => inst.error.as_ptr().cast(),
         None => c"last_error: env is NULL".as_ptr(),
     }

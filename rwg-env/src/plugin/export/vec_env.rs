@@ -160,13 +160,17 @@ impl<M> VecInstance<M> {
 
     /// The call's status (the lowest failing lane's), the lanes' statuses
     /// copied to the host's `out` on a failure.
+    ///
+    /// # Safety
+    /// `out` is NULL or valid for `self.n` writes.
     unsafe fn finish(&self, out: *mut Status) -> Status {
         if !self.dirty {
             return RWG_OK;
         }
         let first = self.status.iter().copied().find(|&s| s != RWG_OK);
         if !out.is_null() {
-            std::slice::from_raw_parts_mut(out, self.n).copy_from_slice(&self.status);
+            // SAFETY: non-NULL: valid for `n` writes (the contract).
+            unsafe { std::slice::from_raw_parts_mut(out, self.n) }.copy_from_slice(&self.status);
         }
         first.unwrap_or(RWG_OK)
     }
@@ -181,13 +185,19 @@ unsafe fn mask_of(mask: *const u8, ones: &[u8]) -> Option<&[u8]> {
     if mask.is_null() {
         return Some(ones);
     }
-    let m = std::slice::from_raw_parts(mask, ones.len());
+    // SAFETY: non-NULL: valid for `n` reads (the contract).
+    let m = unsafe { std::slice::from_raw_parts(mask, ones.len()) };
     (m.iter().fold(0, |a, &v| a | v) <= 1).then_some(m)
 }
 
 /// The checks and panic catching every vector call shares: `call` runs on
 /// the vector env with the mask when the call is acceptable (`refusal`
 /// gives the status and message of one that is not).
+///
+/// # Safety
+/// `vec` is NULL or a vector env of `M` made by this table's `vec_create`,
+/// not in use elsewhere; `mask` NULL or valid for its `n` reads;
+/// `status_out` NULL or valid for `n` writes.
 unsafe fn vec_call<M>(
     vec: *mut RwgVecEnv,
     mask: *const u8,
@@ -195,16 +205,23 @@ unsafe fn vec_call<M>(
     refusal: impl FnOnce(&VecInstance<M>) -> Option<(Status, String)>,
     call: impl FnOnce(&mut VecInstance<M>, &[u8], &mut dyn FnMut(usize, EnvError)),
 ) -> Status {
-    let Some(v) = vec.cast::<VecInstance<M>>().as_mut() else {
+    // SAFETY: the contract above.
+    let Some(v) = (unsafe { vec.cast::<VecInstance<M>>().as_mut() }) else {
         return RWG_ERR_INVALID_ARGUMENT;
     };
     v.clear();
     let ones = std::mem::take(&mut v.ones);
-    let status = vec_call_masked(v, &ones, mask, status_out, refusal, call);
+    // SAFETY: the contract above (`ones` has `n` values).
+    let status = unsafe { vec_call_masked(v, &ones, mask, status_out, refusal, call) };
     v.ones = ones;
     status
 }
 
+/// [`vec_call`] on the instance `v`, whose every lane `ones` holds.
+///
+/// # Safety
+/// `mask` is NULL or valid for `v.n` reads, `status_out` NULL or valid for
+/// `v.n` writes.
 unsafe fn vec_call_masked<M>(
     v: &mut VecInstance<M>,
     ones: &[u8],
@@ -214,22 +231,26 @@ unsafe fn vec_call_masked<M>(
     call: impl FnOnce(&mut VecInstance<M>, &[u8], &mut dyn FnMut(usize, EnvError)),
 ) -> Status {
     // A call refused as a whole fails every lane with its status.
-    let Some(mask) = mask_of(mask, ones) else {
+    // SAFETY: `mask` as the contract says.
+    let Some(mask) = (unsafe { mask_of(mask, ones) }) else {
         v.fail_all(
             ones,
             RWG_ERR_INVALID_ARGUMENT,
             "a mask value is neither 0 nor 1",
         );
-        return v.finish(status_out);
+        // SAFETY: `status_out` as the contract says (also below).
+        return unsafe { v.finish(status_out) };
     };
     if let Some((status, msg)) = refusal(v) {
         v.fail_all(ones, status, &msg);
-        return v.finish(status_out);
+        // SAFETY: see above.
+        return unsafe { v.finish(status_out) };
     }
     if let Some(p) = &v.poisoned {
         let msg = format!("the vector env is poisoned by an earlier panic: {p}");
         v.fail_all(mask, RWG_ERR_PANIC, &msg);
-        return v.finish(status_out);
+        // SAFETY: see above.
+        return unsafe { v.finish(status_out) };
     }
     let mut failures: Vec<(usize, EnvError)> = Vec::new();
     let outcome = catch_unwind(AssertUnwindSafe(|| {
@@ -250,7 +271,8 @@ unsafe fn vec_call_masked<M>(
             v.poisoned = Some(msg);
         }
     }
-    v.finish(status_out)
+    // SAFETY: see above.
+    unsafe { v.finish(status_out) }
 }
 
 /// Calls `f(chunk, lanes)` for each chunk with the range of its lanes.
@@ -274,30 +296,35 @@ pub(super) unsafe extern "C" fn vec_create<P: PluginStatic>(
     err_buf: *mut c_char,
     err_len: usize,
 ) -> Status {
-    creation::<P, RwgVecEnv>(
-        "vec_create",
-        env_index,
-        config,
-        out_vec,
-        err_buf,
-        err_len,
-        |e, c| {
-            let Some(make) = &e.make_vec else {
-                return Err((
-                    RWG_ERR_UNSUPPORTED,
-                    "vec_create: this environment has no vector env".into(),
-                ));
-            };
-            make(c, lanes, e.obs_dim, e.action)
-        },
-    )
+    // SAFETY: `creation`'s contract is `vec_create`'s (the ABI's).
+    unsafe {
+        creation::<P, RwgVecEnv>(
+            "vec_create",
+            env_index,
+            config,
+            out_vec,
+            err_buf,
+            err_len,
+            |e, c| {
+                let Some(make) = &e.make_vec else {
+                    return Err((
+                        RWG_ERR_UNSUPPORTED,
+                        "vec_create: this environment has no vector env".into(),
+                    ));
+                };
+                make(c, lanes, e.obs_dim, e.action)
+            },
+        )
+    }
 }
 
 pub(super) unsafe extern "C" fn vec_destroy<M>(vec: *mut RwgVecEnv) {
     if vec.is_null() {
         return;
     }
-    let inst = Box::from_raw(vec.cast::<VecInstance<M>>());
+    // SAFETY: a non-NULL `vec` is a vector env of `M` this table's
+    // `vec_create` made with `Box::into_raw`, destroyed once (the ABI).
+    let inst = unsafe { Box::from_raw(vec.cast::<VecInstance<M>>()) };
     // A panicking Drop must not unwind into C; whatever it left is leaked.
     let _ = catch_unwind(AssertUnwindSafe(move || drop(inst)));
 }
@@ -306,7 +333,8 @@ pub(super) unsafe extern "C" fn vec_last_error<M>(
     vec: *const RwgVecEnv,
     lane: usize,
 ) -> *const c_char {
-    match vec.cast::<VecInstance<M>>().as_ref() {
+    // SAFETY: `vec` is NULL or a vector env of `M` (the ABI's contract).
+    match unsafe { vec.cast::<VecInstance<M>>().as_ref() } {
         Some(v) => v.errors[lane.min(v.n)].as_ptr().cast(),
         None => c"".as_ptr(),
     }
@@ -335,41 +363,52 @@ pub(super) unsafe extern "C" fn vec_reset<M: ManyEnv>(
     status: *mut Status,
 ) -> Status {
     let pointers_ok = !seeds.is_null() && !obs.is_null();
-    vec_call::<M>(
-        vec,
-        mask,
-        status,
-        |v| refuse_buffers(pointers_ok, obs_len, v.obs_dim),
-        |v, mask, on_fail| {
-            let (n, w, d) = (v.n, v.width, v.obs_dim);
-            let seeds = std::slice::from_raw_parts(seeds, n);
-            let obs = std::slice::from_raw_parts_mut(obs, n * d);
-            let tail = &mut v.tail;
-            for_chunks(&mut v.chunks, w, n, |m, r| {
-                let start = r.start;
-                let mut fail = |i: usize, e: EnvError| on_fail(start + i, e);
-                if r.len() == w {
-                    m.reset_many(
-                        &mask[r.clone()],
-                        &seeds[r.clone()],
-                        &mut obs[r.start * d..r.end * d],
-                        &mut fail,
-                    );
-                    return;
-                }
-                let k = r.len();
-                tail.mask[..k].copy_from_slice(&mask[r.clone()]);
-                tail.seeds[..k].copy_from_slice(&seeds[r.clone()]);
-                m.reset_many(&tail.mask, &tail.seeds, &mut tail.obs, &mut fail);
-                copy_masked(
+    let call = |v: &mut VecInstance<M>, mask: &[u8], on_fail: &mut dyn FnMut(usize, EnvError)| {
+        let (n, w, d) = (v.n, v.width, v.obs_dim);
+        // SAFETY: `vec_call` calls this only after `refuse_buffers` passed:
+        // `seeds` and `obs` are non-NULL, so hold `n` and `n * obs_len` values
+        // (the ABI), and `obs_len == d`.
+        let seeds = unsafe { std::slice::from_raw_parts(seeds, n) };
+        // SAFETY: as above.
+        let obs = unsafe { std::slice::from_raw_parts_mut(obs, n * d) };
+        let tail = &mut v.tail;
+        for_chunks(&mut v.chunks, w, n, |m, r| {
+            let start = r.start;
+            let mut fail = |i: usize, e: EnvError| on_fail(start + i, e);
+            if r.len() == w {
+                m.reset_many(
                     &mask[r.clone()],
-                    d,
-                    &tail.obs,
+                    &seeds[r.clone()],
                     &mut obs[r.start * d..r.end * d],
+                    &mut fail,
                 );
-            });
-        },
-    )
+                return;
+            }
+            let k = r.len();
+            tail.mask[..k].copy_from_slice(&mask[r.clone()]);
+            tail.seeds[..k].copy_from_slice(&seeds[r.clone()]);
+            m.reset_many(&tail.mask, &tail.seeds, &mut tail.obs, &mut fail);
+            copy_masked(
+                &mask[r.clone()],
+                d,
+                &tail.obs,
+                &mut obs[r.start * d..r.end * d],
+            );
+        });
+    };
+    // SAFETY: the ABI's contract for `vec_reset`: `vec` is NULL or a vector
+    // env of this table's, `mask` NULL or `n` values, `status` NULL or `n`
+    // writable; `seeds` and `obs` (called only when non-NULL) `n` and
+    // `n * obs_len` values, and `obs_len` is checked to be `d`.
+    unsafe {
+        vec_call::<M>(
+            vec,
+            mask,
+            status,
+            |v| refuse_buffers(pointers_ok, obs_len, v.obs_dim),
+            call,
+        )
+    }
 }
 
 /// Copies the masked lanes' slots of `from` (lanes of `d` values) to `to`.
@@ -381,7 +420,6 @@ fn copy_masked<T: Copy>(mask: &[u8], d: usize, from: &[T], to: &mut [T]) {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
 pub(super) unsafe extern "C" fn vec_step<M: ManyEnv>(
     vec: *mut RwgVecEnv,
     mask: *const u8,
@@ -399,64 +437,75 @@ pub(super) unsafe extern "C" fn vec_step<M: ManyEnv>(
         && !rewards.is_null()
         && !terminated.is_null()
         && !truncated.is_null();
-    vec_call::<M>(
-        vec,
-        mask,
-        status,
-        |v| {
-            refuse_buffers(pointers_ok, obs_len, v.obs_dim).or_else(|| {
-                (action_len != v.action_len).then(|| {
-                    (
-                        RWG_ERR_INVALID_ARGUMENT,
-                        format!(
-                            "action_len is {action_len}, an action of this env has {}",
-                            v.action_len
-                        ),
-                    )
-                })
-            })
-        },
-        |v, mask, on_fail| {
-            let (n, w, d, a) = (v.n, v.width, v.obs_dim, v.action_len);
-            let actions = std::slice::from_raw_parts(actions, n * a);
-            let obs = std::slice::from_raw_parts_mut(obs, n * d);
-            let rewards = std::slice::from_raw_parts_mut(rewards, n);
-            let terminated = std::slice::from_raw_parts_mut(terminated, n);
-            let truncated = std::slice::from_raw_parts_mut(truncated, n);
-            let tail = &mut v.tail;
-            for_chunks(&mut v.chunks, w, n, |m, r| {
-                let start = r.start;
-                let mut fail = |i: usize, e: EnvError| on_fail(start + i, e);
-                if r.len() == w {
-                    m.step_many(
-                        &mask[r.clone()],
-                        &actions[r.start * a..r.end * a],
-                        &mut obs[r.start * d..r.end * d],
-                        &mut rewards[r.clone()],
-                        &mut terminated[r.clone()],
-                        &mut truncated[r.clone()],
-                        &mut fail,
-                    );
-                    return;
-                }
-                let k = r.len();
-                let lane_mask = &mask[r.clone()];
-                tail.mask[..k].copy_from_slice(lane_mask);
-                tail.actions[..k * a].copy_from_slice(&actions[r.start * a..r.end * a]);
+    let call = |v: &mut VecInstance<M>, mask: &[u8], on_fail: &mut dyn FnMut(usize, EnvError)| {
+        let (n, w, d, a) = (v.n, v.width, v.obs_dim, v.action_len);
+        // SAFETY (all five): `vec_call` calls this only after the refusal
+        // passed: the buffers are non-NULL, so hold `n * action_len`,
+        // `n * obs_len` and `n` values (the ABI), and the lengths are `a`, `d`.
+        let actions = unsafe { std::slice::from_raw_parts(actions, n * a) };
+        let obs = unsafe { std::slice::from_raw_parts_mut(obs, n * d) };
+        let rewards = unsafe { std::slice::from_raw_parts_mut(rewards, n) };
+        let terminated = unsafe { std::slice::from_raw_parts_mut(terminated, n) };
+        let truncated = unsafe { std::slice::from_raw_parts_mut(truncated, n) };
+        let tail = &mut v.tail;
+        for_chunks(&mut v.chunks, w, n, |m, r| {
+            let start = r.start;
+            let mut fail = |i: usize, e: EnvError| on_fail(start + i, e);
+            if r.len() == w {
                 m.step_many(
-                    &tail.mask,
-                    &tail.actions,
-                    &mut tail.obs,
-                    &mut tail.rewards,
-                    &mut tail.terminated,
-                    &mut tail.truncated,
+                    &mask[r.clone()],
+                    &actions[r.start * a..r.end * a],
+                    &mut obs[r.start * d..r.end * d],
+                    &mut rewards[r.clone()],
+                    &mut terminated[r.clone()],
+                    &mut truncated[r.clone()],
                     &mut fail,
                 );
-                copy_masked(lane_mask, d, &tail.obs, &mut obs[r.start * d..r.end * d]);
-                copy_masked(lane_mask, 1, &tail.rewards, &mut rewards[r.clone()]);
-                copy_masked(lane_mask, 1, &tail.terminated, &mut terminated[r.clone()]);
-                copy_masked(lane_mask, 1, &tail.truncated, &mut truncated[r.clone()]);
-            });
-        },
-    )
+                return;
+            }
+            let k = r.len();
+            let lane_mask = &mask[r.clone()];
+            tail.mask[..k].copy_from_slice(lane_mask);
+            tail.actions[..k * a].copy_from_slice(&actions[r.start * a..r.end * a]);
+            m.step_many(
+                &tail.mask,
+                &tail.actions,
+                &mut tail.obs,
+                &mut tail.rewards,
+                &mut tail.terminated,
+                &mut tail.truncated,
+                &mut fail,
+            );
+            copy_masked(lane_mask, d, &tail.obs, &mut obs[r.start * d..r.end * d]);
+            copy_masked(lane_mask, 1, &tail.rewards, &mut rewards[r.clone()]);
+            copy_masked(lane_mask, 1, &tail.terminated, &mut terminated[r.clone()]);
+            copy_masked(lane_mask, 1, &tail.truncated, &mut truncated[r.clone()]);
+        });
+    };
+    // SAFETY: the ABI's contract for `vec_step`: `vec` is NULL or a vector
+    // env of this table's, `mask` NULL or `n` values, `status` NULL or `n`
+    // writable; the buffers (used only when non-NULL) `n * action_len`,
+    // `n * obs_len` and `n` values, and the lengths are checked to be the
+    // env's.
+    unsafe {
+        vec_call::<M>(
+            vec,
+            mask,
+            status,
+            |v| {
+                refuse_buffers(pointers_ok, obs_len, v.obs_dim).or_else(|| {
+                    (action_len != v.action_len).then(|| {
+                        (
+                            RWG_ERR_INVALID_ARGUMENT,
+                            format!(
+                                "action_len is {action_len}, an action of this env has {}",
+                                v.action_len
+                            ),
+                        )
+                    })
+                })
+            },
+            call,
+        )
+    }
 }
