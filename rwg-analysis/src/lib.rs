@@ -46,6 +46,7 @@ pub fn render_tables(tables: &[Table], format: TableFormat) -> String {
 
 /// Why an analysis could not be written.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum AnalysisError {
     /// The run directory could not be read.
     #[error(transparent)]
@@ -57,7 +58,7 @@ pub enum AnalysisError {
     #[error(transparent)]
     Plot(#[from] PlotError),
     /// An output file could not be written.
-    #[error("cannot write {path}: {source}")]
+    #[error("cannot write {path}")]
     Write {
         /// The file.
         path: PathBuf,
@@ -209,5 +210,19 @@ mod tests {
         assert!(files.iter().all(|f| f.is_file()));
         let e = write_analysis(&dir.join("missing"), false, KeptEpisodes::new()).unwrap_err();
         assert!(matches!(e, AnalysisError::Load(_)), "{e}");
+    }
+
+    /// The cause of a failed write is chained, not also printed: a chain
+    /// printer (`rwg`'s `error: a: b`) shows it once.
+    #[test]
+    fn a_write_error_chains_its_cause_without_printing_it() {
+        use std::error::Error;
+        let dir = std::env::temp_dir().join(format!("rwg-analysis-write-{}", std::process::id()));
+        std::fs::write(&dir, b"a file").unwrap();
+        let e = write_file(dir.join("x.svg"), b"").unwrap_err();
+        std::fs::remove_file(&dir).unwrap();
+        let cause = e.source().expect("the I/O error is the source").to_string();
+        assert!(!e.to_string().contains(&cause), "{e} repeats {cause}");
+        assert!(e.to_string().starts_with("cannot write "), "{e}");
     }
 }

@@ -93,6 +93,7 @@ pub struct Step {
 
 /// Errors an environment reports. None of them aborts the process.
 #[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum EnvError {
     /// The action is not an element of the action space.
     #[error("invalid action: {0}")]

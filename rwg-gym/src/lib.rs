@@ -203,6 +203,7 @@ pub fn default_hash_seed() -> String {
 
 /// What can go wrong with a Gymnasium environment.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum GymError {
     /// The interpreter could not be started.
     #[error(
@@ -290,6 +291,7 @@ impl From<ProcError> for GymError {
             ProcError::Died { how, stderr } => GymError::Died { how, stderr },
             ProcError::Timeout { secs, stderr } => GymError::Timeout { secs, stderr },
             ProcError::Protocol(m) => GymError::Protocol(m),
+            other => GymError::Protocol(other.to_string()),
         }
     }
 }

@@ -9,6 +9,7 @@ use thiserror::Error;
 /// Why a study could not be planned, run or merged. Every message names the
 /// file or directory and, where there is one, what to do.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum StudyError {
     /// The manifest is invalid (the message points into it).
     #[error(transparent)]
@@ -89,6 +90,7 @@ pub enum StudyError {
 
 /// Why a cell stopped while running.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum CellError {
     /// The sampler failed (an env error naming the sample and episode).
     #[error(transparent)]

@@ -153,6 +153,7 @@ fn proc_text(e: ProcError) -> String {
             format!("cannot start the isolated plugin worker {program}: {source}")
         }
         ProcError::Protocol(m) => format!("isolated plugin worker: protocol error: {m}"),
+        other => format!("isolated plugin worker: {other}"),
     }
 }
 

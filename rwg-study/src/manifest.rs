@@ -71,9 +71,10 @@ pub struct ManifestError {
 
 /// A manifest that could not be read at all.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum ManifestLoadError {
     /// The file could not be read.
-    #[error("cannot read manifest {file}: {source}")]
+    #[error("cannot read manifest {file}")]
     Io {
         /// The manifest file.
         file: String,

@@ -42,6 +42,7 @@ use thiserror::Error;
 /// (`rwg-gym`, `rwg_study::isolate`) turn these into messages that say what
 /// to do for their kind of worker.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum ProcError {
     /// The program could not be started.
     #[error("cannot start {program}: {source}")]

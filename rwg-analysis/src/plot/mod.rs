@@ -56,6 +56,7 @@ impl ImageFormat {
 
 /// Why a figure could not be drawn.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum PlotError {
     /// The plotting backend failed.
     #[error("drawing failed: {0}")]

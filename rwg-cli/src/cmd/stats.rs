@@ -100,6 +100,7 @@ pub fn load_stats(run_dir: &std::path::Path, at_n: Option<u64>) -> Result<(Run, 
         Some(n) => run.summarize_at(Some(n)).map_err(|e| match e {
             SummarizeError::Read(e) => anyhow::Error::from(e),
             SummarizeError::Spread(e) => anyhow::Error::from(e).context(format!("--at-n {n}")),
+            e => anyhow::Error::from(e),
         })?,
     };
     Ok((run, stats))

@@ -19,6 +19,7 @@ pub struct PluginLoadError {
 
 /// What was wrong with a plugin file.
 #[derive(Debug, Clone, Error, PartialEq)]
+#[non_exhaustive]
 pub enum PluginLoadErrorKind {
     /// The dynamic loader could not open the file.
     #[error("cannot open the library: {0}")]

@@ -452,3 +452,14 @@ fn isolate_all_leaves_jax_envs_alone() {
     assert_eq!(isolated, [true, true, false]);
     parse(&m.to_toml()).unwrap();
 }
+
+/// The cause of an unreadable manifest is chained, not also printed: a
+/// chain printer (`rwg`'s `error: a: b`) shows it once.
+#[test]
+fn an_unreadable_manifest_chains_its_cause_without_printing_it() {
+    use std::error::Error;
+    let e = Manifest::load(std::path::Path::new("/nonexistent-rwg-dir/m.toml")).unwrap_err();
+    let cause = e.source().expect("the I/O error is the source").to_string();
+    assert!(!e.to_string().contains(&cause), "{e} repeats {cause}");
+    assert!(e.to_string().starts_with("cannot read manifest "), "{e}");
+}

@@ -30,6 +30,7 @@ pub const BLOCK_SAMPLES: u64 = 32;
 
 /// Errors reading or writing a cell's files.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum RunDirError {
     /// An I/O error on a file.
     #[error("{path}: {source}")]

@@ -26,6 +26,7 @@ use std::path::{Path, PathBuf};
 
 /// Why a run directory could not be read.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum RunReadError {
     /// A file could not be read.
     #[error("cannot read {path}: {source}")]

@@ -25,6 +25,7 @@ pub const LOCK_FILE: &str = "rwg.lock";
 
 /// Why the lock could not be taken.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum LockError {
     /// Another process holds the lock.
     #[error(

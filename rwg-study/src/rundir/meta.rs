@@ -198,6 +198,7 @@ pub fn write_run_meta(out: &Path, meta: &RunMeta) -> Result<(), StudyError> {
 
 /// Why a JSON file of the run directory could not be read.
 #[derive(Debug)]
+#[non_exhaustive]
 pub enum JsonFileError {
     /// The file could not be read.
     Io(std::io::Error),

@@ -87,6 +87,7 @@ pub struct SpreadAtN {
 
 /// Why a spread cannot be computed.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum SpreadError {
     /// `N = 0`.
     #[error("the study size N must be at least 1 network, got 0")]

@@ -30,6 +30,7 @@ pub struct CellSpreadError {
 
 /// Why [`Run::summarize_at`] failed.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum SummarizeError {
     /// A cell could not be read.
     #[error(transparent)]
