@@ -11,7 +11,7 @@
  * loads and runs unchanged on its batched calls.
  *
  * This header is the normative definition of the ABI. The Rust mirror
- * (rwg-core/src/plugin/abi.rs) follows it; where the two disagree, this file
+ * (rwg-env/src/plugin/abi.rs) follows it; where the two disagree, this file
  * is right and the Rust side has a bug.
  *
  * A plugin is a shared library (.so / .dylib / .dll) that exports ONE function,

@@ -10,7 +10,8 @@ use thiserror::Error;
 
 /// The numpy dtype of the continuous action array handed to Gymnasium's
 /// `step()`. Pendulum-v1 and MountainCarContinuous-v0 compute differently for
-/// the two (numpy 2's promotion rules; see `golden/README.md`). rwg's policies
+/// the two (numpy 2's promotion rules; `tests/data/` holds golden
+/// trajectories with both dtypes, `rwg-envs/tests/golden.rs` replays them). rwg's policies
 /// produce float64 actions, so [`ActionDtype::F64`] is the default.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize))]

@@ -1,12 +1,29 @@
 //! Acrobot-v1 (Gymnasium's `AcrobotEnv`, "book" dynamics, one RK4 step per action).
 //!
-//! Two links hang from a fixed pivot; only the joint between them is actuated
-//! (torque −1, 0 or +1). The episode terminates once the tip rises more than
-//! one link length above the pivot: `−cos θ1 − cos(θ2 + θ1) > 1`.
+//! Two links hang from a fixed pivot; only the joint between them is actuated.
+//! Swing the tip of the lower link above a given height.
+//!
+//! - **Action space**: `Discrete(3)`: torque −1, 0 or +1 on the joint between
+//!   the links.
+//! - **Observation space**: `Box(6)`, float32: `cos θ1, sin θ1, cos θ2,
+//!   sin θ2` in [-1, 1], `θ̇1` in [-4π, 4π], `θ̇2` in [-9π, 9π] (θ1 the first
+//!   link's angle from hanging down, θ2 the second's relative to the first).
+//! - **Rewards**: −1 for every step that does not terminate, 0 for the one
+//!   that does.
+//! - **Starting state**: θ1, θ2, θ̇1, θ̇2 each uniform in [-0.1, 0.1).
+//! - **Episode end**: terminated once the tip rises more than one link length
+//!   above the pivot, `−cos θ1 − cos(θ2 + θ1) > 1`; truncated at 500 steps.
+//!   Reward threshold −100.
+//! - **Versions**: v1 is the only one (Gymnasium's; gym's v1 has the same
+//!   dynamics).
+//! - **Source**: Gymnasium 1.4's `gymnasium/envs/classic_control/acrobot.py`
+//!   (Gymnasium is MIT-licensed; that file keeps RLPy's header: Copyright
+//!   2013 RLPy, BSD 3-Clause, by Christoph Dann: THIRD-PARTY-NOTICES). The
+//!   golden trajectories `tests/data/Acrobot-v1.json`, recorded from
+//!   Gymnasium, are replayed bit for bit by `rwg-envs/tests/golden.rs`.
 //!
 //! Every formula is written in Gymnasium's source order, because bit-exactness
-//! needs the same association of every float64 operation (see
-//! `golden/README.md`, "Acrobot-v1"):
+//! needs the same association of every float64 operation:
 //! - `cos(θ1 − π/2)` and `cos(θ1 + θ2 − π/2)` are evaluated literally, not as
 //!   `sin`;
 //! - `(m1·lc1 + m2·l1)·g` is `1.5 · 9.8 = 14.700000000000001`;
@@ -281,8 +298,8 @@ mod tests {
     }
 
     // Expected values come from the pure-Python reference
-    // (`golden/tools/verify_golden.py`, `acrobot_step`), which is bit-exact
-    // with Gymnasium 1.4.
+    // (`acrobot_step` of the script that checked the golden trajectories of
+    // `tests/data/` against Gymnasium), which is bit-exact with Gymnasium 1.4.
 
     #[test]
     fn velocities_are_clamped_after_the_step() {

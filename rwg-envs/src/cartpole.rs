@@ -1,7 +1,26 @@
 //! CartPole-v0 / CartPole-v1 (Gymnasium's `CartPoleEnv`, Euler integrator).
 //!
-//! v0 and v1 share the dynamics; only the time limit (200 / 500) and the
-//! reward threshold (195 / 475) differ.
+//! A pole is hinged on a cart that moves along a frictionless track; push
+//! the cart left or right to keep the pole upright.
+//!
+//! - **Action space**: `Discrete(2)`: 0 pushes the cart left, 1 right, with
+//!   a force of 10 N.
+//! - **Observation space**: `Box(4)`, float32: cart position [-4.8, 4.8],
+//!   cart velocity unbounded (±float32's largest), pole angle [-0.418,
+//!   0.418] rad (±24°), pole angular velocity unbounded.
+//! - **Rewards**: +1 for every step, the terminating one included (Gymnasium's
+//!   default, `sutton_barto_reward=False`); 0 for steps after termination.
+//! - **Starting state**: all four values uniform in [-0.05, 0.05).
+//! - **Episode end**: terminated when the pole angle leaves ±12° (±0.2095
+//!   rad) or the cart position leaves ±2.4; truncated at 200 steps (v0) or
+//!   500 (v1).
+//! - **Versions**: v0 and v1 share the dynamics; only the time limit
+//!   (200 / 500) and the reward threshold (195 / 475) differ.
+//! - **Source**: Gymnasium 1.4's `gymnasium/envs/classic_control/cartpole.py`
+//!   (after Barto, Sutton and Anderson, 1983; Gymnasium is MIT-licensed:
+//!   THIRD-PARTY-NOTICES). The golden trajectories `tests/data/CartPole-v*.json`,
+//!   recorded from Gymnasium, are replayed bit for bit by
+//!   `rwg-envs/tests/golden.rs`.
 
 use rwg_env::env::discrete_action;
 use rwg_env::float::{f32r, sin_cos};

@@ -1,5 +1,23 @@
 //! MountainCar-v0 (Gymnasium's `MountainCarEnv`, three discrete actions).
 //!
+//! A car sits in a valley between two hills, too weak to drive straight up
+//! the right one: rock back and forth to reach the flag on its top.
+//!
+//! - **Action space**: `Discrete(3)`: accelerate left, do not accelerate,
+//!   accelerate right.
+//! - **Observation space**: `Box(2)`, float32: position [-1.2, 0.6], velocity
+//!   [-0.07, 0.07].
+//! - **Rewards**: −1 for every step.
+//! - **Starting state**: position uniform in [-0.6, -0.4), velocity 0.
+//! - **Episode end**: terminated when the position reaches 0.5 with a
+//!   non-negative velocity; truncated at 200 steps. Reward threshold −110.
+//! - **Versions**: v0 is the only one.
+//! - **Source**: Gymnasium 1.4's
+//!   `gymnasium/envs/classic_control/mountain_car.py` (after Moore, 1990;
+//!   Gymnasium is MIT-licensed: THIRD-PARTY-NOTICES). The golden
+//!   trajectories `tests/data/MountainCar-v0.json`, recorded from Gymnasium,
+//!   are replayed bit for bit by `rwg-envs/tests/golden.rs`.
+//!
 //! The state is float64 throughout (Gymnasium keeps a tuple of numpy float64
 //! scalars), so numpy 2's promotion rules change nothing here; only the
 //! observation is cast to float32.
@@ -129,7 +147,8 @@ mod tests {
     }
 
     // Expected values below come from `mountaincar_step` in
-    // golden/tools/verify_golden.py (the bit-exact Python reference).
+    // the bit-exact Python reference that checked `tests/data/`'s golden
+    // trajectories against Gymnasium.
 
     #[test]
     fn speed_is_clipped_to_plus_minus_0_07() {

@@ -1,12 +1,32 @@
 //! MountainCarContinuous-v0 (Gymnasium's `Continuous_MountainCarEnv`).
 //!
+//! MountainCar with a continuous force: reach the flag on the right hill,
+//! spending as little force as possible.
+//!
+//! - **Action space**: `Box(1)`: the force, in [-1, 1] (clipped to it; the
+//!   cost uses the unclipped value).
+//! - **Observation space**: `Box(2)`, float32: position [-1.2, 0.6], velocity
+//!   [-0.07, 0.07].
+//! - **Rewards**: `−0.1·a²` for every step (the raw action `a`), plus 100 on
+//!   the step that reaches the goal.
+//! - **Starting state**: position uniform in [-0.6, -0.4), velocity 0.
+//! - **Episode end**: terminated when the position reaches 0.45 with a
+//!   non-negative velocity; truncated at 999 steps. Reward threshold 90.
+//! - **Versions**: v0 is the only one.
+//! - **Source**: Gymnasium 1.4's
+//!   `gymnasium/envs/classic_control/continuous_mountain_car.py` (Gymnasium
+//!   is MIT-licensed: THIRD-PARTY-NOTICES). The golden trajectories
+//!   `tests/data/MountainCarContinuous-v0.json`, recorded from Gymnasium,
+//!   are replayed bit for bit by `rwg-envs/tests/golden.rs`.
+//!
 //! Gymnasium 1.4 stores the state as a float32 array after every step, and
 //! under numpy 2 (NEP 50) the precision of each operation in `step` depends
 //! on the *kind* of its operands: a Python float is "weak" and adopts the
 //! other operand's precision, `np.float32 ⊕ np.float32` stays float32 and
 //! anything with an `np.float64` becomes float64. This module follows those
 //! rules literally with the small `Num` value type, which reproduces
-//! Gymnasium bit for bit (see `golden/README.md`, "Exact float32 behaviour").
+//! Gymnasium bit for bit (`tests/data/MountainCarContinuous-v0.json` holds
+//! trajectories with float32 and float64 actions).
 //!
 //! Kinds at the start of a step:
 //! - the state `p`, `v` is float64 right after `reset` / `set_state` and
@@ -312,9 +332,10 @@ mod tests {
         (st, s)
     }
 
-    // Expected values below come from `mcc_step` in
-    // golden/tools/verify_golden.py (the literal NEP-50 reference), with the
-    // action rounded to f32 first for the float32 dtype.
+    // Expected values below come from `mcc_step`, a literal Python reference
+    // of Gymnasium's step under NEP 50 (checked against
+    // `tests/data/MountainCarContinuous-v0.json`), with the action rounded
+    // to f32 first for the float32 dtype.
 
     /// f32(-0.52), f32(0.012): a float32 state as after a step.
     const P: f64 = -0.5199999809265137;
@@ -486,7 +507,7 @@ mod tests {
         e.reset(0, &mut obs).unwrap();
         let mut st = [0.0; 2];
         e.state(&mut st).unwrap();
-        // golden/MountainCarContinuous-v0.json, seed 0
+        // tests/data/MountainCarContinuous-v0.json, seed 0
         assert_eq!(st, [-0.4726076625357092, 0.0]);
         assert_eq!(obs, [-0.47260767221450806, 0.0]);
         assert!(!e.state_is_f32);

@@ -1,8 +1,24 @@
 //! Pendulum-v1 (Gymnasium 1.4's `PendulumEnv`) and Pendulum-v0 (gym 0.17.2's).
 //!
-//! Swing a pendulum up and hold it upright with a torque in [-2, 2]. The
-//! state is `[theta, theta_dot]` with `theta = 0` upright; theta is never
-//! wrapped. The two versions differ (see `golden/README.md`):
+//! Swing a pendulum up from a random position and hold it upright.
+//!
+//! - **Action space**: `Box(1)`: the torque, in [-2, 2] (clipped to it).
+//! - **Observation space**: `Box(3)`: `cos θ, sin θ` in [-1, 1] and `θ̇` in
+//!   [-8, 8], with θ = 0 upright; float32 in v1, float64 in v0.
+//! - **Rewards**: `−(θ² + 0.1·θ̇² + 0.001·torque²)` with θ normalised to
+//!   [-π, π]: from about −16.27 up to 0 (upright, still, no torque).
+//! - **Starting state**: θ uniform in [-π, π), θ̇ uniform in [-1, 1).
+//! - **Episode end**: never terminated; truncated at 200 steps. No reward
+//!   threshold.
+//! - **Source**: Gymnasium 1.4's `gymnasium/envs/classic_control/pendulum.py`
+//!   (v1) and gym 0.17.2's `gym/envs/classic_control/pendulum.py` (v0), both
+//!   MIT-licensed (THIRD-PARTY-NOTICES). The golden trajectories
+//!   `tests/data/Pendulum-v1.json` (recorded from Gymnasium) and
+//!   `tests/data/Pendulum-v0.json` (from a port of gym 0.17.2 checked against
+//!   it) are replayed bit for bit by `rwg-envs/tests/golden.rs`.
+//!
+//! The state is `[theta, theta_dot]`; theta is never wrapped. The two
+//! versions differ:
 //!
 //! - **v1** clips the new speed to [-8, 8] *before* integrating theta with it,
 //!   writes float32 observations and, given a float32 action array, computes

@@ -1,7 +1,7 @@
 //! Replays every golden trajectory (recorded from Gymnasium 1.4, and from a
 //! verified port of gym 0.17.2 for Pendulum-v0) and requires bit-identical
-//! states, observations, rewards and flags. The files are copies of
-//! `../shared/golden/*.json` kept under `tests/data/`.
+//! states, observations, rewards and flags: the files `tests/data/*.json`
+//! (each says how it was recorded in its header fields).
 
 use rwg_env::{Action, ActionDtype, Environment};
 use rwg_envs::{make, EnvOptions};
@@ -119,7 +119,7 @@ fn replay(id: &str) -> usize {
         );
         if id == "Acrobot-v1" {
             // numpy's float32 SIMD cos/sin may be 1 ulp off the correctly
-            // rounded value (golden/README.md, Acrobot).
+            // rounded value, which rwg computes.
             for (k, (a, b)) in obs.iter().zip(&tr.reset_obs).enumerate() {
                 assert!(
                     ulps32(*a, *b) <= 1,
