@@ -11,6 +11,73 @@
 //! The host side of the ABI (loading and checking plugins) lives in
 //! `rwg-plugin-host`; the sampler and the study runner build on this crate.
 //!
+//! # Example
+//!
+//! An environment author implements [`Environment`]; [`TimeLimit`] adds
+//! Gymnasium's truncation at the spec's step limit. A counter that action 1
+//! raises, done at 3:
+//!
+//! ```
+//! use rwg_env::env::discrete_action;
+//! use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step, TimeLimit};
+//!
+//! struct Counter {
+//!     spec: EnvSpec,
+//!     count: f64,
+//! }
+//!
+//! impl Environment for Counter {
+//!     fn spec(&self) -> &EnvSpec {
+//!         &self.spec
+//!     }
+//!     fn reset(&mut self, _seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
+//!         self.count = 0.0;
+//!         obs[0] = self.count;
+//!         Ok(())
+//!     }
+//!     fn step(&mut self, action: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
+//!         let a = discrete_action(action, 2)? as f64;
+//!         self.count += a;
+//!         obs[0] = self.count;
+//!         let terminated = self.count >= 3.0;
+//!         Ok(Step { reward: a, terminated, truncated: false })
+//!     }
+//! }
+//!
+//! let spec = EnvSpec {
+//!     id: "Counter-v0".into(),
+//!     observation_space: Space::Box(BoxSpace::symmetric(&[10.0])),
+//!     action_space: Space::Discrete { n: 2 },
+//!     max_episode_steps: Some(5),
+//!     reward_threshold: None,
+//! };
+//! let mut env = TimeLimit::new(Counter { spec, count: 0.0 }, Some(5));
+//! let mut obs = [0.0];
+//! env.reset(0, &mut obs)?;
+//! // Action 0 never reaches 3: the time limit ends the episode.
+//! let mut steps = 0;
+//! loop {
+//!     let s = env.step(Action::Discrete(0), &mut obs)?;
+//!     steps += 1;
+//!     if s.terminated || s.truncated {
+//!         assert!(s.truncated && !s.terminated);
+//!         break;
+//!     }
+//! }
+//! assert_eq!(steps, 5);
+//! // Action 1 three times: the env itself ends it.
+//! env.reset(1, &mut obs)?;
+//! let ends: Vec<bool> = (0..3)
+//!     .map(|_| env.step(Action::Discrete(1), &mut obs).map(|s| s.terminated))
+//!     .collect::<Result<_, _>>()?;
+//! assert_eq!(ends, [false, false, true]);
+//! assert!(env.step(Action::Discrete(2), &mut obs).is_err(), "2 is outside Discrete(2)");
+//! # Ok::<(), EnvError>(())
+//! ```
+//!
+//! Exported from a `cdylib` with [`export_plugin!`], the same type becomes a
+//! plugin `rwg run` loads (`examples/plugin-rust`).
+//!
 //! # Features
 //!
 //! Both off by default.

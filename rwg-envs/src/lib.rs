@@ -4,6 +4,34 @@
 //! numbers bit for bit (and gym 0.17.2's for Pendulum-v0). Each env lives in
 //! its own module; [`registry`] builds them by id with Gymnasium's time limits.
 //!
+//! # Example
+//!
+//! An env by its Gymnasium id, wrapped in its time limit, stepped with the
+//! seed and actions Gymnasium would get (`env.reset(seed=0)`, then
+//! `env.step(1)` until the episode ends):
+//!
+//! ```
+//! use rwg_env::{Action, Environment};
+//! use rwg_envs::{make, EnvOptions};
+//!
+//! let mut env = make("CartPole-v1", &EnvOptions::default())?;
+//! assert_eq!(env.spec().max_episode_steps, Some(500));
+//! let mut obs = vec![0.0; env.spec().obs_dim()];
+//! env.reset(0, &mut obs)?;
+//! let mut score = 0.0;
+//! loop {
+//!     let s = env.step(Action::Discrete(1), &mut obs)?;
+//!     score += s.reward;
+//!     if s.terminated || s.truncated {
+//!         break;
+//!     }
+//! }
+//! // Always pushing right tips the pole over within a few dozen steps.
+//! assert!(score > 0.0 && score < 50.0, "{score}");
+//! assert!(make("CartPole-v2", &EnvOptions::default()).is_err());
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! # Modules
 //!
 //! - One module per env ([`cartpole`], [`acrobot`], [`pendulum`],

@@ -13,6 +13,64 @@
 //! [`jax_source`]); a plugin
 //! env may run isolated in worker processes of its own ([`isolate`]).
 //!
+//! # Example
+//!
+//! Running a study from Rust, then reading its run directory back (what
+//! `rwg run` and `rwg stats` do):
+//!
+//! ```
+//! use rwg_study::manifest::Manifest;
+//! use rwg_study::rundir::data::Run;
+//! use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome};
+//! use std::sync::atomic::AtomicBool;
+//!
+//! /// Reports nothing.
+//! struct Quiet;
+//! impl Progress for Quiet {
+//!     fn start(&mut self, _networks: u64) {}
+//!     fn cell(&mut self, _label: &str) {}
+//!     fn block(&mut self, _label: &str, _networks: u64, _env_steps: u64) {}
+//!     fn finish(&mut self, _ok: bool) {}
+//! }
+//!
+//! let text = r#"
+//! seed = 0
+//! samples = 64
+//! episodes = 2
+//! bias = [false]
+//! [weights]
+//! distribution = "normal"
+//! scale = 1.0
+//! [[architectures]]
+//! name = "0HL"
+//! hidden = []
+//! [[envs]]
+//! id = "CartPole-v1"
+//! "#;
+//! let mut m = Manifest::parse(text, "study.toml", std::path::Path::new("."))?;
+//! let dir = std::env::temp_dir().join(format!("rwg-study-doc-{}", std::process::id()));
+//! let stop = AtomicBool::new(false);
+//! let opts = RunOptions {
+//!     out: dir.clone(),
+//!     shard: None,
+//!     force_new: true,
+//!     stop: &stop,
+//!     keep_episodes: false,
+//!     commit_linger: std::time::Duration::ZERO,
+//!     manifest_file: None,
+//! };
+//! let outcome = run_study(&mut m, &opts, &mut Quiet)?;
+//! assert!(matches!(outcome, RunOutcome::Finished(_)));
+//! drop(outcome); // releases the run directory's lock
+//!
+//! let stats = Run::open(&dir)?.summarize()?;
+//! let cell = &stats.cells[0];
+//! assert_eq!((cell.id.env.as_str(), cell.samples), ("CartPole-v1", 64));
+//! assert!(cell.best_mean >= cell.median_mean && cell.median_mean >= cell.worst_mean);
+//! std::fs::remove_dir_all(&dir)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! # Modules
 //!
 //! - [`manifest`] (with [`manifest_text`]: bytes to text, located messages;
