@@ -236,10 +236,7 @@ fn bench_peers_explains_a_missing_peer() {
 fn bench_peers_checks_its_simd_levels() {
     let err = bench_peers_err(&["--simd", "avx2,sse4", "--no-pin"]);
     assert!(err.contains("\"sse4\" is not a SIMD level"), "{err}");
-    assert!(err.contains("one of scalar, avx2 ("), "{err}");
-    let err = bench_peers_err(&["--simd", "avx2,avx512", "--no-pin"]);
-    assert!(err.contains("\"avx512\" is not a SIMD level"), "{err}");
-    assert!(err.contains("AVX-512 is not supported"), "{err}");
+    assert!(err.contains("scalar, avx2, avx512"), "{err}");
     let err = bench_peers_err(&["--simd", "scalar,scalar", "--no-pin"]);
     assert!(err.contains("--simd lists scalar twice"), "{err}");
     let err = bench_peers_err(&["--simd", "", "--no-pin"]);

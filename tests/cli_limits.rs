@@ -251,13 +251,8 @@ fn every_rwg_variable_is_checked_before_anything_is_created() {
         ("RWG_JAX_TIMEOUT", "abc", "seconds from 0.001 to 604800"),
         ("RWG_COMMIT_LINGER", "inf", "seconds from 0 to 3600"),
         ("RWG_LOCKSTEP", "no", "0 or 1"),
-        ("RWG_SIMD", "avx1024", "one of scalar, avx2"),
-        ("RWG_SIMD", "AVX2", "one of scalar, avx2"),
-        (
-            "RWG_SIMD",
-            "avx512",
-            "one of scalar, avx2: AVX-512 is not supported",
-        ),
+        ("RWG_SIMD", "avx1024", "one of scalar, avx2, avx512"),
+        ("RWG_SIMD", "AVX2", "one of scalar, avx2, avx512"),
         ("RWG_PLUGIN_BATCH", "false", "0 or 1"),
         ("RWG_PLUGIN_VEC", "2", "0 or 1"),
     ];
@@ -275,7 +270,7 @@ fn every_rwg_variable_is_checked_before_anything_is_created() {
         assert_eq!(err.lines().count(), 1, "{err}");
         assert!(!out.exists(), "{var}={value}: nothing may be created");
     }
-    // a SIMD level this CPU lacks (none on a CPU with AVX2 and FMA)
+    // a SIMD level this CPU lacks (none on a CPU with AVX-512)
     for level in rwg_env::simd::Simd::ALL {
         if level.available() {
             continue;

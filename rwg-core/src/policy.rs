@@ -248,7 +248,7 @@ pub struct PolicyLanes<const K: usize> {
 }
 
 /// The SIMD level [`PolicyLanes::forward`] runs at on this process:
-/// `"avx2"` or `"scalar"` ([`rwg_env::simd::level`]; for
+/// `"avx512"`, `"avx2"` or `"scalar"` ([`rwg_env::simd::level`]; for
 /// benchmark reports, the results are the same).
 pub fn lanes_isa() -> &'static str {
     rwg_env::simd::level().name()
@@ -302,14 +302,16 @@ impl<const K: usize> PolicyLanes<K> {
     /// observations one after the other (lane-major). Read the actions with
     /// [`PolicyLanes::action`].
     ///
-    /// Runs compiled for [`rwg_env::simd::level`]'s level: AVX2 or the
-    /// target's baseline (the results are the same bits at each).
+    /// Runs compiled for [`rwg_env::simd::level`]'s level: AVX-512, AVX2,
+    /// or the target's baseline (the results are the same bits at each).
     #[inline]
     pub fn forward(&mut self, obs: &[f64]) {
         #[cfg(target_arch = "x86_64")]
         match self.simd {
             // SAFETY: `rwg_env::simd::level` names only a level the CPU has
             // (and the tests set only `Simd::available_levels`).
+            Simd::Avx512 => return unsafe { self.forward_avx512(obs) },
+            // SAFETY: as above.
             Simd::Avx2 => return unsafe { self.forward_avx2(obs) },
             Simd::Scalar => {}
         }
@@ -323,6 +325,16 @@ impl<const K: usize> PolicyLanes<K> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn forward_avx2(&mut self, obs: &[f64]) {
+        self.forward_generic(obs)
+    }
+
+    /// [`PolicyLanes::forward`] compiled for AVX-512 (F, DQ and VL).
+    ///
+    /// # Safety
+    /// The CPU must support AVX-512F, DQ and VL.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+    unsafe fn forward_avx512(&mut self, obs: &[f64]) {
         self.forward_generic(obs)
     }
 

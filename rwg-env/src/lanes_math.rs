@@ -15,28 +15,30 @@
 //!
 //! # Implementations
 //!
-//! Two levels, the ones of [`crate::simd`]: [`simd::level`] picks one for
-//! the process (`RWG_SIMD=avx2|scalar`, unset: AVX2 where the CPU has it),
-//! and each function runs it if its self-check passed there.
+//! Three levels, the ones of [`crate::simd`]: [`simd::level`] picks one
+//! for the process (`RWG_SIMD=avx512|avx2|scalar`, unset: the CPU's
+//! widest), and each function runs it if its self-check passed there.
 //!
-//! - **AVX2** ([`Simd::Avx2`], four lanes), x86-64 only: for `sin`/`cos`, a
-//!   port of glibc 2.36's `__sin_fma`/`__cos_fma` for |x| < 105414350 (the
-//!   crate `rwg-glibc-sincos`, LGPL-2.1-or-later, present only with this
-//!   crate's `glibc-sincos` feature: see below);
+//! - **AVX-512** ([`Simd::Avx512`], eight lanes) and **AVX2** ([`Simd::Avx2`],
+//!   four lanes), x86-64 only: for `sin`/`cos`, a port of glibc 2.36's
+//!   `__sin_fma`/`__cos_fma` for |x| < 105414350 (the crate
+//!   `rwg-glibc-sincos`, LGPL-2.1-or-later, present only with this crate's
+//!   `glibc-sincos` feature: see below; one algorithm at both widths);
 //!   lanes beyond (huge, ±inf, NaN) call libm. [`pow2_lanes`] settles most
 //!   squares with [`crate::float::pow2`]'s fast path (`x*x` when the exact
 //!   square is within 0.48 ulp of it) and computes the rest (about 4 %) with
-//!   a port of glibc 2.36's `__pow_fma` for `y = 2` (module `pow_fma`;
-//!   2^-60 <= |x| <= 2^32); other lanes call libm. The vector level runs
-//!   when (a) the CPU has it (AVX2 and FMA, the condition under which
-//!   glibc's ifunc selects those variants) and (b) a one-time self-check of
+//!   a port of glibc 2.36's `__pow_fma` for `y = 2` (modules `pow_fma`, four
+//!   lanes, and `pow_avx512`, eight; 2^-60 <= |x| <= 2^32); other lanes
+//!   call libm. A level runs when (a) the CPU has it (AVX2 and FMA, the
+//!   condition under which glibc's ifunc selects those variants; AVX-512F,
+//!   DQ and VL besides for eight lanes) and (b) a one-time self-check of
 //!   that level's code gives this process's libm bits on all of its
 //!   arguments: [`edge_arguments`] for `sin`/`cos` (every path, every path
 //!   boundary, the table's rounding points, the reduction's hard cases: a
 //!   few thousand arguments), [`pow2_edge_arguments`] for `pow`, so either
 //!   port can run without the other. Another glibc version, another libm
 //!   (musl, macOS) or a CPU without FMA fails (a) or (b) and gets the
-//!   scalar loop, so the contract holds
+//!   scalar loop (never the other vector level), so the contract holds
 //!   everywhere; only the speed differs.
 //! - **Scalar** ([`Simd::Scalar`]): one libm call per element (for `pow`,
 //!   [`crate::float::pow2`] per element). Forced with `RWG_SIMD=scalar`
@@ -45,8 +47,8 @@
 //! [`implementation`] (sin/cos) and [`pow_implementation`] say which one
 //! runs and why; [`implementation_at`] and [`pow_implementation_at`] decide
 //! for any level (each level's self-check runs once, when first asked).
-//! `rwg bench libm --check N` compares the vector level with libm over N
-//! arguments on the user's machine.
+//! `rwg bench libm --check N` compares every vector level the CPU has with
+//! libm over N arguments on the user's machine.
 //!
 //! # The `glibc-sincos` feature
 //!
@@ -60,10 +62,14 @@
 //! (also [`Vector`]'s) call libm once per element: the same bits, more
 //! slowly. The `rwg` binary and the reference plugin turn it on.
 //!
-//! The vector `pow(x, 2)` (modules `pow_fma`, `pow_table`)
+//! The vector `pow(x, 2)` (modules `pow_fma`, `pow_avx512`, `pow_table`)
 //! is not affected: it follows Arm's optimized-routines `pow` (MIT OR
 //! Apache-2.0 WITH LLVM-exception), which glibc adopted in 2.28.
 
+#[cfg(target_arch = "x86_64")]
+mod pow_avx512;
+#[cfg(all(test, target_arch = "x86_64"))]
+mod pow_avx512_tests;
 mod pow_edges;
 #[cfg(target_arch = "x86_64")]
 mod pow_fma;
@@ -81,7 +87,7 @@ use std::sync::OnceLock;
 /// Whether this build has the vector `sin`/`cos` (the `glibc-sincos`
 /// feature); without it every `sin`/`cos` here is one libm call per
 /// element. (With it, the vector code still needs an x86-64 CPU with AVX2
-/// and FMA: [`implementation`].)
+/// and FMA, or AVX-512 for eight lanes: [`implementation`].)
 pub const SIN_COS_BUILT_IN: bool = cfg!(feature = "glibc-sincos");
 
 /// One libm call per element: the reference the vector code must match.
@@ -123,8 +129,9 @@ pub mod scalar {
     }
 }
 
-/// The vector implementation ([`Simd::Avx2`]: four lanes), available only
-/// on a CPU that has that level (holding a `Vector` proves it). Whether its bits are this process's
+/// The vector implementation at one level ([`Simd::Avx2`]: four lanes,
+/// [`Simd::Avx512`]: eight), available only on a CPU that has that level
+/// (holding a `Vector` proves it). Whether its bits are this process's
 /// libm's is what the self-check (and `rwg bench libm --check`) tests:
 /// [`sin_lanes`] & co. use it only when that passed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -133,8 +140,9 @@ pub struct Vector {
 }
 
 impl Vector {
-    /// The vector code at `level`: `Some` for [`Simd::Avx2`] on a CPU that
-    /// has it, `None` for [`Simd::Scalar`] or a level the CPU lacks.
+    /// The vector code at `level`: `Some` for [`Simd::Avx2`] or
+    /// [`Simd::Avx512`] on a CPU that has that level, `None` for
+    /// [`Simd::Scalar`] or a level the CPU lacks.
     pub fn at(level: Simd) -> Option<Vector> {
         (level != Simd::Scalar && level.available()).then_some(Vector { level })
     }
@@ -148,19 +156,25 @@ impl Vector {
             .collect()
     }
 
-    /// Its level ([`Simd::Avx2`]).
+    /// Its level ([`Simd::Avx2`] or [`Simd::Avx512`]).
     pub fn level(self) -> Simd {
         self.level
     }
 
-    /// `f64` lanes per vector: 4.
+    /// `f64` lanes per vector: 4 or 8.
     pub fn lanes(self) -> usize {
-        4
+        match self.level {
+            Simd::Avx512 => 8,
+            _ => 4,
+        }
     }
 
-    /// The instruction set and width: "AVX2+FMA, 4 lanes".
+    /// The instruction set and width, e.g. "AVX-512, 8 lanes".
     pub fn name(self) -> &'static str {
-        "AVX2+FMA, 4 lanes"
+        match self.level {
+            Simd::Avx512 => "AVX-512, 8 lanes",
+            _ => "AVX2+FMA, 4 lanes",
+        }
     }
 
     /// `out[i] = sin(x[i])`, [`Vector::lanes`] lanes at a time (one libm
@@ -170,7 +184,10 @@ impl Vector {
         #[cfg(all(feature = "glibc-sincos", target_arch = "x86_64"))]
         // SAFETY: `self` exists only if the CPU has its level (`at`).
         unsafe {
-            rwg_glibc_sincos::sin_lanes(x, out, libm_sin)
+            match self.level {
+                Simd::Avx512 => rwg_glibc_sincos::avx512::sin_lanes(x, out, libm_sin),
+                _ => rwg_glibc_sincos::sin_lanes(x, out, libm_sin),
+            }
         }
         #[cfg(not(all(feature = "glibc-sincos", target_arch = "x86_64")))]
         scalar::sin_lanes(x, out)
@@ -183,7 +200,10 @@ impl Vector {
         #[cfg(all(feature = "glibc-sincos", target_arch = "x86_64"))]
         // SAFETY: `self` exists only if the CPU has its level (`at`).
         unsafe {
-            rwg_glibc_sincos::cos_lanes(x, out, libm_cos)
+            match self.level {
+                Simd::Avx512 => rwg_glibc_sincos::avx512::cos_lanes(x, out, libm_cos),
+                _ => rwg_glibc_sincos::cos_lanes(x, out, libm_cos),
+            }
         }
         #[cfg(not(all(feature = "glibc-sincos", target_arch = "x86_64")))]
         scalar::cos_lanes(x, out)
@@ -198,7 +218,11 @@ impl Vector {
         #[cfg(all(feature = "glibc-sincos", target_arch = "x86_64"))]
         // SAFETY: `self` exists only if the CPU has its level (`at`).
         unsafe {
-            rwg_glibc_sincos::sincos_lanes(x, sin, cos, libm_sin, libm_cos)
+            use rwg_glibc_sincos::avx512;
+            match self.level {
+                Simd::Avx512 => avx512::sincos_lanes(x, sin, cos, libm_sin, libm_cos),
+                _ => rwg_glibc_sincos::sincos_lanes(x, sin, cos, libm_sin, libm_cos),
+            }
         }
         #[cfg(not(all(feature = "glibc-sincos", target_arch = "x86_64")))]
         scalar::sincos_lanes(x, sin, cos)
@@ -211,7 +235,10 @@ impl Vector {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `self` exists only if the CPU has its level (`at`).
         unsafe {
-            pow_fma::pow2_lanes(x, out, crate::float::pow2)
+            match self.level {
+                Simd::Avx512 => pow_avx512::pow2_lanes(x, out, crate::float::pow2),
+                _ => pow_fma::pow2_lanes(x, out, crate::float::pow2),
+            }
         }
         #[cfg(not(target_arch = "x86_64"))]
         pow2_each(x, out)
@@ -226,7 +253,11 @@ impl Vector {
         #[cfg(target_arch = "x86_64")]
         // SAFETY: `self` exists only if the CPU has its level (`at`).
         unsafe {
-            pow_fma::pow2_port_lanes(x, out, crate::float::pow2_libm)
+            let libm = crate::float::pow2_libm;
+            match self.level {
+                Simd::Avx512 => pow_avx512::pow2_port_lanes(x, out, libm),
+                _ => pow_fma::pow2_port_lanes(x, out, libm),
+            }
         }
         #[cfg(not(target_arch = "x86_64"))]
         scalar::pow2_lanes(x, out)
@@ -273,7 +304,7 @@ impl Vector {
 /// ([`implementation`]) or [`pow2_lanes`] ([`pow_implementation`]) use.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Implementation {
-    /// The vector code at this level ([`Simd::Avx2`]):
+    /// The vector code at this level ([`Simd::Avx2`] or [`Simd::Avx512`]):
     /// the CPU has it and that level's self-check passed.
     Vector(Simd),
     /// One libm call per element, for the reason given.
@@ -286,7 +317,7 @@ pub enum ScalarReason {
     /// `RWG_SIMD=scalar` was set.
     Forced,
     /// The CPU lacks this level (x86-64 with AVX2 and FMA for
-    /// [`Simd::Avx2`]).
+    /// [`Simd::Avx2`], or also AVX-512F, DQ and VL for [`Simd::Avx512`]).
     NoCpuSupport(Simd),
     /// The vector `sin`/`cos` is not in this build (the `glibc-sincos`
     /// feature is off: [`SIN_COS_BUILT_IN`]).
@@ -309,6 +340,9 @@ impl std::fmt::Display for Implementation {
             Implementation::Scalar(ScalarReason::Forced) => {
                 write!(f, "scalar ({}=scalar)", simd::VAR)
             }
+            Implementation::Scalar(ScalarReason::NoCpuSupport(Simd::Avx512)) => {
+                write!(f, "scalar (no AVX-512F, DQ and VL on this CPU)")
+            }
             Implementation::Scalar(ScalarReason::NoCpuSupport(_)) => {
                 write!(f, "scalar (no x86-64 CPU with AVX2 and FMA)")
             }
@@ -328,7 +362,7 @@ impl std::fmt::Display for Implementation {
 
 /// The implementation [`sin_lanes`], [`cos_lanes`] and [`sincos_lanes`] use:
 /// [`implementation_at`] the level [`simd::level`] picks (`RWG_SIMD`, else
-/// [`simd::Simd::cpu`]).
+/// [`simd::Simd::default_level`]).
 pub fn implementation() -> Implementation {
     implementation_at(simd::level())
 }
@@ -338,7 +372,7 @@ pub fn implementation() -> Implementation {
 /// self-check on [`edge_arguments`] passes, else scalar (always scalar
 /// without [`SIN_COS_BUILT_IN`]).
 pub fn implementation_at(level: Simd) -> Implementation {
-    static CHOICE: [OnceLock<Implementation>; 2] = [const { OnceLock::new() }; 2];
+    static CHOICE: [OnceLock<Implementation>; 3] = [const { OnceLock::new() }; 3];
     *CHOICE[level as usize].get_or_init(|| {
         if !SIN_COS_BUILT_IN {
             return Implementation::Scalar(ScalarReason::NotBuiltIn);
@@ -360,7 +394,7 @@ pub fn pow_implementation() -> Implementation {
 /// The implementation of `pow(x, 2)` at `level`, decided once per process
 /// and level (the self-check on [`pow2_edge_arguments`]).
 pub fn pow_implementation_at(level: Simd) -> Implementation {
-    static CHOICE: [OnceLock<Implementation>; 2] = [const { OnceLock::new() }; 2];
+    static CHOICE: [OnceLock<Implementation>; 3] = [const { OnceLock::new() }; 3];
     *CHOICE[level as usize].get_or_init(|| {
         decide(level, |v| {
             v.first_pow2_mismatch(&pow2_edge_arguments())

@@ -97,10 +97,10 @@
 //! - [`float`]: numpy-exact float helpers (its `sin_cos` is Python's
 //!   `math.sin`/`math.cos`, never glibc's `sincos`; `pow2` is glibc's `pow(x, 2)`).
 //! - [`lanes_math`]: glibc-exact `sin`/`cos` and `pow(x, 2)` over lanes of
-//!   arguments for the envs stepped in lockstep: four lanes with AVX2+FMA
-//!   (the vector `sin`/`cos` from `rwg-glibc-sincos` behind the
-//!   `glibc-sincos` feature, `pow` in `lanes_math/pow_fma.rs`), each used
-//!   only after a
+//!   arguments for the envs stepped in lockstep: four lanes with AVX2+FMA or
+//!   eight with AVX-512 (the vector `sin`/`cos` from `rwg-glibc-sincos` behind
+//!   the `glibc-sincos` feature, `pow` in `lanes_math/pow_fma.rs` and
+//!   `pow_avx512.rs`), each used only after a
 //!   one-time self-check against the process's libm, else one libm call per
 //!   element.
 //! - [`many`]: the `ManyEnv` contract, many instances reset and stepped by one
@@ -113,7 +113,8 @@
 //!   [`export_plugin!`], the `extern "C"` trampolines, the batched calls and the
 //!   vector env, instantiated per concrete env type so its `step` inlines).
 //! - [`simd`]: the SIMD level every vector path runs (`RWG_SIMD`: `avx2` by
-//!   default where the CPU has it, or `scalar`; the bits never differ).
+//!   default where the CPU has it, `scalar`, or `avx512` when asked for; the
+//!   bits never differ).
 //! - `vars`: parsing of `RWG_*` environment variables with messages naming them;
 //!   [`suggest`]: did-you-mean hints.
 

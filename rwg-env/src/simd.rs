@@ -1,5 +1,5 @@
-//! Which SIMD instruction set rwg's vector code runs: AVX2 where the CPU
-//! has it, or the one `RWG_SIMD` asks for.
+//! Which SIMD instruction set rwg's vector code runs: the widest the CPU
+//! has, or the one `RWG_SIMD` asks for.
 //!
 //! Every vector path in rwg (the glibc-exact `sin`/`cos` and `pow(x, 2)` of
 //! [`crate::lanes_math`], the policy networks' forward pass and `tanh`, the
@@ -7,26 +7,29 @@
 //! speed differs. One switch picks the level for all of them, so a
 //! benchmark or a bug report can compare them:
 //!
-//! - `RWG_SIMD=avx2`: four `f64` lanes (AVX2 and FMA);
+//! - `RWG_SIMD=avx512`: eight `f64` lanes (AVX-512F, DQ and VL, with AVX2
+//!   and FMA);
+//! - `RWG_SIMD=avx2`: four lanes (AVX2 and FMA);
 //! - `RWG_SIMD=scalar`: the target's baseline (SSE2 on x86-64) and one libm
 //!   call per `sin`/`cos`/`pow` element.
 //!
-//! Unset (or empty), rwg runs [`Simd::cpu`]: AVX2 where the CPU has it, else
-//! scalar. There is no AVX-512 level: eight lanes gave the AVX2 bits with
-//! no gain in speed (`RWG_SIMD=avx512` is refused, naming the levels there
-//! are). The `sin`/`cos`/`pow` code of each level still passes a self-check
-//! against libm before it is used (`lanes_math`). A level the CPU lacks is
-//! an error naming the variable ([`setting`]); [`level`] then runs the
-//! CPU's level, and `rwg` refuses to start.
+//! Unset (or empty), rwg runs [`Simd::default_level`]: AVX2 where the CPU
+//! has it, else scalar. AVX-512 runs only when asked for (`RWG_SIMD=avx512`
+//! on a CPU that has it), because whether it pays depends on the CPU: on an
+//! Intel Xeon it ran the peer workloads of `rwg bench peers` in 0.70-0.94 of
+//! AVX2's CPU time, on another AVX-512 CPU whole runs took 0.90-1.11 of it.
+//! Its algorithms are tested at eight lanes in plain Rust on every CPU, and
+//! its own bit-for-bit tests run on any AVX-512 CPU (`cargo test` picks
+//! every level the CPU has). The `sin`/`cos`/`pow` code of each level still passes
+//! a self-check against libm before it is used (`lanes_math`). A level the
+//! CPU lacks is an error naming the variable ([`setting`]); [`level`] then
+//! runs the default, and `rwg` refuses to start.
 
 use crate::vars::VarError;
 use std::sync::OnceLock;
 
 /// The environment variable that picks the level.
 pub const VAR: &str = "RWG_SIMD";
-
-/// The name of the level rwg no longer has, refused with its own message.
-const REMOVED: &str = "avx512";
 
 /// An instruction-set level, narrowest first (so `a < b` means `a` is
 /// narrower).
@@ -36,17 +39,20 @@ pub enum Simd {
     Scalar,
     /// AVX2 and FMA: four `f64` lanes.
     Avx2,
+    /// AVX-512F, DQ and VL (with AVX2 and FMA): eight `f64` lanes.
+    Avx512,
 }
 
 impl Simd {
     /// Every level, narrowest first.
-    pub const ALL: [Simd; 2] = [Simd::Scalar, Simd::Avx2];
+    pub const ALL: [Simd; 3] = [Simd::Scalar, Simd::Avx2, Simd::Avx512];
 
-    /// The name `RWG_SIMD` takes: `scalar` or `avx2`.
+    /// The name `RWG_SIMD` takes: `scalar`, `avx2` or `avx512`.
     pub fn name(self) -> &'static str {
         match self {
             Simd::Scalar => "scalar",
             Simd::Avx2 => "avx2",
+            Simd::Avx512 => "avx512",
         }
     }
 
@@ -55,11 +61,17 @@ impl Simd {
         Simd::ALL.into_iter().find(|s| s.name() == name)
     }
 
-    /// The widest level this CPU has (detected once): what rwg runs when
-    /// `RWG_SIMD` is unset.
+    /// The widest level this CPU has (detected once).
     pub fn cpu() -> Simd {
         static CPU: OnceLock<Simd> = OnceLock::new();
         *CPU.get_or_init(detect)
+    }
+
+    /// The level rwg runs when `RWG_SIMD` is unset: the CPU's widest, but
+    /// at most [`Simd::Avx2`] (AVX-512 only when asked for: see the module
+    /// docs).
+    pub fn default_level() -> Simd {
+        Simd::cpu().min(Simd::Avx2)
     }
 
     /// Whether this CPU can run `self`.
@@ -83,7 +95,15 @@ impl std::fmt::Display for Simd {
 fn detect() -> Simd {
     #[cfg(target_arch = "x86_64")]
     {
-        if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+        let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
+        let avx512 = avx2
+            && is_x86_feature_detected!("avx512f")
+            && is_x86_feature_detected!("avx512dq")
+            && is_x86_feature_detected!("avx512vl");
+        if avx512 {
+            return Simd::Avx512;
+        }
+        if avx2 {
             return Simd::Avx2;
         }
     }
@@ -103,15 +123,6 @@ pub fn setting() -> Result<Option<Simd>, VarError> {
 /// `value` of `RWG_SIMD` as a level this CPU has (see [`setting`]).
 pub fn parse(value: &str) -> Result<Simd, VarError> {
     let names = Simd::ALL.map(Simd::name).join(", ");
-    if value.trim() == REMOVED {
-        return Err(VarError {
-            var: VAR,
-            value: value.into(),
-            expected: format!(
-                "one of {names}: AVX-512 is not supported (it gave the AVX2 bits no faster)"
-            ),
-        });
-    }
     let Some(level) = Simd::from_name(value.trim()) else {
         return Err(VarError {
             var: VAR,
@@ -135,10 +146,10 @@ pub fn parse(value: &str) -> Result<Simd, VarError> {
 }
 
 /// The level every vector path runs, decided once per process: `RWG_SIMD`
-/// if set to a level the CPU has, else [`Simd::cpu`].
+/// if set to a level the CPU has, else [`Simd::default_level`].
 pub fn level() -> Simd {
     static LEVEL: OnceLock<Simd> = OnceLock::new();
-    *LEVEL.get_or_init(|| setting().ok().flatten().unwrap_or_else(Simd::cpu))
+    *LEVEL.get_or_init(|| setting().ok().flatten().unwrap_or_else(Simd::default_level))
 }
 
 #[cfg(test)]
@@ -150,22 +161,15 @@ mod tests {
         for s in Simd::ALL {
             assert_eq!(Simd::from_name(s.name()), Some(s));
         }
-        assert!(Simd::Scalar < Simd::Avx2);
+        assert!(Simd::Scalar < Simd::Avx2 && Simd::Avx2 < Simd::Avx512);
         assert_eq!(Simd::from_name("sse2"), None);
-        assert_eq!(Simd::from_name("avx512"), None);
     }
 
     #[test]
     fn parse_names_the_variable_and_the_choices() {
         let e = parse("avx1024").unwrap_err();
         assert_eq!(e.var, VAR);
-        assert!(e.expected.contains("one of scalar, avx2 ("), "{e}");
-        let e = parse("avx512").unwrap_err();
-        assert!(
-            e.expected
-                .contains("one of scalar, avx2: AVX-512 is not supported"),
-            "{e}"
-        );
+        assert!(e.expected.contains("scalar, avx2, avx512"), "{e}");
         assert_eq!(parse(" scalar ").unwrap(), Simd::Scalar);
         for s in Simd::ALL {
             match parse(s.name()) {
@@ -184,5 +188,10 @@ mod tests {
         assert_eq!(have[0], Simd::Scalar);
         assert_eq!(*have.last().unwrap(), Simd::cpu());
         assert_eq!(have.len(), Simd::cpu() as usize + 1);
+        assert!(Simd::default_level() <= Simd::Avx2);
+        assert!(Simd::default_level().available());
+        if Simd::Avx2.available() {
+            assert_eq!(Simd::default_level(), Simd::Avx2);
+        }
     }
 }

@@ -42,7 +42,7 @@
 //! - [`lockstep`]: each env again over N lanes as a `ManyEnv`: state as arrays
 //!   over lanes, one `lanes_math` call per libm use, Gymnasium's `TimeLimit` per
 //!   lane; `visit_lockstep` hands out the concrete type. `wide.rs` compiles each
-//!   step body again for AVX2, the level chosen at run time by
+//!   step body again for AVX2 and for AVX-512, the level chosen at run time by
 //!   `rwg_env::simd::level` (the same operations, so the same bits;
 //!   `RWG_SIMD=scalar` for the baseline). Lane loops
 //!   combine booleans with `&`/`|` so they stay branch-free, and the step bodies

@@ -437,8 +437,8 @@ fn golden_trajectories_through_lockstep() {
 }
 
 /// The tests above, again in a child process per SIMD level this CPU has
-/// (`RWG_SIMD=scalar`, `avx2`; the level is read once per process), so
-/// the baseline and AVX2 step bodies are each checked
+/// (`RWG_SIMD=scalar`, `avx2`, `avx512`; the level is read once per
+/// process), so the baseline, AVX2 and AVX-512 step bodies are each checked
 /// against the scalar envs, whatever level this process runs.
 #[test]
 fn the_step_bodies_of_every_simd_level_match_too() {

@@ -8,12 +8,10 @@
 //! variants its `sin`/`cos` ifuncs pick on CPUs with AVX2 and FMA), for
 //! |x| < 105414350, written once over the vector operations of the trait
 //! [`Lanes`]: `fma.rs` implements it for four AVX2+FMA lanes (`__m256d`),
-//! the tests for eight lanes in plain Rust. Every method is one IEEE
+//! `avx512.rs` for eight AVX-512 lanes (`__m512d`). Every method is one IEEE
 //! operation per lane (or an exact bit operation), so both run the same
 //! roundings in the same order and give the same bits; they differ only in
-//! masks, table reads and loads. The trait keeps the algorithm readable as
-//! arithmetic, with the intrinsics in one place, and testable apart from
-//! them.
+//! masks, table reads and loads.
 //!
 //! glibc compiles `sysdeps/ieee754/dbl-64/s_sin.c` for that variant with
 //! `-mfma -mavx2`, so GCC fused some products into the following additions.
@@ -38,7 +36,7 @@
 //!
 //! The functions here are `#[inline(always)]` generics without target
 //! features of their own: they are compiled inside the entry points of
-//! `fma.rs` (`entry_points!`), which carry the instruction
+//! `fma.rs` / `avx512.rs` (`entry_points!`), which carry the instruction
 //! set, so the trait's methods inline into them.
 
 pub(crate) const SIGN: f64 = -0.0;

@@ -6,15 +6,17 @@
 //! the same constants and table, so the same bits. Lanes beyond that range
 //! (huge, ±inf, NaN) go to the libm functions the caller passes in.
 //!
-//! [`sin_lanes`], [`cos_lanes`], [`sincos_lanes`]: four lanes with AVX2 and
-//! FMA. The algorithm (`kernel.rs`) is written over a trait of vector
-//! operations, implemented with AVX2+FMA intrinsics in `fma.rs`; the tests
-//! run it also over eight lanes in plain Rust, which checks the algorithm
-//! and its tails apart from the intrinsics.
+//! Two widths, one algorithm (`kernel.rs`, written over a trait of vector
+//! operations, so both fuse the same products and round the same way):
+//!
+//! - [`sin_lanes`], [`cos_lanes`], [`sincos_lanes`]: four lanes with AVX2
+//!   and FMA (`fma.rs`);
+//! - [`avx512::sin_lanes`], [`avx512::cos_lanes`], [`avx512::sincos_lanes`]:
+//!   eight lanes with AVX-512F, DQ and VL (`avx512.rs`), same signatures.
 //!
 //! `rwg_env::lanes_math` uses this crate behind its `glibc-sincos` feature,
-//! when `rwg_env::simd::level()` is AVX2 (`RWG_SIMD`), and only after a
-//! one-time self-check against the process's own libm; that
+//! at the width `rwg_env::simd::level()` picks (`RWG_SIMD`), and only after
+//! a one-time self-check of that width against the process's own libm; that
 //! module is the interface to use (it falls back to one libm call per
 //! element whenever this crate is absent or does not apply). The entry
 //! points here are `unsafe`: calling them is sound only on a CPU with their
@@ -23,13 +25,13 @@
 //! # Origin and licence
 //!
 //! This crate is a translation into Rust (AVX2+FMA intrinsics over four
-//! lanes) of parts of the GNU C Library's
+//! lanes, AVX-512 intrinsics over eight) of parts of the GNU C Library's
 //! libm, and is distributed under the same licence as they are: the **GNU
 //! Lesser General Public License, version 2.1 or (at your option) any later
 //! version** (`COPYING` beside this crate's `Cargo.toml`).
 //!
-//! - `kernel.rs` (the algorithm and constants) and `fma.rs` (its vector
-//!   operations over four lanes): `__sin` / `__cos`
+//! - `kernel.rs` (the algorithm and constants), `fma.rs` and `avx512.rs`
+//!   (its vector operations at four and eight lanes): `__sin` / `__cos`
 //!   (with their helpers `do_sin`, `do_cos`, `reduce_sincos`,
 //!   `TAYLOR_SIN`) from glibc's `sysdeps/ieee754/dbl-64/s_sin.c`, IBM Accurate Mathematical Library,
 //!   written by International Business Machines Corp., Copyright (C)
@@ -44,6 +46,8 @@
 //! crate (its default) is a combined work under the LGPL's section 6, and
 //! this crate's source is part of rwg's source distribution.
 
+#[cfg(target_arch = "x86_64")]
+pub mod avx512;
 #[cfg(target_arch = "x86_64")]
 mod fma;
 #[cfg(target_arch = "x86_64")]

@@ -1,9 +1,9 @@
 //! The kernels and the table against this process's libm (glibc 2.36 on
 //! x86-64 with AVX2+FMA gives the same bits; `rwg_env::lanes_math`'s tests
-//! and self-check cover many more arguments), at both widths: four lanes
-//! (AVX2+FMA) and eight in plain Rust (`soft`: the algorithm at another
-//! width, on any CPU). Without AVX2+FMA the four lanes are left out, with a
-//! note on stderr.
+//! and self-check cover many more arguments), at every width: four lanes
+//! (AVX2+FMA), eight (AVX-512) and eight in plain Rust (`soft`: the
+//! algorithm at eight lanes on any CPU). A width whose instructions this
+//! CPU lacks is left out, with a note on stderr.
 
 mod soft;
 
@@ -62,6 +62,13 @@ fn cpu_has_avx2_fma() -> bool {
     is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
 }
 
+fn cpu_has_avx512() -> bool {
+    cpu_has_avx2_fma()
+        && is_x86_feature_detected!("avx512f")
+        && is_x86_feature_detected!("avx512dq")
+        && is_x86_feature_detected!("avx512vl")
+}
+
 /// The widths this CPU runs (the plain-Rust eight lanes always).
 fn widths() -> Vec<Width> {
     let mut w = vec![Width {
@@ -79,6 +86,16 @@ fn widths() -> Vec<Width> {
         });
     } else {
         eprintln!("no AVX2+FMA on this CPU: the four-lane code cannot run here");
+    }
+    if cpu_has_avx512() {
+        w.push(Width {
+            name: "avx512",
+            sin: super::avx512::sin_lanes,
+            cos: super::avx512::cos_lanes,
+            sincos: super::avx512::sincos_lanes,
+        });
+    } else {
+        eprintln!("no AVX-512F/DQ/VL on this CPU: the eight-lane AVX-512 code cannot run here");
     }
     w
 }

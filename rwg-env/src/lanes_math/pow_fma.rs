@@ -29,15 +29,18 @@
 //! out because glibc's `exp` returns `1 + x` for that tiny-argument case;
 //! `pow2_lanes` never sends it here (1 is an exact square).
 //!
-//! The computation is written over the vector operations of the trait
-//! [`Lanes`], implemented here for four AVX2+FMA lanes (`__m256d`): the
-//! algorithm reads as arithmetic, every method one IEEE operation per lane
-//! (or an exact integer step), and the intrinsics sit in one place.
+//! The computation is written once, over the vector operations of the
+//! trait [`Lanes`]: implemented here for four AVX2+FMA lanes (`__m256d`)
+//! and in `pow_avx512` for eight AVX-512 lanes (`__m512d`). Both run the same
+//! floating-point operations in the same order, fused at the same places, so
+//! they give the same bits; they differ only in exact integer steps and in
+//! how they read the tables.
 //!
 //! Every function is `unsafe` only because it is compiled for its
 //! instruction set (`#[target_feature]`, which trait methods cannot carry
 //! on safe functions): calling it is sound on a CPU with that set, which
-//! [`super::Vector::at`] checks before the entry points are reachable. Here table reads are row loads
+//! [`super::Vector::detect`] (or the AVX-512 level's detection) checks
+//! before the entry points are reachable. Here table reads are row loads
 //! (cheaper than gathers on four lanes) at indices masked into the tables,
 //! whatever a lane holds.
 

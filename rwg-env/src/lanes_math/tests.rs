@@ -69,7 +69,7 @@ impl Rng {
 fn edge_arguments_give_libm_bits() {
     let x = edge_arguments();
     check(&x);
-    // Every short length and offset: the tails of four lanes.
+    // Every short length and offset: the tails of four and eight lanes.
     for len in 0..=17 {
         for start in 0..8 {
             check(&x[start..(start + len).min(x.len())]);
@@ -141,6 +141,10 @@ fn dispatch_follows_level_cpu_and_self_check() {
 fn levels_are_named() {
     let show = |i: Implementation| i.to_string();
     assert_eq!(
+        show(Implementation::Vector(Simd::Avx512)),
+        "vector (AVX-512, 8 lanes, glibc 2.36's bits, self-check passed)"
+    );
+    assert_eq!(
         show(Implementation::Vector(Simd::Avx2)),
         "vector (AVX2+FMA, 4 lanes, glibc 2.36's bits, self-check passed)"
     );
@@ -149,15 +153,19 @@ fn levels_are_named() {
         "scalar (RWG_SIMD=scalar)"
     );
     let no = |l| show(Implementation::Scalar(ScalarReason::NoCpuSupport(l)));
+    assert_eq!(
+        no(Simd::Avx512),
+        "scalar (no AVX-512F, DQ and VL on this CPU)"
+    );
     assert_eq!(no(Simd::Avx2), "scalar (no x86-64 CPU with AVX2 and FMA)");
-    let failed = ScalarReason::SelfCheckFailed(Simd::Avx2, "sin/cos", 1.5);
+    let failed = ScalarReason::SelfCheckFailed(Simd::Avx512, "sin/cos", 1.5);
     assert_eq!(
         show(Implementation::Scalar(failed)),
-        "scalar (the vector sin/cos (AVX2+FMA, 4 lanes) differs from this libm at x = 1.5e0 \
+        "scalar (the vector sin/cos (AVX-512, 8 lanes) differs from this libm at x = 1.5e0 \
          = 0x3ff8000000000000)"
     );
     for v in Vector::all() {
-        assert_eq!(v.lanes(), 4);
+        assert_eq!(v.lanes(), if v.level() == Simd::Avx512 { 8 } else { 4 });
         assert!(v.name().contains(&format!("{} lanes", v.lanes())));
     }
 }

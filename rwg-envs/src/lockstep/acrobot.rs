@@ -53,8 +53,8 @@ impl<const N: usize> Y<N> {
 }
 
 /// [`dsdt_body`] as one out-of-line function, compiled for the SIMD level
-/// the step bodies are ([`rwg_env::simd::level`]: AVX2 or the baseline; the
-/// same bits at each).
+/// the step bodies are ([`rwg_env::simd::level`]: AVX-512, AVX2 or the
+/// baseline; the same bits at each).
 ///
 /// Inlined, the four RK4 stages made the 16-lane step 55 KB of machine code,
 /// more than the 32 KB instruction cache, fetched again from L2 on every
@@ -66,6 +66,8 @@ fn dsdt<const N: usize>(y: &Y<N>, a: &[f64; N], sin_t2: &[f64; N], cos_t2: &[f64
     #[cfg(target_arch = "x86_64")]
     match rwg_env::simd::level() {
         // SAFETY: `level` names only a level the CPU has.
+        rwg_env::simd::Simd::Avx512 => return unsafe { dsdt_avx512(y, a, sin_t2, cos_t2) },
+        // SAFETY: as above.
         rwg_env::simd::Simd::Avx2 => return unsafe { dsdt_avx2(y, a, sin_t2, cos_t2) },
         rwg_env::simd::Simd::Scalar => {}
     }
@@ -83,6 +85,20 @@ fn dsdt_base<const N: usize>(y: &Y<N>, a: &[f64; N], sin_t2: &[f64; N], cos_t2: 
 #[target_feature(enable = "avx2")]
 #[inline(never)]
 unsafe fn dsdt_avx2<const N: usize>(
+    y: &Y<N>,
+    a: &[f64; N],
+    sin_t2: &[f64; N],
+    cos_t2: &[f64; N],
+) -> Y<N> {
+    dsdt_body(y, a, sin_t2, cos_t2)
+}
+
+/// [`dsdt_body`] compiled for AVX-512F/DQ/VL; callable only on a CPU with
+/// them.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+#[inline(never)]
+unsafe fn dsdt_avx512<const N: usize>(
     y: &Y<N>,
     a: &[f64; N],
     sin_t2: &[f64; N],

@@ -1,9 +1,10 @@
 //! Which instruction set the lockstep envs' steps run compiled for.
 //!
 //! rwg is built for baseline x86-64 (SSE2: two `f64` per vector). An env's
-//! step body is also compiled with AVX2 enabled (four per vector), and the
-//! build to run is [`rwg_env::simd::level`]'s (`RWG_SIMD`, else AVX2 where
-//! the CPU has it). Both compile the same IEEE operations in the same order: Rust never
+//! step body is also compiled with AVX2 enabled (four per vector) and with
+//! AVX-512F/DQ/VL enabled (eight per vector), and the build to run is
+//! [`rwg_env::simd::level`]'s (`RWG_SIMD`, else AVX2 where the CPU has it). All
+//! three compile the same IEEE operations in the same order: Rust never
 //! contracts `a * b + c` into a fused multiply-add (and the step bodies
 //! call no `mul_add`), so they give the same bits (the lockstep tests
 //! compare lanes with the scalar envs at every level the CPU has).
@@ -12,7 +13,7 @@
 /// `step_body` (the arguments of [`rwg_env::many::ManyEnv::step_many`], the
 /// per-lane ones as arrays of `N`: [`crate::lockstep::lane_arrays`]),
 /// defines `step_dispatch`, which runs `step_body` compiled for the level
-/// [`rwg_env::simd::level`] names: AVX2, or the baseline build for
+/// [`rwg_env::simd::level`] names: AVX-512, AVX2, or the baseline build for
 /// `scalar`. The env's `step_many` is [`step_many_dispatched`]'s, which
 /// calls it.
 macro_rules! wide_step {
@@ -42,6 +43,12 @@ macro_rules! wide_step {
                 #[cfg(target_arch = "x86_64")]
                 match rwg_env::simd::level() {
                     // SAFETY: `level` names only a level the CPU has.
+                    rwg_env::simd::Simd::Avx512 => unsafe {
+                        return self.step_avx512(
+                            mask, actions, obs, rewards, terminated, truncated, on_fail,
+                        );
+                    },
+                    // SAFETY: as above.
                     rwg_env::simd::Simd::Avx2 => unsafe {
                         return self.step_avx2(
                             mask, actions, obs, rewards, terminated, truncated, on_fail,
@@ -60,6 +67,26 @@ macro_rules! wide_step {
                 reason = "`ManyEnv::step_many`'s buffers, one argument each"
             )]
             unsafe fn step_avx2(
+                &mut self,
+                mask: &[u8; N],
+                actions: &[f64; N],
+                obs: &mut [f64],
+                rewards: &mut [f64; N],
+                terminated: &mut [u8; N],
+                truncated: &mut [u8; N],
+                on_fail: &mut dyn FnMut(usize, EnvError),
+            ) {
+                self.step_body(mask, actions, obs, rewards, terminated, truncated, on_fail)
+            }
+
+            /// [`Self::step_body`] compiled with AVX-512F, DQ and VL enabled.
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+            #[expect(
+                clippy::too_many_arguments,
+                reason = "`ManyEnv::step_many`'s buffers, one argument each"
+            )]
+            unsafe fn step_avx512(
                 &mut self,
                 mask: &[u8; N],
                 actions: &[f64; N],

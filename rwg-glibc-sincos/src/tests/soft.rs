@@ -1,9 +1,10 @@
 //! Eight lanes in plain Rust, one scalar IEEE operation per lane (fused
 //! products by `f64::mul_add`, rounded once): the crate's algorithm
-//! (`kernel.rs`) at twice the AVX2 code's width, with `u8` masks,
-//! eight-lane tails and the table clamp, runnable on any x86-64 CPU. It
-//! checks the algorithm apart from the intrinsics, and the loop and its
-//! tails at a width other than four.
+//! (`kernel.rs`) at the AVX-512 code's width, with its `u8` masks, its
+//! eight-lane tails and its table clamp, runnable on any x86-64 CPU. It
+//! checks the algorithm and the loop at eight lanes where the CPU has no
+//! AVX-512; the AVX-512 instructions themselves are checked by the tests
+//! that run `crate::avx512` where the CPU has them.
 
 use crate::kernel::{run, Lanes, TABLE_MAX_K};
 use crate::table::SINCOSTAB;

@@ -1,8 +1,8 @@
 //! `rwg bench libm`: the vector `sin`/`cos` and `pow(x, 2)` of
-//! `rwg_env::lanes_math` (four AVX2+FMA lanes, where the CPU has them)
-//! against this machine's libm, bit for bit over many arguments (`--check
-//! N`: one libm call per argument, compared with the vector code), and the
-//! cost per element of libm and of the vector code on
+//! `rwg_env::lanes_math` at every vector level this CPU has (four AVX2+FMA
+//! lanes, eight AVX-512 lanes) against this machine's libm, bit for bit over
+//! many arguments (`--check N`: one libm call per argument, compared with
+//! every level), and the cost per element of libm and of each level on
 //! 16-lane slices, side by side. The vector `sin`/`cos` exists only in a
 //! build with the `glibc-sincos` feature (the default); without it only
 //! `pow` is checked and timed.
@@ -305,7 +305,7 @@ fn check(levels: &[Vector], a: &LibmArgs) -> Result<u64> {
     Ok(total)
 }
 
-/// The levels' names, e.g. "avx2".
+/// The levels' names, e.g. "avx2, avx512".
 fn level_names(levels: &[Vector]) -> String {
     levels
         .iter()

@@ -116,7 +116,7 @@ Examples:
   target/peers-venv/bin/pip install numpy==2.4.6 gymnasium==1.3.0 jax==0.10.2 jaxlib==0.10.2 \\
     gymnax==1.0.1 flax==0.12.8 six==1.17.0
   rwg bench peers
-  rwg bench peers --simd avx2,scalar --env Pendulum-v1")]
+  rwg bench peers --simd avx2,avx512 --env Pendulum-v1   # on a CPU with AVX-512")]
     Peers(peers::PeersArgs),
     /// Gymnasium envs through the bridge, beside a pure-Python ceiling loop and a peer script.
     #[command(after_help = "\
@@ -153,12 +153,12 @@ Example:
     /// The vector sin/cos and pow(x, 2) of the lockstep envs against this machine's libm: bits
     /// and speed.
     #[command(after_help = "\
-rwg_env::lanes_math computes sin and cos four lanes at a time with AVX2+FMA (unless \
-RWG_SIMD=scalar), a port of glibc 2.36's \
+rwg_env::lanes_math computes sin and cos four lanes at a time with AVX2+FMA or eight with \
+AVX-512 (the level RWG_SIMD picks, else AVX2 where the CPU has it), a port of glibc 2.36's \
 __sin_fma/__cos_fma meant to return exactly libm's bits, and Python's x**2 (libm pow(x, \
 2)) as x*x where the exact square is within 0.48 ulp of it, else by a port of glibc \
-2.36's __pow_fma; each is used only when its one-time self-check on some thousands of \
-edge arguments passes. This command checks them on many more. \
+2.36's __pow_fma; each level is used only when its one-time self-check on some thousands \
+of edge arguments passes. This command checks every level the CPU has on many more. \
 sin/cos: the fixed edge set plus N pseudo-random arguments split evenly over CartPole's \
 |x| < 0.3, MountainCarContinuous' |x| <= 3.6, Acrobot's |x| <= 20, Pendulum's |x| <= 200 and a \
 log-uniform sweep 2^-30 <= |x| < 105414350 (every path of the vector code), comparing \
@@ -168,8 +168,8 @@ pow: its edge set plus N (or --pow-check's) arguments split evenly over the envs
 the port's range 2^-60 <= |x| <= 2^32, comparing the port alone (on every argument) and \
 pow2_lanes with one libm pow call per argument. Differing results are printed \
 (argument, libm's bits, the vector's bits) and make the command fail. Then, for each \
-range, the CPU time per element of libm (one call per element) and of the vector code \
-on 16-lane slices, ROUNDS interleaved rounds: median [min-max]. Build with \
+range, the CPU time per element of libm (one call per element) and of each level's \
+vector code on 16-lane slices, ROUNDS interleaved rounds: median [min-max]. Build with \
 --release: a debug build checks the same bits, slowly.
 
 Examples:

@@ -60,8 +60,8 @@ struct SamplerRow {
     /// per lane; `RWG_LOCKSTEP=0`, as for `rwg run`).
     path: &'static str,
     /// The SIMD level (`RWG_SIMD`, else AVX2 where the CPU has it) the policies'
-    /// forward pass and the lockstep envs' steps ran at: `"avx2"` or
-    /// `"scalar"` (the results are the same at each).
+    /// forward pass and the lockstep envs' steps ran at: `"avx512"`,
+    /// `"avx2"` or `"scalar"` (the results are the same at each).
     simd: &'static str,
 }
 
@@ -223,7 +223,7 @@ pub(super) fn run(args: SamplerArgs) -> Result<()> {
         crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
     } else {
         crate::outln!(
-            "SIMD level: {} ({}: avx2 or scalar; the same results at each)",
+            "SIMD level: {} ({}: avx512, avx2 or scalar; the same results at each)",
             rwg_core::policy::lanes_isa(),
             rwg_env::simd::VAR
         );

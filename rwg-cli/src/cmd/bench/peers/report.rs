@@ -371,21 +371,22 @@ mod tests {
 
     #[test]
     fn each_level_has_its_ratio_and_the_last_is_over_the_first() {
-        let levels = [Simd::Avx2, Simd::Scalar];
-        let row = measured(&levels, &[[10, 30, 20], [40, 30, 10]]);
+        let levels = [Simd::Avx2, Simd::Scalar, Simd::Avx512];
+        let row = measured(&levels, &[[10, 30, 20], [5, 5, 5], [40, 30, 10]]);
         let names: Vec<&str> = row.rwg.iter().map(|l| l.simd).collect();
-        assert_eq!(names, ["avx2", "scalar"]);
+        assert_eq!(names, ["avx2", "scalar", "avx512"]);
         assert_eq!(row.rwg[0].ratio.values, [2.0, 3.0, 1.0]);
-        assert_eq!(row.rwg[1].ratio.values, [8.0, 3.0, 0.5]);
+        assert_eq!(row.rwg[1].ratio.values, [1.0, 0.5, 0.25]);
+        assert_eq!(row.rwg[2].ratio.values, [8.0, 3.0, 0.5]);
         let r = row.simd_ratio.as_ref().unwrap();
-        assert_eq!((r.level, r.over), ("scalar", "avx2"));
+        assert_eq!((r.level, r.over), ("avx512", "avx2"));
         assert_eq!(r.ratio.values, [4.0, 1.0, 0.5]);
         assert_eq!((r.ratio.median, r.ratio.min, r.ratio.max), (1.0, 0.5, 4.0));
         // The JSON keeps every measurement beside its level.
         let v = serde_json::to_value(&row).unwrap();
-        assert_eq!(v["rwg"][1]["simd"], "scalar");
-        assert_eq!(v["rwg"][1]["steps_per_cpu_s"][0], 40.0);
-        assert_eq!(v["rwg"][1]["ratio"]["values"][1], 3.0);
+        assert_eq!(v["rwg"][2]["simd"], "avx512");
+        assert_eq!(v["rwg"][2]["steps_per_cpu_s"][0], 40.0);
+        assert_eq!(v["rwg"][2]["ratio"]["values"][1], 3.0);
         assert_eq!(v["simd_ratio"]["over"], "avx2");
         assert_eq!(v["simd_ratio"]["median"], 1.0);
         assert_eq!(
@@ -398,19 +399,19 @@ mod tests {
 
     #[test]
     fn the_table_has_a_column_per_level_and_their_ratio() {
-        let levels = [Simd::Avx2, Simd::Scalar];
+        let levels = [Simd::Avx2, Simd::Avx512];
         let rows = [measured(&levels, &[[10, 30, 20], [40, 30, 10]])];
-        let (header, body) = table_cells(&rows, &["avx2", "scalar"]);
+        let (header, body) = table_cells(&rows, &["avx2", "avx512"]);
         assert_eq!(
             header,
             [
                 "workload",
                 "rwg avx2",
-                "rwg scalar",
+                "rwg avx512",
                 "gymnax-raw",
                 "avx2 / gymnax-raw",
-                "scalar / gymnax-raw",
-                "scalar / avx2"
+                "avx512 / gymnax-raw",
+                "avx512 / avx2"
             ]
         );
         assert_eq!(body[0][0], "Pendulum-v1 [4]");
