@@ -2,7 +2,7 @@
 //! `cli_jax_checks.rs`): the JAX Python, `rwg` with the `jax:` test envs
 //! importable, one-env manifests, small files.
 
-#![allow(dead_code)]
+#![allow(dead_code, reason = "each test file uses part of these helpers")]
 
 use crate::common::*;
 use std::path::Path;

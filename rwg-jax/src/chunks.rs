@@ -190,7 +190,10 @@ impl<'a> Assembly<'a> {
 }
 
 #[cfg(test)]
-#[allow(clippy::single_range_in_vec_init)] // one block of networks is meant
+#[expect(
+    clippy::single_range_in_vec_init,
+    reason = "one block of networks is meant"
+)]
 mod tests {
     use super::*;
 

@@ -230,6 +230,7 @@ pub struct JaxInfo {
 
 /// What can go wrong with a JAX environment.
 #[derive(Debug, Error)]
+#[non_exhaustive]
 pub enum JaxError {
     /// The interpreter could not be started.
     #[error(

@@ -149,6 +149,7 @@ impl JaxError {
                 stderr,
             },
             ProcError::Protocol(m) => JaxError::Protocol(m),
+            other => JaxError::Protocol(other.to_string()),
         }
     }
 }

@@ -3,7 +3,10 @@
 //! under `CI=true` or `RWG_NO_SKIP=1`). The `jax:` envs are
 //! `tests/data/rwg_jax_test_envs.py`; `tests/data/replay_check.py` is the
 //! replay recipe of a gymnax network, written apart from the worker.
-#![allow(clippy::single_range_in_vec_init)] // one block of networks is what is meant
+#![expect(
+    clippy::single_range_in_vec_init,
+    reason = "one block of networks is what is meant"
+)]
 
 use rwg_core::policy::Architecture;
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError, WeightDist};
