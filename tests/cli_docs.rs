@@ -1,5 +1,5 @@
 //! The pages cannot drift from the binary and the code: every relative link
-//! of the README, `CHANGELOG.md`, `docs/` and the examples' READMEs resolves
+//! of the README, `CHANGELOG.md`, `docs/` and the other READMEs resolves
 //! (its file, and its `#anchor` to a heading of that file); every
 //! `rwg COMMAND --flag` a page shows is in that command's `--help`; every
 //! `RWG_*` variable the code reads has a row in the variables table of
@@ -22,8 +22,9 @@ fn read(rel: &str) -> String {
 }
 
 /// The pages users read: the README, the changelog, every Markdown page
-/// under `docs/` and every example's README, as paths relative to the
-/// repository.
+/// directly under `docs/` (not the tables `rwg stats` wrote into its
+/// folders), every example's README, the peers' and the Python package's,
+/// as paths relative to the repository.
 fn pages() -> Vec<String> {
     let mut out = vec!["README.md".to_string(), "CHANGELOG.md".to_string()];
     for dir in ["docs", "examples"] {
@@ -43,6 +44,7 @@ fn pages() -> Vec<String> {
         found.sort();
         out.extend(found);
     }
+    out.extend(["benches/peers/README.md", "python/README.md"].map(String::from));
     out
 }
 
@@ -161,6 +163,8 @@ fn broken_links(root: &Path, page: &str) -> Vec<String> {
 
 #[test]
 fn every_relative_link_resolves_to_a_file_and_heading() {
+    let links: usize = pages().iter().map(|p| link_targets(&read(p)).len()).sum();
+    assert!(links > 50, "only {links} links found on the pages");
     let bad: Vec<String> = pages()
         .iter()
         .flat_map(|p| broken_links(&repo(), p))
