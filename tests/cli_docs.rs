@@ -5,7 +5,8 @@
 //! `RWG_*` variable the code reads has a row in the variables table of
 //! `docs/guide.md` and every row names one the code reads; every column the
 //! binary writes (`scores.csv`, `samples.csv`, `stats.csv`, `rwg compare`'s
-//! CSV) is named on the page that documents it; and no paragraph runs past
+//! CSV, and every key of `stats.json` and of `rwg compare`'s JSON) is named
+//! on the page that documents it; and no paragraph runs past
 //! 150 words.
 
 mod common;
@@ -406,13 +407,29 @@ fn code_names(page: &str) -> BTreeSet<String> {
     let mut out = BTreeSet::new();
     for span in text.split('`').skip(1).step_by(2) {
         out.insert(span.to_string());
-        out.extend(
-            span.split([',', ' '])
-                .filter(|s| !s.is_empty())
-                .map(str::to_string),
-        );
+        for part in span.split([',', ' ']) {
+            out.insert(part.to_string());
+            // `{"kind":` names kind
+            let bare = part.trim_matches(|c: char| !(c.is_alphanumeric() || "_.*".contains(c)));
+            out.insert(bare.to_string());
+        }
     }
+    out.remove("");
     out
+}
+
+/// Every key of the objects in `v`, nested ones included.
+fn json_keys(v: &serde_json::Value, out: &mut BTreeSet<String>) {
+    match v {
+        serde_json::Value::Object(m) => {
+            for (k, v) in m {
+                out.insert(k.clone());
+                json_keys(v, out);
+            }
+        }
+        serde_json::Value::Array(a) => a.iter().for_each(|v| json_keys(v, out)),
+        _ => {}
+    }
 }
 
 /// Whether `column` is among `names`, or matches one ending in `*`.
@@ -453,7 +470,8 @@ fn every_column_the_binary_writes_is_documented() {
     let a_s = a.to_str().unwrap();
     rwg_ok(&["stats", a_s, "--at-n", "4"]);
     let cell = a.join("cells/CartPole-v0__0HL__nobias");
-    let compare = rwg_ok(&["compare", a_s, b.to_str().unwrap(), "--format", "csv"]);
+    let b_s = b.to_str().unwrap();
+    let compare = rwg_ok(&["compare", a_s, b_s, "--format", "csv"]);
     let compare_cols: Vec<String> = compare
         .lines()
         .next()
@@ -461,30 +479,38 @@ fn every_column_the_binary_writes_is_documented() {
         .split(',')
         .map(String::from)
         .collect();
+    let json_of = |text: &str| {
+        let mut keys = BTreeSet::new();
+        json_keys(&serde_json::from_str(text).unwrap(), &mut keys);
+        keys.into_iter().collect::<Vec<String>>()
+    };
+    let stats_keys = json_of(&std::fs::read_to_string(a.join("stats.json")).unwrap());
+    let compare_keys = json_of(&rwg_ok(&["compare", a_s, b_s, "--format", "json"]));
+    let (guide, both) = (
+        &["docs/guide.md"][..],
+        &["docs/guide.md", "docs/reference.md"][..],
+    );
     let written = [
-        (
-            "scores.csv",
-            header(&cell.join("scores.csv")),
-            "docs/guide.md",
-        ),
-        (
-            "samples.csv",
-            header(&cell.join("samples.csv")),
-            "docs/guide.md",
-        ),
-        ("stats.csv", header(&a.join("stats.csv")), "docs/guide.md"),
+        ("scores.csv", header(&cell.join("scores.csv")), guide),
+        ("samples.csv", header(&cell.join("samples.csv")), guide),
+        ("stats.csv", header(&a.join("stats.csv")), guide),
         (
             "rwg compare --format csv",
             compare_cols,
-            "docs/reference.md",
+            &["docs/reference.md"][..],
         ),
+        ("stats.json", stats_keys, both),
+        ("rwg compare --format json", compare_keys, both),
     ];
     let mut bad = Vec::new();
-    for (what, columns, page) in written {
+    for (what, columns, pages) in written {
         assert!(columns.len() >= 4, "{what}: {columns:?}");
-        let names = code_names(page);
+        let names: BTreeSet<String> = pages.iter().flat_map(|p| code_names(p)).collect();
         for c in columns.iter().filter(|c| !documented(c, &names)) {
-            bad.push(format!("{what}: column `{c}` is not named in {page}"));
+            bad.push(format!(
+                "{what}: `{c}` is not named in {}",
+                pages.join(" or ")
+            ));
         }
     }
     assert!(bad.is_empty(), "undocumented columns:\n{}", bad.join("\n"));
