@@ -6,12 +6,16 @@
 
 use crate::cells::{new_meta, plan_cells, SummaryLine};
 use crate::manifest::Manifest;
+use crate::rundir::block_check::{check_blocks, first_missing_owned};
 use crate::rundir::blocks::{cell_complete, copy_block, n_blocks, tidy_complete_cell, BlockIndex};
 use crate::rundir::checksum::verify_cell;
 use crate::rundir::env_record::{check_record, write_record};
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::lock::RunLock;
-use crate::rundir::meta::{read_cell_meta, read_run_meta, write_run_meta, RunMeta, RUN_FORMAT};
+use crate::rundir::meta::{
+    read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta, RUN_FORMAT,
+};
+use crate::rundir::verify::shard_command;
 use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
 use crate::StudyError;
 use std::path::{Path, PathBuf};
@@ -121,30 +125,50 @@ pub fn merge_shards(
     // The shards' manifests name their plugin files already: nothing to fill in.
     let cells = plan_cells(&mut m.clone())?;
     let nb = n_blocks(m.samples);
-    // Every block must be in the shard that owns it, committed.
+    // Every block must be in the shard that owns it, committed, and every
+    // block a shard lists must verify: the check `rwg verify` makes.
     let mut indexes: Vec<Vec<BlockIndex>> = vec![];
     for cell in &cells {
         let mut per_shard = vec![];
-        for d in &owner {
+        for (k, d) in owner.iter().enumerate() {
             let dir = cell_dir(d.expect("checked"), &cell.id.dir);
-            per_shard.push(BlockIndex::load(&dir).map_err(|source| StudyError::RunDir {
+            let check = check_blocks(&dir).map_err(|source| StudyError::RunDir {
                 context: format!("cannot read the block index of {}", dir.display()),
                 source,
-            })?);
+            })?;
+            if !check.problems.is_empty() {
+                let list: Vec<String> = check.problems.iter().map(|p| p.to_string()).collect();
+                return refuse(format!(
+                    "shard {k}/{count} ({}) does not verify:\n  {}\nrun it again to compute \
+                     these blocks again: {}",
+                    d.expect("checked").display(),
+                    list.join("\n  "),
+                    shard_command(
+                        d.expect("checked"),
+                        ShardMeta {
+                            index: k as u64,
+                            count
+                        }
+                    )
+                ));
+            }
+            per_shard.push(check.index);
         }
         indexes.push(per_shard);
     }
     for (ci, cell) in cells.iter().enumerate() {
-        for b in 0..nb {
-            let k = ((ci as u64 * nb + b) % count) as usize;
-            if !indexes[ci][k].done(b) {
+        for (k, d) in owner.iter().enumerate() {
+            let shard = ShardMeta {
+                index: k as u64,
+                count,
+            };
+            if let Some(b) = first_missing_owned(&indexes[ci][k], shard, ci, nb) {
                 return refuse(format!(
-                    "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; finish it with \
-                     rwg run {} --shard {k}/{count} --out {}",
-                    owner[k].expect("checked").display(),
+                    "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; \
+                     finish it with {}",
+                    d.expect("checked").display(),
                     cell.id.dir,
-                    owner[k].expect("checked").join(MANIFEST).display(),
-                    owner[k].expect("checked").display()
+                    shard_command(d.expect("checked"), shard)
                 ));
             }
         }

@@ -2,7 +2,7 @@
 //! command that finishes it. Read-only: safe while the run is being written.
 
 use crate::cluster::{
-    live_jobs, merged_complete, sh_path, shard_state, LiveJob, Plan, ShardState, ShardedDir,
+    live_jobs, merged_complete, shard_state, LiveJob, Plan, ShardState, ShardedDir,
 };
 use anyhow::{bail, Result};
 use rwg_analysis::report::REPORT_HTML;
@@ -14,6 +14,7 @@ use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::rundir::status::{cell_dirs, progress, CellProgress, Totals};
 use rwg_study::rundir::study::{edited_message, manifest_edits};
 use rwg_study::rundir::{MANIFEST, RUN_JSON};
+use rwg_study::shell::sh_path;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `rwg status`.

@@ -9,8 +9,8 @@
 //!   committed block, after the block's rename. A block counts as committed
 //!   only when its line is there and its bytes match; a block file without a
 //!   line (a run killed between the rename and the append) is computed again.
-//! - `cells/<cell>/SHA256SUMS`: `scores.csv`, `cell.json` and `samples.csv` of
-//!   a finished cell, written last: a cell is complete only when this file
+//! - `cells/<cell>/SHA256SUMS`: `scores.csv`, `cell.json`, `samples.csv` and
+//!   `env.json` of a finished cell, written last: a cell is complete only when this file
 //!   exists, and its files count only when they match it.
 //!
 //! SHA-256 (the `sha2` crate) rather than a faster non-cryptographic hash:

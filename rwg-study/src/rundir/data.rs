@@ -96,14 +96,28 @@ pub enum RunReadError {
     /// asked needs a finished one.
     #[error(
         "{} is a run {progress}; `rwg status {}` shows how far it got, and \
-         `rwg run {}/manifest.toml --out {}` finishes it",
-        dir.display(), dir.display(), dir.display(), dir.display()
+         `{}` finishes it",
+        dir.display(), crate::shell::sh_path(dir), crate::rundir::study::resume_command(dir)
     )]
     Unfinished {
         /// The run directory.
         dir: PathBuf,
         /// How far it has got.
         progress: Unfinished,
+    },
+    /// The directory holds what a run writes first (its lock, its
+    /// manifest) but no `run.json` yet: a run being started.
+    #[error(
+        "{} is a run being started (or one stopped before it was set up): it has {what} but \
+         no run.json yet, which rwg writes once the run is set up; run this again in a moment \
+         (`rwg status {}` shows how far it got)",
+        dir.display(), crate::shell::sh_path(dir)
+    )]
+    Starting {
+        /// The directory.
+        dir: PathBuf,
+        /// What it holds (`rwg.lock`, `manifest.toml`).
+        what: String,
     },
     /// A file disagrees with `run.json` or with another file.
     #[error("{path}: {message}")]
@@ -153,6 +167,30 @@ fn not_a_run_dir(dir: &Path) -> RunReadError {
                 cells_done: 0,
                 cells: study_cells(dir, None, manifest.as_deref()),
             },
+        };
+    }
+    let mut first = vec![];
+    // Held by a live `rwg run` or `rwg merge` of another process: a run being
+    // started (a reader that takes the lock itself, plot say, is no run).
+    let starting = |h: &String| {
+        h.split_whitespace()
+            .nth(3)
+            .is_some_and(|c| c == "run" || c == "merge")
+            && !h.starts_with(&format!("pid {}:", std::process::id()))
+    };
+    if let Some(holder) = crate::rundir::lock::live_holder(dir).filter(starting) {
+        first.push(format!(
+            "{} (held by {holder})",
+            crate::rundir::lock::LOCK_FILE
+        ));
+    }
+    if dir.join(MANIFEST).is_file() {
+        first.push(MANIFEST.to_string());
+    }
+    if !first.is_empty() {
+        return RunReadError::Starting {
+            dir: dir.to_path_buf(),
+            what: first.join(" and "),
         };
     }
     let why = if dir.is_dir() {
@@ -350,6 +388,7 @@ impl Run {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
             Err(e) => return Err(io_err(&mpath)(e)),
         };
+        check_cell_list(&dir, &meta, manifest.as_deref())?;
         Ok(Run {
             dir,
             verified: meta.format >= 2,
@@ -782,12 +821,14 @@ pub fn write_cell_files(
     .map(|_| ())
 }
 
+mod cell_list;
 mod spread;
 mod stats_files;
 pub mod synthetic;
 mod unfinished;
 mod verified;
 
+pub use cell_list::check_cell_list;
 use unfinished::study_cells;
 pub use unfinished::Unfinished;
 

@@ -100,6 +100,35 @@ fn command_line() -> String {
     args.join(" ")
 }
 
+/// The record of the process that holds (or last held) the lock of `dir`,
+/// `pid N: command line`, when that process is alive: a reader's view of
+/// who is writing the run, taken without touching the lock. (A pid reused
+/// by another process since reads as alive.)
+pub fn live_holder(dir: &Path) -> Option<String> {
+    let text = crate::limits::read_own_text(&dir.join(LOCK_FILE), 4096).ok()?;
+    let record = text.lines().next()?.trim().to_string();
+    let pid: i32 = record
+        .strip_prefix("pid ")?
+        .split(':')
+        .next()?
+        .parse()
+        .ok()?;
+    alive(pid).then_some(record)
+}
+
+#[cfg(unix)]
+fn alive(pid: i32) -> bool {
+    // SAFETY: signal 0 checks that the process exists and sends nothing.
+    pid > 0
+        && (unsafe { libc::kill(pid, 0) } == 0
+            || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM))
+}
+
+#[cfg(not(unix))]
+fn alive(_pid: i32) -> bool {
+    false
+}
+
 #[cfg(unix)]
 fn lock_file(path: &Path, dir: &Path) -> Result<File, LockError> {
     use std::io::{Read, Seek, Write};
