@@ -39,13 +39,25 @@ pub enum LockError {
         holder: String,
     },
     /// The lock file could not be opened or locked.
-    #[error("cannot lock {}", path.display())]
+    #[error("cannot lock {}{}", path.display(), read_only_hint(source))]
     Io {
         /// The lock file.
         path: PathBuf,
         /// The cause.
         source: std::io::Error,
     },
+}
+
+/// What to say when the lock cannot be taken because the run directory is
+/// on a read-only file system (empty otherwise).
+fn read_only_hint(e: &std::io::Error) -> &'static str {
+    if e.kind() == std::io::ErrorKind::ReadOnlyFilesystem {
+        ": the run directory is on a read-only file system, and this command writes into it \
+         (so it takes the writers' lock first); the readers work there: rwg verify, rwg \
+         status, rwg top, rwg stats --no-write"
+    } else {
+        ""
+    }
 }
 
 struct Inner {

@@ -38,7 +38,7 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
     let meta = match read_run_meta(dir) {
         Ok(m) => m,
         Err(e) => {
-            r.problems.push(format!("{e:#}"));
+            r.problems.push(with_causes(&e));
             return r;
         }
     };
@@ -73,7 +73,15 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
         None => Run::open(dir).ok(),
         Some(_) => None,
     };
+    let of_study: Option<std::collections::HashSet<String>> =
+        study.as_ref().map(|m| cell_dirs(m).into_iter().collect());
     for name in &names {
+        if of_study.as_ref().is_some_and(|s| !s.contains(name)) {
+            r.ok.push(format!(
+                "--  cells/{name}: not a cell of this study (no command reads it)"
+            ));
+            continue;
+        }
         verify_cell_dir(&cells_dir, name, run.as_ref(), &mut r);
     }
     if let Some(study) = &study {
@@ -82,6 +90,20 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
         r.problems.extend(missing);
     }
     r
+}
+
+/// An error with its causes, `context: cause: ...` (each once).
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let s_text = s.to_string();
+        if !text.contains(&s_text) {
+            text = format!("{text}: {s_text}");
+        }
+        source = s.source();
+    }
+    text
 }
 
 /// Checks `manifest.toml` against the study `run.json` records, and (for a
@@ -220,7 +242,9 @@ fn shard_complete(dir: &Path, meta: &RunMeta, study: &Manifest) -> Vec<String> {
         let Ok(index) = BlockIndex::load(&cdir) else {
             continue; // named by the cell's own check
         };
-        if let Some(b) = first_missing_owned(&index, shard, ci, nb) {
+        // (A block listed but gone is named by the cell's own check.)
+        let missing = first_missing_owned(&index, shard, ci, nb).filter(|&b| !index.is_listed(b));
+        if let Some(b) = missing {
             out.push(format!(
                 "{}: missing: shard {}/{} is marked finished in run.json, but block {b} of \
                  cell {cell}, which it owns, is not committed; {} computes it again",
