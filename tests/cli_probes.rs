@@ -9,65 +9,18 @@ use common::*;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-const SMALL: &str = r#"
-seed = 5
-samples = 70
-episodes = 3
-bias = [false]
-[[architectures]]
-name = "0HL"
-hidden = []
-[[architectures]]
-name = "1HL"
-hidden = [3]
-[[envs]]
-id = "CartPole-v1"
-"#;
+const SMALL: &str = SMALL_STUDY;
 
 fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    path_str(p)
 }
 
 fn manifest(dir: &Path, name: &str, body: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, body).unwrap();
-    p
-}
-
-fn finished_run(dir: &Path, name: &str, body: &str) -> PathBuf {
-    let m = manifest(dir, &format!("{name}.toml"), body);
-    let out = dir.join(name);
-    rwg_ok(&["run", s(&m), "--out", s(&out), "--no-report"]);
-    out
+    write_manifest(dir, name, body)
 }
 
 fn text(out: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
-}
-
-/// Runs `mount` with `args`; `Err` with why not (not root, no mount(8)).
-fn mount(args: &[&str]) -> Result<(), String> {
-    let o = Command::new("mount")
-        .args(args)
-        .output()
-        .map_err(|e| e.to_string())?;
-    o.status
-        .success()
-        .then_some(())
-        .ok_or_else(|| String::from_utf8_lossy(&o.stderr).into_owned())
-}
-
-/// A mount at `at`, unmounted when dropped.
-struct Mounted(PathBuf);
-
-impl Drop for Mounted {
-    fn drop(&mut self) {
-        let _ = Command::new("umount").arg(&self.0).status();
-    }
+    output_text(out)
 }
 
 #[test]
@@ -210,19 +163,21 @@ fn a_file_system_out_of_inodes_is_named_and_the_run_resumes_once_freed() {
     assert!(!v.contains("uncommitted"), "{v}");
 }
 
-/// Peak RSS in KiB of `rwg args`, by GNU time; `None` without it.
-fn peak_rss_kib(args: &[&str]) -> Option<u64> {
+/// Peak RSS in KiB of `rwg args`, by GNU time, and whether it succeeded;
+/// `None` without GNU time.
+fn peak_rss_kib(args: &[&str]) -> Option<(u64, bool)> {
     let o = Command::new("/usr/bin/time")
         .args(["-f", "RSS %M"])
         .arg(rwg_bin())
         .args(args)
         .output()
         .ok()?;
-    assert!(o.status.success(), "{args:?}: {}", text(&o));
     let e = String::from_utf8_lossy(&o.stderr);
-    e.lines()
+    let kib = e
+        .lines()
         .rev()
-        .find_map(|l| l.strip_prefix("RSS ")?.trim().parse().ok())
+        .find_map(|l| l.strip_prefix("RSS ")?.trim().parse().ok())?;
+    Some((kib, o.status.success()))
 }
 
 #[test]
@@ -238,7 +193,7 @@ fn status_and_verify_need_little_memory_per_committed_block() {
         let m = manifest(&dir, &format!("m{n}.toml"), &body);
         let out = dir.join(format!("s{n}"));
         rwg_ok(&["run", s(&m), "--shard", "0/1", "--out", s(&out)]);
-        let (Some(st), Some(v)) = (
+        let (Some((st, st_ok)), Some((v, v_ok))) = (
             peak_rss_kib(&["status", s(&out)]),
             peak_rss_kib(&["verify", s(&out)]),
         ) else {
@@ -247,6 +202,11 @@ fn status_and_verify_need_little_memory_per_committed_block() {
                 "no /usr/bin/time",
             );
         };
+        assert!(
+            st_ok && v_ok,
+            "status or verify failed on {}",
+            out.display()
+        );
         rss.push((n / 32, st, v));
     }
     let blocks = (rss[1].0 - rss[0].0) as f64;
@@ -292,16 +252,14 @@ fn a_run_on_a_read_only_mount_is_read_and_writers_say_why_not() {
     let m = manifest(&dir, "m.toml", SMALL);
     let shard = dir.join("s");
     rwg_ok(&["run", s(&m), "--shard", "0/2", "--out", s(&shard)]);
-    let ro = dir.join("ro");
-    std::fs::create_dir_all(&ro).unwrap();
-    if let Err(why) = mount(&["--bind", s(&shard), s(&ro)]) {
-        return skip("a_run_on_a_read_only_mount_...", &why);
-    }
-    let _m = Mounted(ro.clone());
-    mount(&["-o", "remount,ro,bind", s(&ro)]).unwrap();
-    rwg_ok(&["verify", s(&ro)]);
-    rwg_ok(&["status", s(&ro)]);
-    let err = rwg_err(&["run", s(&m), "--shard", "0/2", "--out", s(&ro)]);
+    let ro = match Mounted::read_only(&shard, &dir.join("ro")) {
+        Ok(m) => m,
+        Err(why) => return skip("a_run_on_a_read_only_mount_...", &why),
+    };
+    let ro = &ro.0;
+    rwg_ok(&["verify", s(ro)]);
+    rwg_ok(&["status", s(ro)]);
+    let err = rwg_err(&["run", s(&m), "--shard", "0/2", "--out", s(ro)]);
     assert!(err.contains("read-only file system"), "{err}");
     assert!(err.contains("rwg verify"), "{err}");
 }
@@ -328,23 +286,9 @@ fn a_huge_run_json_is_refused_by_its_size_before_it_is_read() {
             "{t}"
         );
     }
-    if let Some(kib) = peak_rss_kib_failing(&["status", s(&run)]) {
-        assert!(kib < 100 << 10, "{kib} KiB to refuse it");
+    if let Some((kib, ok)) = peak_rss_kib(&["status", s(&run)]) {
+        assert!(!ok && kib < 100 << 10, "{kib} KiB to refuse it");
     }
-}
-
-/// Peak RSS in KiB of a `rwg args` expected to fail.
-fn peak_rss_kib_failing(args: &[&str]) -> Option<u64> {
-    let o = Command::new("/usr/bin/time")
-        .args(["-f", "RSS %M"])
-        .arg(rwg_bin())
-        .args(args)
-        .output()
-        .ok()?;
-    let e = String::from_utf8_lossy(&o.stderr);
-    e.lines()
-        .rev()
-        .find_map(|l| l.strip_prefix("RSS ")?.trim().parse().ok())
 }
 
 #[test]
@@ -501,4 +445,26 @@ fn printed_commands_survive_quotes_and_dollars_in_a_path() {
     let shell = format!("{} {cmd}", rwg_bin().display());
     let o = Command::new("sh").args(["-c", &shell]).output().unwrap();
     assert!(o.status.success(), "{cmd}: {}", text(&o));
+}
+
+#[test]
+fn a_run_json_that_is_a_folder_is_named_not_taken_for_a_run_in_progress() {
+    let dir = temp_dir("probe-run-json-folder");
+    let run = finished_run(&dir, "r", SMALL);
+    std::fs::remove_file(run.join("run.json")).unwrap();
+    std::fs::create_dir(run.join("run.json")).unwrap();
+    for args in [
+        vec!["verify", s(&run)],
+        vec!["stats", s(&run), "--no-write"],
+    ] {
+        let err = rwg_err(&args);
+        assert!(
+            err.contains("run.json: not a regular file"),
+            "{args:?}: {err}"
+        );
+        assert!(!err.contains("in progress"), "{args:?}: {err}");
+    }
+    std::fs::remove_dir(run.join("run.json")).unwrap();
+    rwg_ok(&["run", s(&run.join("manifest.toml")), "--out", s(&run)]);
+    rwg_ok(&["verify", s(&run)]);
 }

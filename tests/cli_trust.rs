@@ -9,39 +9,14 @@ use common::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// Two cells of 3 blocks each, a fraction of a second in a debug build.
-const SMALL: &str = r#"
-seed = 5
-samples = 70
-episodes = 3
-bias = [false]
-[[architectures]]
-name = "0HL"
-hidden = []
-[[architectures]]
-name = "1HL"
-hidden = [3]
-[[envs]]
-id = "CartPole-v1"
-"#;
+const SMALL: &str = SMALL_STUDY;
 
 fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
+    path_str(p)
 }
 
-/// Writes `body` as `dir/name` and returns its path.
 fn manifest(dir: &Path, name: &str, body: &str) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, body).unwrap();
-    p
-}
-
-/// A finished run of `body` in `dir/name`.
-fn finished_run(dir: &Path, name: &str, body: &str) -> PathBuf {
-    let m = manifest(dir, &format!("{name}.toml"), body);
-    let out = dir.join(name);
-    rwg_ok(&["run", s(&m), "--out", s(&out), "--no-report"]);
-    out
+    write_manifest(dir, name, body)
 }
 
 /// The cell directories of a run, sorted.
@@ -52,14 +27,6 @@ fn cells(run: &Path) -> Vec<PathBuf> {
         .collect();
     v.sort();
     v
-}
-
-fn stdout_and_stderr(out: &std::process::Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
 }
 
 #[test]
@@ -77,7 +44,7 @@ fn verify_and_merge_refuse_a_listed_block_whose_file_is_gone() {
         .unwrap()
         .contains("b0000000.csv"));
     let out = rwg(&["verify", s(&a)]);
-    let text = stdout_and_stderr(&out);
+    let text = output_text(&out);
     assert!(!out.status.success(), "verify passed:\n{text}");
     assert!(
         text.contains("b0000000.csv: missing: listed in"),
@@ -99,7 +66,7 @@ fn env_json_is_listed_in_the_cells_checksums_and_verified() {
     let text = std::fs::read_to_string(&p).unwrap();
     std::fs::write(&p, text.replace("500", "600")).unwrap();
     let out = rwg(&["verify", s(&run)]);
-    let text = stdout_and_stderr(&out);
+    let text = output_text(&out);
     assert!(!out.status.success(), "{text}");
     assert!(text.contains("env.json: checksum mismatch"), "{text}");
 }
@@ -129,7 +96,7 @@ fn a_run_json_listing_a_cell_twice_or_missing_one_is_refused_and_rebuilt() {
         vec!["verify", s(&run)],
     ] {
         let out = rwg(&args);
-        let text = stdout_and_stderr(&out);
+        let text = output_text(&out);
         assert!(!out.status.success(), "{args:?} trusted it:\n{text}");
         assert!(
             text.contains("lists cell CartPole-v1__0HL__nobias more than once")
@@ -280,42 +247,11 @@ fn report_into_a_missing_folder_names_the_folder() {
     );
 }
 
-/// A read-only bind mount of `src` at a fresh folder, unmounted when dropped.
-struct ReadOnly(PathBuf);
-
-impl ReadOnly {
-    fn mount(src: &Path, at: &Path) -> Result<ReadOnly, String> {
-        std::fs::create_dir_all(at).unwrap();
-        let ok = |args: &[&str]| {
-            Command::new("mount")
-                .args(args)
-                .output()
-                .map_err(|e| e.to_string())
-                .and_then(|o| {
-                    o.status
-                        .success()
-                        .then_some(())
-                        .ok_or_else(|| String::from_utf8_lossy(&o.stderr).into_owned())
-                })
-        };
-        ok(&["--bind", s(src), s(at)])?;
-        let ro = ReadOnly(at.to_path_buf());
-        ok(&["-o", "remount,ro,bind", s(at)])?;
-        Ok(ro)
-    }
-}
-
-impl Drop for ReadOnly {
-    fn drop(&mut self) {
-        let _ = Command::new("umount").arg(&self.0).status();
-    }
-}
-
 #[test]
 fn stats_on_a_read_only_run_suggests_no_write() {
     let dir = temp_dir("trust-read-only");
     let a = finished_run(&dir, "a", SMALL);
-    let ro = match ReadOnly::mount(&a, &dir.join("ro")) {
+    let ro = match Mounted::read_only(&a, &dir.join("ro")) {
         Ok(m) => m,
         Err(why) => return skip("stats_on_a_read_only_run_suggests_no_write", &why),
     };

@@ -159,6 +159,18 @@ fn run_dirs_in(dir: &Path) -> Vec<PathBuf> {
 /// run at all, with a hint: the run directories inside it, or the
 /// nearest-named run directory beside it.
 fn not_a_run_dir(dir: &Path) -> RunReadError {
+    let run_json = dir.join(RUN_JSON);
+    if std::fs::symlink_metadata(&run_json).is_ok() {
+        // There, but not a file rwg reads: a folder or a device in its place.
+        return RunReadError::Mismatch {
+            path: run_json,
+            message: format!(
+                "not a regular file (a folder or device where rwg writes run.json); remove it, \
+                 then run {} to rebuild it from the cells' own files",
+                crate::rundir::study::resume_command(dir)
+            ),
+        };
+    }
     if dir.join(MANIFEST).is_file() && dir.join(crate::rundir::CELLS).is_dir() {
         let manifest = std::fs::read_to_string(dir.join(MANIFEST)).ok();
         return RunReadError::Unfinished {
