@@ -228,6 +228,9 @@ fn verify_in_the_first_moments_of_a_run_says_it_is_being_started() {
     assert!(err.contains("being started"), "{err}");
     assert!(err.contains(record.trim()), "{err}");
     assert!(!err.contains("not a run directory"), "{err}");
+    // rwg status says it too (before manifest.toml is written)
+    let err = rwg_err(&["status", s(&run)]);
+    assert!(err.contains("being started"), "{err}");
     std::fs::remove_file(run.join("rwg.lock")).unwrap();
     std::fs::write(run.join("manifest.toml"), SMALL).unwrap();
     let err = rwg_err(&["verify", s(&run)]);

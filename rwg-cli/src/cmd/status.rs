@@ -57,6 +57,20 @@ pub fn run(args: Args) -> Result<()> {
         if !dir.is_dir() {
             bail!("{}: no such directory", dir.display());
         }
+        if let Some(holder) = rwg_study::rundir::lock::live_writer(dir) {
+            bail!(
+                "{} is a run (or merge) being started by {holder}: it has no manifest.toml yet; \
+                 run rwg status again in a moment",
+                dir.display()
+            );
+        }
+        if std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_none()) {
+            bail!(
+                "{} is empty: no run is written there yet (a run or merge starting there \
+                 writes its manifest.toml first)",
+                dir.display()
+            );
+        }
         bail!(
             "{} is not an rwg run directory: it has no manifest.toml (nor slurm/plan.json)",
             dir.display()

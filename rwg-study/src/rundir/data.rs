@@ -182,15 +182,7 @@ fn not_a_run_dir(dir: &Path) -> RunReadError {
         };
     }
     let mut first = vec![];
-    // Held by a live `rwg run` or `rwg merge` of another process: a run being
-    // started (a reader that takes the lock itself, plot say, is no run).
-    let starting = |h: &String| {
-        h.split_whitespace()
-            .nth(3)
-            .is_some_and(|c| c == "run" || c == "merge")
-            && !h.starts_with(&format!("pid {}:", std::process::id()))
-    };
-    if let Some(holder) = crate::rundir::lock::live_holder(dir).filter(starting) {
+    if let Some(holder) = crate::rundir::lock::live_writer(dir) {
         first.push(format!(
             "{} (held by {holder})",
             crate::rundir::lock::LOCK_FILE

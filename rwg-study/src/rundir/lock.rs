@@ -128,6 +128,20 @@ pub fn live_holder(dir: &Path) -> Option<String> {
     alive(pid).then_some(record)
 }
 
+/// [`live_holder`] when it is an `rwg run` or `rwg merge` of another
+/// process: what a directory without `run.json` (or `manifest.toml`) yet
+/// holds in the first moments of a run or merge. (A command that takes the
+/// lock itself before reading, such as `rwg plot`, is none.)
+pub fn live_writer(dir: &Path) -> Option<String> {
+    let own = format!("pid {}:", std::process::id());
+    live_holder(dir).filter(|h| {
+        h.split_whitespace()
+            .nth(3)
+            .is_some_and(|c| c == "run" || c == "merge")
+            && !h.starts_with(&own)
+    })
+}
+
 #[cfg(unix)]
 fn alive(pid: i32) -> bool {
     // SAFETY: signal 0 checks that the process exists and sends nothing.
