@@ -125,54 +125,7 @@ pub fn merge_shards(
     // The shards' manifests name their plugin files already: nothing to fill in.
     let cells = plan_cells(&mut m.clone())?;
     let nb = n_blocks(m.samples);
-    // Every block must be in the shard that owns it, committed, and every
-    // block a shard lists must verify: the check `rwg verify` makes.
-    let mut indexes: Vec<Vec<BlockIndex>> = vec![];
-    for cell in &cells {
-        let mut per_shard = vec![];
-        for (k, d) in owner.iter().enumerate() {
-            let dir = cell_dir(d.expect("checked"), &cell.id.dir);
-            let check = check_blocks(&dir).map_err(|source| StudyError::RunDir {
-                context: format!("cannot read the block index of {}", dir.display()),
-                source,
-            })?;
-            if !check.problems.is_empty() {
-                let list: Vec<String> = check.problems.iter().map(|p| p.to_string()).collect();
-                return refuse(format!(
-                    "shard {k}/{count} ({}) does not verify:\n  {}\nrun it again to compute \
-                     these blocks again: {}",
-                    d.expect("checked").display(),
-                    list.join("\n  "),
-                    shard_command(
-                        d.expect("checked"),
-                        ShardMeta {
-                            index: k as u64,
-                            count
-                        }
-                    )
-                ));
-            }
-            per_shard.push(check.index);
-        }
-        indexes.push(per_shard);
-    }
-    for (ci, cell) in cells.iter().enumerate() {
-        for (k, d) in owner.iter().enumerate() {
-            let shard = ShardMeta {
-                index: k as u64,
-                count,
-            };
-            if let Some(b) = first_missing_owned(&indexes[ci][k], shard, ci, nb) {
-                return refuse(format!(
-                    "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; \
-                     finish it with {}",
-                    d.expect("checked").display(),
-                    cell.id.dir,
-                    shard_command(d.expect("checked"), shard)
-                ));
-            }
-        }
-    }
+    let indexes = shard_blocks(&cells, &owner, nb)?;
 
     // Every shard computed its blocks of a cell under the env as it is now.
     for cell in &cells {
@@ -286,6 +239,62 @@ pub fn merge_shards(
         already_complete: false,
         lock,
     })
+}
+
+/// The block index of every cell (outer) in every shard (inner, `owner[k]`
+/// holds shard `k`), once each shard's cell has passed the check `rwg
+/// verify` makes ([`check_blocks`]: every block it lists is there with its
+/// digest) and holds every block it owns.
+fn shard_blocks(
+    cells: &[crate::cells::Cell],
+    owner: &[Option<&PathBuf>],
+    nb: u64,
+) -> Result<Vec<Vec<BlockIndex>>, StudyError> {
+    let refuse = |msg: String| Err(StudyError::Refused(msg));
+    let count = owner.len() as u64;
+    let shard = |k: usize| ShardMeta {
+        index: k as u64,
+        count,
+    };
+    let mut indexes: Vec<Vec<BlockIndex>> = vec![];
+    for cell in cells {
+        let mut per_shard = vec![];
+        for (k, d) in owner.iter().enumerate() {
+            let d = d.expect("checked");
+            let dir = cell_dir(d, &cell.id.dir);
+            let check = check_blocks(&dir).map_err(|source| StudyError::RunDir {
+                context: format!("cannot read the block index of {}", dir.display()),
+                source,
+            })?;
+            if !check.problems.is_empty() {
+                let list: Vec<String> = check.problems.iter().map(|p| p.to_string()).collect();
+                return refuse(format!(
+                    "shard {k}/{count} ({}) does not verify:\n  {}\nrun it again to compute \
+                     these blocks again: {}",
+                    d.display(),
+                    list.join("\n  "),
+                    shard_command(d, shard(k))
+                ));
+            }
+            per_shard.push(check.index);
+        }
+        indexes.push(per_shard);
+    }
+    for (ci, cell) in cells.iter().enumerate() {
+        for (k, d) in owner.iter().enumerate() {
+            let d = d.expect("checked");
+            if let Some(b) = first_missing_owned(&indexes[ci][k], shard(k), ci, nb) {
+                return refuse(format!(
+                    "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; \
+                     finish it with {}",
+                    d.display(),
+                    cell.id.dir,
+                    shard_command(d, shard(k))
+                ));
+            }
+        }
+    }
+    Ok(indexes)
 }
 
 /// What a merge under another env than a shard's cell started with says to do.
