@@ -151,9 +151,7 @@ fn a_file_system_out_of_inodes_is_named_and_the_run_resumes_once_freed() {
         &SMALL.replace("samples = 70", "samples = 640"),
     );
     let out = disk.join("r");
-    let o = rwg(&["run", s(&m), "--shard", "0/1", "--out", s(&out)]);
-    let t = text(&o);
-    assert!(!o.status.success(), "{t}");
+    let t = rwg_fails(&["run", s(&m), "--shard", "0/1", "--out", s(&out)]);
     assert!(t.contains("No space left on device"), "{t}");
     assert!(t.contains("resume with"), "{t}");
     rwg_ok(&["verify", s(&out)]);
@@ -237,9 +235,7 @@ fn symlinked_cell_directories_are_read_and_resumed_through() {
     std::fs::rename(&c, elsewhere.join("s")).unwrap();
     std::os::unix::fs::symlink(elsewhere.join("s"), &c).unwrap();
     std::fs::remove_file(elsewhere.join("s/blocks/b0000002.csv")).unwrap();
-    let o = rwg(&["verify", s(&shard)]);
-    let t = text(&o);
-    assert!(!o.status.success(), "{t}");
+    let t = rwg_fails(&["verify", s(&shard)]);
     assert!(t.contains("b0000002.csv: missing: listed in"), "{t}");
     assert!(t.contains("1 problem(s)"), "named once: {t}");
     rwg_ok(&["run", s(&m), "--shard", "0/2", "--out", s(&shard)]);
@@ -279,9 +275,7 @@ fn a_huge_run_json_is_refused_by_its_size_before_it_is_read() {
         vec!["verify", s(&run)],
         vec!["stats", s(&run), "--no-write"],
     ] {
-        let o = rwg(&args);
-        let t = text(&o);
-        assert!(!o.status.success());
+        let t = rwg_fails(&args);
         assert!(
             t.contains("run.json") && t.contains("more than 268435456 bytes"),
             "{t}"
@@ -357,9 +351,7 @@ fn a_sums_file_with_crlf_line_endings_says_so() {
     let p = run.join("cells/CartPole-v1__0HL__nobias/SHA256SUMS");
     let t = std::fs::read_to_string(&p).unwrap().replace('\n', "\r\n");
     std::fs::write(&p, t).unwrap();
-    let o = rwg(&["verify", s(&run)]);
-    let t = text(&o);
-    assert!(!o.status.success());
+    let t = rwg_fails(&["verify", s(&run)]);
     assert!(t.contains("SHA256SUMS:1: ends in a carriage return"), "{t}");
     assert!(!t.contains("No such file"), "{t}");
 }
@@ -381,9 +373,7 @@ fn a_finished_shard_missing_an_owned_block_fails_verify_as_merge_would() {
         .map(|l| format!("{l}\n"))
         .collect();
     std::fs::write(blocks.join("SHA256SUMS"), kept).unwrap();
-    let o = rwg(&["verify", s(&a)]);
-    let t = text(&o);
-    assert!(!o.status.success(), "{t}");
+    let t = rwg_fails(&["verify", s(&a)]);
     assert!(
         t.contains("block 2 of cell CartPole-v1__0HL__nobias"),
         "{t}"

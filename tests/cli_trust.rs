@@ -43,9 +43,7 @@ fn verify_and_merge_refuse_a_listed_block_whose_file_is_gone() {
     assert!(std::fs::read_to_string(first.join("SHA256SUMS"))
         .unwrap()
         .contains("b0000000.csv"));
-    let out = rwg(&["verify", s(&a)]);
-    let text = output_text(&out);
-    assert!(!out.status.success(), "verify passed:\n{text}");
+    let text = rwg_fails(&["verify", s(&a)]);
     assert!(
         text.contains("b0000000.csv: missing: listed in"),
         "verify does not name the block:\n{text}"
@@ -65,9 +63,7 @@ fn env_json_is_listed_in_the_cells_checksums_and_verified() {
     let p = cell.join("env.json");
     let text = std::fs::read_to_string(&p).unwrap();
     std::fs::write(&p, text.replace("500", "600")).unwrap();
-    let out = rwg(&["verify", s(&run)]);
-    let text = output_text(&out);
-    assert!(!out.status.success(), "{text}");
+    let text = rwg_fails(&["verify", s(&run)]);
     assert!(text.contains("env.json: checksum mismatch"), "{text}");
 }
 
@@ -95,9 +91,7 @@ fn a_run_json_listing_a_cell_twice_or_missing_one_is_refused_and_rebuilt() {
         vec!["top", s(&run)],
         vec!["verify", s(&run)],
     ] {
-        let out = rwg(&args);
-        let text = output_text(&out);
-        assert!(!out.status.success(), "{args:?} trusted it:\n{text}");
+        let text = rwg_fails(&args);
         assert!(
             text.contains("lists cell CartPole-v1__0HL__nobias more than once")
                 && text.contains("lacks cell CartPole-v1__1HL__nobias")

@@ -474,6 +474,18 @@ pub fn output_text(out: &Output) -> String {
     )
 }
 
+/// Runs `rwg`, requires failure, returns its stdout and stderr (a reader
+/// such as `rwg verify` names problems on stdout).
+pub fn rwg_fails(args: &[&str]) -> String {
+    let out = rwg(args);
+    let text = output_text(&out);
+    assert!(
+        !out.status.success(),
+        "rwg {args:?} should have failed:\n{text}"
+    );
+    text
+}
+
 /// Runs `mount` with `args`; `Err` with why not (not root, no mount(8)).
 pub fn mount(args: &[&str]) -> Result<(), String> {
     let o = Command::new("mount")
