@@ -459,3 +459,28 @@ fn a_run_json_that_is_a_folder_is_named_not_taken_for_a_run_in_progress() {
     rwg_ok(&["run", s(&run.join("manifest.toml")), "--out", s(&run)]);
     rwg_ok(&["verify", s(&run)]);
 }
+
+#[test]
+fn a_sharded_studys_folder_given_to_a_reader_names_its_shards() {
+    let dir = temp_dir("probe-shard-root");
+    let m = manifest(&dir, "m.toml", SMALL);
+    let root = dir.join("study");
+    for k in 0..2 {
+        let out = root.join(format!("shards/{k}"));
+        rwg_ok(&["run", s(&m), "--shard", &format!("{k}/2"), "--out", s(&out)]);
+    }
+    let err = rwg_err(&["verify", s(&root)]);
+    assert!(
+        err.contains("holds the 2 shard directories of a study"),
+        "{err}"
+    );
+    // the merge it names runs as printed
+    let merge = err[err.find("`rwg merge ").unwrap() + 1..]
+        .split('`')
+        .next()
+        .unwrap();
+    let shell = format!("{} {}", rwg_bin().display(), &merge["rwg ".len()..]);
+    let o = Command::new("sh").args(["-c", &shell]).output().unwrap();
+    assert!(o.status.success(), "{merge}: {}", text(&o));
+    rwg_ok(&["verify", s(&root)]);
+}

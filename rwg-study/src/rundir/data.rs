@@ -209,7 +209,24 @@ fn not_a_run_dir(dir: &Path) -> RunReadError {
     } else {
         vec![]
     };
-    let hint = if !inside.is_empty() {
+    let shards = if dir.is_dir() {
+        run_dirs_in(&dir.join("shards"))
+    } else {
+        vec![]
+    };
+    let hint = if !shards.is_empty() {
+        // The layout of `rwg slurm`: the study's shards in DIR/shards/K.
+        let q: Vec<String> = shards.iter().map(|p| crate::shell::sh_path(p)).collect();
+        format!(
+            "; it holds the {} shard directories of a study in shards/: `rwg status {}` shows \
+             them, `rwg verify {}` checks one, `rwg merge {} --out {}` combines them",
+            shards.len(),
+            crate::shell::sh_path(dir),
+            q[0],
+            q.join(" "),
+            crate::shell::sh_path(dir)
+        )
+    } else if !inside.is_empty() {
         let list: Vec<String> = inside
             .iter()
             .take(5)
