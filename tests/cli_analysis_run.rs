@@ -129,6 +129,13 @@ fn analysis_of_a_real_run() {
     }
     let html = std::fs::read_to_string(run.join("report.html")).unwrap();
     assert!(html.contains("seed = 5"), "the manifest is in the report");
-    let cmp = rwg_ok(&["compare", r, r]);
+    // The run beside a copy of itself (the same run named twice is refused).
+    let copy = run.with_file_name("run-copy");
+    let cp = std::process::Command::new("cp")
+        .args(["-r", r, copy.to_str().unwrap()])
+        .status()
+        .unwrap();
+    assert!(cp.success());
+    let cmp = rwg_ok(&["compare", r, copy.to_str().unwrap()]);
     assert!(cmp.contains("Comparison of 16 cells"));
 }

@@ -173,7 +173,13 @@ fn an_interrupted_merge_is_finished_by_running_it_again() {
         std::fs::create_dir_all(to.parent().unwrap()).unwrap();
         std::fs::copy(from, to).unwrap();
     };
-    for f in ["scores.csv", "samples.csv", "cell.json", "SHA256SUMS"] {
+    for f in [
+        "scores.csv",
+        "samples.csv",
+        "cell.json",
+        "env.json",
+        "SHA256SUMS",
+    ] {
         copy(
             &full.join("cells").join(first).join(f),
             &out.join("cells").join(first).join(f),

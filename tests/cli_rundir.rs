@@ -10,21 +10,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// Small: two cells of 3 blocks each, a fraction of a second in a debug build.
-const SMALL: &str = r#"
-seed = 5
-samples = 70
-episodes = 3
-bias = [false]
-[[architectures]]
-name = "0HL"
-hidden = []
-[[architectures]]
-name = "1HL"
-hidden = [3]
-[[envs]]
-id = "CartPole-v1"
-"#;
+/// Small: two cells of 3 blocks each.
+const SMALL: &str = SMALL_STUDY;
 
 /// Enough work (about a second in a debug build) for kills to land mid-run.
 const LONG: &str = r#"

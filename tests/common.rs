@@ -426,3 +426,94 @@ pub fn alive(pid: u32) -> bool {
         Err(_) => false,
     }
 }
+
+/// A small study: two CartPole-v1 cells of 3 blocks each, a fraction of a
+/// second in a debug build.
+pub const SMALL_STUDY: &str = r#"
+seed = 5
+samples = 70
+episodes = 3
+bias = [false]
+[[architectures]]
+name = "0HL"
+hidden = []
+[[architectures]]
+name = "1HL"
+hidden = [3]
+[[envs]]
+id = "CartPole-v1"
+"#;
+
+/// A path as the `&str` the helpers take (test paths are UTF-8).
+pub fn path_str(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Writes `body` as `dir/name`; returns its path.
+pub fn write_manifest(dir: &Path, name: &str, body: &str) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, body).unwrap();
+    p
+}
+
+/// A finished run of the study `body` in `dir/name` (its manifest beside it,
+/// `name.toml`), without report.
+pub fn finished_run(dir: &Path, name: &str, body: &str) -> PathBuf {
+    let m = write_manifest(dir, &format!("{name}.toml"), body);
+    let out = dir.join(name);
+    rwg_ok(&["run", path_str(&m), "--out", path_str(&out), "--no-report"]);
+    out
+}
+
+/// A command's stdout, then its stderr, as text.
+pub fn output_text(out: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+/// Runs `rwg`, requires failure, returns its stdout and stderr (a reader
+/// such as `rwg verify` names problems on stdout).
+pub fn rwg_fails(args: &[&str]) -> String {
+    let out = rwg(args);
+    let text = output_text(&out);
+    assert!(
+        !out.status.success(),
+        "rwg {args:?} should have failed:\n{text}"
+    );
+    text
+}
+
+/// Runs `mount` with `args`; `Err` with why not (not root, no mount(8)).
+pub fn mount(args: &[&str]) -> Result<(), String> {
+    let o = Command::new("mount")
+        .args(args)
+        .output()
+        .map_err(|e| e.to_string())?;
+    o.status
+        .success()
+        .then_some(())
+        .ok_or_else(|| String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+/// A mount at a folder, unmounted when dropped.
+pub struct Mounted(pub PathBuf);
+
+impl Mounted {
+    /// A read-only bind mount of `src` at `at` (created if needed).
+    pub fn read_only(src: &Path, at: &Path) -> Result<Mounted, String> {
+        std::fs::create_dir_all(at).unwrap();
+        mount(&["--bind", path_str(src), path_str(at)])?;
+        let m = Mounted(at.to_path_buf());
+        mount(&["-o", "remount,ro,bind", path_str(at)])?;
+        Ok(m)
+    }
+}
+
+impl Drop for Mounted {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).status();
+    }
+}

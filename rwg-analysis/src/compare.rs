@@ -165,6 +165,24 @@ fn opt_sig(x: Option<f64>) -> Cell {
     Cell::plain(crate::ranking::norm_text(x))
 }
 
+/// The episodes per sample of the compared runs, for the table's title:
+/// `N episodes per sample` when every run has `N`, else each run's
+/// (`episodes per sample: a 3, b 2`), as runs compared with `--force` may.
+fn episodes_title(rows: &[CompareRow]) -> String {
+    let mut per_run: Vec<(&str, u32)> = vec![];
+    for r in rows {
+        if !per_run.iter().any(|(run, _)| *run == r.run) {
+            per_run.push((&r.run, r.summary.episodes));
+        }
+    }
+    let first = per_run.first().map_or(0, |p| p.1);
+    if per_run.iter().all(|p| p.1 == first) {
+        return format!("{first} episodes per sample");
+    }
+    let list: Vec<String> = per_run.iter().map(|(r, e)| format!("{r} {e}")).collect();
+    format!("episodes per sample: {}", list.join(", "))
+}
+
 /// The comparison table.
 pub fn compare_table(rows: &[CompareRow]) -> Table {
     let header = [
@@ -209,9 +227,8 @@ pub fn compare_table(rows: &[CompareRow]) -> Table {
             ]
         })
         .collect();
-    let episodes = rows.first().map_or(0, |r| r.summary.episodes);
     Table {
-        title: format!("Comparison of {} cells, {episodes} episodes per sample", rows.len()),
+        title: format!("Comparison of {} cells, {}", rows.len(), episodes_title(rows)),
         header,
         rows: body,
         notes: vec![

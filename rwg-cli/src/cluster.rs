@@ -206,43 +206,9 @@ fn parse_squeue(stdout: &str, plan: &Plan) -> Vec<LiveJob> {
     live
 }
 
-/// `s` quoted for a POSIX shell (unchanged when it needs no quoting).
-pub fn sh_quote(s: &str) -> String {
-    let safe = |c: char| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c);
-    if !s.is_empty() && s.chars().all(safe) {
-        s.to_string()
-    } else {
-        format!("'{}'", s.replace('\'', r"'\''"))
-    }
-}
-
-/// A path quoted for a POSIX shell, as a command's argument: a relative
-/// path starting with `-` is written `./-...`, so that no command parses it
-/// as an option.
-pub fn sh_path(p: &Path) -> String {
-    let s = p.to_string_lossy();
-    if s.starts_with('-') {
-        sh_quote(&format!("./{s}"))
-    } else {
-        sh_quote(&s)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn shell_quoting() {
-        assert_eq!(sh_quote("runs/a-1"), "runs/a-1");
-        assert_eq!(sh_quote("a b"), "'a b'");
-        assert_eq!(sh_quote("it's"), r"'it'\''s'");
-        assert_eq!(sh_quote(""), "''");
-        assert_eq!(sh_quote("$HOME"), "'$HOME'");
-        assert_eq!(sh_path(Path::new("-run d")), "'./-run d'");
-        assert_eq!(sh_path(Path::new("-x/manifest.toml")), "./-x/manifest.toml");
-        assert_eq!(sh_path(Path::new("/tmp/-x")), "/tmp/-x");
-    }
 
     #[test]
     fn squeue_lines_map_array_tasks_to_shards() {

@@ -2,8 +2,9 @@
 //! shard, and the merge job. Pure text generation (unit-tested here); the
 //! command in `cmd/slurm.rs` writes and submits them.
 
-use crate::cluster::{sh_path, sh_quote, ShardedDir};
+use crate::cluster::ShardedDir;
 use anyhow::{bail, Result};
+use rwg_study::shell::{sh_path, sh_quote};
 use std::path::Path;
 
 /// What the scripts need to know.

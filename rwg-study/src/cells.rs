@@ -73,12 +73,8 @@ fn resolve_env(
                     e.id
                 )));
             }
-            if !path.is_file() {
-                return Err(m.error_at(
-                    at,
-                    format!("{key}.plugin: no such file: {}", path.display()),
-                ));
-            }
+            crate::plugin_path::check_file(&key, path)
+                .map_err(|msg| m.error_at(at.clone(), msg))?;
             let plugin = plugins
                 .file(path)
                 .map_err(|err| m.error_at(at, format!("{key}.plugin: {err}")))?;

@@ -79,7 +79,7 @@
 //!   ([`jax_source`]); [`isolate`]:
 //!   a plugin env in `rwg __plugin-worker` processes, both sides;
 //!   [`plugin_batch`]: an in-process plugin's lanes through its vector env or
-//!   batched calls as a `ManyEnv`.
+//!   batched calls as a `ManyEnv`; [`plugin_path`]: what `plugin = "..."` must name.
 //! - [`runner`]: blocks to run directory, resume, shards; [`fault_context`] names
 //!   the plugin call in flight; [`committer`]: block commits on I/O threads,
 //!   gathered up to 2 s; `recorder`: a cell's end off the sampling path;
@@ -88,6 +88,7 @@
 //! - [`rundir`]: the run directory's one owner: names, cell directory names,
 //!   the writer lock, SHA-256 index and `rwg verify`, block files, CSV writers,
 //!   `run.json`/`cell.json`, readers (`data`), progress (`status`).
+//! - [`shell`]: quoting for the `rwg ...` commands rwg prints.
 //! - [`stats`]: every statistic, numpy-exact; `stats/spread`: `--at-n`.
 
 pub mod cells;
@@ -103,9 +104,11 @@ pub mod manifest;
 pub mod manifest_text;
 pub mod merge;
 pub mod plugin_batch;
+pub mod plugin_path;
 mod recorder;
 pub mod rundir;
 pub mod runner;
+pub mod shell;
 pub mod stats;
 pub mod timing;
 

@@ -93,16 +93,24 @@ pub fn read_own_text(path: &Path, max: u64) -> io::Result<String> {
 
 /// What `file` holds, up to `max` bytes (see [`read_bounded`]).
 fn read_to_limit(file: File, max: u64) -> io::Result<Vec<u8>> {
-    let size = file.metadata().map_or(0, |m| m.len());
-    let mut bytes = Vec::with_capacity(size.min(max) as usize);
-    file.take(max.saturating_add(1)).read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > max {
-        return Err(io::Error::new(
+    let too_large = || {
+        io::Error::new(
             io::ErrorKind::FileTooLarge,
             format!(
                 "it has more than {max} bytes, the most rwg reads of such a file (rwg's limit)"
             ),
-        ));
+        )
+    };
+    let size = file.metadata().map_or(0, |m| m.len());
+    // Refused before reading when its size says so (a file growing while
+    // it is read is still cut at the limit below).
+    if size > max {
+        return Err(too_large());
+    }
+    let mut bytes = Vec::with_capacity(size as usize);
+    file.take(max.saturating_add(1)).read_to_end(&mut bytes)?;
+    if bytes.len() as u64 > max {
+        return Err(too_large());
     }
     Ok(bytes)
 }

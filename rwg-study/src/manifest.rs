@@ -521,6 +521,7 @@ impl Manifest {
             }
             if let Some(p) = &e.plugin {
                 short(p, &format!("{key}.plugin"), limits::MAX_PATH_BYTES)?;
+                crate::plugin_path::check_value(&key, p.get_ref()).map_err(|m| err(p.span(), m))?;
             }
             let id = e.id.get_ref().clone();
             if envs.iter().any(|x| x.id == id) {

@@ -6,12 +6,16 @@
 
 use crate::cells::{new_meta, plan_cells, SummaryLine};
 use crate::manifest::Manifest;
+use crate::rundir::block_check::{check_blocks, first_missing_owned};
 use crate::rundir::blocks::{cell_complete, copy_block, n_blocks, tidy_complete_cell, BlockIndex};
 use crate::rundir::checksum::verify_cell;
 use crate::rundir::env_record::{check_record, write_record};
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::lock::RunLock;
-use crate::rundir::meta::{read_cell_meta, read_run_meta, write_run_meta, RunMeta, RUN_FORMAT};
+use crate::rundir::meta::{
+    read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta, RUN_FORMAT,
+};
+use crate::rundir::verify::shard_command;
 use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
 use crate::StudyError;
 use std::path::{Path, PathBuf};
@@ -121,34 +125,7 @@ pub fn merge_shards(
     // The shards' manifests name their plugin files already: nothing to fill in.
     let cells = plan_cells(&mut m.clone())?;
     let nb = n_blocks(m.samples);
-    // Every block must be in the shard that owns it, committed.
-    let mut indexes: Vec<Vec<BlockIndex>> = vec![];
-    for cell in &cells {
-        let mut per_shard = vec![];
-        for d in &owner {
-            let dir = cell_dir(d.expect("checked"), &cell.id.dir);
-            per_shard.push(BlockIndex::load(&dir).map_err(|source| StudyError::RunDir {
-                context: format!("cannot read the block index of {}", dir.display()),
-                source,
-            })?);
-        }
-        indexes.push(per_shard);
-    }
-    for (ci, cell) in cells.iter().enumerate() {
-        for b in 0..nb {
-            let k = ((ci as u64 * nb + b) % count) as usize;
-            if !indexes[ci][k].done(b) {
-                return refuse(format!(
-                    "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; finish it with \
-                     rwg run {} --shard {k}/{count} --out {}",
-                    owner[k].expect("checked").display(),
-                    cell.id.dir,
-                    owner[k].expect("checked").join(MANIFEST).display(),
-                    owner[k].expect("checked").display()
-                ));
-            }
-        }
-    }
+    let indexes = shard_blocks(&cells, &owner, nb)?;
 
     // Every shard computed its blocks of a cell under the env as it is now.
     for cell in &cells {
@@ -262,6 +239,62 @@ pub fn merge_shards(
         already_complete: false,
         lock,
     })
+}
+
+/// The block index of every cell (outer) in every shard (inner, `owner[k]`
+/// holds shard `k`), once each shard's cell has passed the check `rwg
+/// verify` makes ([`check_blocks`]: every block it lists is there with its
+/// digest) and holds every block it owns.
+fn shard_blocks(
+    cells: &[crate::cells::Cell],
+    owner: &[Option<&PathBuf>],
+    nb: u64,
+) -> Result<Vec<Vec<BlockIndex>>, StudyError> {
+    let refuse = |msg: String| Err(StudyError::Refused(msg));
+    let count = owner.len() as u64;
+    let shard = |k: usize| ShardMeta {
+        index: k as u64,
+        count,
+    };
+    let mut indexes: Vec<Vec<BlockIndex>> = vec![];
+    for cell in cells {
+        let mut per_shard = vec![];
+        for (k, d) in owner.iter().enumerate() {
+            let d = d.expect("checked");
+            let dir = cell_dir(d, &cell.id.dir);
+            let check = check_blocks(&dir).map_err(|source| StudyError::RunDir {
+                context: format!("cannot read the block index of {}", dir.display()),
+                source,
+            })?;
+            if !check.problems.is_empty() {
+                let list: Vec<String> = check.problems.iter().map(|p| p.to_string()).collect();
+                return refuse(format!(
+                    "shard {k}/{count} ({}) does not verify:\n  {}\nrun it again to compute \
+                     these blocks again: {}",
+                    d.display(),
+                    list.join("\n  "),
+                    shard_command(d, shard(k))
+                ));
+            }
+            per_shard.push(check.index);
+        }
+        indexes.push(per_shard);
+    }
+    for (ci, cell) in cells.iter().enumerate() {
+        for (k, d) in owner.iter().enumerate() {
+            let d = d.expect("checked");
+            if let Some(b) = first_missing_owned(&indexes[ci][k], shard(k), ci, nb) {
+                return refuse(format!(
+                    "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; \
+                     finish it with {}",
+                    d.display(),
+                    cell.id.dir,
+                    shard_command(d, shard(k))
+                ));
+            }
+        }
+    }
+    Ok(indexes)
 }
 
 /// What a merge under another env than a shard's cell started with says to do.

@@ -603,8 +603,8 @@ fn prepare_dir(
             "--force-new would delete {}, the manifest given: copy it out of the directory \
              first (cp {} study.toml && rwg run study.toml --out {} --force-new)",
             manifest_path.display(),
-            manifest_path.display(),
-            out.display()
+            crate::shell::sh_path(&manifest_path),
+            crate::shell::sh_path(out)
         )));
     }
     if force_new {

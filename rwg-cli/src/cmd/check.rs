@@ -157,7 +157,7 @@ pub fn contract_warnings(plugin: &Path, env: &str, config: &str) -> Vec<String> 
                     plugin.display(),
                     r.name,
                     r.message,
-                    plugin.display()
+                    rwg_study::shell::sh_path(plugin)
                 ))
             }
             _ => None,
@@ -331,9 +331,12 @@ fn resolve_env_id(args: &mut Args) -> Result<()> {
             .is_some_and(|e| e == "so" || e == "dylib" || e == "dll")
     };
     if args.plugin.extension().is_some_and(|e| e == "toml") && args.plugin.is_file() {
-        let m = args.plugin.display();
+        let (m, q) = (
+            args.plugin.display(),
+            rwg_study::shell::sh_path(&args.plugin),
+        );
         bail!(
-            "{m} is a manifest, not a plugin: `rwg run {m}` runs its study (add \
+            "{m} is a manifest, not a plugin: `rwg run {q}` runs its study (add \
              `--samples 8 --episodes 2` for a quick try); rwg check takes a plugin library \
              file (.so, .dylib, .dll), the id of a plugin env on RWG_PLUGIN_PATH, or a \
              gymnasium: env id"

@@ -58,8 +58,30 @@ fn write(path: &std::path::Path, bytes: &[u8]) -> Result<()> {
     Ok(())
 }
 
+/// Refuses a run directory given twice (under one name or two): its rows
+/// would be listed twice, as if two runs agreed.
+fn refuse_twice(dirs: &[PathBuf]) -> Result<()> {
+    let key = |d: &PathBuf| std::fs::canonicalize(d).unwrap_or_else(|_| d.clone());
+    for (i, d) in dirs.iter().enumerate() {
+        if let Some(prev) = dirs[..i].iter().find(|p| key(p) == key(d)) {
+            bail!(
+                "{} is given twice{}: a run compared with itself lists every row twice; name \
+                 each run once",
+                d.display(),
+                if prev == d {
+                    String::new()
+                } else {
+                    format!(" (also as {})", prev.display())
+                }
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Runs `rwg compare`.
 pub fn run(args: Args) -> Result<()> {
+    refuse_twice(&args.run_dirs)?;
     let runs: Vec<Run> = args
         .run_dirs
         .iter()
@@ -99,7 +121,7 @@ pub fn run(args: Args) -> Result<()> {
         if let Some(progress) = run.unfinished() {
             diffs.push(format!(
                 "{label} is a run {progress} (`rwg status {}` shows how far it got)",
-                run.dir.display()
+                rwg_study::shell::sh_path(&run.dir)
             ));
         }
     }

@@ -25,10 +25,11 @@ Examples:
   rwg envs gymnasium:LunarLander-v3 --kwargs '{\"continuous\": true}' --json
 
 A gymnasium: id is described by Gymnasium itself (a Python worker is started):
-its spaces as rwg sees them (flattened), Gymnasium's own text of them, its
-registered time limit and reward threshold. A JAX id (gymnax:ID, brax:NAME,
-jax:module:callable) is described by a JAX worker: its spaces, time limit,
-the versions of JAX and the env's library, and the device JAX runs it on.")]
+its spaces as rwg sees them (flattened), its registered time limit and reward
+threshold; --json adds Gymnasium's own text of the spaces and the Gymnasium and
+Python versions. A JAX id (gymnax:ID, brax:NAME, jax:module:callable) is
+described by a JAX worker: its spaces, time limit, the versions of JAX and the
+env's library, and the device JAX runs it on.")]
 pub struct Args {
     /// Describe these gymnasium: envs (gymnasium:ID or gymnasium:module:ID)
     /// or JAX envs (gymnax:ID, brax:NAME, jax:module:callable) instead of

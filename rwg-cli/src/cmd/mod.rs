@@ -63,6 +63,23 @@ pub fn write_named_file(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     use anyhow::Context;
     use std::io::Write;
     let target = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    // A missing folder is named, not the temporary file that could not be made in it.
+    if let Some(parent) = target.parent().filter(|p| !p.as_os_str().is_empty()) {
+        if !parent.exists() {
+            anyhow::bail!(
+                "cannot write {}: the folder {} does not exist (create it first, or name a \
+                 file in a folder that exists)",
+                path.display(),
+                parent.display()
+            );
+        } else if !parent.is_dir() {
+            anyhow::bail!(
+                "cannot write {}: {} is not a folder",
+                path.display(),
+                parent.display()
+            );
+        }
+    }
     match std::fs::metadata(&target) {
         Ok(m) if !m.is_file() && !m.is_dir() => std::fs::OpenOptions::new()
             .write(true)

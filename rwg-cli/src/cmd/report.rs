@@ -25,7 +25,13 @@ pub struct Args {
 /// Runs `rwg report`.
 pub fn run(args: Args) -> Result<()> {
     let out = args.out.unwrap_or_else(|| args.run_dir.join(REPORT_HTML));
-    let _lock = crate::cmd::lock_if_inside(&args.run_dir, &out)?;
+    let _lock = crate::cmd::lock_if_inside(&args.run_dir, &out).with_context(|| {
+        format!(
+            "writing {} into the run directory takes the run's writer lock; --out FILE \
+             writes the report elsewhere",
+            out.display()
+        )
+    })?;
     let run = Run::open(&args.run_dir)?;
     run.require_finished()?;
     crate::cmd::warn_unverified(&run);

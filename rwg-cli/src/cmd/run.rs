@@ -1,7 +1,6 @@
 //! `rwg run`: the RWG study described by a manifest, resumable and shardable.
 //! The study itself is `rwg_study::runner`; this is its arguments and output.
 
-use crate::cluster::sh_path;
 use crate::fault_guard;
 use crate::progress::{Lines, Silent};
 use anyhow::{Context, Result};
@@ -13,6 +12,7 @@ use rwg_study::rundir::data::KeptEpisodes;
 use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::rundir::REPORT_HTML;
 use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome};
+use rwg_study::shell::sh_path;
 use rwg_study::StudyError;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};

@@ -1,9 +1,7 @@
 //! `rwg slurm`: submit a study to Slurm as a job array of shards plus a merge
 //! job that depends on it; run again to resubmit what did not finish.
 
-use crate::cluster::{
-    live_jobs, merged_complete, sh_path, shard_state, Job, Plan, ShardState, ShardedDir,
-};
+use crate::cluster::{live_jobs, merged_complete, shard_state, Job, Plan, ShardState, ShardedDir};
 use crate::slurm_script::{
     array_spec, check_sbatch_option, check_sbatch_path, parse_job_id, show_command, Scripts,
 };
@@ -12,6 +10,7 @@ use rwg_study::cells::plan_cells;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::export::write_atomic;
 use rwg_study::rundir::{MANIFEST, RUN_JSON};
+use rwg_study::shell::sh_path;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -129,7 +129,14 @@ pub fn run(args: Args) -> Result<()> {
     // Writing stats.json and stats.csv makes this a writer of the run.
     let _lock = match args.no_write {
         true => None,
-        false => Some(RunLock::acquire(&args.run_dir)?),
+        false => Some(RunLock::acquire(&args.run_dir).with_context(|| {
+            format!(
+                "rwg stats writes stats.json and stats.csv into {}, so it takes the run's \
+                 writer lock; --no-write prints the statistics without writing (or locking) \
+                 anything",
+                args.run_dir.display()
+            )
+        })?),
     };
     let (run, stats) = load_stats(&args.run_dir, args.at_n)?;
     crate::cmd::warn_unverified(&run);

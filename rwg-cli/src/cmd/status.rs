@@ -2,7 +2,7 @@
 //! command that finishes it. Read-only: safe while the run is being written.
 
 use crate::cluster::{
-    live_jobs, merged_complete, sh_path, shard_state, LiveJob, Plan, ShardState, ShardedDir,
+    live_jobs, merged_complete, shard_state, LiveJob, Plan, ShardState, ShardedDir,
 };
 use anyhow::{bail, Result};
 use rwg_analysis::report::REPORT_HTML;
@@ -14,6 +14,7 @@ use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::rundir::status::{cell_dirs, progress, CellProgress, Totals};
 use rwg_study::rundir::study::{edited_message, manifest_edits};
 use rwg_study::rundir::{MANIFEST, RUN_JSON};
+use rwg_study::shell::sh_path;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `rwg status`.
@@ -55,6 +56,20 @@ pub fn run(args: Args) -> Result<()> {
     if !manifest_path.is_file() {
         if !dir.is_dir() {
             bail!("{}: no such directory", dir.display());
+        }
+        if let Some(holder) = rwg_study::rundir::lock::live_writer(dir) {
+            bail!(
+                "{} is a run (or merge) being started by {holder}: it has no manifest.toml yet; \
+                 run rwg status again in a moment",
+                dir.display()
+            );
+        }
+        if std::fs::read_dir(dir).is_ok_and(|mut d| d.next().is_none()) {
+            bail!(
+                "{} is empty: no run is written there yet (a run or merge starting there \
+                 writes its manifest.toml first)",
+                dir.display()
+            );
         }
         bail!(
             "{} is not an rwg run directory: it has no manifest.toml (nor slurm/plan.json)",

@@ -4,6 +4,7 @@ use anyhow::Result;
 use rwg_analysis::table::{Align, TextColumns};
 use rwg_env::float::fmt_f64;
 use rwg_study::rundir::data::Run;
+use rwg_study::shell::{sh_path, sh_quote};
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -12,9 +13,20 @@ use std::path::PathBuf;
 pub struct Args {
     /// Run directory.
     run_dir: PathBuf,
-    /// Networks per cell.
-    #[arg(short = 'n', default_value_t = 10)]
+    /// Networks per cell (at least 1).
+    #[arg(short = 'n', default_value_t = 10, value_parser = parse_n)]
     n: usize,
+}
+
+/// Parses `-n`: a whole number of networks, at least 1.
+fn parse_n(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(0) => Err("the networks shown per cell must be at least 1, got 0".into()),
+        Ok(n) => Ok(n),
+        Err(_) => Err(format!(
+            "expected a whole number of networks (such as 10), found `{s}`"
+        )),
+    }
 }
 
 /// Runs `rwg top`.
@@ -28,7 +40,7 @@ pub fn run(args: Args) -> Result<()> {
             args.run_dir.display()
         );
     }
-    let run = args.run_dir.display().to_string();
+    let run = sh_path(&args.run_dir);
     let stdout = crate::stdio::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     for cell in &run_dir.meta.cells {
@@ -80,8 +92,8 @@ pub fn run(args: Args) -> Result<()> {
                 out,
                 "  {}  rwg replay {run} --env {} --arch {} --bias {} --sample {s}",
                 columns.line(&values),
-                cell.id.env,
-                cell.id.arch,
+                sh_quote(&cell.id.env),
+                sh_quote(&cell.id.arch),
                 cell.id.bias
             )?;
         }

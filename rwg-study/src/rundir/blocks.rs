@@ -13,6 +13,7 @@
 use crate::rundir::checksum::{
     self, append_sum, append_sums_unsynced, read_sums, sums_text, Digest, SUMS,
 };
+use crate::rundir::env_record::ENV_JSON;
 use crate::rundir::export::{
     self, sync_dir, write_atomic_hashed, write_sample_rows, write_score_rows, AtomicFile,
 };
@@ -73,6 +74,18 @@ pub enum RunDirError {
         path: PathBuf,
         /// Why.
         message: String,
+    },
+    /// A block listed as committed in the cell's block index is gone.
+    #[error(
+        "{path}: missing: listed in {index} as committed, but the file is gone (deleted, or \
+         not written to disk before a crash of the machine); running the study (or shard) \
+         again computes it again"
+    )]
+    ListedMissing {
+        /// The block's file.
+        path: PathBuf,
+        /// The index that lists it.
+        index: PathBuf,
     },
     /// A block is missing when the cell is finalised.
     #[error("{path}: missing (block {block} of the cell)")]
@@ -172,6 +185,17 @@ impl BlockIndex {
     /// Whether block `b` is committed.
     pub fn done(&self, b: u64) -> bool {
         self.digest(b).is_some()
+    }
+
+    /// Whether block `b` has a line in the index (its file may be gone).
+    pub fn is_listed(&self, b: u64) -> bool {
+        self.sums.contains_key(&block_name(b))
+    }
+
+    /// Every block file name the index lists, with its recorded digest
+    /// (whether or not the file is there), in name order.
+    pub fn listed(&self) -> impl Iterator<Item = (&str, &Digest)> {
+        self.sums.iter().map(|(n, d)| (n.as_str(), d))
     }
 }
 
@@ -327,7 +351,9 @@ pub fn check_episode(score: f64, steps: u64, max_steps: u32) -> Result<(), Strin
 }
 
 /// Streams the cell's blocks into `scores.csv`, writes `samples.csv` (and,
-/// before it, `cell.json` = `cell_json` if given), then removes the blocks.
+/// before it, `cell.json` = `cell_json` if given), lists them (and the cell's
+/// `env.json`, when there is one) in the cell's `SHA256SUMS`, then removes
+/// the blocks.
 /// The blocks are the committed block files, except those in `pending`:
 /// blocks of this process not committed to files (the last ones a run
 /// computed, [`crate::committer::CommitThreads::finish`]), whose rows are
@@ -486,6 +512,13 @@ pub fn finalize_cell(
         SAMPLES_CSV,
         f.commit_hashed().map_err(io_err(&samples_path))?,
     ));
+    // The env the cell's blocks were computed under, when it was recorded.
+    let env_path = cell_dir.join(ENV_JSON);
+    match checksum::hash_file(&env_path) {
+        Ok(d) => sums.push((ENV_JSON, d)),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {}
+        Err(e) => return Err(io_err(&env_path)(e)),
+    }
     // Written last: the cell is complete once this exists.
     let sums_path = cell_dir.join(SUMS);
     write_atomic_hashed(&sums_path, sums_text(&sums).as_bytes()).map_err(io_err(&sums_path))?;

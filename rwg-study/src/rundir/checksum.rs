@@ -9,8 +9,8 @@
 //!   committed block, after the block's rename. A block counts as committed
 //!   only when its line is there and its bytes match; a block file without a
 //!   line (a run killed between the rename and the append) is computed again.
-//! - `cells/<cell>/SHA256SUMS`: `scores.csv`, `cell.json` and `samples.csv` of
-//!   a finished cell, written last: a cell is complete only when this file
+//! - `cells/<cell>/SHA256SUMS`: `scores.csv`, `cell.json`, `samples.csv` and
+//!   `env.json` of a finished cell, written last: a cell is complete only when this file
 //!   exists, and its files count only when they match it.
 //!
 //! SHA-256 (the `sha2` crate) rather than a faster non-cryptographic hash:
@@ -150,17 +150,25 @@ pub fn read_sums(
             .ok()
             .and_then(|l| l.split_once("  "))
             .and_then(|(h, name)| Some((parse_hex(h)?, name)))
-            .filter(|(_, name)| !name.is_empty() && !name.contains(['/', '\\']));
+            .filter(|(_, name)| {
+                !name.is_empty() && !name.contains(['/', '\\']) && !name.contains(char::is_control)
+            });
         match parsed {
             Some((d, name)) => {
                 out.insert(name.to_string(), d);
             }
             None if strict => {
+                let message = if line.ends_with(b"\r") {
+                    "ends in a carriage return: the file was rewritten with CRLF (Windows) line \
+                     endings; rwg writes LF, so `sed -i 's/\\r$//' SHA256SUMS` restores it"
+                } else {
+                    "not a '<sha256>  <file>' line"
+                };
                 return Err(RunDirError::Corrupt {
                     path: path.to_path_buf(),
                     line: i + 1,
-                    message: "not a '<sha256>  <file>' line".into(),
-                })
+                    message: message.into(),
+                });
             }
             None => {}
         }

@@ -97,14 +97,28 @@ pub enum RunReadError {
     /// asked needs a finished one.
     #[error(
         "{} is a run {progress}; `rwg status {}` shows how far it got, and \
-         `rwg run {}/manifest.toml --out {}` finishes it",
-        dir.display(), dir.display(), dir.display(), dir.display()
+         `{}` finishes it",
+        dir.display(), crate::shell::sh_path(dir), crate::rundir::study::resume_command(dir)
     )]
     Unfinished {
         /// The run directory.
         dir: PathBuf,
         /// How far it has got.
         progress: Unfinished,
+    },
+    /// The directory holds what a run writes first (its lock, its
+    /// manifest) but no `run.json` yet: a run being started.
+    #[error(
+        "{} is a run being started (or one stopped before it was set up): it has {what} but \
+         no run.json yet, which rwg writes once the run is set up; run this again in a moment \
+         (`rwg status {}` shows how far it got)",
+        dir.display(), crate::shell::sh_path(dir)
+    )]
+    Starting {
+        /// The directory.
+        dir: PathBuf,
+        /// What it holds (`rwg.lock`, `manifest.toml`).
+        what: String,
     },
     /// A file disagrees with `run.json` or with another file.
     #[error("{path}: {message}")]
@@ -146,6 +160,18 @@ fn run_dirs_in(dir: &Path) -> Vec<PathBuf> {
 /// run at all, with a hint: the run directories inside it, or the
 /// nearest-named run directory beside it.
 fn not_a_run_dir(dir: &Path) -> RunReadError {
+    let run_json = dir.join(RUN_JSON);
+    if std::fs::symlink_metadata(&run_json).is_ok() {
+        // There, but not a file rwg reads: a folder or a device in its place.
+        return RunReadError::Mismatch {
+            path: run_json,
+            message: format!(
+                "not a regular file (a folder or device where rwg writes run.json); remove it, \
+                 then run {} to rebuild it from the cells' own files",
+                crate::rundir::study::resume_command(dir)
+            ),
+        };
+    }
     if dir.join(MANIFEST).is_file() && dir.join(crate::rundir::CELLS).is_dir() {
         let manifest = std::fs::read_to_string(dir.join(MANIFEST)).ok();
         return RunReadError::Unfinished {
@@ -154,6 +180,22 @@ fn not_a_run_dir(dir: &Path) -> RunReadError {
                 cells_done: 0,
                 cells: study_cells(dir, None, manifest.as_deref()),
             },
+        };
+    }
+    let mut first = vec![];
+    if let Some(holder) = crate::rundir::lock::live_writer(dir) {
+        first.push(format!(
+            "{} (held by {holder})",
+            crate::rundir::lock::LOCK_FILE
+        ));
+    }
+    if dir.join(MANIFEST).is_file() {
+        first.push(MANIFEST.to_string());
+    }
+    if !first.is_empty() {
+        return RunReadError::Starting {
+            dir: dir.to_path_buf(),
+            what: first.join(" and "),
         };
     }
     let why = if dir.is_dir() {
@@ -168,7 +210,24 @@ fn not_a_run_dir(dir: &Path) -> RunReadError {
     } else {
         vec![]
     };
-    let hint = if !inside.is_empty() {
+    let shards = if dir.is_dir() {
+        run_dirs_in(&dir.join("shards"))
+    } else {
+        vec![]
+    };
+    let hint = if !shards.is_empty() {
+        // The layout of `rwg slurm`: the study's shards in DIR/shards/K.
+        let q: Vec<String> = shards.iter().map(|p| crate::shell::sh_path(p)).collect();
+        format!(
+            "; it holds the {} shard directories of a study in shards/: `rwg status {}` shows \
+             them, `rwg verify {}` checks one, `rwg merge {} --out {}` combines them",
+            shards.len(),
+            crate::shell::sh_path(dir),
+            q[0],
+            q.join(" "),
+            crate::shell::sh_path(dir)
+        )
+    } else if !inside.is_empty() {
         let list: Vec<String> = inside
             .iter()
             .take(5)
@@ -351,6 +410,7 @@ impl Run {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
             Err(e) => return Err(io_err(&mpath)(e)),
         };
+        check_cell_list(&dir, &meta, manifest.as_deref())?;
         Ok(Run {
             dir,
             verified: meta.format >= 2,
@@ -783,12 +843,14 @@ pub fn write_cell_files(
     .map(|_| ())
 }
 
+mod cell_list;
 mod spread;
 mod stats_files;
 pub mod synthetic;
 mod unfinished;
 mod verified;
 
+pub use cell_list::check_cell_list;
 use unfinished::study_cells;
 pub use unfinished::Unfinished;
 

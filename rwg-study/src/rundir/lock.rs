@@ -40,13 +40,25 @@ pub enum LockError {
         holder: String,
     },
     /// The lock file could not be opened or locked.
-    #[error("cannot lock {}", path.display())]
+    #[error("cannot lock {}{}", path.display(), read_only_hint(source))]
     Io {
         /// The lock file.
         path: PathBuf,
         /// The cause.
         source: std::io::Error,
     },
+}
+
+/// What to say when the lock cannot be taken because the run directory is
+/// on a read-only file system (empty otherwise).
+fn read_only_hint(e: &std::io::Error) -> &'static str {
+    if e.kind() == std::io::ErrorKind::ReadOnlyFilesystem {
+        ": the run directory is on a read-only file system, and this command writes into it \
+         (so it takes the writers' lock first); the readers work there: rwg verify, rwg \
+         status, rwg top, rwg stats --no-write"
+    } else {
+        ""
+    }
 }
 
 struct Inner {
@@ -99,6 +111,49 @@ fn command_line() -> String {
         .map(|a| a.to_string_lossy().into_owned())
         .collect();
     args.join(" ")
+}
+
+/// The record of the process that holds (or last held) the lock of `dir`,
+/// `pid N: command line`, when that process is alive: a reader's view of
+/// who is writing the run, taken without touching the lock. (A pid reused
+/// by another process since reads as alive.)
+pub fn live_holder(dir: &Path) -> Option<String> {
+    let text = crate::limits::read_own_text(&dir.join(LOCK_FILE), 4096).ok()?;
+    let record = text.lines().next()?.trim().to_string();
+    let pid: i32 = record
+        .strip_prefix("pid ")?
+        .split(':')
+        .next()?
+        .parse()
+        .ok()?;
+    alive(pid).then_some(record)
+}
+
+/// [`live_holder`] when it is an `rwg run` or `rwg merge` of another
+/// process: what a directory without `run.json` (or `manifest.toml`) yet
+/// holds in the first moments of a run or merge. (A command that takes the
+/// lock itself before reading, such as `rwg plot`, is none.)
+pub fn live_writer(dir: &Path) -> Option<String> {
+    let own = format!("pid {}:", std::process::id());
+    live_holder(dir).filter(|h| {
+        h.split_whitespace()
+            .nth(3)
+            .is_some_and(|c| c == "run" || c == "merge")
+            && !h.starts_with(&own)
+    })
+}
+
+#[cfg(unix)]
+fn alive(pid: i32) -> bool {
+    // SAFETY: signal 0 checks that the process exists and sends nothing.
+    pid > 0
+        && (unsafe { libc::kill(pid, 0) } == 0
+            || std::io::Error::last_os_error().raw_os_error() == Some(libc::EPERM))
+}
+
+#[cfg(not(unix))]
+fn alive(_pid: i32) -> bool {
+    false
 }
 
 #[cfg(unix)]

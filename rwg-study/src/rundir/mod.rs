@@ -10,7 +10,7 @@
 //! RUN/cells/CELL/samples.csv   sample,mean,variance,std,min,max,rank
 //! RUN/cells/CELL/cell.json     the cell's metadata (meta::CellMeta)
 //! RUN/cells/CELL/env.json      the env as the cell started (env_record)
-//! RUN/cells/CELL/SHA256SUMS    checksums of the three files above, written last (checksum)
+//! RUN/cells/CELL/SHA256SUMS    checksums of the four files above, written last (checksum)
 //! RUN/cells/CELL/blocks/SHA256SUMS  checksums of the committed blocks (checksum)
 //! RUN/stats.json, stats.csv    the run's statistics (data)
 //! RUN/rwg.lock                 the writers' lock (lock)
@@ -22,13 +22,15 @@
 //! - [`verify`]: checking a whole run against it (`rwg verify`).
 //! - [`meta`]: `run.json` / `cell.json` contents and cell directory names.
 //! - [`env_record`]: a cell's `env.json`, checked by resumes and merges.
-//! - [`blocks`]: block files, resume, and a cell's finalisation.
+//! - [`blocks`]: block files, resume, and a cell's finalisation;
+//!   [`block_check`]: the check of a cell's committed blocks (`verify`, `merge`).
 //! - [`export`]: the CSV writers and atomic file replacement.
 //! - [`rows`]: the fast path for rwg's own plain numeric CSV rows.
 //! - [`data`]: reading a finished run for analysis, writing its statistics.
 //! - [`status`]: how far a run or a shard has got (read-only, safe while it runs).
 //! - [`study`]: the study a run directory holds, and edits of its manifest.
 
+pub mod block_check;
 pub mod blocks;
 pub mod checksum;
 pub mod data;

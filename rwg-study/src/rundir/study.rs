@@ -6,7 +6,18 @@
 use crate::manifest::Manifest;
 use crate::rundir::meta::RunMeta;
 use crate::rundir::{MANIFEST, RUN_JSON};
+use crate::shell::{sh_path, sh_quote};
 use std::path::Path;
+
+/// The command that resumes (or finishes, or rebuilds the `run.json` of)
+/// the run in `dir`: `rwg run DIR/manifest.toml --out DIR`, quoted.
+pub fn resume_command(dir: &Path) -> String {
+    format!(
+        "rwg run {} --out {}",
+        sh_path(&dir.join(MANIFEST)),
+        sh_path(dir)
+    )
+}
 
 /// How `now` (the directory's `manifest.toml` as it reads today) differs
 /// from the study `run.json` recorded: one `key: recorded vs now` entry per
@@ -48,11 +59,15 @@ pub fn manifest_edits(dir: &Path, meta: &RunMeta, now: &Manifest) -> Vec<String>
 /// recorded (`edits`, from [`manifest_edits`]).
 pub fn edited_message(dir: &Path, edits: &[String]) -> String {
     let d = dir.display();
+    let (manifest, edited) = (
+        sh_path(&dir.join(MANIFEST)),
+        sh_quote(&format!("{}-edited", dir.to_string_lossy())),
+    );
     format!(
         "{}/{MANIFEST} was changed after rwg wrote it ({}; run.json's record vs the file). \
          A run directory's manifest.toml is the study it holds, and its files are that study's. \
          To run the edited study, copy the manifest out and give it a directory of its own: \
-         cp {d}/{MANIFEST} edited.toml && rwg run edited.toml --out {d}-edited; to keep this \
+         cp {manifest} edited.toml && rwg run edited.toml --out {edited}; to keep this \
          run, undo the edit",
         d,
         edits.join("; ")
@@ -66,7 +81,8 @@ pub fn damaged_run_json(dir: &Path) -> String {
     format!(
         "{d}/{RUN_JSON} is not a readable run.json (empty, cut short or edited). Nothing else is \
          lost: resuming the run rebuilds it from the cells' own files. Delete it, then run \
-         rwg run {d}/{MANIFEST} --out {d}"
+         {}",
+        resume_command(dir)
     )
 }
 

@@ -1,10 +1,16 @@
 //! Checking a whole run directory against its checksums (`rwg verify`).
 
-use crate::rundir::blocks::BlockIndex;
+use crate::manifest::Manifest;
+use crate::rundir::block_check::{check_blocks, first_missing_owned};
+use crate::rundir::blocks::{block_path, n_blocks, BlockIndex};
 use crate::rundir::checksum::{self, read_sums, SUMS};
-use crate::rundir::data::Run;
-use crate::rundir::meta::{read_run_meta, RUN_FORMAT};
-use std::path::{Path, PathBuf};
+use crate::rundir::data::{check_cell_list, Run};
+use crate::rundir::env_record::ENV_JSON;
+use crate::rundir::meta::{read_run_meta, RunMeta, ShardMeta, RUN_FORMAT};
+use crate::rundir::status::cell_dirs;
+use crate::rundir::{cell_dir, BLOCKS, CELLS, MANIFEST, RUN_JSON};
+use crate::shell::sh_path;
+use std::path::Path;
 
 /// What [`verify_run`] found.
 #[derive(Debug, Default)]
@@ -32,7 +38,7 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
     let meta = match read_run_meta(dir) {
         Ok(m) => m,
         Err(e) => {
-            r.problems.push(format!("{e:#}"));
+            r.problems.push(with_causes(&e));
             return r;
         }
     };
@@ -40,42 +46,20 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
         r.problems.push(format!(
             "{}: run format {}: written by an older rwg without checksums, so nothing in it \
              can be verified",
-            dir.join(crate::rundir::RUN_JSON).display(),
+            dir.join(RUN_JSON).display(),
             meta.format
         ));
         return r;
     }
-    // manifest.toml against the study run.json records (when it records one).
-    if meta.study.is_some() {
-        let manifest = dir.join(crate::rundir::MANIFEST);
-        match crate::manifest::Manifest::load(&manifest) {
-            Ok(m) => {
-                let edits = crate::rundir::study::manifest_edits(dir, &meta, &m);
-                if !edits.is_empty() {
-                    r.problems
-                        .push(crate::rundir::study::edited_message(dir, &edits));
-                }
-            }
-            Err(e) => r.problems.push(format!(
-                "{e} (run.json records the study it held: restore it from there)"
-            )),
-        }
-    }
-    let cells_dir = dir.join("cells");
-    let mut names: Vec<String> = match std::fs::read_dir(&cells_dir) {
-        Ok(rd) => rd
-            .filter_map(|e| e.ok())
-            .filter(|e| e.path().is_dir())
-            .map(|e| e.file_name().to_string_lossy().into_owned())
-            .collect(),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => vec![],
+    let study = check_study(dir, &meta, &mut r);
+    let cells_dir = dir.join(CELLS);
+    let names = match cell_names(&cells_dir) {
+        Ok(n) => n,
         Err(e) => {
-            r.problems
-                .push(format!("cannot read {}: {e}", cells_dir.display()));
+            r.problems.push(e);
             return r;
         }
     };
-    names.sort();
     for c in &meta.cells {
         if !cells_dir.join(&c.id.dir).join(SUMS).is_file() {
             r.problems.push(format!(
@@ -85,111 +69,202 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
             ));
         }
     }
-    let run = if meta.shard.is_none() {
-        Run::open(dir).ok()
-    } else {
-        None
+    let run = match meta.shard {
+        None => Run::open(dir).ok(),
+        Some(_) => None,
     };
+    let of_study: Option<std::collections::HashSet<String>> =
+        study.as_ref().map(|m| cell_dirs(m).into_iter().collect());
     for name in &names {
-        let cdir = cells_dir.join(name);
-        let before = r.problems.len();
-        let mut what = vec![];
-        match read_sums(&cdir.join(SUMS), true) {
-            Ok(Some(sums)) => {
-                for (file, d) in &sums {
-                    r.files += 1;
-                    if let Err(e) = checksum::verify_file(&cdir, file, d) {
-                        r.problems.push(e.to_string());
-                    }
-                }
-                what.push(format!("{} files", sums.len()));
-                // The rows, as stats and report read them.
-                let listed = run.as_ref().and_then(|run| {
-                    run.meta
-                        .cells
-                        .iter()
-                        .find(|c| &c.id.dir == name)
-                        .map(|c| (run, c))
-                });
-                if let (Some((run, c)), true) = (listed, r.problems.len() == before) {
-                    if let Err(e) = run.load_cell(c) {
-                        r.problems.push(e.to_string());
-                    }
-                }
-            }
-            Ok(None) => {}
-            Err(e) => r.problems.push(e.to_string()),
-        }
-        match verify_blocks(&cdir) {
-            Ok((0, 0)) => {}
-            Ok((n, uncommitted)) => {
-                r.files += n;
-                what.push(format!("{n} committed blocks"));
-                if uncommitted > 0 {
-                    what.push(format!("{uncommitted} uncommitted (to be computed again)"));
-                }
-            }
-            Err(problems) => {
-                r.block_problems += problems.len();
-                r.problems.extend(problems)
-            }
-        }
-        if r.problems.len() == before {
+        if of_study.as_ref().is_some_and(|s| !s.contains(name)) {
             r.ok.push(format!(
-                "ok  cells/{name}: {}",
-                if what.is_empty() {
-                    "nothing committed yet".to_string()
-                } else {
-                    what.join(", ")
-                }
+                "--  cells/{name}: not a cell of this study (no command reads it)"
             ));
+            continue;
         }
+        verify_cell_dir(&cells_dir, name, run.as_ref(), &mut r);
+    }
+    if let Some(study) = &study {
+        let missing = shard_complete(dir, &meta, study);
+        r.block_problems += missing.len();
+        r.problems.extend(missing);
     }
     r
 }
 
-/// Checks a cell's committed blocks; returns (committed, uncommitted files).
-fn verify_blocks(cell_dir: &Path) -> Result<(usize, usize), Vec<String>> {
-    let bdir = cell_dir.join("blocks");
-    if !bdir.is_dir() {
-        return Ok((0, 0));
+/// An error with its causes, `context: cause: ...` (each once).
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let s_text = s.to_string();
+        if !text.contains(&s_text) {
+            text = format!("{text}: {s_text}");
+        }
+        source = s.source();
     }
-    let index = BlockIndex::load(cell_dir).map_err(|e| vec![e.to_string()])?;
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&bdir)
-        .map_err(|e| vec![format!("cannot read {}: {e}", bdir.display())])?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with('b') && n.ends_with(".csv"))
-        })
-        .collect();
-    files.sort();
-    let (mut n, mut uncommitted, mut problems) = (0, 0, vec![]);
-    for f in files {
-        let b: Option<u64> = f
-            .file_stem()
-            .and_then(|s| s.to_str())
-            .and_then(|s| s[1..].parse().ok());
-        match b.and_then(|b| index.digest(b)) {
-            Some(d) => {
-                n += 1;
-                let got = checksum::hash_file(&f);
-                match got {
-                    Ok(got) => {
-                        if let Err(e) = checksum::check(&f, d, &got) {
-                            problems.push(e.to_string());
-                        }
-                    }
-                    Err(e) => problems.push(format!("cannot read {}: {e}", f.display())),
-                }
+    text
+}
+
+/// Checks `manifest.toml` against the study `run.json` records, and (for a
+/// whole run) `run.json`'s cell list against the study; returns the study.
+fn check_study(dir: &Path, meta: &RunMeta, r: &mut VerifyReport) -> Option<Manifest> {
+    let manifest = dir.join(MANIFEST);
+    let study = match Manifest::load(&manifest) {
+        Ok(m) => {
+            let edits = crate::rundir::study::manifest_edits(dir, meta, &m);
+            if !edits.is_empty() {
+                r.problems
+                    .push(crate::rundir::study::edited_message(dir, &edits));
             }
-            None => uncommitted += 1,
+            Some(m)
+        }
+        Err(e) if meta.study.is_some() => {
+            r.problems.push(format!(
+                "{e} (run.json records the study it held: restore it from there)"
+            ));
+            None
+        }
+        Err(_) => None,
+    };
+    if meta.shard.is_none() {
+        let text = std::fs::read_to_string(&manifest).ok();
+        if let Err(e) = check_cell_list(dir, meta, text.as_deref()) {
+            r.problems.push(e.to_string());
         }
     }
-    if problems.is_empty() {
-        Ok((n, uncommitted))
-    } else {
-        Err(problems)
+    study
+}
+
+/// The cell directories under `cells_dir`, sorted (none if it is missing).
+fn cell_names(cells_dir: &Path) -> Result<Vec<String>, String> {
+    let mut names: Vec<String> = match std::fs::read_dir(cells_dir) {
+        Ok(rd) => rd
+            .filter_map(|e| e.ok())
+            .filter(|e| e.path().is_dir())
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => vec![],
+        Err(e) => return Err(format!("cannot read {}: {e}", cells_dir.display())),
+    };
+    names.sort();
+    Ok(names)
+}
+
+/// Checks one cell directory: a finished cell's files against its
+/// `SHA256SUMS` (and its rows, as the analysis reads them, when `run` lists
+/// it), an unfinished one's committed blocks.
+fn verify_cell_dir(cells_dir: &Path, name: &str, run: Option<&Run>, r: &mut VerifyReport) {
+    let cdir = cells_dir.join(name);
+    let before = r.problems.len();
+    let mut what = vec![];
+    match read_sums(&cdir.join(SUMS), true) {
+        Ok(Some(sums)) => {
+            for (file, d) in &sums {
+                r.files += 1;
+                if let Err(e) = checksum::verify_file(&cdir, file, d) {
+                    r.problems.push(e.to_string());
+                }
+            }
+            what.push(format!("{} files", sums.len()));
+            if cdir.join(ENV_JSON).is_file() && !sums.contains_key(ENV_JSON) {
+                what.push(format!(
+                    "{ENV_JSON} unchecked (finished by an rwg that did not list it)"
+                ));
+            }
+            // The rows, as stats and report read them.
+            let listed = run.and_then(|run| {
+                run.meta
+                    .cells
+                    .iter()
+                    .find(|c| c.id.dir == name)
+                    .map(|c| (run, c))
+            });
+            if let (Some((run, c)), true) = (listed, r.problems.len() == before) {
+                if let Err(e) = run.load_cell(c) {
+                    r.problems.push(e.to_string());
+                }
+            }
+        }
+        Ok(None) => {}
+        Err(e) => r.problems.push(e.to_string()),
     }
+    match verify_blocks(&cdir) {
+        Ok((0, 0)) => {}
+        Ok((n, uncommitted)) => {
+            r.files += n;
+            what.push(format!("{n} committed blocks"));
+            if uncommitted > 0 {
+                what.push(format!("{uncommitted} uncommitted (to be computed again)"));
+            }
+        }
+        Err(problems) => {
+            r.block_problems += problems.len();
+            r.problems.extend(problems)
+        }
+    }
+    if r.problems.len() == before {
+        r.ok.push(format!(
+            "ok  cells/{name}: {}",
+            if what.is_empty() {
+                "nothing committed yet".to_string()
+            } else {
+                what.join(", ")
+            }
+        ));
+    }
+}
+
+/// Checks a cell's committed blocks ([`check_blocks`], as `rwg merge` does);
+/// returns (committed, uncommitted files).
+fn verify_blocks(cell_dir: &Path) -> Result<(usize, usize), Vec<String>> {
+    if !cell_dir.join(BLOCKS).is_dir() {
+        return Ok((0, 0));
+    }
+    let check = check_blocks(cell_dir).map_err(|e| vec![e.to_string()])?;
+    if check.problems.is_empty() {
+        Ok((check.committed, check.uncommitted))
+    } else {
+        Err(check.problems.iter().map(|p| p.to_string()).collect())
+    }
+}
+
+/// For a shard `run.json` marks finished: every block it owns, as `rwg
+/// merge` requires of it, one problem per cell that lacks one.
+fn shard_complete(dir: &Path, meta: &RunMeta, study: &Manifest) -> Vec<String> {
+    let (Some(shard), Some(_)) = (meta.shard, &meta.end_time) else {
+        return vec![];
+    };
+    let nb = n_blocks(study.samples);
+    let mut out = vec![];
+    for (ci, cell) in cell_dirs(study).iter().enumerate() {
+        let cdir = cell_dir(dir, cell);
+        let Ok(index) = BlockIndex::load(&cdir) else {
+            continue; // named by the cell's own check
+        };
+        // (A block listed but gone is named by the cell's own check.)
+        let missing = first_missing_owned(&index, shard, ci, nb).filter(|&b| !index.is_listed(b));
+        if let Some(b) = missing {
+            out.push(format!(
+                "{}: missing: shard {}/{} is marked finished in run.json, but block {b} of \
+                 cell {cell}, which it owns, is not committed; {} computes it again",
+                block_path(&cdir, b).display(),
+                shard.index,
+                shard.count,
+                shard_command(dir, shard)
+            ));
+        }
+    }
+    out
+}
+
+/// `rwg run DIR/manifest.toml --shard K/N --out DIR`, quoted.
+pub fn shard_command(dir: &Path, shard: ShardMeta) -> String {
+    format!(
+        "rwg run {} --shard {}/{} --out {}",
+        sh_path(&dir.join(MANIFEST)),
+        shard.index,
+        shard.count,
+        sh_path(dir)
+    )
 }

@@ -1,0 +1,61 @@
+//! Quoting for the `rwg ...` commands rwg prints (hints, resume lines,
+//! `rwg top`'s replay column, Slurm scripts): every word that is a path or a
+//! name from a manifest goes through [`sh_quote`] or [`sh_path`], so a
+//! command pasted into a POSIX shell runs as printed, whatever spaces,
+//! quotes or `$` the path or name holds.
+
+use std::path::Path;
+
+/// `s` quoted for a POSIX shell: unchanged when every character is safe
+/// unquoted (ASCII letters and digits and `-_./=:,+@%`), else in single
+/// quotes, with each `'` written `'\''`. The empty string is `''`.
+pub fn sh_quote(s: &str) -> String {
+    let safe = |c: char| c.is_ascii_alphanumeric() || "-_./=:,+@%".contains(c);
+    if !s.is_empty() && s.chars().all(safe) {
+        s.to_string()
+    } else {
+        format!("'{}'", s.replace('\'', r"'\''"))
+    }
+}
+
+/// A path quoted for a POSIX shell, as a command's argument ([`sh_quote`]
+/// of its text): a relative path starting with `-` is written `./-...`, so
+/// that no command parses it as an option. (A name that is not UTF-8 is
+/// shown lossily, as `Path::display` shows it.)
+pub fn sh_path(p: &Path) -> String {
+    let s = p.to_string_lossy();
+    if s.starts_with('-') {
+        sh_quote(&format!("./{s}"))
+    } else {
+        sh_quote(&s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shell_quoting() {
+        assert_eq!(sh_quote("runs/a-1"), "runs/a-1");
+        assert_eq!(sh_quote("a b"), "'a b'");
+        assert_eq!(sh_quote("it's"), r"'it'\''s'");
+        assert_eq!(sh_quote(""), "''");
+        assert_eq!(sh_quote("$HOME"), "'$HOME'");
+        assert_eq!(sh_path(Path::new("my run/m.toml")), "'my run/m.toml'");
+        assert_eq!(sh_path(Path::new("-run d")), "'./-run d'");
+        assert_eq!(sh_path(Path::new("-x/manifest.toml")), "./-x/manifest.toml");
+        assert_eq!(sh_path(Path::new("/tmp/-x")), "/tmp/-x");
+    }
+
+    #[test]
+    fn a_quoted_word_reads_back_through_a_shell() {
+        let word = "a b'c\"$d`e\\f\ng";
+        let out = std::process::Command::new("sh")
+            .args(["-c", &format!("printf %s {}", sh_quote(word))])
+            .output();
+        if let Ok(out) = out {
+            assert_eq!(String::from_utf8_lossy(&out.stdout), word);
+        }
+    }
+}
