@@ -274,6 +274,10 @@ def main():
                          f"number; register a number or None")
 
     def flat_obs(o):
+        if not boxed:
+            outside = outside_space(obs_space, o)
+            if outside:
+                raise Refused(outside)
         try:
             a = np.asarray(o) if boxed else spaces.flatten(obs_space, o)
         except complex_warning:
@@ -291,7 +295,8 @@ def main():
     def reset_obs(r, seed):
         """The flat observation of `r`, what reset(seed=seed) returned."""
         if type(r) is not tuple or len(r) != 2:
-            raise Refused(f"reset(seed={seed}) returned {describe(r)}; {OLD_RESET}")
+            n = f"a tuple of {len(r)} values" if type(r) is tuple else describe(r)
+            raise Refused(f"reset(seed={seed}) returned {n}; {OLD_RESET}")
         try:
             return flat_obs(r[0])
         except Refused as e:
@@ -306,6 +311,20 @@ def main():
         return (f"rwg cannot read what step() returned ({type(e).__name__}: {e}): terminated "
                 f"and truncated must be booleans (they are {res[2]!r} and {res[3]!r}), the "
                 f"reward a real number")
+
+    def check_spaces(env, which):
+        """Refuses `env` (`which` names it) if its spaces are not those of
+        instance 0 when the worker started: an identity test, and a
+        comparison of their text only when they are other objects."""
+        o, a = env.observation_space, env.action_space
+        if (o is obs_space or str(o) == obs_text) and (a is act_space or str(a) == act_text):
+            return
+        raise Refused(f"{which} has observation space {o} and action space {a}, where the "
+                      f"env started with {obs_space} and {act_space}; rwg runs every episode "
+                      f"of a cell under one set of spaces, so an env must not change them "
+                      f"(between instances or episodes)")
+
+    obs_text, act_text = str(obs_space), str(act_space)
 
     # --- determinism: two resets with the same seed give the same observation
     # (and the same as in rwg's other workers: the observation goes to rwg)
@@ -350,7 +369,7 @@ def main():
             try:
                 o, r, term, trunc, _ = stepped
                 out.append(np.append(np.array(flat_obs(o), dtype=np.float64), reward_of(r)))
-                done = bool(term) or bool(trunc)
+                done = flag("terminated", term) or flag("truncated", trunc)
                 if not np.all(np.isfinite(out[-1])):
                     raise Refused(f"a non-finite observation or reward (observation "
                                   f"{floats(out[-1][:-1][:4])}, reward {floats(out[-1][-1:])[0]}) "
@@ -472,6 +491,8 @@ def main():
             op = ops[i]
             if op == 0:
                 continue
+            if op > 2:
+                fail("protocol", f"unknown lane op {op}")
             mark[0] = base + i
             stepped = None
             try:
@@ -487,25 +508,30 @@ def main():
                     else:
                         obs_out[i] = flat_obs(o)
                     rew[i] = r if type(r) is float else reward_of(r)
+                    if not (term is True or term is False):
+                        term = flag("terminated", term)
+                    if not (trunc is True or trunc is False):
+                        trunc = flag("truncated", trunc)
                     flags[i] = 1 | (2 if term else 0) | (4 if trunc else 0)
                 elif op == 1:
                     if fresh:
                         envs[base + i].close()
                         envs[base + i] = gym.make(name, **kwargs)
                         steps[base + i] = envs[base + i].step
+                        check_spaces(envs[base + i], "the fresh instance rwg made for this "
+                                                     "episode (gym.make)")
                     at = 13 + ops_len + 8 * words * i
                     seed = int.from_bytes(inview[at:at + 8], "little")
                     obs_out[i] = reset_obs(envs[base + i].reset(seed=seed), seed)
+                    check_spaces(envs[base + i], f"the instance after reset(seed={seed})")
                     rew[i] = 0.0
                     flags[i] = 1
-                else:
-                    fail("protocol", f"unknown lane op {op}")
             except Refused as e:
                 flags[i] = 8
                 errors = errors or []
                 message = str(e) if op == 1 else f"step() returned {e}"
                 errors.append({"lane": i, "message": message, "traceback": ""})
-            except Exception as e:  # noqa: BLE001 -- the env's own failure, reported to rwg
+            except BaseException as e:  # noqa: BLE001 -- the env's own failure, reported to rwg
                 flags[i] = 8
                 errors = errors or []
                 if op == 2 and stepped is not None and e.__traceback__.tb_next is None:
@@ -517,7 +543,11 @@ def main():
                     errors.append({"lane": i, "message": old_api(e), "traceback": ""})
                     continue
                 what = "step" if op == 2 else "reset"
-                errors.append({"lane": i, "message": f"{what} raised {type(e).__name__}: {e}",
+                not_exception = "" if isinstance(e, Exception) else (
+                    f" (not an Exception: {type(e).__name__} derives from BaseException only; "
+                    f"an env's failure should raise an Exception)")
+                errors.append({"lane": i,
+                               "message": f"{what} raised {type(e).__name__}: {e}{not_exception}",
                                "traceback": traceback.format_exc()})
         mark[0] = 255
         rewards[:] = rew
@@ -597,10 +627,83 @@ def reward_of(r):
     import numpy as np
 
     a = np.asarray(r)
-    if a.size != 1 or a.dtype.kind not in "biuf":
+    if a.size != 1:
+        raise Refused(f"a reward of {a.size} values ({describe(r)}: {r!r}); a reward must be "
+                      f"one number: fix the env, or wrap it (gymnasium.wrappers."
+                      f"TransformReward) to give one")
+    if a.dtype.kind not in "biuf":
         raise Refused(not_real(f"the reward {r!r} ({type(r).__name__})",
                                "gymnasium.wrappers.TransformReward"))
     return float(a.reshape(()))
+
+
+def flag(name, v):
+    """`terminated` or `truncated` (`name`) as a bool: a Python bool or
+    numpy's bool_; anything else is refused (a string "False" is true to
+    Python, None false: neither says what the env meant)."""
+    if v is True or v is False:
+        return v
+    import numpy as np
+
+    if type(v) is np.bool_:
+        return bool(v)
+    raise Refused(f"{name} = {v!r} (type {type(v).__name__}); terminated and truncated must be "
+                  f"booleans (Python bool or numpy.bool_): fix the env to return True or False")
+
+
+def outside_space(space, o, where=""):
+    """Why the observation `o` lies outside its discrete parts of `space`
+    (a Discrete, MultiDiscrete or MultiBinary, or one inside a Dict or Tuple),
+    which spaces.flatten would turn into another state's one-hot or an
+    IndexError; None when it does not. Box parts are not checked: a Box
+    observation beyond its bounds is taken as it is."""
+    import numpy as np
+    from gymnasium import spaces
+
+    at = f" at {where}" if where else ""
+    if isinstance(space, spaces.Discrete):
+        lo, n = int(space.start), int(space.n)
+        ok = isinstance(o, (int, np.integer, np.bool_))
+        if not ok and isinstance(o, np.ndarray) and o.shape == () and o.dtype.kind in "iu":
+            ok, o = True, o.item()
+        if not ok:
+            return (f"an observation {o!r} (type {type(o).__name__}){at} where the observation "
+                    f"space {space} takes whole numbers {lo} to {lo + n - 1}")
+        if not lo <= o < lo + n:
+            return (f"an observation {o!r}{at} outside its space {space} (whole numbers {lo} "
+                    f"to {lo + n - 1}); fix the env, or wrap it (gymnasium.ObservationWrapper)")
+        return None
+    if isinstance(space, (spaces.MultiDiscrete, spaces.MultiBinary)):
+        a = np.asarray(o)
+        if isinstance(space, spaces.MultiBinary):
+            lo, hi, text = np.zeros(space.shape, np.int64), np.ones(space.shape, np.int64), "0 or 1"
+        else:
+            lo = np.asarray(space.start, np.int64)
+            hi = lo + np.asarray(space.nvec, np.int64) - 1
+            text = "whole numbers within start and start + nvec - 1"
+        if a.shape != tuple(space.shape) or a.dtype.kind not in "biu":
+            return (f"an observation {o!r} (type {type(o).__name__}, shape {a.shape}){at} where "
+                    f"the observation space {space} takes {text} of shape {tuple(space.shape)}")
+        bad = np.argwhere((a < lo) | (a > hi))
+        if bad.size:
+            k = tuple(int(x) for x in bad[0])
+            return (f"an observation {o!r}{at} outside its space {space}: value {a[k].item()!r} at "
+                    f"{list(k)} (each is {text}); fix the env, or wrap it "
+                    f"(gymnasium.ObservationWrapper)")
+        return None
+    if isinstance(space, spaces.Dict) and isinstance(o, dict):
+        for k, sub in space.spaces.items():
+            if k in o:
+                why = outside_space(sub, o[k], f"{where}[{k!r}]")
+                if why:
+                    return why
+        return None
+    if isinstance(space, spaces.Tuple) and isinstance(o, (tuple, list)):
+        for k, (sub, v) in enumerate(zip(space.spaces, o)):
+            why = outside_space(sub, v, f"{where}[{k}]")
+            if why:
+                return why
+    return None
 
 
 def _mujoco_warning(msg):

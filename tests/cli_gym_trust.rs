@@ -1,0 +1,245 @@
+//! What the Gymnasium bridge takes on trust from an env, end to end with the
+//! real `rwg` binary: `terminated`/`truncated` must be booleans, discrete
+//! observations must lie in their spaces, a reward must be one number, an
+//! env must keep its spaces (fresh instances and after reset included);
+//! exceptions that are not `Exception`s, writes to fd 1 from C, a closed
+//! stdin, numpy's small dtypes and observations at the size limit.
+//!
+//! Needs `RWG_TEST_PYTHON` (see `cli_gym_bridge_faults.rs`); the test envs
+//! are `tests/python/rwg_trust_envs`.
+
+mod common;
+mod gym_bridge_common;
+use common::*;
+use gym_bridge_common::*;
+use std::path::Path;
+
+/// A study of `env` (a `rwg_trust_envs` id) with `kwargs`: 0HL, 64
+/// networks x 2 episodes.
+fn manifest(dir: &Path, name: &str, env: &str, kwargs: &str) -> String {
+    write(
+        dir,
+        name,
+        &format!(
+            "samples = 64\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
+             [[envs]]\nid = \"gymnasium:rwg_trust_envs:{env}\"\nkwargs = {{ {kwargs} }}\n"
+        ),
+    )
+}
+
+/// The reset seed of network `n`'s episode 0 for `env`.
+fn seed_of(env: &str, n: u64) -> u64 {
+    rwg_core::sampler::reset_seed(0, &format!("rwg_trust_envs:{env}"), n, 0)
+}
+
+/// `rwg run` of `m` into `dir/out`: (success, stderr).
+fn run(py: &str, m: &str, dir: &Path, out: &str) -> (bool, String) {
+    let o = rwg_cmd(
+        py,
+        &[
+            "run",
+            m,
+            "--out",
+            dir.join(out).to_str().unwrap(),
+            "--threads",
+            "2",
+            "--no-report",
+        ],
+    )
+    .output()
+    .unwrap();
+    (
+        o.status.success(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// Fails unless `err` holds every one of `says`.
+fn says(what: &str, err: &str, says: &[&str]) {
+    for s in says {
+        assert!(err.contains(s), "{what}: no {s:?} in:\n{err}");
+    }
+    assert!(!err.contains("internal error"), "{what}: {err}");
+}
+
+/// A flag that is not a boolean (the string "False" is true to Python, None
+/// false) fails its episode, naming the flag, its type and value; as does
+/// one of the checks when a worker starts.
+#[test]
+fn terminated_and_truncated_must_be_booleans() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-trust-flags");
+    let seed = seed_of("Trust-v0", 40);
+    for (mode, flag, value) in [
+        ("term_str", "terminated", "'False' (type str)"),
+        ("trunc_str", "truncated", "'False' (type str)"),
+        ("term_none", "terminated", "None (type NoneType)"),
+    ] {
+        let kwargs = format!("mode = \"{mode}\", at_seed = \"{seed}\"");
+        let m = manifest(&dir, &format!("{mode}.toml"), "Trust-v0", &kwargs);
+        let (ok, err) = run(&py, &m, &dir, mode);
+        assert!(!ok, "{mode}: the run succeeded");
+        says(
+            mode,
+            &err,
+            &[
+                "rwg_trust_envs:Trust-v0: sample 40, episode 0, step 1: ",
+                &format!("step() returned {flag} = {value}"),
+                "must be booleans (Python bool or numpy.bool_)",
+            ],
+        );
+    }
+    // in every episode: the worker's checks refuse it before the run
+    let m = manifest(&dir, "int.toml", "Trust-v0", "mode = \"term_int\"");
+    let (ok, err) = run(&py, &m, &dir, "int");
+    assert!(!ok && !dir.join("int").join("stats.csv").exists());
+    says("term_int", &err, &["terminated = 0 (type int)", "booleans"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A Discrete observation outside its space (-1 would be the last state's
+/// one-hot, 4 an IndexError inside Gymnasium's flatten) is refused where it
+/// enters, naming the observation and the space, also inside a Dict.
+#[test]
+fn discrete_observations_must_lie_in_their_spaces() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-trust-discrete");
+    for (name, kwargs, want) in [
+        (
+            "neg",
+            "value = -1, at_step = 2",
+            "an observation -1 outside its space Discrete(4) (whole numbers 0 to 3)",
+        ),
+        (
+            "over",
+            "value = 4, at_step = 2",
+            "an observation 4 outside its space Discrete(4)",
+        ),
+        (
+            "nested",
+            "value = 4, at_step = 0, nested = true",
+            "an observation 4 at ['cell'] outside its space Discrete(4)",
+        ),
+    ] {
+        let m = manifest(&dir, &format!("{name}.toml"), "Disc-v0", kwargs);
+        let (ok, err) = run(&py, &m, &dir, name);
+        assert!(!ok, "{name}: the run succeeded");
+        says(name, &err, &[want]);
+        assert!(!err.contains("IndexError"), "{name}: {err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A reward of two values is named as such, with what was returned.
+#[test]
+fn a_reward_must_be_one_number() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-trust-reward");
+    let seed = seed_of("Trust-v0", 40);
+    let kwargs = format!("mode = \"reward_pair\", at_seed = \"{seed}\", at_step = 2");
+    let m = manifest(&dir, "m.toml", "Trust-v0", &kwargs);
+    let (ok, err) = run(&py, &m, &dir, "run");
+    assert!(!ok);
+    says(
+        "reward_pair",
+        &err,
+        &[
+            "sample 40, episode 0, step 2: ",
+            "a reward of 2 values (a value of type ndarray, shape (2,): array([1., 2.]))",
+            "a reward must be one number",
+        ],
+    );
+    assert!(!err.contains("imaginary"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An env made afresh for every episode (its episodes depend on the
+/// instance's history) whose later instances have other spaces, and an
+/// instance that replaces its observation space in reset, are refused.
+#[test]
+fn an_env_must_keep_its_spaces() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-trust-spaces");
+    let m = manifest(&dir, "fresh.toml", "Fresh-v0", "after = 40");
+    let (ok, err) = run(&py, &m, &dir, "fresh");
+    assert!(!ok, "fresh: the run succeeded");
+    says(
+        "fresh",
+        &err,
+        &[
+            "the fresh instance rwg made for this episode (gym.make) has observation space \
+             Box(-5.0, 5.0, (4,), float64)",
+            "where the env started with Box(-5.0, 5.0, (3,), float64)",
+        ],
+    );
+    let seed = seed_of("Trust-v0", 40);
+    let kwargs = format!("mode = \"space_change\", at_seed = \"{seed}\", at_step = 0");
+    let m = manifest(&dir, "reset.toml", "Trust-v0", &kwargs);
+    let (ok, err) = run(&py, &m, &dir, "reset");
+    assert!(!ok, "reset: the run succeeded");
+    says(
+        "reset",
+        &err,
+        &[
+            "sample 40, episode 0, step 0: ",
+            &format!("the instance after reset(seed={seed}) has observation space"),
+            "an env must not change them",
+        ],
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Probes: what an env may do (accepted, same bytes for 1 and 2 threads)
+/// and what it must not (refused, naming it).
+#[test]
+fn what_envs_may_and_may_not_do() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-trust-probes");
+    let seed = seed_of("Trust-v0", 40);
+    // accepted
+    for (mode, extra) in [
+        ("obs_f16", ""),
+        ("obs_i8", ""),
+        ("obs_bool", ""),
+        ("cwrite", ""),
+        ("close_stdin", ", at_step = 0"),
+        ("big_obs", ", dim = 4096"),
+    ] {
+        let kwargs = format!("mode = \"{mode}\"{extra}");
+        let m = manifest(&dir, &format!("{mode}.toml"), "Trust-v0", &kwargs);
+        let (ok, err) = run(&py, &m, &dir, mode);
+        assert!(ok, "{mode}: {err}");
+        let scores = dir.join(mode).join(format!(
+            "cells/gymnasium=rwg_trust_envs=Trust-v0__0HL__nobias/scores.csv"
+        ));
+        assert_eq!(
+            std::fs::read_to_string(&scores).unwrap().lines().count(),
+            1 + 64 * 2,
+            "{mode}"
+        );
+    }
+    // refused
+    for (mode, extra, want) in [
+        (
+            "reset3",
+            ", at_step = 0",
+            "returned a tuple of 3 values; reset() must return (observation, info)",
+        ),
+        (
+            "sysexit",
+            "",
+            "step raised SystemExit: 5 (not an Exception: SystemExit derives from \
+             BaseException only",
+        ),
+        ("baseexc", "", "step raised Boom: not an Exception (not an Exception"),
+        ("kbint", "", "step raised KeyboardInterrupt"),
+        ("big_obs", ", dim = 4097", "has 4097 values, more than the limit of 4096"),
+    ] {
+        let kwargs = format!("mode = \"{mode}\", at_seed = \"{seed}\"{extra}");
+        let m = manifest(&dir, &format!("{mode}-x.toml"), "Trust-v0", &kwargs);
+        let (ok, err) = run(&py, &m, &dir, &format!("{mode}-x"));
+        assert!(!ok, "{mode}: the run succeeded");
+        says(mode, &err, &[want]);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
