@@ -3,7 +3,9 @@
 //! observations must lie in their spaces, a reward must be one number, an
 //! env must keep its spaces (fresh instances and after reset included);
 //! exceptions that are not `Exception`s, writes to fd 1 from C, a closed
-//! stdin, numpy's small dtypes and observations at the size limit.
+//! stdin, numpy's small dtypes and observations at the size limit; a worker
+//! that exits leaving a helper holding its pipes is reported as an exit at
+//! once.
 //!
 //! Needs `RWG_TEST_PYTHON` (see `cli_gym_bridge_faults.rs`); the test envs
 //! are `tests/python/rwg_trust_envs`.
@@ -13,6 +15,7 @@ mod gym_bridge_common;
 use common::*;
 use gym_bridge_common::*;
 use std::path::Path;
+use std::time::{Duration, Instant};
 
 /// A study of `env` (a `rwg_trust_envs` id) with `kwargs`: 0HL, 64
 /// networks x 2 episodes.
@@ -241,5 +244,38 @@ fn what_envs_may_and_may_not_do() {
         assert!(!ok, "{mode}: the run succeeded");
         says(mode, &err, &[want]);
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A worker that forks a helper (which keeps the worker's pipes open) and
+/// exits is reported as an exit at once, not after the step timeout as a
+/// hang; the helper goes with it.
+#[test]
+fn a_worker_that_exits_is_reported_at_once_though_a_helper_holds_its_pipes() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-trust-fork-exit");
+    let seed = seed_of("Trust-v0", 40);
+    let kwargs = format!("mode = \"fork_exit\", at_seed = \"{seed}\", at_step = 2");
+    let m = manifest(&dir, "m.toml", "Trust-v0", &kwargs);
+    let t0 = Instant::now();
+    let out = rwg_cmd(&py, &["run", &m, "--out", dir.join("r").to_str().unwrap()])
+        .env(rwg_gym::TIMEOUT_VAR, "120")
+        .output()
+        .unwrap();
+    let err = run_err(out);
+    assert!(
+        t0.elapsed() < Duration::from_secs(60),
+        "took {:?}: {err}",
+        t0.elapsed()
+    );
+    says(
+        "fork_exit",
+        &err,
+        &[
+            "sample 40, episode 0, step 2: ",
+            "the Python worker exited with status 4",
+        ],
+    );
+    assert!(!err.contains("did not answer"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -517,3 +517,79 @@ fn isolated_plugin_workers_die_with_rwg_on_any_signal() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The process ids an env wrote into the folder `marker`.
+#[cfg(target_os = "linux")]
+fn started_in(marker: &Path) -> Vec<u32> {
+    std::fs::read_dir(marker)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().parse().unwrap())
+        .collect()
+}
+
+/// Fails (after killing them) if any of `pids` still runs 10 s on.
+#[cfg(target_os = "linux")]
+fn all_end(what: &str, pids: &[u32]) {
+    let t0 = Instant::now();
+    while pids.iter().any(|&p| alive(p)) && t0.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let left: Vec<u32> = pids.iter().copied().filter(|&p| alive(p)).collect();
+    for &p in &left {
+        let _ = std::process::Command::new("kill")
+            .args(["-KILL", &p.to_string()])
+            .status();
+    }
+    assert!(left.is_empty(), "{what}: the env's processes {left:?} outlived rwg");
+}
+
+/// The processes a Gymnasium env starts — in the worker's process group, in
+/// a session of their own (setsid), and a double-forked daemon — end with
+/// rwg on every catchable signal that ends it (not only SIGINT), and when
+/// the run ends.
+#[cfg(target_os = "linux")]
+#[test]
+fn processes_an_env_starts_end_with_rwg_on_any_catchable_signal() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-family-helpers");
+    let hang = rwg_core::sampler::reset_seed(0, "rwg_trust_envs:Helpers-v0", 40, 0);
+    for signal in ["TERM", "HUP", "QUIT", "USR2", "INT", "ends"] {
+        let marker = dir.join(signal);
+        std::fs::create_dir_all(&marker).unwrap();
+        let at = if signal == "ends" { 0 } else { hang };
+        let m = write(
+            &dir,
+            &format!("{signal}.toml"),
+            &format!(
+                "samples = 96\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
+                 [[envs]]\nid = \"gymnasium:rwg_trust_envs:Helpers-v0\"\n\
+                 kwargs = {{ marker = {:?}, at_seed = \"{at}\" }}\n",
+                marker.to_str().unwrap()
+            ),
+        );
+        let mut cmd = rwg_cmd(
+            &py,
+            &["run", &m, "--out", dir.join(format!("r{signal}")).to_str().unwrap()],
+        );
+        cmd.args(["--threads", "2", "-q", "--no-report"]);
+        if signal == "ends" {
+            let out = cmd.output().unwrap();
+            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        } else {
+            // both workers' helpers started, and a moment for the hang
+            let since = std::cell::Cell::new(None::<Instant>);
+            signal_rwg(cmd, signal, || {
+                if started_in(&marker).len() < 6 {
+                    return false;
+                }
+                let t = since.get().unwrap_or_else(Instant::now);
+                since.set(Some(t));
+                t.elapsed() > Duration::from_secs(1)
+            });
+        }
+        let started = started_in(&marker);
+        assert!(started.len() >= 3, "{signal}: the env started {started:?}");
+        all_end(signal, &started);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -130,6 +130,7 @@ pub fn disarm() {
 /// be stuck inside a plugin holding locks they need).
 pub fn disarm_and_exit(code: i32) -> ! {
     ARMED.store(false, SeqCst);
+    rwg_worker::family::end_all(); // _exit runs no atexit handler
     #[cfg(unix)]
     // SAFETY: _exit is always safe to call.
     unsafe {

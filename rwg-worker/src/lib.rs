@@ -26,7 +26,10 @@
 //! - [`lane_file`]: the shared 8-byte file naming the instance in a call, so a
 //!   worker that dies mid-call is reported with its episode.
 //! - [`serve`]: a Rust worker's loop over instances of any `Environment`.
+//! - [`family`]: every process a worker starts ends with it and with rwg
+//!   (its process group; a subreaper and a mark for those that leave it).
 
+pub mod family;
 pub mod host;
 pub mod lane_file;
 pub mod process;

@@ -25,6 +25,24 @@ pub struct Worker {
     group: Option<i32>,
     /// Bytes a read took past the end of a message: the start of the next.
     pending: Vec<u8>,
+    /// The worker's mark in the family (see [`crate::family`]); `None` once
+    /// its strays are swept.
+    mark: Option<String>,
+}
+
+/// How often a wait for the worker's answer checks that the worker still
+/// runs: a worker that exits while a process it started holds its pipe open
+/// is reported within this time, not at the deadline.
+const EXIT_CHECK: Duration = Duration::from_millis(50);
+
+/// What a wait for the worker's answer found.
+enum Waited {
+    /// Something to read (or the pipe hung up: the read says which).
+    Readable,
+    /// The deadline passed.
+    TimedOut,
+    /// The worker process ended, with nothing left to read.
+    Exited,
 }
 
 impl Worker {
@@ -41,10 +59,12 @@ impl Worker {
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::piped());
+        let mark = crate::family::enlist(&mut command);
         let mut child = spawn_in_family(command).map_err(|source| ProcError::Spawn {
             program: program.to_string(),
             source,
         })?;
+        crate::family::joined(child.id(), &mark);
         let stdin = child.stdin.take().expect("piped");
         let stdout = child.stdout.take().expect("piped");
         let mut err = child.stderr.take().expect("piped");
@@ -76,6 +96,7 @@ impl Worker {
             dump_signal,
             group,
             pending: Vec::new(),
+            mark: Some(mark),
         })
     }
 
@@ -139,16 +160,10 @@ impl Worker {
             if got >= need {
                 break;
             }
-            if !self.wait_readable(deadline) {
-                self.dump_traceback();
-                self.kill();
-                if let Some(d) = self.drain.take() {
-                    let _ = d.join();
-                }
-                return Err(ProcError::Timeout {
-                    secs: timeout.as_secs_f64(),
-                    stderr: self.stderr_tail(),
-                });
+            match self.wait_readable(deadline) {
+                Waited::Readable => {}
+                Waited::Exited => return Err(self.died()),
+                Waited::TimedOut => return Err(self.timed_out(timeout)),
             }
             let cap = buf.len();
             match self.stdout.read(&mut buf[got..cap]) {
@@ -161,13 +176,52 @@ impl Worker {
         Ok(buf[4])
     }
 
+    /// The error for a worker that did not answer within `timeout`, killed
+    /// (after it was asked where it hangs, unless it is stopped).
+    fn timed_out(&mut self, timeout: Duration) -> ProcError {
+        let stopped = self.stopped();
+        if !stopped {
+            self.dump_traceback();
+        }
+        self.kill();
+        if let Some(d) = self.drain.take() {
+            let _ = d.join();
+        }
+        let secs = timeout.as_secs_f64();
+        if stopped {
+            return ProcError::Died {
+                how: format!(
+                    "was stopped (by SIGSTOP or SIGTSTP: a debugger, a shell's job control, \
+                     someone's kill -STOP?) and so did not answer within {secs} s; it was killed"
+                ),
+                stderr: self.stderr_tail(),
+            };
+        }
+        ProcError::Timeout {
+            secs,
+            stderr: self.stderr_tail(),
+        }
+    }
+
+    /// Whether the worker is stopped (Linux: its state in /proc is `T` or `t`).
+    fn stopped(&self) -> bool {
+        std::fs::read_to_string(format!("/proc/{}/stat", self.child.id())).is_ok_and(|s| {
+            s.rfind(')')
+                .and_then(|at| s[at + 1..].split_whitespace().next())
+                .is_some_and(|state| state == "T" || state == "t")
+        })
+    }
+
+    /// Waits until the worker's stdout has something to read, the deadline
+    /// passes, or the worker ends (checked every [`EXIT_CHECK`]: a process
+    /// it started may hold the pipe open after it is gone).
     #[cfg(unix)]
-    fn wait_readable(&self, deadline: Instant) -> bool {
+    fn wait_readable(&mut self, deadline: Instant) -> Waited {
         use std::os::unix::io::AsRawFd;
         let fd = self.stdout.as_raw_fd();
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            let ms = left.as_millis().min(i32::MAX as u128) as i32;
+            let ms = left.min(EXIT_CHECK).as_millis() as i32;
             let mut p = libc::pollfd {
                 fd,
                 events: libc::POLLIN,
@@ -176,20 +230,33 @@ impl Worker {
             // SAFETY: one valid pollfd for the duration of the call.
             let r = unsafe { libc::poll(&mut p, 1, ms) };
             if r > 0 {
-                return true; // readable, or hung up (the read says which)
+                return Waited::Readable; // or hung up (the read says which)
             }
-            if r == 0 {
-                return false;
+            if r < 0 {
+                if std::io::Error::last_os_error().kind() == std::io::ErrorKind::Interrupted {
+                    continue;
+                }
+                return Waited::Readable;
             }
-            if std::io::Error::last_os_error().kind() != std::io::ErrorKind::Interrupted {
-                return true;
+            if cfg!(target_os = "linux") && self.wait_for_end(Duration::ZERO) {
+                // what it wrote before it ended is read first
+                // SAFETY: as above, without waiting.
+                let r = unsafe { libc::poll(&mut p, 1, 0) };
+                return if r > 0 {
+                    Waited::Readable
+                } else {
+                    Waited::Exited
+                };
+            }
+            if left.is_zero() {
+                return Waited::TimedOut;
             }
         }
     }
 
     #[cfg(not(unix))]
-    fn wait_readable(&self, _deadline: Instant) -> bool {
-        true
+    fn wait_readable(&mut self, _deadline: Instant) -> Waited {
+        Waited::Readable
     }
 
     /// Asks a hung worker where it is (its `dump_signal`, e.g. SIGUSR1,
@@ -211,6 +278,16 @@ impl Worker {
         self.kill_group();
         let _ = self.child.kill();
         let _ = self.child.wait();
+        self.reaped();
+    }
+
+    /// After the worker is reaped: forgets it, and ends the processes it
+    /// started that left its process group ([`crate::family::sweep`]).
+    fn reaped(&mut self) {
+        if let Some(mark) = self.mark.take() {
+            crate::family::left(self.child.id());
+            crate::family::sweep(&mark);
+        }
     }
 
     /// Kills what is left of the worker's process group: processes the env
@@ -284,6 +361,7 @@ impl Worker {
         };
         // reaped: its id may name another process's group from now on
         self.group = None;
+        self.reaped();
         if let Some(d) = self.drain.take() {
             let _ = d.join();
         }
