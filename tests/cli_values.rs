@@ -384,3 +384,45 @@ fn gymnasium_kwargs_pass_nan_and_inf_as_floats_and_refuse_datetimes() {
     assert!(err.contains("n.toml:8:"), "{err}");
     assert!(err.contains("envs[0].kwargs.w.at[0]"), "{err}");
 }
+
+/// A weight scale whose draws can overflow is refused at its manifest line,
+/// saying what is accepted; a network whose output overflows (weights times
+/// observations beyond a 64-bit float) fails its episode, naming the scale,
+/// instead of acting on infinities or NaN (the run ended 0, or blamed the
+/// env's rewards).
+#[test]
+fn weights_and_network_outputs_must_be_finite() {
+    let dir = temp_dir("values-weights");
+    let body = |scale: &str, dist: &str| {
+        format!(
+            "samples = 40\nepisodes = 2\n[weights]\ndistribution = \"{dist}\"\nscale = {scale}\n\
+             [[architectures]]\nname = \"0HL\"\nhidden = []\n[[envs]]\nid = \"Acrobot-v1\"\n"
+        )
+    };
+    for (scale, dist, max) in [("1e308", "normal", "1e307"), ("9e307", "uniform", "8e307")] {
+        let m = write(&dir, &format!("{dist}.toml"), &body(scale, dist));
+        let out = dir.join(dist);
+        let err = rwg_err(&["run", &m, "--out", out.to_str().unwrap()]);
+        assert!(
+            err.contains(&format!("{dist}.toml:5:9: weights.scale: ")),
+            "{err}"
+        );
+        assert!(
+            err.contains(&format!("must be above 0 and at most {max}")),
+            "{err}"
+        );
+        assert!(!out.exists(), "{dist}: a run directory was created");
+    }
+    // finite weights, but Acrobot's angular velocities (up to 9 pi) times
+    // them overflow to infinity
+    let m = write(&dir, "big.toml", &body("1e307", "normal"));
+    let out = dir.join("big");
+    let err = rwg_err(&["run", &m, "--out", out.to_str().unwrap(), "--no-report"]);
+    assert!(err.contains("Acrobot-v1: sample "), "{err}");
+    assert!(err.contains("the network's output is inf"), "{err}");
+    assert!(err.contains("[weights] scale = 1e307"), "{err}");
+    assert!(!err.contains("reward"), "{err}");
+    assert!(!out
+        .join("cells/Acrobot-v1__0HL__nobias/scores.csv")
+        .exists());
+}

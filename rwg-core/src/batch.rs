@@ -11,7 +11,7 @@
 //! results are identical to running the same environment one episode after
 //! the other.
 
-use crate::block::{draw_block_weights, make_failed, record_failure, BlockRun};
+use crate::block::{draw_block_weights, fail_non_finite, make_failed, record_failure, BlockRun};
 use crate::policy::{NetShape, PolicyLanes};
 use crate::sampler::{BlockResult, CellPlan, EpisodeResult, SampleError, LANES};
 use rayon::prelude::*;
@@ -324,6 +324,22 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
         }
         if group.lanes.iter().any(|l| l.state == LaneState::Running) {
             group.policy.forward(&group.obs);
+            let bad = group.policy.non_finite_outputs();
+            if bad != 0 {
+                let lanes = &group.lanes;
+                let failed = fail_non_finite(&group.policy, bad, run.plan, &mut run.failure, |l| {
+                    (lanes[l].state == LaneState::Running)
+                        .then(|| (lanes[l].item, lanes[l].steps + 1))
+                });
+                for (l, lane) in group.lanes.iter_mut().enumerate() {
+                    if failed >> l & 1 == 1 {
+                        lane.state = LaneState::Free;
+                    }
+                }
+                if group.lanes.iter().all(|l| l.state == LaneState::Free) {
+                    return;
+                }
+            }
         }
         for (i, lane) in group.lanes.iter().enumerate() {
             group.ops[i] = match lane.state {

@@ -131,6 +131,38 @@ impl<'a> BlockRun<'a> {
     }
 }
 
+/// Fails every lane of `policy` whose network outputs are not finite
+/// (bit `l` of `mask`, from [`PolicyLanes::non_finite_outputs`]): lane `l`
+/// is running episode `item(l)` at step `step(l)`; returns the lanes failed.
+pub(crate) fn fail_non_finite<const K: usize>(
+    policy: &crate::policy::PolicyLanes<K>,
+    mask: u64,
+    plan: &CellPlan,
+    failure: &mut Option<(usize, u32, EnvError)>,
+    mut at: impl FnMut(usize) -> Option<(usize, u32)>,
+) -> u64 {
+    let mut failed = 0;
+    for l in (0..K).filter(|l| mask >> l & 1 == 1) {
+        let (Some((item, step)), Some(v)) = (at(l), policy.non_finite_output(l)) else {
+            continue;
+        };
+        failed |= 1 << l;
+        record_failure(failure, item, step, non_finite_output(plan, v));
+    }
+    failed
+}
+
+/// The error of a network whose output is `v` (not finite).
+pub(crate) fn non_finite_output(plan: &CellPlan, v: f64) -> EnvError {
+    EnvError::Other(format!(
+        "the network's output is {v}: its weights (drawn with [weights] scale = {:e}) times the \
+         observation overflow a 64-bit float, so its actions mean nothing; lower the scale \
+         in [weights], or scale the observations down (they are given to the network as \
+         they are)",
+        plan.dist.scale()
+    ))
+}
+
 /// Keeps the failure of the earliest episode.
 pub(crate) fn record_failure(
     failure: &mut Option<(usize, u32, EnvError)>,

@@ -56,6 +56,16 @@ impl WeightDist {
             WeightDist::Uniform { a } => a,
         }
     }
+    /// The largest scale whose every draw is a finite 64-bit float: a
+    /// normal draw is `std * z`, and rand_distr's ziggurat gives |z| < 14
+    /// (its tail is `R - ln(u) / R` with `u` at least 2^-53: at most 13.7);
+    /// a uniform one is numpy's `-a + 2a * u`, whose `2a` must be finite.
+    pub fn max_scale(&self) -> f64 {
+        match self {
+            WeightDist::Normal { .. } => 1e307,
+            WeightDist::Uniform { .. } => 8e307,
+        }
+    }
 }
 
 /// Seed stream tag of network weights.
@@ -253,5 +263,45 @@ mod tests {
         assert_eq!(draw(&a, 3), draw(&a, 3));
         assert_ne!(draw(&a, 3), draw(&a, 4));
         assert_ne!(draw(&a, 3), draw(&b, 3));
+    }
+
+    /// Draws at the largest scale accepted are finite, and the largest
+    /// normal draws stay below the bound `max_scale` rests on.
+    #[test]
+    fn draws_at_the_largest_scale_are_finite() {
+        let arch = Architecture {
+            hidden: vec![],
+            bias: false,
+        };
+        let mut w = vec![0.0; 4096];
+        let mut largest = 0.0f64;
+        for dist in [
+            WeightDist::Normal { std: 1.0 },
+            WeightDist::Uniform { a: 1.0 },
+        ] {
+            let top = match dist {
+                WeightDist::Normal { .. } => WeightDist::Normal {
+                    std: dist.max_scale(),
+                },
+                WeightDist::Uniform { .. } => WeightDist::Uniform {
+                    a: dist.max_scale(),
+                },
+            };
+            for n in 0..64 {
+                draw_weights(&mut weight_rng(0, "x", &arch, n), top, &mut w);
+                assert!(w.iter().all(|v| v.is_finite()), "{top:?}");
+            }
+        }
+        for n in 0..256 {
+            draw_weights(
+                &mut weight_rng(1, "x", &arch, n),
+                WeightDist::Normal { std: 1.0 },
+                &mut w,
+            );
+            largest = w.iter().fold(largest, |m, v| m.max(v.abs()));
+        }
+        assert!(largest < 14.0, "{largest}");
+        assert!(WeightDist::Normal { std: 1.0 }.max_scale() * 14.0 < f64::MAX);
+        assert!(WeightDist::Uniform { a: 1.0 }.max_scale() * 2.0 < f64::MAX);
     }
 }

@@ -422,6 +422,42 @@ impl<const K: usize> PolicyLanes<K> {
         }
     }
 
+    /// The network outputs of the last [`PolicyLanes::forward`] (before the
+    /// action map): in `a` after an odd number of layers, else in `b`.
+    fn outputs(&self) -> &[Lanes<K>] {
+        let y = if self.shape.layers.len() % 2 == 1 {
+            &self.a
+        } else {
+            &self.b
+        };
+        &y[..self.z.len()]
+    }
+
+    /// The lanes whose network outputs of the last [`PolicyLanes::forward`]
+    /// are not all finite, as a bit mask (bit `l`: lane `l`; 0 in a sane
+    /// run). A NaN anywhere in a network (an infinite product minus another:
+    /// weights times observations beyond a 64-bit float) reaches its
+    /// outputs, since tanh keeps a NaN.
+    #[inline]
+    pub fn non_finite_outputs(&self) -> u64 {
+        const { assert!(K <= 64, "a lane mask of 64 bits") };
+        let mut mask = 0u64;
+        for y in self.outputs() {
+            for (l, v) in y.iter().enumerate() {
+                mask |= u64::from(!v.is_finite()) << l;
+            }
+        }
+        mask
+    }
+
+    /// Lane `lane`'s first output that is not finite, if any.
+    pub fn non_finite_output(&self, lane: usize) -> Option<f64> {
+        self.outputs()
+            .iter()
+            .map(|y| y[lane])
+            .find(|v| !v.is_finite())
+    }
+
     /// Lane `lane`'s action for the observation of the last
     /// [`PolicyLanes::forward`].
     #[inline]
@@ -432,13 +468,13 @@ impl<const K: usize> PolicyLanes<K> {
                 if self.argmax[lane] >= 0 {
                     return Action::Discrete(self.argmax[lane]);
                 }
-                // The outputs are in `a` after an odd number of layers.
+                let n = self.z.len();
                 let y = if self.shape.layers.len() % 2 == 1 {
                     &self.a
                 } else {
                     &self.b
                 };
-                for (z, yo) in self.z.iter_mut().zip(y) {
+                for (z, yo) in self.z.iter_mut().zip(&y[..n]) {
                     *z = yo[lane];
                 }
                 Action::Discrete(argmax_tanh(&self.z) as i64)

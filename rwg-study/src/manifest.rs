@@ -420,7 +420,7 @@ impl Manifest {
                         v
                     }
                 };
-                match w.distribution.as_ref().map(|d| (d.get_ref().as_str(), d.span())) {
+                let dist = match w.distribution.as_ref().map(|d| (d.get_ref().as_str(), d.span())) {
                     None | Some(("normal", _)) => WeightDist::Normal { std: scale },
                     Some(("uniform", _)) => WeightDist::Uniform { a: scale },
                     Some((other, span)) => {
@@ -429,7 +429,20 @@ impl Manifest {
                             format!("weights.distribution: unknown distribution '{other}' (expected \"normal\" or \"uniform\")"),
                         ))
                     }
+                };
+                if let (Some(s), false) = (&w.scale, scale <= dist.max_scale()) {
+                    return Err(err(
+                        s.span(),
+                        format!(
+                            "weights.scale: {scale:e} is beyond what a {} distribution's draws \
+                             can take without overflowing a 64-bit float to infinity; the scale \
+                             must be above 0 and at most {:e}",
+                            dist.name(),
+                            dist.max_scale()
+                        ),
+                    ));
                 }
+                dist
             }
         };
 
