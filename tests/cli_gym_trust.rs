@@ -234,9 +234,17 @@ fn what_envs_may_and_may_not_do() {
             "step raised SystemExit: 5 (not an Exception: SystemExit derives from \
              BaseException only",
         ),
-        ("baseexc", "", "step raised Boom: not an Exception (not an Exception"),
+        (
+            "baseexc",
+            "",
+            "step raised Boom: not an Exception (not an Exception",
+        ),
         ("kbint", "", "step raised KeyboardInterrupt"),
-        ("big_obs", ", dim = 4097", "has 4097 values, more than the limit of 4096"),
+        (
+            "big_obs",
+            ", dim = 4097",
+            "has 4097 values, more than the limit of 4096",
+        ),
     ] {
         let kwargs = format!("mode = \"{mode}\", at_seed = \"{seed}\"{extra}");
         let m = manifest(&dir, &format!("{mode}-x.toml"), "Trust-v0", &kwargs);

@@ -540,7 +540,10 @@ fn all_end(what: &str, pids: &[u32]) {
             .args(["-KILL", &p.to_string()])
             .status();
     }
-    assert!(left.is_empty(), "{what}: the env's processes {left:?} outlived rwg");
+    assert!(
+        left.is_empty(),
+        "{what}: the env's processes {left:?} outlived rwg"
+    );
 }
 
 /// The processes a Gymnasium env starts — in the worker's process group, in
@@ -569,12 +572,21 @@ fn processes_an_env_starts_end_with_rwg_on_any_catchable_signal() {
         );
         let mut cmd = rwg_cmd(
             &py,
-            &["run", &m, "--out", dir.join(format!("r{signal}")).to_str().unwrap()],
+            &[
+                "run",
+                &m,
+                "--out",
+                dir.join(format!("r{signal}")).to_str().unwrap(),
+            ],
         );
         cmd.args(["--threads", "2", "-q", "--no-report"]);
         if signal == "ends" {
             let out = cmd.output().unwrap();
-            assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+            assert!(
+                out.status.success(),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
         } else {
             // both workers' helpers started, and a moment for the hang
             let since = std::cell::Cell::new(None::<Instant>);

@@ -256,7 +256,12 @@ mod tests {
 
     fn alive(pid: i32) -> bool {
         std::fs::read_to_string(format!("/proc/{pid}/stat"))
-            .map(|s| !matches!(s[s.rfind(')').unwrap() + 2..].chars().next(), Some('Z' | 'X')))
+            .map(|s| {
+                !matches!(
+                    s[s.rfind(')').unwrap() + 2..].chars().next(),
+                    Some('Z' | 'X')
+                )
+            })
             .unwrap_or(false)
     }
 
