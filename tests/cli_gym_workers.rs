@@ -605,3 +605,64 @@ fn processes_an_env_starts_end_with_rwg_on_any_catchable_signal() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A worker killed from outside while it waits for rwg's next exchange (no
+/// reset or step in flight) is reported as such, with the episodes in
+/// progress, not blamed on one of them as if it had failed there.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_worker_killed_between_calls_is_not_blamed_on_an_episode() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-family-between");
+    let m = write(
+        &dir,
+        "m.toml",
+        "samples = 20000\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
+         [[envs]]\nid = \"gymnasium:rwg_trust_envs:Trust-v0\"\n",
+    );
+    let kill = |sig: &str, pid: u32| {
+        let st = std::process::Command::new("kill")
+            .args([&format!("-{sig}"), &pid.to_string()])
+            .status()
+            .unwrap();
+        assert!(st.success(), "kill -{sig} {pid}");
+    };
+    let mut child = rwg_cmd(&py, &["run", &m, "--out", dir.join("r").to_str().unwrap()])
+        .args(["--threads", "1", "-q", "--no-report"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    let worker = loop {
+        assert!(t0.elapsed() < Duration::from_secs(60), "no worker");
+        assert!(child.try_wait().unwrap().is_none(), "rwg ended");
+        if let (Some(&w), true) = (
+            children(child.id()).first(),
+            t0.elapsed() > Duration::from_secs(3),
+        ) {
+            break w;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    // rwg stopped: the worker answers what it was sent and then waits
+    kill("STOP", child.id());
+    std::thread::sleep(Duration::from_millis(500));
+    kill("KILL", worker);
+    std::thread::sleep(Duration::from_millis(200));
+    kill("CONT", child.id());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.contains(
+            "the Python worker was killed by signal 9 (SIGKILL); no reset or step was in flight"
+        ),
+        "{err}"
+    );
+    assert!(
+        err.contains("the episodes in progress were: sample "),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

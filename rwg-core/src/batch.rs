@@ -60,13 +60,21 @@ pub struct BatchFailure {
     /// The lane that was running when it happened, if known, counted across
     /// groups (`group * lanes + lane`).
     pub lane: Option<usize>,
+    /// Known to have happened between calls: no lane was being reset or
+    /// stepped (e.g. a worker process killed from outside while it waited
+    /// for the next exchange), so no episode caused it.
+    pub between_calls: bool,
     /// What happened.
     pub error: EnvError,
 }
 
 impl From<EnvError> for BatchFailure {
     fn from(error: EnvError) -> Self {
-        BatchFailure { lane: None, error }
+        BatchFailure {
+            lane: None,
+            between_calls: false,
+            error,
+        }
     }
 }
 
@@ -367,10 +375,17 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
     }
 
     /// The whole batch failed: the lane it names failed (or, if unknown,
-    /// every busy lane of every group).
+    /// every busy lane of every group; between calls, the earliest busy
+    /// episode with a message saying that none caused it).
     fn whole_batch_failed(&mut self, f: BatchFailure, run: &mut BlockRun<'_>) {
         self.poisoned = true;
         self.dead = true;
+        if f.lane.is_none() && f.between_calls {
+            for group in &mut self.groups {
+                group.in_flight = false;
+            }
+            return self.failed_between_calls(f.error, run);
+        }
         for (h, group) in self.groups.iter_mut().enumerate() {
             group.in_flight = false;
             for (i, lane) in group.lanes.iter().enumerate() {
@@ -384,6 +399,46 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
                 }
             }
         }
+    }
+
+    /// A whole-batch failure that no reset or step caused: recorded at the
+    /// earliest busy episode (after its last step), whose message says so
+    /// and names the episodes in progress.
+    fn failed_between_calls(&mut self, error: EnvError, run: &mut BlockRun<'_>) {
+        let mut busy: Vec<&Lane> = self
+            .groups
+            .iter()
+            .flat_map(|g| &g.lanes)
+            .filter(|l| l.state != LaneState::Free)
+            .collect();
+        busy.sort_by_key(|l| l.item);
+        let Some(first) = busy.first() else { return };
+        let e = run.plan.episodes as usize;
+        let name = |l: &Lane| {
+            let at = match l.state {
+                LaneState::Running if l.steps == 0 => "after its reset".into(),
+                LaneState::Running => format!("after step {}", l.steps),
+                _ => "its reset not yet made".into(),
+            };
+            let sample = run.samples.start + (l.item / e) as u64;
+            format!("sample {sample}, episode {} ({at})", l.item % e)
+        };
+        let mut list: Vec<String> = busy.iter().take(4).map(|l| name(l)).collect();
+        if busy.len() > 4 {
+            list.push(format!("{} more", busy.len() - 4));
+        }
+        let text = format!(
+            "{error}; no reset or step was in flight (the worker was between calls: killed \
+             from outside, or ended by a thread of its own?), so no episode caused this; the \
+             episodes in progress were: {}",
+            list.join("; ")
+        );
+        record_failure(
+            &mut run.failure,
+            first.item,
+            first.steps,
+            EnvError::Other(text),
+        );
     }
 
     /// Takes group `g`'s outcomes into its lanes: scores, finished episodes

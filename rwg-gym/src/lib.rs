@@ -339,6 +339,7 @@ impl From<GymError> for BatchFailure {
     fn from(e: GymError) -> Self {
         BatchFailure {
             lane: None,
+            between_calls: false,
             error: e.into(),
         }
     }

@@ -130,11 +130,12 @@ impl PipeBatch {
 
     /// A whole-batch failure, naming the lane the worker was on (if any).
     fn failure(&self, e: ProcError) -> BatchFailure {
+        let mark = self.lane_file.mark();
         BatchFailure {
-            lane: self
-                .lane_file
-                .lane()
+            lane: mark
+                .map(usize::from)
                 .filter(|&l| l < self.lanes * self.groups),
+            between_calls: mark == Some(crate::lane_file::NO_LANE),
             error: (self.describe.proc)(e),
         }
     }

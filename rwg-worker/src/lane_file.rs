@@ -4,6 +4,9 @@
 //! when the worker dies or hangs. [`LaneFile`] is the host's side,
 //! [`LaneMark`] a Rust worker's.
 
+/// The mark of a worker between calls (and before its first).
+pub const NO_LANE: u8 = 255;
+
 /// The host's side: creates the file, reads the lane, removes the file.
 pub struct LaneFile(Option<std::path::PathBuf>);
 
@@ -28,8 +31,14 @@ impl LaneFile {
 
     /// The lane the worker was resetting or stepping, if any.
     pub fn lane(&self) -> Option<usize> {
+        self.mark().filter(|&b| b != NO_LANE).map(usize::from)
+    }
+
+    /// The byte the worker last wrote: a lane, or [`NO_LANE`] between
+    /// calls; `None` without a file.
+    pub fn mark(&self) -> Option<u8> {
         let bytes = std::fs::read(self.0.as_ref()?).ok()?;
-        bytes.first().filter(|&&b| b != 255).map(|&b| b as usize)
+        bytes.first().copied()
     }
 }
 
