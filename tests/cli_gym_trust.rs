@@ -5,7 +5,9 @@
 //! exceptions that are not `Exception`s, writes to fd 1 from C, a closed
 //! stdin, numpy's small dtypes and observations at the size limit; a worker
 //! that exits leaving a helper holding its pipes is reported as an exit at
-//! once.
+//! once, a stopped one as stopped, a make that hangs in one worker by the
+//! start-up timeout; the interpreter must be Python 3, not Python 2 or a
+//! shell.
 //!
 //! Needs `RWG_TEST_PYTHON` (see `cli_gym_bridge_faults.rs`); the test envs
 //! are `tests/python/rwg_trust_envs`.
@@ -285,5 +287,131 @@ fn a_worker_that_exits_is_reported_at_once_though_a_helper_holds_its_pipes() {
         ],
     );
     assert!(!err.contains("did not answer"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The interpreter must be Python 3: a shell named by mistake runs none of
+/// the worker's text and says so, Python 2 is named; a shell script that
+/// runs Python is fine.
+#[test]
+fn the_interpreter_must_be_python_3() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-trust-interpreter");
+    let m = manifest(&dir, "m.toml", "Trust-v0", "");
+    let wrapper = write(&dir, "py.sh", &format!("#!/bin/sh\nexec {py} \"$@\"\n"));
+    std::fs::set_permissions(
+        &wrapper,
+        std::os::unix::fs::PermissionsExt::from_mode(0o755),
+    )
+    .unwrap();
+    let (ok, err) = run(&wrapper, &m, &dir, "wrapper");
+    assert!(ok, "a wrapper script: {err}");
+    let (ok, err) = run("/bin/sh", &m, &dir, "sh");
+    assert!(!ok);
+    says(
+        "sh",
+        &err,
+        &["exited with status 97", "is a shell, not Python 3"],
+    );
+    assert!(
+        !err.contains("not found"),
+        "the shell ran the worker: {err}"
+    );
+    // Python 2 where the machine has one (pyenv's, or on PATH)
+    let py2 = [
+        "/root/.pyenv/versions/2.7.18/bin/python2.7",
+        "/usr/bin/python2",
+    ]
+    .into_iter()
+    .find(|p| Path::new(p).exists());
+    if let Some(py2) = py2 {
+        let (ok, err) = run(py2, &m, &dir, "py2");
+        assert!(!ok);
+        says("python 2", &err, &["is Python 2.7", "needs Python 3"]);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A worker stopped from outside (SIGSTOP) is reported as stopped when
+/// the timeout passes, not as an env that hangs.
+#[test]
+fn a_stopped_worker_is_named_as_stopped() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-trust-stopped");
+    let m = write(
+        &dir,
+        "m.toml",
+        "samples = 20000\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
+         [[envs]]\nid = \"gymnasium:rwg_trust_envs:Trust-v0\"\n",
+    );
+    let mut child = rwg_cmd(&py, &["run", &m, "--out", dir.join("r").to_str().unwrap()])
+        .args(["--threads", "1", "-q", "--no-report"])
+        .env(rwg_gym::TIMEOUT_VAR, "3")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    let worker = loop {
+        assert!(t0.elapsed() < Duration::from_secs(60), "no worker");
+        // the children of each of rwg's threads (a spawner thread forks them)
+        let mut kids = String::new();
+        for task in std::fs::read_dir(format!("/proc/{}/task", child.id())).unwrap() {
+            let path = task.unwrap().path().join("children");
+            kids.push_str(&std::fs::read_to_string(path).unwrap_or_default());
+        }
+        if let (Some(w), true) = (
+            kids.split_whitespace().next(),
+            t0.elapsed() > Duration::from_secs(2),
+        ) {
+            break w.to_string();
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    assert!(std::process::Command::new("kill")
+        .args(["-STOP", &worker])
+        .status()
+        .unwrap()
+        .success());
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    says(
+        "stopped",
+        &err,
+        &[
+            "the Python worker was stopped (by SIGSTOP or SIGTSTP",
+            "within 3 s",
+        ],
+    );
+    assert!(!err.contains("hangs"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An env whose make hangs in one worker process only (the second) is
+/// named by the start-up timeout, whichever worker it is.
+#[test]
+fn a_make_that_hangs_in_one_worker_only_is_named() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-trust-slow-make");
+    let marker = dir.join("first");
+    let kwargs = format!(
+        "mode = \"slow_make\", marker = {:?}",
+        marker.to_str().unwrap()
+    );
+    let m = manifest(&dir, "m.toml", "Trust-v0", &kwargs);
+    let t0 = Instant::now();
+    let out = rwg_cmd(&py, &["run", &m, "--out", dir.join("r").to_str().unwrap()])
+        .args(["--threads", "2", "--no-report"])
+        .env(rwg_gym::START_TIMEOUT_VAR, "4")
+        .output()
+        .unwrap();
+    let err = run_err(out);
+    says(
+        "slow_make",
+        &err,
+        &["did not start within 4 s", "RWG_GYM_START_TIMEOUT"],
+    );
+    assert!(t0.elapsed() < Duration::from_secs(60), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -11,7 +11,7 @@
 //! same dynamics gives.
 //!
 //! The worker program ([`WORKER_PY`]) ships inside rwg and is handed to
-//! `python -c`; the user installs only Gymnasium and the env's package. A
+//! `python -c` after [`BOOT_PY`]; the user installs only Gymnasium and the env's package. A
 //! worker that crashes (a segfault in a C extension), hangs (no answer within
 //! the timeout) or raises is reported as an error naming what happened, with
 //! the Python traceback; rwg itself keeps running.
@@ -41,8 +41,15 @@ use std::ops::Range;
 use std::time::Duration;
 use thiserror::Error;
 
-/// The worker program, run with `python -c`.
+/// The worker program, run by [`BOOT_PY`].
 pub const WORKER_PY: &str = include_str!("worker.py");
+
+/// What `python -c` runs, with [`WORKER_PY`] as its argument: a check that
+/// the interpreter can run the worker, in a text that every Python parses
+/// (Python 2 included) and that a POSIX shell named as the interpreter
+/// reads as a message and `exit 97` (rather than running the worker's
+/// source as shell commands), then the worker itself.
+pub const BOOT_PY: &str = include_str!("boot.py");
 
 /// The prefix of a Gymnasium env id in rwg.
 pub const PREFIX: &str = "gymnasium:";
@@ -544,7 +551,7 @@ impl GymBatch {
         check_reset: bool,
     ) -> Result<GymBatch, GymError> {
         let mut command = std::process::Command::new(&cfg.python);
-        command.arg("-c").arg(WORKER_PY);
+        command.arg("-c").arg(BOOT_PY).arg(WORKER_PY);
         command.env(HASH_SEED_VAR, &cfg.hash_seed);
         #[cfg(unix)]
         let dump = Some(libc::SIGUSR1);

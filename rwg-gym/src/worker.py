@@ -1,6 +1,6 @@
 """rwg's Gymnasium worker: hosts N environment instances, stepped in lockstep.
 
-rwg starts this program with `python -c` and speaks the protocol described in
+rwg starts this program through boot.py (python -c BOOT WORKER) and speaks the protocol described in
 docs/bridge-protocol.md over the child's stdin/stdout. Everything the
 environments print goes to stderr: the protocol uses private duplicates of the
 original stdin/stdout, and fd 0/1 are redirected before gymnasium is imported.

@@ -17,7 +17,9 @@ Importing this module registers them with Gymnasium, so rwg reaches them as
   accepted, they go to stderr), `close_stdin` (closes fd 0 and sys.stdin:
   accepted), `fork_exit` (forks a helper that sleeps, then the worker exits
   with status 4), `space_change` (the instance replaces its observation
-  space with a Box(4) on reset), `big_obs` (`dim` observation values).
+  space with a Box(4) on reset), `big_obs` (`dim` observation values),
+  `slow_make` (every process but the first to create the file `marker`
+  sleeps for an hour in its first gym.make).
 - `Disc-v0`: a Discrete(4) observation (or, with `nested = true`, a Dict of a
   Box and that Discrete); from step `at_step` it observes `value` (-1 or 4).
 - `Fresh-v0`: its episodes depend on the instance's earlier ones (so rwg
@@ -41,12 +43,28 @@ import numpy as np
 from gymnasium import spaces
 
 
+_FIRST = {}
+
+
+def _first_process(marker):
+    """Whether this process created `marker` (decided once per process)."""
+    if marker not in _FIRST:
+        try:
+            os.close(os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+            _FIRST[marker] = True
+        except FileExistsError:
+            _FIRST[marker] = False
+    return _FIRST[marker]
+
+
 class Boom(BaseException):
     """Not an Exception: what an env should never raise."""
 
 
 class Trust(gym.Env):
-    def __init__(self, mode="", at_step=1, at_seed="", dim=3):
+    def __init__(self, mode="", at_step=1, at_seed="", dim=3, marker=""):
+        if mode == "slow_make" and not _first_process(marker):
+            time.sleep(3600)
         self.mode, self.at_step = mode, int(at_step)
         self.at_seed = int(at_seed) if at_seed else None
         dtype = {"obs_f16": np.float16, "obs_i8": np.int8, "obs_bool": np.bool_}.get(
