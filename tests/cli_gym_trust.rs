@@ -209,6 +209,9 @@ fn what_envs_may_and_may_not_do() {
         ("cwrite", ""),
         ("close_stdin", ", at_step = 0"),
         ("big_obs", ", dim = 4096"),
+        ("scalar_obs", ""),
+        ("obs_tuple", ""),
+        ("flood", ""),
     ] {
         let kwargs = format!("mode = \"{mode}\"{extra}");
         let m = manifest(&dir, &format!("{mode}.toml"), "Trust-v0", &kwargs);
@@ -247,6 +250,17 @@ fn what_envs_may_and_may_not_do() {
             ", dim = 4097",
             "has 4097 values, more than the limit of 4096",
         ),
+        (
+            "obs_object",
+            "",
+            "an observation of dtype object (-0.39009746785925",
+        ),
+        (
+            "close_raises",
+            "",
+            "close() raised RuntimeError: close() failed (rwg closes an instance after probing it)",
+        ),
+        ("info_none", "", "was not a dictionary"),
     ] {
         let kwargs = format!("mode = \"{mode}\", at_seed = \"{seed}\"{extra}");
         let m = manifest(&dir, &format!("{mode}-x.toml"), "Trust-v0", &kwargs);

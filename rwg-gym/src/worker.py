@@ -287,6 +287,11 @@ def main():
             of_type = f", type {type(o).__name__}" if boxed and type(o) is not np.ndarray else ""
             raise Refused(f"an observation of {a.size} values (shape {np.shape(a)}{of_type}) "
                           f"where the observation space {obs_space} has {obs_dim}")
+        if a.dtype.kind == "O":
+            raise Refused(f"an observation of dtype object ({floats_text(a)}); rwg takes "
+                          f"arrays of numbers (bool, int, float): give np.asarray(obs, "
+                          f"dtype=np.float64) in the env, or wrap it "
+                          f"(gymnasium.ObservationWrapper)")
         if a.dtype.kind not in "biuf":
             raise Refused(not_real(f"an observation of dtype {a.dtype} ({floats_text(a)})",
                                    "gymnasium.ObservationWrapper"))
@@ -390,7 +395,7 @@ def main():
             progress(b"m")
             other = gym.make(name, **kwargs)
             want = probe(other, CHECK_SEED_2)
-            other.close()
+            close(other, "after probing it")
             probe(env0, CHECK_SEED_1)
             got = probe(env0, CHECK_SEED_2)
         except Refused as e:
@@ -409,7 +414,10 @@ def main():
     if hello.get("check_reset") or hello.get("probe_history"):
         progress(b"m")
         for idx in {0, len(envs) - 1}:
-            envs[idx].close()
+            try:
+                close(envs[idx], "after its start-up checks")
+            except Refused as e:
+                fail("api", str(e))
             envs[idx] = gym.make(name, **kwargs)
 
     send_json(ord("R"), {
@@ -515,7 +523,8 @@ def main():
                     flags[i] = 1 | (2 if term else 0) | (4 if trunc else 0)
                 elif op == 1:
                     if fresh:
-                        envs[base + i].close()
+                        close(envs[base + i], "before the fresh instance of the next episode "
+                                              "(the env's episodes depend on its history)")
                         envs[base + i] = gym.make(name, **kwargs)
                         steps[base + i] = envs[base + i].step
                         check_spaces(envs[base + i], "the fresh instance rwg made for this "
@@ -566,6 +575,16 @@ def main():
 
 class Refused(Exception):
     """A value the env returned that rwg does not take (the message says why)."""
+
+
+def close(env, when):
+    """env.close(), which rwg calls `when`; what it raises is refused,
+    naming the call (not the reset or probe that made rwg close it)."""
+    try:
+        env.close()
+    except Exception as e:  # noqa: BLE001 -- the env's own failure
+        raise Refused(f"close() raised {type(e).__name__}: {e} (rwg closes an instance {when})") \
+            from None
 
 
 def describe(v):

@@ -18,7 +18,11 @@ Importing this module registers them with Gymnasium, so rwg reaches them as
   accepted), `fork_exit` (forks a helper that sleeps, then the worker exits
   with status 4), `space_change` (the instance replaces its observation
   space with a Box(4) on reset), `big_obs` (`dim` observation values),
-  `slow_make` (every process but the first to create the file `marker`
+  `scalar_obs` (a Box of shape ()), `obs_tuple` (a Box observation as a
+  Python tuple), `obs_object` (an array of dtype object), `info_none` (reset's
+  info is None), `flood` (a MiB to stderr every step), `close_raises` (its
+  episodes depend on its history, so rwg makes each afresh, and close()
+  raises once it ran one), `slow_make` (every process but the first to create the file `marker`
   sleeps for an hour in its first gym.make).
 - `Disc-v0`: a Discrete(4) observation (or, with `nested = true`, a Dict of a
   Box and that Discrete); from step `at_step` it observes `value` (-1 or 4).
@@ -70,18 +74,31 @@ class Trust(gym.Env):
         dtype = {"obs_f16": np.float16, "obs_i8": np.int8, "obs_bool": np.bool_}.get(
             mode, np.float64)
         lo, hi = (0, 1) if mode == "obs_bool" else (-5, 5)
-        self.observation_space = spaces.Box(lo, hi, (int(dim),), dtype)
+        shape = () if mode == "scalar_obs" else (int(dim),)
+        self.observation_space = spaces.Box(lo, hi, shape, dtype)
         self.action_space = spaces.Discrete(2)
         self.t = 0
         self.armed = False
         self.x = np.zeros(int(dim))
+        self.episodes = 0
 
     def _obs(self):
+        if self.mode == "scalar_obs":
+            return np.array(self.x[0], self.observation_space.dtype)
+        if self.mode == "obs_tuple":
+            return tuple(float(v) for v in self.x)
+        if self.mode == "obs_object":
+            return self.x.astype(object)
         return self.x.astype(self.observation_space.dtype)
+
+    def close(self):
+        if self.mode == "close_raises" and self.episodes:
+            raise RuntimeError("close() failed")
 
     def reset(self, *, seed=None, options=None):
         super().reset(seed=seed)
         self.t = 0
+        self.episodes += 1
         self.armed = self.at_seed is None or seed == self.at_seed
         self.x = self.np_random.uniform(-1, 1, self.x.shape)
         if self.armed and self.at_step == 0:
@@ -92,10 +109,16 @@ class Trust(gym.Env):
             if self.mode == "close_stdin" and not sys.stdin.closed:
                 os.close(0)
                 sys.stdin.close()
+        if self.mode == "info_none":
+            return self._obs(), None
         return self._obs(), {}
 
     def step(self, action):
         self.t += 1
+        if self.mode == "flood":
+            sys.stderr.write("x" * (1 << 20) + "\n")
+        if self.mode == "close_raises":
+            self.x[1] += 0.001 * self.episodes  # episodes depend on the instance's history
         self.x = np.clip(self.x + 0.1 * (int(action) - 0.5), -5, 5)
         reward, term, trunc = float(self.x[0]), self.t >= 5, False
         if self.armed and self.t >= self.at_step:
