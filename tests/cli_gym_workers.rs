@@ -422,25 +422,9 @@ fn processes_an_env_starts_end_with_its_worker() {
             std::thread::sleep(Duration::from_millis(50));
         };
         assert_eq!(status.success(), name == "ends", "{name}: {status:?}");
-        let started: Vec<u32> = std::fs::read_dir(&marker)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().parse().unwrap())
-            .collect();
+        let started = started_in(&marker);
         assert!(!started.is_empty(), "{name}: the env started nothing");
-        let t0 = Instant::now();
-        while started.iter().any(|&p| alive(p)) && t0.elapsed() < Duration::from_secs(10) {
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        let left: Vec<u32> = started.iter().copied().filter(|&p| alive(p)).collect();
-        for &p in &left {
-            let _ = std::process::Command::new("kill")
-                .args(["-KILL", &p.to_string()])
-                .status();
-        }
-        assert!(
-            left.is_empty(),
-            "{name}: the env's processes {left:?} outlived rwg"
-        );
+        all_end(name, &started);
     }
     let _ = std::fs::remove_dir_all(&dir);
 }

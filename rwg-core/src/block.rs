@@ -152,6 +152,27 @@ pub(crate) fn fail_non_finite<const K: usize>(
     failed
 }
 
+/// [`fail_non_finite`] for the lanes of a [`crate::sampler::LaneWorker`]
+/// or [`crate::many::ManyLaneWorker`] after a forward pass: a lane whose
+/// outputs are not finite fails its episode and stops.
+pub(crate) fn stop_non_finite<const K: usize>(
+    policy: &crate::policy::PolicyLanes<K>,
+    plan: &CellPlan,
+    failure: &mut Option<(usize, u32, EnvError)>,
+    lanes: &mut [Lane; K],
+) {
+    let bad = policy.non_finite_outputs();
+    if bad == 0 {
+        return;
+    }
+    let failed = fail_non_finite(policy, bad, plan, failure, |l| {
+        lanes[l].active.then(|| (lanes[l].item, lanes[l].steps + 1))
+    });
+    for (l, lane) in lanes.iter_mut().enumerate() {
+        lane.active &= failed >> l & 1 == 0;
+    }
+}
+
 /// The error of a network whose output is `v` (not finite).
 pub(crate) fn non_finite_output(plan: &CellPlan, v: f64) -> EnvError {
     EnvError::Other(format!(

@@ -11,7 +11,7 @@
 //! worker's own, so nothing is copied or wrapped per lane.
 
 use crate::block::{
-    draw_block_weights, fail_non_finite, make_failed, record_failure, BlockRun, Lane,
+    draw_block_weights, make_failed, record_failure, stop_non_finite, BlockRun, Lane,
 };
 use crate::policy::{NetShape, PolicyLanes};
 use crate::sampler::{BlockResult, CellPlan, EpisodeResult, SampleError, LANES};
@@ -86,17 +86,9 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
         self.reset_pending(&mut run, &mut lanes);
         while lanes.iter().any(|l| l.active) {
             self.policy.forward(&self.obs);
-            let bad = self.policy.non_finite_outputs();
-            if bad != 0 {
-                let failed = fail_non_finite(&self.policy, bad, plan, &mut run.failure, |l| {
-                    lanes[l].active.then(|| (lanes[l].item, lanes[l].steps + 1))
-                });
-                for (l, lane) in lanes.iter_mut().enumerate() {
-                    lane.active &= failed >> l & 1 == 0;
-                }
-                if !lanes.iter().any(|l| l.active) {
-                    break;
-                }
+            stop_non_finite(&self.policy, plan, &mut run.failure, &mut lanes);
+            if !lanes.iter().any(|l| l.active) {
+                break;
             }
             for (m, lane) in self.step_mask.iter_mut().zip(&lanes) {
                 *m = u8::from(lane.active);

@@ -7,7 +7,7 @@
 //! scheduling, thread count or on which other cells a manifest contains.
 
 pub use crate::block::draw_block_weights;
-use crate::block::{fail_non_finite, record_failure, BlockRun, Lane};
+use crate::block::{record_failure, stop_non_finite, BlockRun, Lane};
 pub use crate::plan::{
     draw_weights, reset_seed, weight_rng, CellPlan, EpisodeResult, SampleError, WeightDist,
 };
@@ -151,15 +151,7 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
         }
         while lanes.iter().any(|l| l.active) {
             self.policy.forward(&self.obs);
-            let bad = self.policy.non_finite_outputs();
-            if bad != 0 {
-                let failed = fail_non_finite(&self.policy, bad, plan, &mut run.failure, |l| {
-                    lanes[l].active.then(|| (lanes[l].item, lanes[l].steps + 1))
-                });
-                for (l, lane) in lanes.iter_mut().enumerate() {
-                    lane.active &= failed >> l & 1 == 0;
-                }
-            }
+            stop_non_finite(&self.policy, plan, &mut run.failure, &mut lanes);
             for (i, lane) in lanes.iter_mut().enumerate() {
                 if !lane.active {
                     continue;
