@@ -217,9 +217,9 @@ fn what_envs_may_and_may_not_do() {
         let m = manifest(&dir, &format!("{mode}.toml"), "Trust-v0", &kwargs);
         let (ok, err) = run(&py, &m, &dir, mode);
         assert!(ok, "{mode}: {err}");
-        let scores = dir.join(mode).join(format!(
-            "cells/gymnasium=rwg_trust_envs=Trust-v0__0HL__nobias/scores.csv"
-        ));
+        let scores = dir
+            .join(mode)
+            .join("cells/gymnasium=rwg_trust_envs=Trust-v0__0HL__nobias/scores.csv");
         assert_eq!(
             std::fs::read_to_string(&scores).unwrap().lines().count(),
             1 + 64 * 2,
@@ -358,7 +358,7 @@ fn a_stopped_worker_is_named_as_stopped() {
         "samples = 20000\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
          [[envs]]\nid = \"gymnasium:rwg_trust_envs:Trust-v0\"\n",
     );
-    let mut child = rwg_cmd(&py, &["run", &m, "--out", dir.join("r").to_str().unwrap()])
+    let child = rwg_cmd(&py, &["run", &m, "--out", dir.join("r").to_str().unwrap()])
         .args(["--threads", "1", "-q", "--no-report"])
         .env(rwg_gym::TIMEOUT_VAR, "3")
         .stdout(std::process::Stdio::null())
