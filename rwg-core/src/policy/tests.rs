@@ -319,3 +319,39 @@ fn discrete_policy_acts_in_range() {
     };
     assert!((0..3).contains(&a));
 }
+
+/// `non_finite_outputs` names the lanes whose outputs overflow (an infinite
+/// product) or are NaN (through a hidden layer: tanh keeps a NaN), at every
+/// SIMD level, and `non_finite_output` gives the value.
+#[test]
+fn non_finite_outputs_name_their_lanes() {
+    const K: usize = 4;
+    let space = Space::Discrete { n: 2 };
+    for hidden in [vec![], vec![3]] {
+        let arch = Architecture {
+            hidden: hidden.clone(),
+            bias: false,
+        };
+        let shape = NetShape::new(2, &arch, 2);
+        for simd in Simd::available_levels() {
+            let mut lanes = PolicyLanes::<K>::new(shape.clone(), &space);
+            lanes.simd = simd;
+            for l in 0..K {
+                lanes.set_weights(l, &vec![1e300; shape.n_weights()]);
+            }
+            // lane 1: 1e300 * 1e10 overflows; lane 2: inf - inf is NaN
+            let obs = [1.0, 2.0, 1e10, 0.0, 1e10, -1e10, 0.5, -0.5];
+            lanes.forward(&obs);
+            let mask = lanes.non_finite_outputs();
+            if hidden.is_empty() {
+                assert_eq!(mask, 0b0110, "{simd:?}");
+                assert_eq!(lanes.non_finite_output(1), Some(f64::INFINITY));
+                assert!(lanes.non_finite_output(2).unwrap().is_nan());
+            } else {
+                // tanh saturates lane 1's infinity; lane 2's NaN goes through
+                assert_eq!(mask, 0b0100, "{simd:?} {hidden:?}");
+            }
+            assert_eq!(lanes.non_finite_output(0), None);
+        }
+    }
+}
