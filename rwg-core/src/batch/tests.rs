@@ -174,3 +174,95 @@ fn pool_reuses_and_drops_failed_envs() {
     assert_eq!(pool.idle(), 1);
     assert_eq!(made.load(std::sync::atomic::Ordering::SeqCst), 1);
 }
+
+/// [`Hosted`] whose `dies_at`-th answer is a whole-batch failure between
+/// calls (its process killed while it waited).
+struct DiesBetweenCalls {
+    hosted: Hosted,
+    answers: usize,
+    dies_at: usize,
+}
+
+impl BatchEnv for DiesBetweenCalls {
+    fn spec(&self) -> &EnvSpec {
+        self.hosted.spec()
+    }
+    fn lanes(&self) -> usize {
+        LANES
+    }
+    fn groups(&self) -> usize {
+        self.hosted.groups()
+    }
+    fn send(
+        &mut self,
+        group: usize,
+        ops: &[LaneOp],
+        actions: LaneActions<'_>,
+    ) -> Result<(), BatchFailure> {
+        self.hosted.send(group, ops, actions)
+    }
+    fn recv(
+        &mut self,
+        group: usize,
+        obs: &mut [f64],
+        out: &mut [LaneOutcome],
+    ) -> Result<(), BatchFailure> {
+        self.answers += 1;
+        if self.answers == self.dies_at {
+            return Err(BatchFailure {
+                lane: None,
+                between_calls: true,
+                error: EnvError::Other("the worker was killed by signal 9".into()),
+            });
+        }
+        self.hosted.recv(group, obs, out)
+    }
+}
+
+/// A failure between calls is recorded at the earliest busy episode after
+/// its last step (not at a step it did not take), saying that no episode
+/// caused it and naming the episodes in progress.
+#[test]
+fn a_failure_between_calls_blames_no_episode() {
+    let plan = CellPlan {
+        seed: 1,
+        env_id: "Toy-v0".into(),
+        arch: Architecture {
+            hidden: vec![],
+            bias: false,
+        },
+        episodes: 2,
+        dist: WeightDist::Normal { std: 1.0 },
+    };
+    let env = DiesBetweenCalls {
+        hosted: Hosted::new(Toy::new(1 << 40, false), 1),
+        answers: 0,
+        dies_at: 3,
+    };
+    let mut bw = BatchLaneWorker::new(env, &plan);
+    let mut out = vec![
+        EpisodeResult {
+            score: f64::NAN,
+            steps: 0
+        };
+        2 * 32
+    ];
+    let e = bw.run_block(&plan, 32..64, &mut out).unwrap_err();
+    // answers 1 (resets) and 2 (step 1) came back: step 1 is the last taken
+    // (sample 32's episode 0 ended there; the earliest busy one is episode 1)
+    assert_eq!((e.sample, e.episode, e.step), (32, 1, 1), "{e}");
+    let text = e.error.to_string();
+    assert!(
+        text.starts_with("the worker was killed by signal 9; no reset or step was in flight"),
+        "{text}"
+    );
+    assert!(
+        text.contains(
+            "the episodes in progress were: sample 32, episode 1 (after step 1); \
+             sample 33, episode 0 (after step 1)"
+        ),
+        "{text}"
+    );
+    assert!(text.contains("12 more"), "{text}");
+    assert!(bw.into_env().is_none(), "a dead batch is not reused");
+}
