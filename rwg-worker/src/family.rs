@@ -94,6 +94,9 @@ pub fn end_all() {
                 libc::kill(-p, libc::SIGKILL);
             }
         }
+        // Only once a worker is gone are the processes it started that left
+        // its group re-parented to rwg, where the sweep finds them.
+        linux::wait_ended(&workers, std::time::Duration::from_secs(2));
         linux::sweep(&format!("{MARK_VAR}={}:", std::process::id()), &workers);
     }
 }
@@ -213,6 +216,32 @@ mod linux {
                     libc::kill(p, libc::SIGKILL);
                     libc::waitpid(p, std::ptr::null_mut(), 0);
                 }
+            }
+        }
+    }
+
+    /// Waits up to `limit` until every one of `pids` (rwg's children) has
+    /// ended, without reaping them.
+    pub(super) fn wait_ended(pids: &[i32], limit: Duration) {
+        let t0 = Instant::now();
+        for &p in pids {
+            loop {
+                // SAFETY: a zeroed siginfo_t for waitid to fill.
+                let mut info: libc::siginfo_t = unsafe { std::mem::zeroed() };
+                // SAFETY: waitid on our own child; WNOWAIT leaves it unreaped.
+                let r = unsafe {
+                    libc::waitid(
+                        libc::P_PID,
+                        p as libc::id_t,
+                        &mut info,
+                        libc::WEXITED | libc::WNOHANG | libc::WNOWAIT,
+                    )
+                };
+                // SAFETY: filled by waitid (zero while the child runs).
+                if r != 0 || unsafe { info.si_pid() } != 0 || t0.elapsed() > limit {
+                    break;
+                }
+                std::thread::sleep(Duration::from_millis(2));
             }
         }
     }
