@@ -4,15 +4,23 @@
 //! env (`gymnasium:ID`, run by `rwg-gym`'s Python workers), or a JAX env
 //! (`gymnax:ID`, `brax:NAME`, `jax:module:callable`, run by `rwg-jax`'s
 //! Python workers, one compiled call per chunk of networks). A new kind of
-//! environment source is a new [`EnvSource`] variant here.
+//! environment source is a new [`EnvSource`] variant here, with its arm in
+//! [`EnvSource::run_blocks`] (how a cell's blocks are sampled) and
+//! [`EnvSource::fault_label`].
 
-use rwg_env::{EnvError, TimeLimit};
-use rwg_envs::EnvOptions;
+use crate::cells::Cell;
+use crate::error::CellError;
+use crate::fault_context::Watched;
+use rwg_core::many::run_blocks_many;
+use rwg_core::sampler::{run_blocks, BlockResult, CellPlan, LANES};
+use rwg_env::{EnvError, Environment, TimeLimit};
+use rwg_envs::{visit, visit_lockstep, EnvOptions, EnvVisitor, LockstepEnv, LockstepVisitor};
 use rwg_plugin_host::{
     load_plugin, load_plugin_path_from_env_reserving, Plugin, PluginEnv, PluginEnvType,
     PluginLoadError, PluginScan, PLUGIN_PATH_VAR,
 };
 use std::collections::HashMap;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// Where a cell's environment comes from.
@@ -28,6 +36,116 @@ pub enum EnvSource {
     /// A JAX env run by Python worker processes (`gymnax:`, `brax:`,
     /// `jax:`); its workers are shared by the env's cells.
     Jax(std::sync::Arc<rwg_jax::JaxSource>),
+}
+
+impl EnvSource {
+    /// Runs the given blocks of a cell (`plan`), each finished block to
+    /// `on_block`, in block order; the cell stops at `on_block`'s first
+    /// error. Built-in envs are statically dispatched (the sampler is
+    /// monomorphised for each), through their lockstep version (all lanes in
+    /// one `step_many`) where they have one and
+    /// [`use_lockstep`](crate::runner::use_lockstep) says so; plugin envs
+    /// see [`PluginSource::run_blocks`]; Gymnasium envs run through the
+    /// batched sampler (`rwg_core::batch`); JAX envs through their workers'
+    /// compiled calls (`rwg_jax`). Called inside the run's worker pool.
+    pub fn run_blocks(
+        &self,
+        plan: &CellPlan,
+        blocks: &[Range<u64>],
+        on_block: impl FnMut(BlockResult) -> Result<(), CellError>,
+    ) -> Result<(), CellError> {
+        match self {
+            EnvSource::Builtin(opts) => run_builtin(opts, plan, blocks, on_block),
+            EnvSource::Plugin(p) => p.run_blocks(plan, blocks, on_block),
+            // Batched: one Python worker per thread steps its 16 lanes together.
+            EnvSource::Gym(g) => g.run_blocks(plan, blocks, wave(), on_block),
+            // Compiled calls of many networks: one worker process per thread on
+            // a CPU device, one on a GPU or TPU (rwg_jax::JaxSource::workers_for).
+            EnvSource::Jax(j) => j.run_blocks(plan, blocks, rayon::current_num_threads(), on_block),
+        }
+    }
+
+    /// How a fault report names `cell` (whose source this is) and its env
+    /// (see [`fault_context`](crate::fault_context)).
+    pub fn fault_label(&self, cell: &Cell) -> String {
+        match self {
+            EnvSource::Plugin(p) => format!(
+                "plugin '{}' ({}), env '{}', cell {}",
+                p.ty.plugin().id,
+                p.path().display(),
+                cell.plan.env_id,
+                cell.id.dir
+            ),
+            EnvSource::Builtin(_) => {
+                format!("env '{}', cell {}", cell.plan.env_id, cell.id.dir)
+            }
+            EnvSource::Gym(_) => format!("env '{}', cell {}", cell.spec.id, cell.id.dir),
+            EnvSource::Jax(j) => format!(
+                "JAX env '{}' ({} on {}), cell {}",
+                cell.spec.id,
+                j.info().precision.name(),
+                j.info().device,
+                cell.id.dir
+            ),
+        }
+    }
+}
+
+/// Blocks in flight at once: two per worker thread of the pool running them.
+fn wave() -> usize {
+    rayon::current_num_threads() * 2
+}
+
+/// A built-in env's blocks: through its lockstep version when it has one
+/// and [`use_lockstep`](crate::runner::use_lockstep) says so, else one
+/// scalar env per lane.
+fn run_builtin(
+    opts: &EnvOptions,
+    plan: &CellPlan,
+    blocks: &[Range<u64>],
+    on_block: impl FnMut(BlockResult) -> Result<(), CellError>,
+) -> Result<(), CellError> {
+    let mut runner = BuiltinRunner {
+        plan,
+        blocks,
+        on_block,
+    };
+    let id = &plan.env_id;
+    if crate::runner::use_lockstep() {
+        match visit_lockstep::<LANES, _>(id, opts, runner) {
+            Ok(done) => return done,
+            Err(back) => runner = back,
+        }
+    }
+    visit(id, opts, runner).expect("env ids are checked when cells are planned")
+}
+
+/// A built-in env's blocks, handed the env by [`visit`] or [`visit_lockstep`].
+struct BuiltinRunner<'a, G> {
+    plan: &'a CellPlan,
+    blocks: &'a [Range<u64>],
+    on_block: G,
+}
+
+impl<G: FnMut(BlockResult) -> Result<(), CellError>> EnvVisitor for BuiltinRunner<'_, G> {
+    type Output = Result<(), CellError>;
+    fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
+        run_blocks(
+            self.plan,
+            self.blocks,
+            wave(),
+            || env.clone(),
+            self.on_block,
+        )
+    }
+}
+
+impl<G: FnMut(BlockResult) -> Result<(), CellError>> LockstepVisitor for BuiltinRunner<'_, G> {
+    type Output = Result<(), CellError>;
+    fn visit<M: LockstepEnv + Clone + Send + Sync + 'static>(self, env: M) -> Self::Output {
+        let make = || Ok(env.clone());
+        run_blocks_many(self.plan, self.blocks, wave(), make, self.on_block)
+    }
 }
 
 /// A plugin environment as a cell builds it.
@@ -53,6 +171,34 @@ impl PluginSource {
     /// The plugin library file.
     pub fn path(&self) -> &Path {
         &self.ty.plugin().path
+    }
+
+    /// Runs the given blocks of a cell of this plugin env (see
+    /// [`EnvSource::run_blocks`]): isolated, batched through one worker
+    /// process per thread ([`isolate`](crate::isolate)); with ABI 1.2's
+    /// vector env or 1.1's batched calls, one call stepping a worker's lanes
+    /// ([`plugin_batch`](crate::plugin_batch)); else through the generic
+    /// sampler as `Watched<TimeLimit<PluginEnv>>`, its calls recorded for
+    /// fault reports ([`fault_context`](crate::fault_context)).
+    pub fn run_blocks(
+        &self,
+        plan: &CellPlan,
+        blocks: &[Range<u64>],
+        on_block: impl FnMut(BlockResult) -> Result<(), CellError>,
+    ) -> Result<(), CellError> {
+        if let Some(iso) = &self.isolated {
+            return iso.run_blocks(plan, blocks, wave(), on_block);
+        }
+        if let Some(calls) = crate::plugin_batch::calls_for(self) {
+            return crate::plugin_batch::run_blocks(self, calls, plan, blocks, wave(), on_block);
+        }
+        let make_env = || {
+            Watched::create(|| {
+                self.make()
+                    .expect("an instance was created when the cells were planned")
+            })
+        };
+        run_blocks(plan, blocks, wave(), make_env, on_block)
     }
 }
 

@@ -9,9 +9,8 @@
 
 use crate::cells::{new_meta, plan_cells, Cell, SummaryLine};
 use crate::committer::Committer;
-use crate::env_source::EnvSource;
 use crate::error::CellError;
-use crate::fault_context::{self, Watched};
+use crate::fault_context;
 use crate::manifest::Manifest;
 use crate::recorder::{spawn_cell_end, Record, Recorded, Recorder};
 use crate::rundir::blocks::{
@@ -29,10 +28,7 @@ use crate::rundir::study::{edited_message, manifest_edits};
 use crate::rundir::{cell_dir, BLOCKS, CELLS, MANIFEST, RUN_JSON};
 use crate::timing::{CellTiming, RunTiming};
 use crate::StudyError;
-use rwg_core::many::run_blocks_many;
-use rwg_core::sampler::{run_blocks, BlockResult, LANES};
-use rwg_env::Environment;
-use rwg_envs::{visit, visit_lockstep, EnvVisitor, LockstepEnv, LockstepVisitor};
+use rwg_core::sampler::BlockResult;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant, SystemTime};
@@ -279,26 +275,7 @@ pub fn run_study(
                 cell.id.dir
             );
             progress.cell(&label);
-            fault_context::set_cell_label(match &cell.source {
-                EnvSource::Plugin(p) => format!(
-                    "plugin '{}' ({}), env '{}', cell {}",
-                    p.ty.plugin().id,
-                    p.path().display(),
-                    cell.plan.env_id,
-                    cell.id.dir
-                ),
-                EnvSource::Builtin(_) => {
-                    format!("env '{}', cell {}", cell.plan.env_id, cell.id.dir)
-                }
-                EnvSource::Gym(_) => format!("env '{}', cell {}", cell.spec.id, cell.id.dir),
-                EnvSource::Jax(j) => format!(
-                    "JAX env '{}' ({} on {}), cell {}",
-                    cell.spec.id,
-                    j.info().precision.name(),
-                    j.info().device,
-                    cell.id.dir
-                ),
-            });
+            fault_context::set_cell_label(cell.source.fault_label(cell));
             let blocks: Vec<_> = (0..nb)
                 .filter(|&b| owned(ci, b) && !indexes[ci].done(b))
                 .map(|b| block_samples(b, m.samples))
@@ -312,12 +289,18 @@ pub fn run_study(
             let t_sampling = Instant::now();
             let stop = [opts.stop, &abort];
             let sampled = pool.install(|| {
-                run_cell_blocks(cell, &blocks, &stop, &committer, |b: &BlockResult| {
-                    let s: u64 = b.episodes.iter().map(|r| r.steps as u64).sum();
-                    cell_steps += s;
-                    steps_now += s;
-                    progress.block(&label, b.samples.end - b.samples.start, s);
-                })
+                cell.source
+                    .run_blocks(&cell.plan, &blocks, |b: BlockResult| {
+                        let s: u64 = b.episodes.iter().map(|r| r.steps as u64).sum();
+                        cell_steps += s;
+                        steps_now += s;
+                        progress.block(&label, b.samples.end - b.samples.start, s);
+                        committer.submit(b)?;
+                        if stop.iter().any(|s| s.load(Ordering::SeqCst)) {
+                            return Err(CellError::Interrupted);
+                        }
+                        Ok(())
+                    })
             });
             let sampling = t_sampling.elapsed();
             // A cell sampled to its end is finalised from the blocks still
@@ -450,134 +433,6 @@ pub fn lockstep_setting() -> Result<bool, rwg_env::vars::VarError> {
         true,
         "0: built-in envs one instance per lane, not in lockstep",
     )
-}
-
-/// Runs the given blocks of a cell. Built-in envs are statically dispatched
-/// (the sampler is monomorphised for each), through their lockstep version
-/// (all lanes in one `step_many`) where they have one and [`use_lockstep`]
-/// says so;
-/// plugin envs run through the same
-/// generic sampler as `Watched<TimeLimit<PluginEnv>>`, or, when the plugin has
-/// ABI 1.1's batched calls, through the in-process batched sampler
-/// (`plugin_batch`); isolated plugin envs and Gymnasium envs through the
-/// batched sampler (`rwg_core::batch`); JAX envs through their workers'
-/// compiled calls (`rwg_jax`). Each finished block goes to
-/// `on_done`, then to `committer`; the cell stops after a block when a flag
-/// of `stop` is set.
-fn run_cell_blocks(
-    cell: &Cell,
-    blocks: &[std::ops::Range<u64>],
-    stop: &[&AtomicBool],
-    committer: &Committer,
-    on_done: impl FnMut(&BlockResult),
-) -> Result<(), CellError> {
-    struct Runner<'a, F> {
-        cell: &'a Cell,
-        blocks: &'a [std::ops::Range<u64>],
-        stop: &'a [&'a AtomicBool],
-        committer: &'a Committer,
-        on_done: F,
-    }
-    impl<F: FnMut(&BlockResult)> Runner<'_, F> {
-        /// What happens to each finished block, in block order.
-        fn on_block(&mut self, b: BlockResult) -> Result<(), CellError> {
-            (self.on_done)(&b);
-            self.committer.submit(b)?;
-            if self.stop.iter().any(|s| s.load(Ordering::SeqCst)) {
-                return Err(CellError::Interrupted);
-            }
-            Ok(())
-        }
-
-        fn run<E: Environment + Send>(
-            mut self,
-            make_env: impl Fn() -> E + Sync,
-        ) -> Result<(), CellError> {
-            let wave = rayon::current_num_threads() * 2;
-            let (plan, blocks) = (&self.cell.plan, self.blocks);
-            run_blocks(plan, blocks, wave, make_env, |b: BlockResult| {
-                self.on_block(b)
-            })
-        }
-    }
-    impl<F: FnMut(&BlockResult)> EnvVisitor for Runner<'_, F> {
-        type Output = Result<(), CellError>;
-        fn visit<E: Environment + Clone + Send + Sync + 'static>(self, env: E) -> Self::Output {
-            self.run(|| env.clone())
-        }
-    }
-    impl<F: FnMut(&BlockResult)> LockstepVisitor for Runner<'_, F> {
-        type Output = Result<(), CellError>;
-        fn visit<M: LockstepEnv + Clone + Send + Sync + 'static>(mut self, env: M) -> Self::Output {
-            let wave = rayon::current_num_threads() * 2;
-            let (plan, blocks) = (&self.cell.plan, self.blocks);
-            run_blocks_many(
-                plan,
-                blocks,
-                wave,
-                || Ok(env.clone()),
-                |b: BlockResult| self.on_block(b),
-            )
-        }
-    }
-    let mut runner = Runner {
-        cell,
-        blocks,
-        stop,
-        committer,
-        on_done,
-    };
-    match &cell.source {
-        EnvSource::Builtin(opts) => {
-            let id = &cell.plan.env_id;
-            if use_lockstep() {
-                match visit_lockstep::<LANES, _>(id, opts, runner) {
-                    Ok(done) => return done,
-                    Err(back) => runner = back,
-                }
-            }
-            visit(id, opts, runner).expect("env ids are checked when cells are planned")
-        }
-        // Isolated: batched, one worker process per thread (see isolate).
-        EnvSource::Plugin(p) if p.isolated.is_some() => {
-            let wave = rayon::current_num_threads() * 2;
-            let iso = p.isolated.as_ref().expect("isolated");
-            iso.run_blocks(&cell.plan, blocks, wave, |b: BlockResult| {
-                runner.on_block(b)
-            })
-        }
-        // ABI 1.2's vector env or 1.1's batched calls: one call steps a
-        // worker's lanes.
-        EnvSource::Plugin(p) if crate::plugin_batch::calls_for(p).is_some() => {
-            let wave = rayon::current_num_threads() * 2;
-            let calls = crate::plugin_batch::calls_for(p).expect("checked");
-            crate::plugin_batch::run_blocks(p, calls, &cell.plan, blocks, wave, |b| {
-                runner.on_block(b)
-            })
-        }
-        // Plugin calls are recorded for fault reports (see fault_context).
-        EnvSource::Plugin(p) => runner.run(|| {
-            Watched::create(|| {
-                p.make()
-                    .expect("an instance was created when the cells were planned")
-            })
-        }),
-        // Batched: one Python worker per thread steps its 16 lanes together.
-        EnvSource::Gym(g) => {
-            let wave = rayon::current_num_threads() * 2;
-            g.run_blocks(&cell.plan, blocks, wave, |b: BlockResult| {
-                runner.on_block(b)
-            })
-        }
-        // Compiled calls of many networks: one worker process per thread on
-        // a CPU device, one on a GPU or TPU (rwg_jax::JaxSource::workers_for).
-        EnvSource::Jax(j) => {
-            let threads = rayon::current_num_threads();
-            j.run_blocks(&cell.plan, blocks, threads, |b: BlockResult| {
-                runner.on_block(b)
-            })
-        }
-    }
 }
 
 /// The study `run.json` in `out` records, if it reads and records one.
