@@ -80,7 +80,9 @@
 //!   a plugin env in `rwg __plugin-worker` processes, both sides;
 //!   [`plugin_batch`]: an in-process plugin's lanes through its vector env or
 //!   batched calls as a `ManyEnv`; [`plugin_path`]: what `plugin = "..."` must name.
-//! - [`runner`]: blocks to run directory, resume, shards; [`fault_context`] names
+//! - [`runner`]: blocks to run directory, resume, shards (`runner/setup`:
+//!   the directory and the blocks owed; `runner/cell_loop`: cell by cell);
+//!   [`fault_context`] names
 //!   the plugin call in flight; [`committer`]: block commits on I/O threads,
 //!   gathered up to 2 s; `recorder`: a cell's end off the sampling path;
 //!   [`timing`]: `rwg run --timing`.
