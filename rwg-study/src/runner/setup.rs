@@ -232,17 +232,7 @@ fn prepare_dir(
         )));
     }
     if force_new {
-        for p in [CELLS, RUN_JSON, MANIFEST] {
-            let p = out.join(p);
-            let removed = if p.is_dir() {
-                std::fs::remove_dir_all(&p)
-            } else if p.exists() {
-                std::fs::remove_file(&p)
-            } else {
-                Ok(())
-            };
-            removed.map_err(StudyError::io(format!("cannot remove {}", p.display())))?;
-        }
+        clear_dir(out)?;
     }
     let mut previous = None;
     if manifest_path.exists() {
@@ -293,29 +283,7 @@ fn prepare_dir(
             )));
         }
         if out.join(RUN_JSON).exists() {
-            let meta = read_run_meta(out)?;
-            if meta.format < RUN_FORMAT {
-                return Err(StudyError::Refused(format!(
-                    "{} was written by an older rwg (run format {}, without checksums), so what it \
-                     holds cannot be verified; rerun with --force-new to start over, or use another --out",
-                    out.display(),
-                    meta.format
-                )));
-            }
-            if meta.shard != shard {
-                let show = |s: Option<ShardMeta>| {
-                    s.map_or("the whole study".into(), |s| {
-                        format!("shard {}/{}", s.index, s.count)
-                    })
-                };
-                return Err(StudyError::Refused(format!(
-                    "{} holds {}, not {}; use another --out",
-                    out.display(),
-                    show(meta.shard),
-                    show(shard)
-                )));
-            }
-            previous = Some(meta);
+            previous = Some(resumable_meta(out, shard)?);
         }
     } else if out.join(RUN_JSON).exists() {
         return Err(StudyError::Refused(format!(
@@ -327,4 +295,50 @@ fn prepare_dir(
     crate::rundir::export::create_dir_all(&cells)
         .map_err(StudyError::io(format!("cannot create {}", cells.display())))?;
     Ok(previous)
+}
+
+/// Deletes what `--force-new` starts over from: the cells, `run.json` and
+/// `manifest.toml` of the run directory `out`.
+fn clear_dir(out: &Path) -> Result<(), StudyError> {
+    for p in [CELLS, RUN_JSON, MANIFEST] {
+        let p = out.join(p);
+        let removed = if p.is_dir() {
+            std::fs::remove_dir_all(&p)
+        } else if p.exists() {
+            std::fs::remove_file(&p)
+        } else {
+            Ok(())
+        };
+        removed.map_err(StudyError::io(format!("cannot remove {}", p.display())))?;
+    }
+    Ok(())
+}
+
+/// The `run.json` of the run directory `out`, which holds this study, if a
+/// run of `shard` (or of the whole study) written with checksums can resume
+/// from it.
+fn resumable_meta(out: &Path, shard: Option<ShardMeta>) -> Result<RunMeta, StudyError> {
+    let meta = read_run_meta(out)?;
+    if meta.format < RUN_FORMAT {
+        return Err(StudyError::Refused(format!(
+            "{} was written by an older rwg (run format {}, without checksums), so what it \
+             holds cannot be verified; rerun with --force-new to start over, or use another --out",
+            out.display(),
+            meta.format
+        )));
+    }
+    if meta.shard != shard {
+        let show = |s: Option<ShardMeta>| {
+            s.map_or("the whole study".into(), |s| {
+                format!("shard {}/{}", s.index, s.count)
+            })
+        };
+        return Err(StudyError::Refused(format!(
+            "{} holds {}, not {}; use another --out",
+            out.display(),
+            show(meta.shard),
+            show(shard)
+        )));
+    }
+    Ok(meta)
 }
