@@ -11,12 +11,12 @@ use rwg_study::manifest::Manifest;
 use rwg_study::rundir::data::KeptEpisodes;
 use rwg_study::rundir::meta::ShardMeta;
 use rwg_study::rundir::REPORT_HTML;
-use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome};
+use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome, RunReport};
 use rwg_study::shell::sh_path;
 use rwg_study::StudyError;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Arguments of `rwg run`.
 #[derive(clap::Args)]
@@ -165,23 +165,7 @@ fn apply_overrides(m: &mut Manifest, args: &Args) -> Result<()> {
 pub fn run(args: Args) -> Result<()> {
     let mut m = Manifest::load(&args.manifest)?;
     apply_overrides(&mut m, &args)?;
-    let out = match (&args.out, &m.out) {
-        (Some(o), _) | (None, Some(o)) => o.clone(),
-        (None, None) => {
-            let stem = args
-                .manifest
-                .file_stem()
-                .map_or("run".into(), |s| s.to_string_lossy().into_owned());
-            PathBuf::from("runs").join(stem)
-        }
-    };
-    if out.exists() && !out.is_dir() {
-        anyhow::bail!(
-            "{}: exists and is not a directory; the run directory (--out, or `out` in the \
-             manifest) must be a directory or not exist yet",
-            out.display()
-        );
-    }
+    let out = run_dir(&args, &m)?;
     // Until the run directory holds the study, the command as given
     // resumes it; from then on, the directory's own manifest.
     let (resume, resume_stopped) = guard_texts(&out, &resume_command(&args, &out, false));
@@ -199,6 +183,52 @@ pub fn run(args: Args) -> Result<()> {
         keep_episodes: args.shard.is_none() && !args.no_report,
         commit_linger: crate::env_vars::commit_linger()?,
     };
+    let outcome = run_with_progress(&mut m, &opts, &args, &out);
+    let Some(mut report) = finished(outcome, &args, &out)? else {
+        return Ok(());
+    };
+    print_summary(&report, &m, &args);
+    let report_time = finish_output(&mut report, &args, &out)?;
+    if args.timing {
+        crate::stdio::write_err(&crate::timing_table::timing_table(
+            &report.timing,
+            report_time,
+        ));
+    }
+    Ok(())
+}
+
+/// The run directory: `--out`, else the manifest's `out`, else
+/// `runs/STEM`; refused if it exists and is not a directory.
+fn run_dir(args: &Args, m: &Manifest) -> Result<PathBuf> {
+    let out = match (&args.out, &m.out) {
+        (Some(o), _) | (None, Some(o)) => o.clone(),
+        (None, None) => {
+            let stem = args
+                .manifest
+                .file_stem()
+                .map_or("run".into(), |s| s.to_string_lossy().into_owned());
+            PathBuf::from("runs").join(stem)
+        }
+    };
+    if out.exists() && !out.is_dir() {
+        anyhow::bail!(
+            "{}: exists and is not a directory; the run directory (--out, or `out` in the \
+             manifest) must be a directory or not exist yet",
+            out.display()
+        );
+    }
+    Ok(out)
+}
+
+/// Runs the study with the progress display `args` choose, then prints the
+/// warnings of the plugin checks (only after a run that succeeded).
+fn run_with_progress(
+    m: &mut Manifest,
+    opts: &RunOptions<'_>,
+    args: &Args,
+    out: &Path,
+) -> Result<RunOutcome, StudyError> {
     let (mut bar, mut lines, mut silent) = (Bar::default(), Lines::new(), Silent);
     let display: &mut dyn Progress = if args.quiet {
         &mut silent
@@ -210,9 +240,9 @@ pub fn run(args: Args) -> Result<()> {
     let mut progress = WithChecks {
         display,
         checks: vec![],
-        started: Some(guard_texts(&out, &resume_command(&args, &out, true))),
+        started: Some(guard_texts(out, &resume_command(args, out, true))),
     };
-    let outcome = run_study(&mut m, &opts, &mut progress);
+    let outcome = run_study(m, opts, &mut progress);
     // A failed run does not wait for the checks (a hanging plugin's would
     // take their whole timeout); they die with rwg.
     let checks = if outcome.is_ok() {
@@ -226,23 +256,34 @@ pub fn run(args: Args) -> Result<()> {
     {
         crate::errln!("warning: {w}");
     }
-    let mut report = match outcome {
+    outcome
+}
+
+/// The report of a finished run; `None` when the directory was complete
+/// already (its report written if missing). An interrupted run or a failed
+/// cell prints how to resume and exits (130, 1).
+fn finished(
+    outcome: Result<RunOutcome, StudyError>,
+    args: &Args,
+    out: &Path,
+) -> Result<Option<Box<RunReport>>> {
+    Ok(Some(match outcome {
         Ok(RunOutcome::AlreadyComplete(_lock)) => {
             crate::outln!(
                 "{} already holds this study, complete; nothing to do.",
                 out.display()
             );
             if args.shard.is_none() && !args.no_report && !out.join(REPORT_HTML).exists() {
-                write_report(&out, KeptEpisodes::new())?;
+                write_report(out, KeptEpisodes::new())?;
             }
-            return Ok(());
+            return Ok(None);
         }
         Ok(RunOutcome::Finished(report)) => report,
         Err(StudyError::Interrupted) => {
             crate::errln!(
                 "stopped; every finished block is saved in {}. Resume with:\n  {}",
                 out.display(),
-                resume_command(&args, &out, true)
+                resume_command(args, out, true)
             );
             fault_guard::disarm();
             std::process::exit(130)
@@ -252,16 +293,18 @@ pub fn run(args: Args) -> Result<()> {
             crate::errln!("error: {}", crate::error_text(&e.into()));
             crate::errln!(
                 "Every committed block is kept; once the cause is fixed, resume with: {}",
-                resume_command(&args, &out, true)
+                resume_command(args, out, true)
             );
             fault_guard::disarm();
             std::process::exit(1)
         }
         Err(e) => return Err(e.into()),
-    };
+    }))
+}
 
+/// Prints the summary table (whole studies) and the session's totals.
+fn print_summary(report: &RunReport, m: &Manifest, args: &Args) {
     let lines = &report.lines;
-    let mut report_time = None;
     if args.shard.is_none() {
         crate::outln!("{}", crate::summary::header());
         for l in lines {
@@ -284,6 +327,12 @@ pub fn run(args: Args) -> Result<()> {
         report.meta.steps_per_s,
         report.threads
     );
+}
+
+/// Where the results are, and for a whole study its report (`report.html`,
+/// unless `--no-report`); returns the time the report took.
+fn finish_output(report: &mut RunReport, args: &Args, out: &Path) -> Result<Option<Duration>> {
+    let mut report_time = None;
     match args.shard {
         None => {
             crate::outln!(
@@ -298,7 +347,7 @@ pub fn run(args: Args) -> Result<()> {
                     .num_threads(report.threads)
                     .build()
                     .context("cannot start the report's threads")?
-                    .install(|| write_report(&out, episodes))?;
+                    .install(|| write_report(out, episodes))?;
                 report_time = Some(t.elapsed());
             }
         }
@@ -309,13 +358,7 @@ pub fn run(args: Args) -> Result<()> {
             out.display()
         ),
     }
-    if args.timing {
-        crate::stdio::write_err(&crate::timing_table::timing_table(
-            &report.timing,
-            report_time,
-        ));
-    }
-    Ok(())
+    Ok(report_time)
 }
 
 /// What the fault handlers print after a plugin's fault and after an
