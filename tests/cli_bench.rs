@@ -432,6 +432,96 @@ fn bench_peers_measures_both_sides_and_their_ratio() {
     }
 }
 
+/// `--source gymnax` has workloads of gymnax's ids and no SIMD levels; both
+/// are checked before the peer is looked for.
+#[test]
+fn bench_peers_gymnax_source_checks_its_workloads() {
+    let err = bench_peers_err(&["--source", "gymnax", "--env", "CartPole-v0", "--no-pin"]);
+    assert!(
+        err.contains("no peer workload uses CartPole-v0 (--source gymnax)"),
+        "{err}"
+    );
+    assert!(err.contains("CartPole-v1, Acrobot-v1"), "{err}");
+    let err = bench_peers_err(&["--source", "gymnax", "--simd", "scalar", "--no-pin"]);
+    assert!(err.contains("--simd is for the built-in envs"), "{err}");
+    let err = bench_peers_err(&["--source", "jax", "--no-pin"]);
+    assert!(err.contains("possible values: builtin, gymnax"), "{err}");
+}
+
+/// Smoke test of `rwg bench peers --source gymnax`: rwg runs gymnax's
+/// Pendulum-v1 as its `gymnax:` env (its worker on the peer's Python) beside
+/// gymnax-raw on tiny counts. Needs RWG_PEER_PYTHON, as the test above.
+#[test]
+fn bench_peers_gymnax_source_measures_rwgs_jax_source() {
+    let test = "bench_peers_gymnax_source_measures_rwgs_jax_source";
+    let Some(python) = std::env::var("RWG_PEER_PYTHON")
+        .ok()
+        .filter(|p| !p.is_empty())
+    else {
+        skip(test, "set RWG_PEER_PYTHON to a Python with jax and gymnax");
+        return;
+    };
+    let work = temp_dir("peers-gymnax");
+    let top = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = std::process::Command::new(rwg_bin())
+        .current_dir(&top)
+        .args(["bench", "peers", "--source", "gymnax", "--python", &python])
+        .args(["--work-dir", work.to_str().unwrap(), "--env", "Pendulum-v1"])
+        .args([
+            "--rwg-samples",
+            "6",
+            "--peer-samples",
+            "4",
+            "--episodes",
+            "2",
+        ])
+        .args(["--rounds", "2", "--json"])
+        .env_remove("RWG_PEERS_DIR")
+        .env_remove("RWG_PYTHON")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "rwg bench peers failed: {stderr}");
+    let out = String::from_utf8(out.stdout).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["setup"]["source"], "gymnax", "{out}");
+    let r = &v["rows"][0];
+    assert_eq!(v["rows"].as_array().unwrap().len(), 1, "{out}");
+    assert_eq!(r["env"], "gymnax:Pendulum-v1", "{out}");
+    // Pendulum never terminates: every episode lasts its 200-step limit.
+    assert_eq!(r["rwg"][0]["env_steps"], serde_json::json!([2400, 2400]));
+    assert_eq!(
+        r["gymnax_raw"]["env_steps"],
+        serde_json::json!([1600, 1600])
+    );
+    let ratios = r["rwg"][0]["ratio"]["values"].as_array().unwrap();
+    assert_eq!(ratios.len(), 2, "{out}");
+    for (i, ratio) in ratios.iter().enumerate() {
+        let rate = |side: &serde_json::Value| side["steps_per_cpu_s"][i].as_f64().unwrap();
+        let (a, b) = (rate(&r["rwg"][0]), rate(&r["gymnax_raw"]));
+        assert!(a > 0.0 && b > 0.0, "{out}");
+        assert_eq!(ratio.as_f64().unwrap(), a / b, "{out}");
+    }
+    // rwg's side is a real run of gymnax:Pendulum-v1 on the peer's Python.
+    let manifest = std::fs::read_to_string(work.join("w0.toml")).unwrap();
+    assert!(
+        manifest.contains("id = \"gymnax:Pendulum-v1\""),
+        "{manifest}"
+    );
+    assert!(
+        manifest.contains(&format!("python = {python:?}")),
+        "{manifest}"
+    );
+    let level = v["setup"]["simd_levels"][0].as_str().unwrap();
+    let cells: Vec<_> = std::fs::read_dir(work.join(format!("w0-{level}/cells")))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(cells.len(), 1, "{cells:?}");
+    let scores = std::fs::read_to_string(cells[0].join("scores.csv")).unwrap();
+    assert_eq!(scores.lines().count(), 1 + 6 * 2, "{scores}");
+}
+
 /// benches/peers/side_by_side.py, the peers beside `rwg run` in one sitting,
 /// on tiny counts: every side runs every round, pinned, and the ratios are
 /// rwg's rate over each peer's in the same round. Needs RWG_PEER_PYTHON, as

@@ -104,6 +104,13 @@ gymnax-raw per level, and the last level's rate over the first's, paired by roun
 Every level must score each workload identically (checked); a level this CPU lacks is \
 an error. --json keeps every measurement with its level.
 
+--source gymnax sets rwg's JAX source beside the peer instead: gymnax's own envs as rwg's \
+`gymnax:` envs (CartPole-v1 [4,4], CartPole-v1 0HL, Acrobot-v1 0HL, \
+MountainCarContinuous-v0 [4,4], Pendulum-v1 [4]; the same ids on both sides, float32), \
+rwg's worker started with the peer's Python. rwg's CPU time is then the whole command's \
+with its JAX worker process: JAX's start-up and the XLA compilation are in it, unlike \
+the peer's. Both sides default to 100000 networks.
+
 The peer scripts are the repository's benches/peers (--peers, relative to the current \
 directory: run from the repository's top folder). The peer needs a Python with jax and \
 gymnax: --python (or RWG_PEER_PYTHON), or the virtualenv --venv, which --create-venv \
@@ -116,7 +123,8 @@ Examples:
   target/peers-venv/bin/pip install numpy==2.4.6 gymnasium==1.3.0 jax==0.10.2 jaxlib==0.10.2 \\
     gymnax==1.0.1 flax==0.12.8 six==1.17.0
   rwg bench peers
-  rwg bench peers --simd avx2,avx512 --env Pendulum-v1   # on a CPU with AVX-512")]
+  rwg bench peers --simd avx2,avx512 --env Pendulum-v1   # on a CPU with AVX-512
+  rwg bench peers --source gymnax --env CartPole-v1 --rounds 3")]
     Peers(peers::PeersArgs),
     /// Gymnasium envs through the bridge, beside a pure-Python ceiling loop and a peer script.
     #[command(after_help = "\

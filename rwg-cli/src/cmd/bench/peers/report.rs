@@ -4,6 +4,7 @@
 //! and the table.
 
 use super::super::spread;
+use super::Source;
 use rwg_analysis::table::{Align, TextColumns};
 use rwg_env::simd::Simd;
 use serde::Serialize;
@@ -193,6 +194,8 @@ pub(super) struct Setup {
     pub(super) load_avg_end: String,
     pub(super) rounds: u32,
     pub(super) seed: u64,
+    /// rwg's envs: the built-in ones or gymnax's as `gymnax:` envs.
+    pub(super) source: Source,
     /// rwg's SIMD levels measured, in the order of `--simd`.
     pub(super) simd_levels: Vec<&'static str>,
     pub(super) rwg_binary: String,
@@ -220,11 +223,14 @@ fn hidden_label(h: &[usize]) -> String {
 /// The table's header and rows: the workload, rwg at each level,
 /// gymnax-raw, each level over gymnax-raw, and the last level over the
 /// first (with more than one level).
-fn table_cells(rows: &[Row], levels: &[&str]) -> (Vec<String>, Vec<Vec<String>>) {
+fn table_cells(rows: &[Row], source: Source, levels: &[&str]) -> (Vec<String>, Vec<Vec<String>>) {
     let mut header = vec!["workload".to_string()];
-    header.extend(levels.iter().map(|l| format!("rwg {l}")));
+    header.extend(levels.iter().map(|l| source.column(l)));
     header.push("gymnax-raw".into());
-    header.extend(levels.iter().map(|l| format!("{l} / gymnax-raw")));
+    header.extend(levels.iter().map(|l| match source {
+        Source::Builtin => format!("{l} / gymnax-raw"),
+        Source::Gymnax => "rwg / gymnax-raw".to_string(),
+    }));
     if let [first, .., last] = levels {
         header.push(format!("{last} / {first}"));
     }
@@ -259,17 +265,20 @@ pub(super) fn print_table(r: &Report) {
         s.load_avg_start,
         s.load_avg_end
     );
-    crate::outln!(
-        "rwg:        {}, at RWG_SIMD={}",
-        s.rwg_command,
-        s.simd_levels.join(", ")
-    );
+    match s.source {
+        Source::Builtin => crate::outln!(
+            "rwg:        {}, at RWG_SIMD={}",
+            s.rwg_command,
+            s.simd_levels.join(", ")
+        ),
+        Source::Gymnax => crate::outln!("rwg:        {}", s.rwg_command),
+    }
     crate::outln!("gymnax-raw: {}", s.peer_command);
     crate::outln!(
         "env steps per CPU-second, median [min-max]; rwg: whole process; gymnax-raw: its run, \
          compile excluded; ratios paired by round\n"
     );
-    let (header, body) = table_cells(&r.rows, &s.simd_levels);
+    let (header, body) = table_cells(&r.rows, s.source, &s.simd_levels);
     let columns: Vec<(usize, Align)> = (0..header.len())
         .map(|i| {
             let width = body
@@ -401,7 +410,7 @@ mod tests {
     fn the_table_has_a_column_per_level_and_their_ratio() {
         let levels = [Simd::Avx2, Simd::Avx512];
         let rows = [measured(&levels, &[[10, 30, 20], [40, 30, 10]])];
-        let (header, body) = table_cells(&rows, &["avx2", "avx512"]);
+        let (header, body) = table_cells(&rows, Source::Builtin, &["avx2", "avx512"]);
         assert_eq!(
             header,
             [
@@ -419,9 +428,14 @@ mod tests {
         assert_eq!(body[0][4], "2.00x [1.00-3.00]");
         assert_eq!(body[0][6], "1.000x [0.500-4.000]");
         let one = [measured(&[Simd::Scalar], &[[10, 30, 20]])];
-        let (header, body) = table_cells(&one, &["scalar"]);
+        let (header, body) = table_cells(&one, Source::Builtin, &["scalar"]);
         assert_eq!(header.len(), 4);
         assert_eq!(body[0].len(), 4);
+        let (header, _) = table_cells(&one, Source::Gymnax, &["scalar"]);
+        assert_eq!(
+            header,
+            ["workload", "rwg gymnax:", "gymnax-raw", "rwg / gymnax-raw"]
+        );
     }
 
     #[test]
