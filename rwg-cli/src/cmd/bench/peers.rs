@@ -24,10 +24,12 @@
 //! process (a waited-for grandchild), JAX's start-up and the compilation.
 //! [`report`] holds the measurements, their ratios and the table.
 
+mod process;
 mod report;
 mod source;
 
 use anyhow::{bail, Context, Result};
+use process::{measure, pin_to, TempDir};
 use report::{cpu_model, load_avg, now_utc, print_table, Report, Row, Setup};
 use rwg_env::simd::Simd;
 use std::path::{Path, PathBuf};
@@ -185,53 +187,6 @@ fn parse_peer_output(stdout: &str) -> Result<PeerRun> {
     Ok(run)
 }
 
-/// CPU seconds (user + system) of the waited-for children of this process.
-fn children_cpu_seconds() -> Result<f64> {
-    #[cfg(unix)]
-    {
-        // SAFETY: an all-zero rusage is a valid value; getrusage only writes it.
-        let mut ru: libc::rusage = unsafe { std::mem::zeroed() };
-        // SAFETY: `ru` is valid and writable for the call.
-        let rc = unsafe { libc::getrusage(libc::RUSAGE_CHILDREN, &mut ru) };
-        if rc != 0 {
-            bail!("getrusage failed: {}", std::io::Error::last_os_error());
-        }
-        let t = |tv: libc::timeval| tv.tv_sec as f64 + tv.tv_usec as f64 * 1e-6;
-        Ok(t(ru.ru_utime) + t(ru.ru_stime))
-    }
-    #[cfg(not(unix))]
-    {
-        bail!("rwg bench peers needs a Unix system (getrusage)")
-    }
-}
-
-/// Pins this process (and so the children it starts) to `cpu`.
-fn pin_to(cpu: usize) -> Result<()> {
-    #[cfg(target_os = "linux")]
-    {
-        // SAFETY: an all-zero cpu_set_t is the empty set; CPU_SET writes in bounds
-        // (checked against CPU_SETSIZE); sched_setaffinity reads the set.
-        unsafe {
-            if cpu >= libc::CPU_SETSIZE as usize {
-                bail!("--cpu {cpu} is out of range");
-            }
-            let mut set: libc::cpu_set_t = std::mem::zeroed();
-            libc::CPU_SET(cpu, &mut set);
-            if libc::sched_setaffinity(0, std::mem::size_of::<libc::cpu_set_t>(), &set) != 0 {
-                bail!(
-                    "cannot pin to CPU {cpu}: {} (see --cpu, or --no-pin)",
-                    std::io::Error::last_os_error()
-                );
-            }
-        }
-        Ok(())
-    }
-    #[cfg(not(target_os = "linux"))]
-    {
-        bail!("pinning to CPU {cpu} needs Linux; use --no-pin")
-    }
-}
-
 /// The peer's Python: --python, else the venv's (created if asked).
 fn peer_python(args: &PeersArgs) -> Result<PathBuf> {
     // The peer runs in the scripts' directory, so a relative interpreter
@@ -309,36 +264,6 @@ fn cell_scores(dir: &Path) -> Result<Vec<u8>> {
         std::fs::read(path)
     };
     read().with_context(|| format!("cannot read the scores of {}", cells.display()))
-}
-
-/// Runs `cmd` to completion; returns (stdout, child CPU seconds, wall seconds).
-fn measure(mut cmd: Command, what: &str) -> Result<(String, f64, f64)> {
-    let cpu0 = children_cpu_seconds()?;
-    let t0 = std::time::Instant::now();
-    let out = cmd
-        .output()
-        .with_context(|| format!("cannot start {what}"))?;
-    let wall = t0.elapsed().as_secs_f64();
-    let cpu = children_cpu_seconds()? - cpu0;
-    if !out.status.success() {
-        bail!(
-            "{what} failed ({}):\n{}",
-            out.status,
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
-    Ok((String::from_utf8_lossy(&out.stdout).into_owned(), cpu, wall))
-}
-
-/// Removes the temporary work directory when dropped.
-struct TempDir(Option<PathBuf>);
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        if let Some(d) = &self.0 {
-            let _ = std::fs::remove_dir_all(d);
-        }
-    }
 }
 
 /// What every measurement of a sitting shares.
