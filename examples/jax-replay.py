@@ -86,7 +86,7 @@ def from_run(a):
     return export, setting, (float(stored[0]), int(stored[1]))
 
 
-def make_env(env_id, kwargs):
+def make_env(env_id, kwargs, limit):
     """(reset(key) -> (obs, state), step(key, state, action) -> (obs, state, r, done),
     action space as (n, None, None) or (None, low, high), the env's own time limit)."""
     source, name = env_id.split(":", 1)
@@ -94,20 +94,26 @@ def make_env(env_id, kwargs):
         from brax import envs
         env = envs.get_environment(name, **kwargs)
         reset = lambda k: (lambda s: (s.obs, s))(env.reset(k))  # noqa: E731
-        step = lambda k, s, a: (lambda s: (s.obs, s, s.reward, s.done > 0))(env.step(s, a))  # noqa: E731,E501
+        step = lambda k, s, a: (lambda s: (s.obs, s, s.reward, s.done > 0.5))(env.step(s, a))  # noqa: E731,E501
         ones = [1.0] * env.action_size
         return reset, step, (None, [-x for x in ones], ones), 1000
     if source == "gymnax":
         import gymnax
         env, params = gymnax.make(name)
         params = params.replace(**kwargs)
+        if limit and hasattr(params, "max_steps_in_episode"):  # rwg's time limit, gymnax's too
+            params = params.replace(max_steps_in_episode=limit)
     else:
         import importlib
         module, fn = name.rsplit(":", 1)
         env, params = getattr(importlib.import_module(module), fn)(**kwargs)
     raw = getattr(env, "step_env", env.step)
     reset = lambda k: env.reset(k, params)  # noqa: E731
-    step = lambda k, s, a: raw(k, s, a, params)[:4]  # noqa: E731
+
+    def step(k, s, a):
+        out = raw(k, s, a, params)  # (obs, state, reward, done, info), or with truncated
+        return out[:3] + ((out[3] | out[4]) if len(out) == 6 else out[3],)
+
     space = env.action_space(params)
     action = (int(space.n), None, None) if hasattr(space, "n") else (None, space.low, space.high)
     return reset, step, action, getattr(params, "max_steps_in_episode", None)
@@ -118,38 +124,38 @@ def replay(export, setting, reset_seed, lanes):
     if setting["precision"] == "float64":
         jax.config.update("jax_enable_x64", True)
     dtype = jnp.dtype(setting["precision"])
-    reset, step, (n, low, high), limit = make_env(export["env"], setting["kwargs"])
+    reset, step, (n, low, high), limit = make_env(
+        export["env"], setting["kwargs"], export.get("max_episode_steps"))
     T = export.get("max_episode_steps") or limit
     bias = export["bias"]
     if n is None:
+        shape = np.shape(high)
         low, high = np.ravel(np.asarray(low, dtype)), np.ravel(np.asarray(high, dtype))
         symmetric = bool((low == -high).all())
+        low, high = jnp.asarray(low, dtype), jnp.asarray(high, dtype)
 
     def act(Ws, obs):
         x = jnp.ravel(obs).astype(dtype)
         for W in Ws:
             x = jnp.tanh(W @ (jnp.concatenate([x, jnp.ones(1, dtype)]) if bias else x))
         if n is not None:
-            return jnp.argmax(x)
-        if symmetric:
-            return high * x
-        return low + (x + 1) / 2 * (high - low)
+            return jnp.argmax(x).astype(jnp.int32)
+        return (high * x if symmetric else low + (x + 1) / 2 * (high - low)).reshape(shape)
 
-    def episode(Ws, key):
+    def episode(Ws, key_data):
+        key = jax.random.wrap_key_data(key_data, impl="threefry2x32")
         k_reset, k_steps = jax.random.split(key)
         obs, state = reset(k_reset)
 
-        def body(c):
-            t, obs, state, ret, length, done = c
-            obs2, state2, r, d = step(jax.random.fold_in(k_steps, t), state, act(Ws, obs))
-            ret = ret + jnp.where(done, jnp.zeros((), dtype), jnp.asarray(r, dtype))
-            length = length + jnp.where(done, 0, 1).astype(jnp.int32)
-            done = done | jnp.asarray(d, bool) | (t == T - 1)
-            return t + 1, obs2, state2, ret, length, done
+        def body(c):  # a lane stops at its first done; vmap keeps a stopped lane's values
+            obs, state, t, ret, _ = c
+            obs, state, r, d = step(jax.random.fold_in(k_steps, t), state, act(Ws, obs))
+            t = t + 1
+            return obs, state, t, ret + jnp.asarray(r).astype(dtype), jnp.asarray(d, bool) | (t >= T)
 
-        c = (0, obs, state, jnp.zeros((), dtype), jnp.int32(0), jnp.bool_(False))
-        c = jax.lax.while_loop(lambda c: ~c[5] & (c[0] < T), body, c)
-        return c[3], c[4]
+        c = (obs, state, jnp.int32(0), jnp.zeros((), dtype), jnp.bool_(False))
+        _, _, t, ret, _ = jax.lax.while_loop(lambda c: ~c[4], body, c)
+        return ret, t
 
     dev = jax.devices()[0]
     if setting["device"]:
