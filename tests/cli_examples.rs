@@ -38,6 +38,11 @@
 //!   `RWG_TEST_PYTHON` (the CI virtualenv, which holds those packages) is
 //!   handed to rwg as `RWG_PYTHON`. Without it the Gymnasium examples are
 //!   skipped, visibly, and under `CI=true` the test fails.
+//! - JAX (`python3 -m pip install jax gymnax`): not run; a command that
+//!   names JAX, gymnax or Brax (docs/jax.md, the `gymnax:` envs) runs with
+//!   the Python of `RWG_PEER_PYTHON` (jax, gymnax, brax) as `RWG_PYTHON` and
+//!   its folder on PATH after rwg's (`python3` is that Python); without it
+//!   such a command is skipped, visibly, and under `CI=true` the test fails.
 //! - The JAX peer's virtualenv, `rwg bench peers` (about 25 minutes) and the
 //!   peer scripts run by hand (`benches/peers/*.py`, which need that
 //!   virtualenv): not run; tests/cli_bench.rs runs `rwg bench peers` and
@@ -407,6 +412,9 @@ fn plan(e: &Example) -> Plan {
     if c.starts_with("python3 -m pip install") && c.contains("gymnasium") {
         return Plan::NotRun("provided: RWG_PYTHON is RWG_TEST_PYTHON, which holds it");
     }
+    if c.starts_with("python3 -m pip install") && needs_jax(c) {
+        return Plan::NotRun("provided: RWG_PEER_PYTHON's Python holds jax, gymnax and brax");
+    }
     if c.contains("peers-venv") {
         return Plan::NotRun("the JAX peer is not installed by this test (network, ~1 GB)");
     }
@@ -436,6 +444,12 @@ fn plan(e: &Example) -> Plan {
     // a line may hold several commands (`a; b`, a `for` loop): reduce each
     let parts: Vec<String> = c.split("; ").map(reduce_rwg).collect();
     Plan::Run(parts.join("; "))
+}
+
+/// Whether a command needs a Python with JAX: it names JAX, gymnax or Brax
+/// (an id, a manifest or a script of docs/jax.md).
+fn needs_jax(cmd: &str) -> bool {
+    ["jax", "gymnax", "brax"].iter().any(|w| cmd.contains(w))
 }
 
 /// The output shape an example must have, by what it runs.
@@ -558,8 +572,8 @@ fn check_shape(e: &Example, ran: &str, dir: &Path, stdout: &str) {
 }
 
 /// Runs `cmd` with `sh -c` in `dir`, `bin` first on PATH, `python` (if
-/// any) as `RWG_PYTHON`; fails after `limit`. Returns (success, stdout,
-/// stderr).
+/// any) as `RWG_PYTHON` and its folder next on PATH; fails after `limit`.
+/// Returns (success, stdout, stderr).
 fn sh(
     cmd: &str,
     dir: &Path,
@@ -567,8 +581,11 @@ fn sh(
     python: Option<&std::ffi::OsStr>,
     limit: Duration,
 ) -> (bool, String, String) {
+    let python_bin = python
+        .and_then(|p| Path::new(p).parent())
+        .map_or(String::new(), |d| format!("{}:", d.display()));
     let path = format!(
-        "{}:{}",
+        "{}:{python_bin}{}",
         bin.display(),
         std::env::var("PATH").unwrap_or_default()
     );
@@ -612,6 +629,7 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
     std::fs::create_dir_all(dir).unwrap();
     let bin = prepare(dir);
     let python = std::env::var_os("RWG_TEST_PYTHON");
+    let jax_python = std::env::var_os("RWG_PEER_PYTHON").filter(|p| !p.is_empty());
     for e in examples {
         let ran = match plan(e) {
             Plan::NotRun(why) => {
@@ -633,6 +651,17 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
             );
             continue;
         }
+        if needs_jax(&ran) && jax_python.is_none() {
+            skip(
+                TEST,
+                &format!(
+                    "{}: `{}` needs RWG_PEER_PYTHON, a Python with jax, gymnax and brax",
+                    e.source, e.command
+                ),
+            );
+            continue;
+        }
+        let python = if needs_jax(&ran) { &jax_python } else { &python };
         let t = Instant::now();
         let (ok, stdout, stderr) = sh(&ran, dir, &bin, python.as_deref(), Duration::from_secs(300));
         assert!(
