@@ -1,0 +1,156 @@
+//! The JAX examples for real: `examples/jax-replay.py` recomputes episodes of
+//! a study of `gymnax:` and `jax:` envs (the env of `examples/jax-env/`) in
+//! JAX alone, bit for bit with the run's `scores.csv`, from the run
+//! directory and from `rwg replay --export-weights`; and a replay under
+//! another precision than the run's is seen to differ.
+//!
+//! Needs `RWG_PEER_PYTHON` (a Python with jax and gymnax); without it each
+//! test prints `SKIPPED` (and fails under `CI=true` or `RWG_NO_SKIP=1`).
+
+mod common;
+use common::*;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The JAX Python (`RWG_PEER_PYTHON`), or `None` after a visible skip.
+fn python(test: &str) -> Option<String> {
+    match std::env::var("RWG_PEER_PYTHON") {
+        Ok(p) if !p.is_empty() => Some(p),
+        _ => {
+            skip(test, "set RWG_PEER_PYTHON to a Python with jax and gymnax");
+            None
+        }
+    }
+}
+
+/// `jax-replay.py ARGS` with the example env importable and rwg's binary.
+fn replay(py: &str, args: &[&str]) -> Output {
+    Command::new(py)
+        .arg(repo().join("examples/jax-replay.py"))
+        .args(args)
+        .arg("--rwg")
+        .arg(rwg_bin())
+        .env("PYTHONPATH", repo().join("examples/jax-env"))
+        .env_remove("XLA_FLAGS")
+        .output()
+        .unwrap()
+}
+
+/// A study of three JAX envs: gymnax's CartPole-v1 (float32, discrete),
+/// Pendulum-v1 (float64, a box, 32 networks per call) and the point mass
+/// of examples/jax-env (a box, with kwargs and a time limit of its own).
+fn run_study(py: &str, dir: &Path) -> PathBuf {
+    let manifest = dir.join("m.toml");
+    std::fs::write(
+        &manifest,
+        format!(
+            "seed = 4\nsamples = 40\nepisodes = 3\nbias = [true]\n\
+             [[architectures]]\nname = \"2HL\"\nhidden = [4, 4]\n\
+             [[envs]]\nid = \"gymnax:CartPole-v1\"\npython = {py:?}\n\
+             [[envs]]\nid = \"gymnax:Pendulum-v1\"\npython = {py:?}\n\
+             precision = \"float64\"\nnetworks_per_call = 32\n\
+             [[envs]]\nid = \"jax:point_mass:make_env\"\npython = {py:?}\n\
+             kwargs = {{ dt = 0.1 }}\nmax_episode_steps = 60\n"
+        ),
+    )
+    .unwrap();
+    let out = dir.join("run");
+    let st = Command::new(rwg_bin())
+        .arg("run")
+        .arg(&manifest)
+        .args(["--threads", "2", "--no-report", "--out"])
+        .arg(&out)
+        .env("PYTHONPATH", repo().join("examples/jax-env"))
+        .env_remove("RWG_PYTHON")
+        .env_remove("XLA_FLAGS")
+        .output()
+        .unwrap();
+    assert!(
+        st.status.success(),
+        "rwg run failed: {}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    out
+}
+
+/// The stored (score, steps) of `sample`'s `episode` in the cell of `env`.
+fn stored(run: &Path, env: &str, sample: u64, episode: u32) -> (f64, u32) {
+    for cell in std::fs::read_dir(run.join("cells")).unwrap() {
+        let cell = cell.unwrap().path();
+        let meta: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(cell.join("cell.json")).unwrap())
+                .unwrap();
+        if meta["env"] != env {
+            continue;
+        }
+        let scores = std::fs::read_to_string(cell.join("scores.csv")).unwrap();
+        let row = scores
+            .lines()
+            .find(|l| l.starts_with(&format!("{sample},{episode},")))
+            .unwrap();
+        let f: Vec<&str> = row.split(',').collect();
+        return (f[2].parse().unwrap(), f[3].parse().unwrap());
+    }
+    panic!("no cell of {env} in {}", run.display())
+}
+
+/// `return R length L ...` -> (R, L).
+fn printed(out: &Output) -> (f64, u32) {
+    let text = String::from_utf8_lossy(&out.stdout);
+    let w: Vec<&str> = text.split_whitespace().collect();
+    assert_eq!((w[0], w[2]), ("return", "length"), "{text}");
+    (w[1].parse().unwrap(), w[3].parse().unwrap())
+}
+
+#[test]
+fn jax_replay_recomputes_scores_bit_for_bit() {
+    let Some(py) = python("jax_replay_recomputes_scores_bit_for_bit") else {
+        return;
+    };
+    let dir = temp_dir("jax-replay");
+    let run = run_study(&py, &dir);
+    let run_s = run.to_str().unwrap();
+    // From the run directory: the script compares with scores.csv itself.
+    for (env, sample, episode) in [
+        ("gymnax:CartPole-v1", 37, 2),
+        ("gymnax:Pendulum-v1", 5, 1),
+        ("jax:point_mass:make_env", 33, 0),
+    ] {
+        let (s, e) = (sample.to_string(), episode.to_string());
+        let out = replay(
+            &py,
+            &[run_s, "--env", env, "--arch", "2HL", "--sample", &s, "--episode", &e],
+        );
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success() && text.contains(": the same"),
+            "{env} {sample}/{episode}: {text}\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let (ret, len) = printed(&out);
+        assert_eq!((ret.to_bits(), len), {
+            let (r, l) = stored(&run, env, sample, episode);
+            (r.to_bits(), l)
+        });
+    }
+    // From exported weights, with the run's settings given as options; then
+    // the same network in float32 instead of the run's float64 differs.
+    let net = dir.join("net.json");
+    let st = Command::new(rwg_bin())
+        .args(["replay", run_s, "--env", "gymnax:Pendulum-v1", "--arch", "2HL"])
+        .args(["--sample", "5", "--export-weights", net.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    let want = stored(&run, "gymnax:Pendulum-v1", 5, 2);
+    let net_s = net.to_str().unwrap();
+    let args = ["--weights", net_s, "--episode", "2", "--networks-per-call", "32"];
+    let got = printed(&replay(&py, &[&args[..], &["--precision", "float64"]].concat()));
+    assert_eq!((got.0.to_bits(), got.1), (want.0.to_bits(), want.1));
+    let f32 = printed(&replay(&py, &[&args[..], &["--precision", "float32"]].concat()));
+    assert_ne!(f32.0.to_bits(), want.0.to_bits(), "float32 gave the float64 bits");
+}
