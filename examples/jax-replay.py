@@ -88,7 +88,8 @@ def from_run(a):
 
 def make_env(env_id, kwargs, limit):
     """(reset(key) -> (obs, state), step(key, state, action) -> (obs, state, r, done),
-    action space as (n, None, None) or (None, low, high), the env's own time limit)."""
+    the action space as (n, None, None, None) or (None, low, high, shape), the env's
+    own time limit)."""
     source, name = env_id.split(":", 1)
     if source == "brax":
         from brax import envs
@@ -96,7 +97,7 @@ def make_env(env_id, kwargs, limit):
         reset = lambda k: (lambda s: (s.obs, s))(env.reset(k))  # noqa: E731
         step = lambda k, s, a: (lambda s: (s.obs, s, s.reward, s.done > 0.5))(env.step(s, a))  # noqa: E731,E501
         ones = [1.0] * env.action_size
-        return reset, step, (None, [-x for x in ones], ones), 1000
+        return reset, step, (None, [-x for x in ones], ones, (len(ones),)), 1000
     if source == "gymnax":
         import gymnax
         env, params = gymnax.make(name)
@@ -115,7 +116,10 @@ def make_env(env_id, kwargs, limit):
         return out[:3] + ((out[3] | out[4]) if len(out) == 6 else out[3],)
 
     space = env.action_space(params)
-    action = (int(space.n), None, None) if hasattr(space, "n") else (None, space.low, space.high)
+    if hasattr(space, "n") and not hasattr(space, "low"):
+        action = (int(space.n), None, None, None)
+    else:
+        action = (None, space.low, space.high, tuple(int(s) for s in space.shape))
     return reset, step, action, getattr(params, "max_steps_in_episode", None)
 
 
@@ -124,13 +128,13 @@ def replay(export, setting, reset_seed, lanes):
     if setting["precision"] == "float64":
         jax.config.update("jax_enable_x64", True)
     dtype = jnp.dtype(setting["precision"])
-    reset, step, (n, low, high), limit = make_env(
+    reset, step, (n, low, high, shape), limit = make_env(
         export["env"], setting["kwargs"], export.get("max_episode_steps"))
     T = export.get("max_episode_steps") or limit
     bias = export["bias"]
-    if n is None:
-        shape = np.shape(high)
-        low, high = np.ravel(np.asarray(low, dtype)), np.ravel(np.asarray(high, dtype))
+    if n is None:  # the bounds in the action's shape, flat (a scalar bound is broadcast)
+        low, high = (np.broadcast_to(np.asarray(b, np.float64), shape).reshape(-1)
+                     for b in (low, high))
         symmetric = bool((low == -high).all())
         low, high = jnp.asarray(low, dtype), jnp.asarray(high, dtype)
 
@@ -142,20 +146,31 @@ def replay(export, setting, reset_seed, lanes):
             return jnp.argmax(x).astype(jnp.int32)
         return (high * x if symmetric else low + (x + 1) / 2 * (high - low)).reshape(shape)
 
+    def not_finite(x):
+        return ~jnp.all(jnp.isfinite(jnp.asarray(x)))
+
     def episode(Ws, key_data):
         key = jax.random.wrap_key_data(key_data, impl="threefry2x32")
         k_reset, k_steps = jax.random.split(key)
         obs, state = reset(k_reset)
 
-        def body(c):  # a lane stops at its first done; vmap keeps a stopped lane's values
-            obs, state, t, ret, _ = c
-            obs, state, r, d = step(jax.random.fold_in(k_steps, t), state, act(Ws, obs))
-            t = t + 1
-            return obs, state, t, ret + jnp.asarray(r).astype(dtype), jnp.asarray(d, bool) | (t >= T)
+        # rwg's fault bits (1: a non-finite observation, 2: reward) are computed and
+        # returned as rwg's worker does: without them XLA fuses the program otherwise,
+        # and a float64 return can differ in its last bit (a multiply-add contracted).
+        fault = jnp.where(not_finite(obs), 1, 0).astype(jnp.uint8)
 
-        c = (obs, state, jnp.int32(0), jnp.zeros((), dtype), jnp.bool_(False))
-        _, _, t, ret, _ = jax.lax.while_loop(lambda c: ~c[4], body, c)
-        return ret, t
+        def body(c):  # a lane stops at its first done; vmap keeps a stopped lane's values
+            obs, state, t, ret, fault, _ = c
+            obs, state, r, d = step(jax.random.fold_in(k_steps, t), state, act(Ws, obs))
+            r = jnp.asarray(r).astype(dtype)
+            fault = fault | jnp.where(not_finite(obs), 1, 0).astype(jnp.uint8)
+            fault = fault | jnp.where(not_finite(r), 2, 0).astype(jnp.uint8)
+            t = t + 1
+            return obs, state, t, ret + r, fault, jnp.asarray(d, bool) | (t >= T)
+
+        c = (obs, state, jnp.int32(0), jnp.zeros((), dtype), fault, jnp.bool_(False))
+        _, _, t, ret, fault, _ = jax.lax.while_loop(lambda c: ~c[5], body, c)
+        return ret, t, fault
 
     dev = jax.devices()[0]
     if setting["device"]:
@@ -167,11 +182,14 @@ def replay(export, setting, reset_seed, lanes):
     words = [[r >> 32, r & 0xFFFFFFFF] for r in lanes]
     keys = jnp.broadcast_to(jnp.asarray(words, jnp.uint32), (N, len(lanes), 2))
     f = jax.jit(jax.vmap(jax.vmap(episode, in_axes=(None, 0)), in_axes=(0, 0)))
-    rets, lens = f(*jax.device_put((Ws, keys), dev))
+    rets, lens, faults = f(*jax.device_put((Ws, keys), dev))
     rets, lens = np.asarray(rets, np.float64), np.asarray(lens)
     e = lanes.index(reset_seed)
     if not ((rets[:, e] == rets[0, e]).all() and (lens[:, e] == lens[0, e]).all()):
         sys.exit("the copies of the network disagree: this JAX computes a lane by its place")
+    if faults[0, e]:
+        what = "observation" if faults[0, e] & 1 else "reward"
+        print(f"the episode saw a non-finite {what}", file=sys.stderr)
     return float(rets[0, e]), int(lens[0, e]), dev
 
 
