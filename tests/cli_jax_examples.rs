@@ -143,6 +143,7 @@ fn jax_replay_recomputes_scores_bit_for_bit() {
     let st = Command::new(rwg_bin())
         .args(["replay", run_s, "--env", "gymnax:Pendulum-v1", "--arch", "2HL"])
         .args(["--sample", "5", "--export-weights", net.to_str().unwrap()])
+        .env("PYTHONPATH", repo().join("examples/jax-env"))
         .output()
         .unwrap();
     assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
