@@ -65,7 +65,9 @@ def from_run(a):
                "--sample", str(a.sample), "--export-weights", path]
         cmd += ["--bias", a.bias] if a.bias else []
         # rwg replay also reruns the network's episodes; only its export is used
-        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        if done.returncode != 0:
+            sys.exit(f"{' '.join(cmd)} failed:\n{done.stderr}")
         with open(path) as f:
             export = json.load(f)
     with open(os.path.join(a.run_dir, "manifest.toml"), "rb") as f:
