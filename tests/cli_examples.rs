@@ -661,7 +661,11 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
             );
             continue;
         }
-        let python = if needs_jax(&ran) { &jax_python } else { &python };
+        let python = if needs_jax(&ran) {
+            &jax_python
+        } else {
+            &python
+        };
         let t = Instant::now();
         let (ok, stdout, stderr) = sh(&ran, dir, &bin, python.as_deref(), Duration::from_secs(300));
         assert!(

@@ -123,7 +123,17 @@ fn jax_replay_recomputes_scores_bit_for_bit() {
         let (s, e) = (sample.to_string(), episode.to_string());
         let out = replay(
             &py,
-            &[run_s, "--env", env, "--arch", "2HL", "--sample", &s, "--episode", &e],
+            &[
+                run_s,
+                "--env",
+                env,
+                "--arch",
+                "2HL",
+                "--sample",
+                &s,
+                "--episode",
+                &e,
+            ],
         );
         let text = String::from_utf8_lossy(&out.stdout);
         assert!(
@@ -141,17 +151,45 @@ fn jax_replay_recomputes_scores_bit_for_bit() {
     // the same network in float32 instead of the run's float64 differs.
     let net = dir.join("net.json");
     let st = Command::new(rwg_bin())
-        .args(["replay", run_s, "--env", "gymnax:Pendulum-v1", "--arch", "2HL"])
+        .args([
+            "replay",
+            run_s,
+            "--env",
+            "gymnax:Pendulum-v1",
+            "--arch",
+            "2HL",
+        ])
         .args(["--sample", "5", "--export-weights", net.to_str().unwrap()])
         .env("PYTHONPATH", repo().join("examples/jax-env"))
         .output()
         .unwrap();
-    assert!(st.status.success(), "{}", String::from_utf8_lossy(&st.stderr));
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
     let want = stored(&run, "gymnax:Pendulum-v1", 5, 2);
     let net_s = net.to_str().unwrap();
-    let args = ["--weights", net_s, "--episode", "2", "--networks-per-call", "32"];
-    let got = printed(&replay(&py, &[&args[..], &["--precision", "float64"]].concat()));
+    let args = [
+        "--weights",
+        net_s,
+        "--episode",
+        "2",
+        "--networks-per-call",
+        "32",
+    ];
+    let got = printed(&replay(
+        &py,
+        &[&args[..], &["--precision", "float64"]].concat(),
+    ));
     assert_eq!((got.0.to_bits(), got.1), (want.0.to_bits(), want.1));
-    let f32 = printed(&replay(&py, &[&args[..], &["--precision", "float32"]].concat()));
-    assert_ne!(f32.0.to_bits(), want.0.to_bits(), "float32 gave the float64 bits");
+    let f32 = printed(&replay(
+        &py,
+        &[&args[..], &["--precision", "float32"]].concat(),
+    ));
+    assert_ne!(
+        f32.0.to_bits(),
+        want.0.to_bits(),
+        "float32 gave the float64 bits"
+    );
 }
