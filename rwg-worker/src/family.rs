@@ -9,7 +9,7 @@
 //! instead of init's. Every worker gets [`MARK_VAR`] = `RWGPID:N` in its
 //! environment, which its descendants inherit, so rwg tells which of its
 //! children belong to which worker. When a worker ends, its process group is
-//! killed and so are rwg's children that bear its mark ([`sweep`]); when rwg
+//! killed and so are rwg's children that bear its mark (`sweep`); when rwg
 //! ends on a catchable signal that would kill it (SIGTERM, SIGHUP, SIGQUIT,
 //! SIGINT where nothing else handles it, SIGUSR1/2, SIGALRM, ...), through
 //! `exit`, or through [`end_all`] before `_exit`, every worker's group and
