@@ -8,7 +8,8 @@
 //! byte-identical `scores.csv`, and that the first block of every
 //! `paper-blocks-*` cell is that cell of `paper-exact`. The
 //! manifests with Gymnasium envs need a Python and are run by the tests that
-//! own them (`cli_atlas.rs`, `cli_examples.rs` through the README).
+//! own them (`cli_atlas.rs`, `cli_examples.rs` through the README); those with
+//! JAX envs run here with `RWG_PEER_PYTHON`, as `docs/jax.md` runs them.
 
 mod common;
 
@@ -21,7 +22,12 @@ fn repo() -> PathBuf {
 
 /// Runs `manifest` with 8 networks × 2 episodes into `out`.
 fn run_small(manifest: &Path, out: &Path) {
-    rwg_ok(&[
+    run_small_with(manifest, out, &[]);
+}
+
+/// [`run_small`] with environment variables set for rwg.
+fn run_small_with(manifest: &Path, out: &Path, vars: &[(&str, &std::ffi::OsStr)]) {
+    let args = [
         "run",
         manifest.to_str().unwrap(),
         "--samples",
@@ -34,7 +40,20 @@ fn run_small(manifest: &Path, out: &Path) {
         "--no-report",
         "--out",
         out.to_str().unwrap(),
-    ]);
+    ];
+    let o = rwg_env(&args, vars);
+    assert!(
+        o.status.success(),
+        "rwg {args:?} failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// Whether a manifest names a JAX env (`gymnax:`, `brax:`, `jax:`).
+fn has_jax_envs(text: &str) -> bool {
+    ["\"gymnax:", "\"brax:", "\"jax:"]
+        .iter()
+        .any(|p| text.contains(p))
 }
 
 /// The cell directory names of a run.
@@ -70,7 +89,25 @@ fn every_example_manifest_without_python_runs() {
             continue;
         }
         let out = dir.join(&name);
-        run_small(&manifest, &out);
+        if has_jax_envs(&text) {
+            // JAX's Python (RWG_PEER_PYTHON) for every env, the example's own
+            // env module on its path, as docs/jax.md runs them.
+            let Some(py) = std::env::var_os("RWG_PEER_PYTHON") else {
+                skip(
+                    &format!("every_example_manifest_without_python_runs ({name}.toml)"),
+                    "its JAX envs need RWG_PEER_PYTHON (a Python with jax and gymnax)",
+                );
+                continue;
+            };
+            let env_dir = repo().join("examples").join("jax-env");
+            run_small_with(
+                &manifest,
+                &out,
+                &[("RWG_PYTHON", &py), ("PYTHONPATH", env_dir.as_os_str())],
+            );
+        } else {
+            run_small(&manifest, &out);
+        }
         assert!(!cells(&out).is_empty(), "{name}.toml: no cells");
         for cell in cells(&out) {
             let s = scores(&out, &cell);
