@@ -15,20 +15,24 @@
 //!   layout, as text, Markdown, LaTeX, CSV or HTML.
 //! - [`plot`]: the paper's figures and the comparison figures.
 //! - [`report`] writes `report.html`.
-//! - [`compare`], [`ranking`], [`compare_page`]: `rwg compare`, its difficulty
-//!   ranking and its HTML page.
+//! - [`compare`]: `rwg compare`: its rows, difficulty ranking
+//!   ([`compare::ranking`]), table, CSV, figures and HTML page
+//!   ([`compare::page`]).
 //!
 //! Cells are read and summarised and figures drawn on the caller's rayon pool,
 //! in a fixed order, so the bytes do not depend on the thread count.
 
 pub mod compare;
-pub mod compare_page;
 pub mod fmt;
 pub mod plot;
-pub mod ranking;
 pub mod report;
 pub mod table;
 pub mod tables;
+
+/// [`compare::page`], also at this path.
+pub use compare::page as compare_page;
+/// [`compare::ranking`], also at this path.
+pub use compare::ranking;
 
 use plot::{ImageFormat, PlotError};
 use rayon::prelude::*;

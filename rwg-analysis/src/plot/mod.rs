@@ -19,11 +19,12 @@
 //! no system font is needed. SVG figures name the `sans-serif` family and
 //! leave the glyphs to the viewer.
 
-mod compare;
-mod panels;
+pub(crate) mod panels;
 pub mod raster;
 
-pub use compare::{profiles_figure, ranking_figure};
+/// The comparison figures, drawn in [`crate::compare`], where they are also
+/// named.
+pub use crate::compare::{profiles_figure, ranking_figure};
 
 use panels::{histogram_panel, scores_panel, variance_panel, HistSeries, PanelText};
 use plotters::coord::Shift;
@@ -164,7 +165,8 @@ impl Layers {
 }
 
 /// Something drawable on a whole figure.
-trait Paint {
+pub(crate) trait Paint {
+    /// Draws the figure on `root`, its raster layers into `layers`.
     fn paint<DB: DrawingBackend>(
         &self,
         root: &DrawingArea<DB, Shift>,
@@ -173,7 +175,11 @@ trait Paint {
 }
 
 /// Renders `what` at `size` pixels.
-fn render(what: &impl Paint, size: (u32, u32), format: ImageFormat) -> Result<Vec<u8>, PlotError> {
+pub(crate) fn render(
+    what: &impl Paint,
+    size: (u32, u32),
+    format: ImageFormat,
+) -> Result<Vec<u8>, PlotError> {
     init_fonts();
     match format {
         ImageFormat::Svg => {
@@ -336,7 +342,7 @@ pub fn cell_figures(
 }
 
 /// Distinct values in order of first appearance.
-fn distinct<T: PartialEq + Clone>(xs: impl IntoIterator<Item = T>) -> Vec<T> {
+pub(crate) fn distinct<T: PartialEq + Clone>(xs: impl IntoIterator<Item = T>) -> Vec<T> {
     let mut out = Vec::new();
     for x in xs {
         if !out.contains(&x) {

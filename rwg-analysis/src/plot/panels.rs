@@ -85,7 +85,7 @@ fn padded_range(values: impl Iterator<Item = f64>, extra: Option<f64>, pad: f64)
 }
 
 /// Compact tick labels: `1.2e5` for large or tiny magnitudes.
-pub(super) fn tick(v: &f64) -> String {
+pub(crate) fn tick(v: &f64) -> String {
     let a = v.abs();
     if a == 0.0 {
         "0".into()
@@ -121,7 +121,7 @@ type Chart<'a, DB, X, Y> = ChartContext<
 
 /// A chart with what every panel shares: caption, margins, label areas, the
 /// mesh's line and text styles, and [`tick`] labels on both axes.
-pub(super) fn chart<'a, DB, X, Y>(
+pub(crate) fn chart<'a, DB, X, Y>(
     area: &'a DrawingArea<DB, Shift>,
     title: &str,
     t: PanelText,

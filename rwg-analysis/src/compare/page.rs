@@ -4,9 +4,10 @@
 //! are inlined as SVG; the page loads nothing from the network and checks
 //! its own figures like the report does ([`crate::report`]).
 
-use crate::compare::{compare_table, CompareRow, CompareRun};
+use super::data::{CompareRow, CompareRun};
+use super::ranking::ranking_table;
+use super::table_csv::compare_table;
 use crate::plot::Figure;
-use crate::ranking::ranking_table;
 use crate::report::{figure_html, table_html, ERROR_PROBE, SCRIPT, STYLE};
 use crate::table::html_escape;
 use rwg_env::float::fmt_f64;

@@ -7,9 +7,9 @@
 //! normalised 99.9th percentile of `M` (descending: the closer the best
 //! 1 in 1000 networks come to the solved score, the easier); then the cells
 //! without a solved score, which cannot be ranked. Ties keep the order of
-//! [`crate::compare::compare_rows`].
+//! [`super::compare_rows`].
 
-use crate::compare::CompareRow;
+use super::data::CompareRow;
 use crate::fmt::{prob_ci, sig};
 use crate::table::{Cell, Table};
 use crate::tables::{bias_label, guesses_cell};
