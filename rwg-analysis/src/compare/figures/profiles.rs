@@ -6,6 +6,7 @@ use crate::compare::data::CompareRun;
 use crate::plot::panels::{chart, PanelText};
 use crate::plot::{distinct, draw_err, render, Figure, ImageFormat, Layers, Paint, PlotError};
 use crate::tables::bias_label;
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use rwg_study::stats::{wilson_interval, Z_95};
@@ -77,6 +78,10 @@ const HEADER_H: u32 = 70;
 /// Room right of the data for the curves' labels.
 const LABEL_ROOM: u32 = 150;
 
+/// A profile panel's chart: the normalised mean on x, the fraction of
+/// networks on a log y axis.
+type ProfileChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, LogCoord<f64>>>;
+
 impl Paint for ProfilesPaint {
     fn paint<DB: DrawingBackend>(
         &self,
@@ -84,20 +89,7 @@ impl Paint for ProfilesPaint {
         _layers: &mut Layers,
     ) -> Result<(), PlotError> {
         let (head, body) = root.split_vertically(HEADER_H);
-        head.draw(&Text::new(
-            "Fraction of random networks whose normalised mean score reaches x",
-            (14, 8),
-            ("sans-serif", 20).into_font().color(&BLACK),
-        ))
-        .map_err(draw_err)?;
-        // the key: one entry per run
-        let mut x = 14;
-        for (s, c) in &self.header {
-            head.draw(&Rectangle::new([(x, 46), (x + 22, 54)], c.filled()))
-                .map_err(draw_err)?;
-            boxed_label(&head, s, (x + 28, 50), 16, BLACK)?;
-            x += 28 + text_width(s, 16) + 30;
-        }
+        self.paint_header(&head)?;
         let rows = self.panels.len().div_ceil(self.cols);
         let grid = body.split_evenly((rows, self.cols));
         let t = if self.cols <= 2 {
@@ -106,116 +98,180 @@ impl Paint for ProfilesPaint {
             PanelText::SMALL
         };
         for (p, area) in self.panels.iter().zip(&grid) {
-            let (plot_area, _) = area.split_horizontally(self.panel_w - LABEL_ROOM + 40);
-            let mut ch = chart(
-                &plot_area,
-                &p.title,
-                t,
-                0.0..self.xmax,
-                (self.y0..1.0).log_scale(),
-                (
-                    "normalised mean (0: median random net, 1: solved)",
-                    "fraction of networks ≥ x",
-                ),
-            )?;
-            // backdrop first, so the compared envs are drawn over it
-            let mut order: Vec<&Curve> = p.curves.iter().collect();
-            order.sort_by_key(|c| !c.look.backdrop);
-            for c in &order {
-                let (color, band, width) = if c.look.backdrop {
-                    (c.look.color, 0.10, 1)
-                } else {
-                    (c.look.color, 0.16, 2)
-                };
-                // the curve (k = 1), its band's lower (2) or upper (3) edge
-                let y = |p: &(f64, f64, f64, f64), k: usize| match k {
-                    1 => p.1,
-                    2 => p.2,
-                    _ => p.3,
-                };
-                let stairs = |k: usize| -> Vec<(f64, f64)> {
-                    // S(x) is constant on (x_i, x_i+1]: a vertical drop at each x_i
-                    let mut out = Vec::with_capacity(2 * c.points.len());
-                    for (i, p) in c.points.iter().enumerate() {
-                        out.push((p.0, y(p, k).max(self.y0)));
-                        if let Some(q) = c.points.get(i + 1) {
-                            out.push((p.0, y(q, k).max(self.y0)));
-                        }
-                    }
-                    out
-                };
-                let mut poly = stairs(3);
-                poly.extend(stairs(2).into_iter().rev());
-                ch.draw_series(std::iter::once(Polygon::new(
-                    poly,
-                    color.mix(band).filled(),
-                )))
-                .map_err(draw_err)?;
-                let line = stairs(1);
-                if c.look.dashed {
-                    ch.draw_series(DashedLineSeries::new(line, 7, 4, color.stroke_width(width)))
-                        .map_err(draw_err)?;
-                } else {
-                    ch.draw_series(LineSeries::new(line, color.stroke_width(width)))
-                        .map_err(draw_err)?;
-                }
-            }
-            ch.draw_series(DashedLineSeries::new(
-                [(1.0, self.y0), (1.0, 1.0)],
-                8,
-                5,
-                SOLVED.stroke_width(2),
-            ))
-            .map_err(draw_err)?;
-            let (sx, sy) = ch.backend_coord(&(1.0, 1.0));
-            root.draw(&Text::new(
-                "solved",
-                (sx + 4, sy + 4),
-                ("sans-serif", 12).into_font().color(&SOLVED),
-            ))
-            .map_err(draw_err)?;
-            // labels beside the curves' ends, stacked upwards where they meet
-            let mut ends: Vec<(i32, i32, &Curve)> = order
-                .iter()
-                .map(|c| {
-                    let last = c.points.last().expect("non-empty curve");
-                    let (x, y) = ch.backend_coord(&(last.0, last.1));
-                    (x, y, *c)
-                })
-                .collect();
-            ends.sort_by_key(|&(x, y, c)| (-y, x, c.look.backdrop));
-            let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
-            let size = 13u32;
-            let line_h = size as i32 + 3;
-            for (x, y, c) in ends {
-                let w = text_width(&c.label, size) + 8;
-                let (lx, mut ly) = (x + 5, y - line_h / 2);
-                while placed
-                    .iter()
-                    .any(|&(px, py, pw, _)| lx < px + pw && px < lx + w && (ly - py).abs() < line_h)
-                {
-                    ly -= line_h;
-                }
-                placed.push((lx, ly, w, line_h));
-                root.draw(&Circle::new((x, y), 3, c.look.color.filled()))
-                    .map_err(draw_err)?;
-                if ly != y - line_h / 2 {
-                    root.draw(&PathElement::new(
-                        [(x, y), (lx, ly)],
-                        c.look.color.mix(0.6).stroke_width(1),
-                    ))
-                    .map_err(draw_err)?;
-                }
-                let text_color = if c.look.backdrop {
-                    BACKDROP_TEXT
-                } else {
-                    c.look.color
-                };
-                boxed_label(root, &c.label, (lx + 2, ly), size, text_color)?;
-            }
+            self.paint_panel(root, area, p, t)?;
         }
         Ok(())
     }
+}
+
+impl ProfilesPaint {
+    /// The figure's title and its key: one entry per run.
+    fn paint_header<DB: DrawingBackend>(
+        &self,
+        head: &DrawingArea<DB, Shift>,
+    ) -> Result<(), PlotError> {
+        head.draw(&Text::new(
+            "Fraction of random networks whose normalised mean score reaches x",
+            (14, 8),
+            ("sans-serif", 20).into_font().color(&BLACK),
+        ))
+        .map_err(draw_err)?;
+        let mut x = 14;
+        for (s, c) in &self.header {
+            head.draw(&Rectangle::new([(x, 46), (x + 22, 54)], c.filled()))
+                .map_err(draw_err)?;
+            boxed_label(head, s, (x + 28, 50), 16, BLACK)?;
+            x += 28 + text_width(s, 16) + 30;
+        }
+        Ok(())
+    }
+
+    /// One panel in `area`: its chart, its curves (the backdrop first, so
+    /// the compared envs are drawn over it), the solved line, and the
+    /// curves' labels (on `root`, free to run past the panel).
+    fn paint_panel<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        area: &DrawingArea<DB, Shift>,
+        p: &Panel,
+        t: PanelText,
+    ) -> Result<(), PlotError> {
+        let (plot_area, _) = area.split_horizontally(self.panel_w - LABEL_ROOM + 40);
+        let mut ch = chart(
+            &plot_area,
+            &p.title,
+            t,
+            0.0..self.xmax,
+            (self.y0..1.0).log_scale(),
+            (
+                "normalised mean (0: median random net, 1: solved)",
+                "fraction of networks ≥ x",
+            ),
+        )?;
+        let mut order: Vec<&Curve> = p.curves.iter().collect();
+        order.sort_by_key(|c| !c.look.backdrop);
+        for c in &order {
+            self.draw_curve(&mut ch, c)?;
+        }
+        self.draw_solved_line(root, &mut ch)?;
+        label_curve_ends(root, &ch, &order)
+    }
+
+    /// A curve's band, then the curve itself (dashed once the palette is
+    /// used up); the backdrop's fainter and thinner.
+    fn draw_curve<DB: DrawingBackend>(
+        &self,
+        ch: &mut ProfileChart<'_, DB>,
+        c: &Curve,
+    ) -> Result<(), PlotError> {
+        let color = c.look.color;
+        let (band, width) = if c.look.backdrop {
+            (0.10, 1)
+        } else {
+            (0.16, 2)
+        };
+        let mut poly = self.stairs(c, |p| p.3);
+        poly.extend(self.stairs(c, |p| p.2).into_iter().rev());
+        ch.draw_series(std::iter::once(Polygon::new(
+            poly,
+            color.mix(band).filled(),
+        )))
+        .map_err(draw_err)?;
+        let line = self.stairs(c, |p| p.1);
+        if c.look.dashed {
+            ch.draw_series(DashedLineSeries::new(line, 7, 4, color.stroke_width(width)))
+                .map_err(draw_err)?;
+        } else {
+            ch.draw_series(LineSeries::new(line, color.stroke_width(width)))
+                .map_err(draw_err)?;
+        }
+        Ok(())
+    }
+
+    /// The step line through `y` of each of a curve's points (the curve, or
+    /// its band's lower or upper edge), floored at the axis: S(x) is
+    /// constant on (x_i, x_i+1], a vertical drop at each x_i.
+    fn stairs(&self, c: &Curve, y: impl Fn(&(f64, f64, f64, f64)) -> f64) -> Vec<(f64, f64)> {
+        let mut out = Vec::with_capacity(2 * c.points.len());
+        for (i, p) in c.points.iter().enumerate() {
+            out.push((p.0, y(p).max(self.y0)));
+            if let Some(q) = c.points.get(i + 1) {
+                out.push((p.0, y(q).max(self.y0)));
+            }
+        }
+        out
+    }
+
+    /// The dashed red line at the solved score (x = 1), labelled.
+    fn draw_solved_line<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        ch: &mut ProfileChart<'_, DB>,
+    ) -> Result<(), PlotError> {
+        ch.draw_series(DashedLineSeries::new(
+            [(1.0, self.y0), (1.0, 1.0)],
+            8,
+            5,
+            SOLVED.stroke_width(2),
+        ))
+        .map_err(draw_err)?;
+        let (sx, sy) = ch.backend_coord(&(1.0, 1.0));
+        root.draw(&Text::new(
+            "solved",
+            (sx + 4, sy + 4),
+            ("sans-serif", 12).into_font().color(&SOLVED),
+        ))
+        .map_err(draw_err)
+    }
+}
+
+/// Labels beside the curves' ends, from the lowest end up, each moved up a
+/// line while it would overlap one already placed (then joined to its end by
+/// a thin line); a dot marks each end.
+fn label_curve_ends<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    ch: &ProfileChart<'_, DB>,
+    curves: &[&Curve],
+) -> Result<(), PlotError> {
+    let mut ends: Vec<(i32, i32, &Curve)> = curves
+        .iter()
+        .map(|c| {
+            let last = c.points.last().expect("non-empty curve");
+            let (x, y) = ch.backend_coord(&(last.0, last.1));
+            (x, y, *c)
+        })
+        .collect();
+    ends.sort_by_key(|&(x, y, c)| (-y, x, c.look.backdrop));
+    let mut placed: Vec<(i32, i32, i32)> = Vec::new();
+    let size = 13u32;
+    let line_h = size as i32 + 3;
+    for (x, y, c) in ends {
+        let w = text_width(&c.label, size) + 8;
+        let (lx, mut ly) = (x + 5, y - line_h / 2);
+        while placed
+            .iter()
+            .any(|&(px, py, pw)| lx < px + pw && px < lx + w && (ly - py).abs() < line_h)
+        {
+            ly -= line_h;
+        }
+        placed.push((lx, ly, w));
+        root.draw(&Circle::new((x, y), 3, c.look.color.filled()))
+            .map_err(draw_err)?;
+        if ly != y - line_h / 2 {
+            root.draw(&PathElement::new(
+                [(x, y), (lx, ly)],
+                c.look.color.mix(0.6).stroke_width(1),
+            ))
+            .map_err(draw_err)?;
+        }
+        let text_color = if c.look.backdrop {
+            BACKDROP_TEXT
+        } else {
+            c.look.color
+        };
+        boxed_label(root, &c.label, (lx + 2, ly), size, text_color)?;
+    }
+    Ok(())
 }
 
 /// The panels' key: `arch · bias`, in order of first appearance, settings

@@ -8,6 +8,7 @@ use crate::compare::ranking::{difficulty_order, guesses_short};
 use crate::plot::panels::tick;
 use crate::plot::{draw_err, render, Figure, ImageFormat, Layers, Paint, PlotError};
 use crate::tables::bias_label;
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -39,6 +40,11 @@ fn ranking_builder<'a, 'b, DB: DrawingBackend>(
     b
 }
 
+/// The left chart: `1/p` on a log x axis, a row per cell on y.
+type GuessChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<LogCoord<f64>, RangedCoordf64>>;
+/// The right chart: the normalised 99.9th percentile of `M` on x.
+type NormChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
 impl Paint for RankingPaint<'_> {
     fn paint<DB: DrawingBackend>(
         &self,
@@ -51,12 +57,34 @@ impl Paint for RankingPaint<'_> {
             ("sans-serif", 20).into_font().color(&BLACK),
         ))
         .map_err(draw_err)?;
-        let n = self.rows.len() as f64;
         let (labels, rest) = root.split_horizontally(LABEL_W);
         let (w, _) = rest.dim_in_pixel();
         let (left, right) = rest.split_horizontally(w * 3 / 5);
+        let mut gl = self.guesses_chart(&left)?;
+        let mut gr = self.norm_chart(&right)?;
+        let n = self.rows.len() as f64;
+        for (k, &(rank, row, look)) in self.rows.iter().enumerate() {
+            let y = n - k as f64 - 0.5;
+            if k % 2 == 0 {
+                stripe(root, &gl, y)?;
+            }
+            row_label(&labels, &gl, (rank, row, look), y)?;
+            self.draw_guesses(root, &mut gl, (row, look), y)?;
+            self.draw_norm(&mut gr, (row, look), y)?;
+        }
+        Ok(())
+    }
+}
+
+impl RankingPaint<'_> {
+    /// The left chart with its axis.
+    fn guesses_chart<'a, DB: DrawingBackend>(
+        &self,
+        left: &'a DrawingArea<DB, Shift>,
+    ) -> Result<GuessChart<'a, DB>, PlotError> {
+        let n = self.rows.len() as f64;
         let mut gl = ranking_builder(
-            &left,
+            left,
             "expected random guesses to the first solving network (1/p)",
         )
         .build_cartesian_2d((1.0..self.gmax).log_scale(), 0.0..n)
@@ -72,7 +100,16 @@ impl Paint for RankingPaint<'_> {
             .bold_line_style(BLACK.mix(0.14))
             .draw()
             .map_err(draw_err)?;
-        let mut gr = ranking_builder(&right, "normalised 99.9th percentile of M")
+        Ok(gl)
+    }
+
+    /// The right chart with its axis and the dashed solved line at 1.
+    fn norm_chart<'a, DB: DrawingBackend>(
+        &self,
+        right: &'a DrawingArea<DB, Shift>,
+    ) -> Result<NormChart<'a, DB>, PlotError> {
+        let n = self.rows.len() as f64;
+        let mut gr = ranking_builder(right, "normalised 99.9th percentile of M")
             .build_cartesian_2d(self.nmin..self.nmax, 0.0..n)
             .map_err(draw_err)?;
         gr.configure_mesh()
@@ -93,98 +130,136 @@ impl Paint for RankingPaint<'_> {
             SOLVED.stroke_width(1),
         ))
         .map_err(draw_err)?;
-        for (k, &(rank, row, look)) in self.rows.iter().enumerate() {
-            let y = n - k as f64 - 0.5;
-            let s = &row.summary;
-            if k % 2 == 0 {
-                let (_, ya) = gl.backend_coord(&(1.0, y + 0.5));
-                let (_, yb) = gl.backend_coord(&(1.0, y - 0.5));
-                let (wfull, _) = root.dim_in_pixel();
-                root.draw(&Rectangle::new(
-                    [(0, ya), (wfull as i32, yb)],
-                    BLACK.mix(0.035).filled(),
-                ))
-                .map_err(draw_err)?;
-            }
-            let color = look.color;
-            let text_color = if look.backdrop {
-                BLACK.mix(0.55).to_rgba()
-            } else {
-                color.to_rgba()
-            };
-            let (_, py) = gl.backend_coord(&(1.0, y));
-            let label = format!(
-                "{rank:>2}. {} · {} · {} — {}",
-                s.id.env,
-                s.id.arch,
-                bias_label(s.id.bias),
-                row.run
-            );
-            labels
-                .draw(&Text::new(
-                    label,
-                    (10, py),
-                    ("sans-serif", 14)
-                        .into_font()
-                        .color(&text_color)
-                        .pos(Pos::new(HPos::Left, VPos::Center)),
-                ))
-                .map_err(draw_err)?;
-            let stroke = color.stroke_width(if look.backdrop { 3 } else { 4 });
-            match s.expected_guesses {
-                Some(ExpectedGuesses::Estimate {
-                    value,
-                    lo_bound,
-                    hi_bound,
-                }) => {
-                    let hi = hi_bound.unwrap_or(self.gmax).min(self.gmax);
-                    gl.draw_series(std::iter::once(PathElement::new(
-                        [(lo_bound.max(1.0), y), (hi, y)],
-                        color.mix(0.55).stroke_width(7),
-                    )))
-                    .map_err(draw_err)?;
-                    gl.draw_series(std::iter::once(Circle::new(
-                        (value.max(1.0), y),
-                        4,
-                        BLACK.filled(),
-                    )))
-                    .map_err(draw_err)?;
-                }
-                Some(ExpectedGuesses::NoneSeen { at_least }) => {
-                    let a = at_least.max(1.0).min(self.gmax);
-                    gl.draw_series(DashedLineSeries::new(
-                        [(a, y), (self.gmax, y)],
-                        5,
-                        4,
-                        stroke,
-                    ))
-                    .map_err(draw_err)?;
-                    let (px, py) = gl.backend_coord(&(a, y));
-                    root.draw(&Polygon::new(
-                        vec![(px, py - 6), (px + 9, py), (px, py + 6)],
-                        color.filled(),
-                    ))
-                    .map_err(draw_err)?;
-                    boxed_label(root, &guesses_short(row), (px + 14, py), 12, BLACK)?;
-                }
-                None => {
-                    let (px, py) = gl.backend_coord(&(1.0, y));
-                    boxed_label(root, "no solved score", (px + 6, py), 12, BLACK)?;
-                }
-            }
-            if let Some(v) = row.normalised_p99_9.filter(|v| v.is_finite()) {
-                let v = v.clamp(self.nmin, self.nmax);
-                gr.draw_series(std::iter::once(PathElement::new(
-                    [(self.nmin.max(0.0).min(v), y), (v, y)],
-                    color.mix(0.35).stroke_width(2),
+        Ok(gr)
+    }
+
+    /// A row's `1/p`: its interval and estimate; or, none seen, a dashed
+    /// line from the lower bound on with an arrowhead and the bound's text;
+    /// or "no solved score".
+    fn draw_guesses<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        gl: &mut GuessChart<'_, DB>,
+        (row, look): (&CompareRow, Look),
+        y: f64,
+    ) -> Result<(), PlotError> {
+        let color = look.color;
+        match row.summary.expected_guesses {
+            Some(ExpectedGuesses::Estimate {
+                value,
+                lo_bound,
+                hi_bound,
+            }) => {
+                let hi = hi_bound.unwrap_or(self.gmax).min(self.gmax);
+                gl.draw_series(std::iter::once(PathElement::new(
+                    [(lo_bound.max(1.0), y), (hi, y)],
+                    color.mix(0.55).stroke_width(7),
                 )))
                 .map_err(draw_err)?;
-                gr.draw_series(std::iter::once(Circle::new((v, y), 5, color.filled())))
-                    .map_err(draw_err)?;
+                gl.draw_series(std::iter::once(Circle::new(
+                    (value.max(1.0), y),
+                    4,
+                    BLACK.filled(),
+                )))
+                .map_err(draw_err)?;
+            }
+            Some(ExpectedGuesses::NoneSeen { at_least }) => {
+                let a = at_least.max(1.0).min(self.gmax);
+                let stroke = color.stroke_width(if look.backdrop { 3 } else { 4 });
+                gl.draw_series(DashedLineSeries::new(
+                    [(a, y), (self.gmax, y)],
+                    5,
+                    4,
+                    stroke,
+                ))
+                .map_err(draw_err)?;
+                let (px, py) = gl.backend_coord(&(a, y));
+                root.draw(&Polygon::new(
+                    vec![(px, py - 6), (px + 9, py), (px, py + 6)],
+                    color.filled(),
+                ))
+                .map_err(draw_err)?;
+                boxed_label(root, &guesses_short(row), (px + 14, py), 12, BLACK)?;
+            }
+            None => {
+                let (px, py) = gl.backend_coord(&(1.0, y));
+                boxed_label(root, "no solved score", (px + 6, py), 12, BLACK)?;
             }
         }
         Ok(())
     }
+
+    /// A row's normalised 99.9th percentile of `M` (clamped to the axis):
+    /// a bar from 0 and a dot; nothing when it has none.
+    fn draw_norm<DB: DrawingBackend>(
+        &self,
+        gr: &mut NormChart<'_, DB>,
+        (row, look): (&CompareRow, Look),
+        y: f64,
+    ) -> Result<(), PlotError> {
+        let Some(v) = row.normalised_p99_9.filter(|v| v.is_finite()) else {
+            return Ok(());
+        };
+        let v = v.clamp(self.nmin, self.nmax);
+        gr.draw_series(std::iter::once(PathElement::new(
+            [(self.nmin.max(0.0).min(v), y), (v, y)],
+            look.color.mix(0.35).stroke_width(2),
+        )))
+        .map_err(draw_err)?;
+        gr.draw_series(std::iter::once(Circle::new((v, y), 5, look.color.filled())))
+            .map_err(draw_err)?;
+        Ok(())
+    }
+}
+
+/// The light stripe behind the row at `y`, across the whole figure.
+fn stripe<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    gl: &GuessChart<'_, DB>,
+    y: f64,
+) -> Result<(), PlotError> {
+    let (_, ya) = gl.backend_coord(&(1.0, y + 0.5));
+    let (_, yb) = gl.backend_coord(&(1.0, y - 0.5));
+    let (wfull, _) = root.dim_in_pixel();
+    root.draw(&Rectangle::new(
+        [(0, ya), (wfull as i32, yb)],
+        BLACK.mix(0.035).filled(),
+    ))
+    .map_err(draw_err)
+}
+
+/// The row's label at the left: `rank. env · arch · bias — run`, in the
+/// run's colour (dark grey for the reference set).
+fn row_label<DB: DrawingBackend>(
+    labels: &DrawingArea<DB, Shift>,
+    gl: &GuessChart<'_, DB>,
+    (rank, row, look): (usize, &CompareRow, Look),
+    y: f64,
+) -> Result<(), PlotError> {
+    let s = &row.summary;
+    let text_color = if look.backdrop {
+        BLACK.mix(0.55).to_rgba()
+    } else {
+        look.color.to_rgba()
+    };
+    let (_, py) = gl.backend_coord(&(1.0, y));
+    let label = format!(
+        "{rank:>2}. {} · {} · {} — {}",
+        s.id.env,
+        s.id.arch,
+        bias_label(s.id.bias),
+        row.run
+    );
+    labels
+        .draw(&Text::new(
+            label,
+            (10, py),
+            ("sans-serif", 14)
+                .into_font()
+                .color(&text_color)
+                .pos(Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(draw_err)
 }
 
 /// The difficulty ranking as one figure (see the module doc): a row per
