@@ -1,6 +1,6 @@
 //! Number formatting for tables: plain text and LaTeX.
 
-use crate::table::Cell;
+use crate::table_render::Cell;
 
 /// A score with two decimals (`195.35`), a negative value that rounds to
 /// zero as `0.00`; `NaN`, `inf` as such.

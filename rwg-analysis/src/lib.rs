@@ -1,7 +1,8 @@
 //! # rwg-analysis
 //!
 //! Everything rwg shows about finished runs: the paper's tables
-//! ([`tables`]), rendered as text, Markdown, LaTeX, CSV or HTML ([`table`]);
+//! ([`run_tables`]), rendered as text, Markdown, LaTeX, CSV or HTML
+//! ([`table_render`]);
 //! its figures ([`plot`]); the self-contained HTML report ([`report`]).
 //! The statistics themselves and the run loader live in
 //! [`rwg_study::stats`] and [`rwg_study::rundir::data`].
@@ -11,8 +12,9 @@
 //!
 //! # Modules
 //!
-//! - [`tables`], [`table`], [`fmt`]: the paper's tables and the one text-table
-//!   layout, as text, Markdown, LaTeX, CSV or HTML.
+//! - [`run_tables`]: what the tables of a run hold; [`table_render`]: how
+//!   any table is written (text, Markdown, LaTeX, CSV, HTML; the one
+//!   text-column layout); [`fmt`]: how numbers are written in them.
 //! - [`plot`]: the paper's figures and the comparison figures.
 //! - [`report`] writes `report.html`.
 //! - [`compare`]: `rwg compare`: its rows, difficulty ranking
@@ -26,8 +28,13 @@ pub mod compare;
 pub mod fmt;
 pub mod plot;
 pub mod report;
-pub mod table;
-pub mod tables;
+pub mod run_tables;
+pub mod table_render;
+
+/// [`run_tables`] under its earlier name, which callers still use.
+pub use run_tables as tables;
+/// [`table_render`] under its earlier name, which callers still use.
+pub use table_render as table;
 
 /// [`compare::page`], also at this path.
 pub use compare::page as compare_page;
@@ -40,7 +47,7 @@ use rwg_study::rundir::data::{write_stats, CellData, KeptEpisodes, Run, RunReadE
 use rwg_study::stats::CellSummary;
 use std::path::{Path, PathBuf};
 
-pub use table::{Table, TableFormat};
+pub use table_render::{Table, TableFormat};
 
 /// Renders several tables one after another, separated by blank lines.
 pub fn render_tables(tables: &[Table], format: TableFormat) -> String {

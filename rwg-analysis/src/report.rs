@@ -9,8 +9,8 @@
 //! the count at the top of the page.
 
 use crate::plot::{cell_label, Figure, ImageFormat};
-use crate::table::{html_escape, TableFormat};
-use crate::tables::run_tables;
+use crate::run_tables::run_tables;
+use crate::table_render::{html_escape, TableFormat};
 use rwg_env::float::fmt_f64;
 use rwg_study::rundir::data::{Run, RunStats};
 use rwg_study::stats::CellSummary;
@@ -129,7 +129,7 @@ fn figure_html_class(f: &Figure, class: &str, hint: &str) -> String {
 
 /// A table in its own horizontally scrolling box, so a wide table never
 /// widens the page.
-pub(crate) fn table_html(t: &crate::table::Table) -> String {
+pub(crate) fn table_html(t: &crate::table_render::Table) -> String {
     format!(
         "<div class=\"table-scroll\">\n{}</div>\n",
         t.render(TableFormat::Html)
@@ -187,8 +187,8 @@ fn cell_numbers(s: &CellSummary) -> String {
              99.9th percentile of M {}",
             a.n,
             a.blocks,
-            crate::tables::spread_text(&a.best_mean),
-            crate::tables::spread_text(&a.p99_9_mean)
+            crate::run_tables::spread_text(&a.best_mean),
+            crate::run_tables::spread_text(&a.p99_9_mean)
         ));
     }
     if let Some(p) = s.solved_fraction {
@@ -202,7 +202,7 @@ fn cell_numbers(s: &CellSummary) -> String {
         ));
         parts.push(format!(
             "expected guesses {}",
-            crate::tables::guesses_cell(s.expected_guesses).text
+            crate::run_tables::guesses_cell(s.expected_guesses).text
         ));
     }
     parts.push(format!("mean episode length {:.1}", s.mean_episode_length));

@@ -9,7 +9,7 @@ use super::ranking::ranking_table;
 use super::table_csv::compare_table;
 use crate::plot::Figure;
 use crate::report::{figure_html, table_html, ERROR_PROBE, SCRIPT, STYLE};
-use crate::table::html_escape;
+use crate::table_render::html_escape;
 use rwg_env::float::fmt_f64;
 
 /// One row of the metadata table: a field and its value per run.

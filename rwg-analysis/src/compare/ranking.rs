@@ -11,8 +11,8 @@
 
 use super::data::CompareRow;
 use crate::fmt::{prob_ci, sig};
-use crate::table::{Cell, Table};
-use crate::tables::{bias_label, guesses_cell};
+use crate::run_tables::{bias_label, guesses_cell};
+use crate::table_render::{Cell, Table};
 use rwg_study::stats::ExpectedGuesses;
 use std::cmp::Ordering;
 

@@ -4,8 +4,8 @@
 use super::data::CompareRow;
 use super::ranking::norm_text;
 use crate::fmt::{prob_ci, score};
-use crate::table::{Cell, Table};
-use crate::tables::guesses_cell;
+use crate::run_tables::guesses_cell;
+use crate::table_render::{Cell, Table};
 use rwg_env::float::fmt_f64;
 use rwg_study::rundir::export::csv_writer;
 use rwg_study::stats::ExpectedGuesses;

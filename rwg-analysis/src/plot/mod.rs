@@ -34,7 +34,7 @@ use rayon::prelude::*;
 use rwg_study::rundir::data::CellData;
 use rwg_study::stats::CellSummary;
 
-use crate::tables::bias_label;
+use crate::run_tables::bias_label;
 
 /// Image formats of figures.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -5,7 +5,7 @@ use super::{boxed_label, text_width, Look, Looks, BACKDROP, BACKDROP_TEXT, PALET
 use crate::compare::data::CompareRun;
 use crate::plot::panels::{chart, PanelText};
 use crate::plot::{distinct, draw_err, render, Figure, ImageFormat, Layers, Paint, PlotError};
-use crate::tables::bias_label;
+use crate::run_tables::bias_label;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;

@@ -7,7 +7,7 @@ use crate::compare::data::{CompareRow, CompareRun};
 use crate::compare::ranking::{difficulty_order, guesses_short};
 use crate::plot::panels::tick;
 use crate::plot::{draw_err, render, Figure, ImageFormat, Layers, Paint, PlotError};
-use crate::tables::bias_label;
+use crate::run_tables::bias_label;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;

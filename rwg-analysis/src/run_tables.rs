@@ -1,9 +1,13 @@
-//! The tables of a run: the paper's Table 3 (best mean and 99.9th percentile
-//! of the sample means), p(solved), expected guesses, and a per-cell detail
-//! table.
+//! What the tables of a run hold: the paper's Table 3 (best mean and 99.9th
+//! percentile of the sample means), p(solved), expected guesses, and a
+//! per-cell detail table, built from a run's statistics as [`Table`]s
+//! ([`run_tables`]), plus the cell texts other tables share.
+//!
+//! How a table is written out (text, Markdown, LaTeX, CSV, HTML) is
+//! [`crate::table_render`]'s job.
 
 use crate::fmt::{prob, prob_ci, score, sig, sig_latex};
-use crate::table::{Cell, Table};
+use crate::table_render::{Cell, Table};
 use rwg_study::rundir::data::RunStats;
 use rwg_study::stats::{BlockSpread, CellSummary, ExpectedGuesses, SpreadAtN, GUESS_COUNTS};
 

@@ -1,5 +1,9 @@
-//! A small table model rendered as aligned text, Markdown, LaTeX (booktabs)
-//! or CSV.
+//! How any table is written, whatever it holds: a small table model
+//! ([`Table`] of [`Cell`]s) rendered as aligned text, Markdown, LaTeX
+//! (booktabs), CSV or HTML ([`TableFormat`]), and the fixed-width columns
+//! ([`TextColumns`]) every terminal table of rwg is laid out with.
+//!
+//! What goes in the tables of a run is [`crate::run_tables`]'s job.
 
 /// One table cell: its plain text and its LaTeX form.
 #[derive(Debug, Clone, PartialEq)]
