@@ -1,14 +1,84 @@
 //! # rwg-analysis
 //!
-//! Everything rwg shows about finished runs: the paper's tables
-//! ([`run_tables`]), rendered as text, Markdown, LaTeX, CSV or HTML
-//! ([`table_render`]);
-//! its figures ([`plot`]); the self-contained HTML report ([`report`]).
+//! Everything rwg derives from a finished run directory and shows: the
+//! paper's tables ([`run_tables`]), rendered as text, Markdown, LaTeX, CSV or
+//! HTML ([`table_render`]); its figures ([`plot`]); the self-contained HTML
+//! report ([`report`]); the comparison of several runs ([`compare`]).
 //! The statistics themselves and the run loader live in
 //! [`rwg_study::stats`] and [`rwg_study::rundir::data`].
 //!
 //! [`write_analysis`] writes all of it into a run directory: what `rwg run`
 //! calls when it finishes.
+//!
+//! # Example
+//!
+//! A tiny study run through `rwg_study`'s runner (what `rwg run` does), then
+//! its finished run directory read back and the paper's tables derived from
+//! it (what `rwg stats` does), then the whole analysis written into it:
+//!
+//! ```
+//! use rwg_analysis::{load_cells, render_tables, run_stats, write_analysis, TableFormat};
+//! use rwg_analysis::run_tables::run_tables;
+//! use rwg_study::manifest::Manifest;
+//! use rwg_study::rundir::data::{KeptEpisodes, Run};
+//! use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome};
+//! use std::sync::atomic::AtomicBool;
+//!
+//! /// Reports nothing.
+//! struct Quiet;
+//! impl Progress for Quiet {
+//!     fn start(&mut self, _networks: u64) {}
+//!     fn cell(&mut self, _label: &str) {}
+//!     fn block(&mut self, _label: &str, _networks: u64, _env_steps: u64) {}
+//!     fn finish(&mut self, _ok: bool) {}
+//! }
+//!
+//! let text = r#"
+//! seed = 0
+//! samples = 64
+//! episodes = 2
+//! bias = [false]
+//! [weights]
+//! distribution = "normal"
+//! scale = 1.0
+//! [[architectures]]
+//! name = "0HL"
+//! hidden = []
+//! [[envs]]
+//! id = "CartPole-v1"
+//! solved = 195
+//! "#;
+//! let mut m = Manifest::parse(text, "study.toml", std::path::Path::new("."))?;
+//! let dir = std::env::temp_dir().join(format!("rwg-analysis-doc-{}", std::process::id()));
+//! let stop = AtomicBool::new(false);
+//! let opts = RunOptions {
+//!     out: dir.clone(),
+//!     shard: None,
+//!     force_new: true,
+//!     stop: &stop,
+//!     keep_episodes: false,
+//!     commit_linger: std::time::Duration::ZERO,
+//!     manifest_file: None,
+//! };
+//! let outcome = run_study(&mut m, &opts, &mut Quiet)?;
+//! assert!(matches!(outcome, RunOutcome::Finished(_)));
+//! drop(outcome); // releases the run directory's lock
+//!
+//! // The finished run, read back: every cell's episodes and summary.
+//! let run = Run::open(&dir)?;
+//! let cells = load_cells(&run)?;
+//! let stats = run_stats(&run, &cells);
+//! let p = stats.cells[0].solved_fraction.expect("a solved score was given");
+//! assert_eq!(p.trials, 64);
+//! let tables = render_tables(&run_tables(&stats), TableFormat::Markdown);
+//! assert!(tables.contains("| CartPole-v1 |"), "{tables}");
+//!
+//! // Or all of it at once, as `rwg run` ends: stats, figures, report.html.
+//! let written = write_analysis(&dir, false, KeptEpisodes::new())?;
+//! assert!(written.contains(&dir.join("report.html")));
+//! std::fs::remove_dir_all(&dir)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 //!
 //! # Modules
 //!
