@@ -8,6 +8,7 @@ use crate::compare::ranking::{difficulty_order, guesses_short};
 use crate::plot::panels::tick;
 use crate::plot::{draw_err, render, Figure, ImageFormat, Layers, Paint, PlotError};
 use crate::run_tables::bias_label;
+use plotters::coord::ranged1d::ValueFormatter;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -89,17 +90,10 @@ impl RankingPaint<'_> {
         )
         .build_cartesian_2d((1.0..self.gmax).log_scale(), 0.0..n)
         .map_err(draw_err)?;
-        gl.configure_mesh()
-            .disable_y_mesh()
-            .y_labels(0)
-            .x_desc("1/p, 95% interval (log scale); ▷ none seen: at least")
-            .label_style(("sans-serif", 12))
-            .axis_desc_style(("sans-serif", 13))
-            .x_label_formatter(&tick)
-            .light_line_style(TRANSPARENT)
-            .bold_line_style(BLACK.mix(0.14))
-            .draw()
-            .map_err(draw_err)?;
+        draw_x_axis(
+            &mut gl,
+            "1/p, 95% interval (log scale); ▷ none seen: at least",
+        )?;
         Ok(gl)
     }
 
@@ -112,17 +106,7 @@ impl RankingPaint<'_> {
         let mut gr = ranking_builder(right, "normalised 99.9th percentile of M")
             .build_cartesian_2d(self.nmin..self.nmax, 0.0..n)
             .map_err(draw_err)?;
-        gr.configure_mesh()
-            .disable_y_mesh()
-            .y_labels(0)
-            .x_desc("0: median random net, 1: solved")
-            .label_style(("sans-serif", 12))
-            .axis_desc_style(("sans-serif", 13))
-            .x_label_formatter(&tick)
-            .light_line_style(TRANSPARENT)
-            .bold_line_style(BLACK.mix(0.14))
-            .draw()
-            .map_err(draw_err)?;
+        draw_x_axis(&mut gr, "0: median random net, 1: solved")?;
         gr.draw_series(DashedLineSeries::new(
             [(1.0, 0.0), (1.0, n)],
             6,
@@ -210,6 +194,29 @@ impl RankingPaint<'_> {
             .map_err(draw_err)?;
         Ok(())
     }
+}
+
+/// A ranking chart's mesh: vertical grid lines and the x axis described by
+/// `x_desc`, no y labels (the rows are labelled at the left of the figure).
+fn draw_x_axis<DB: DrawingBackend, X, Y>(
+    ch: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    x_desc: &str,
+) -> Result<(), PlotError>
+where
+    X: Ranged<ValueType = f64> + ValueFormatter<f64>,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    ch.configure_mesh()
+        .disable_y_mesh()
+        .y_labels(0)
+        .x_desc(x_desc)
+        .label_style(("sans-serif", 12))
+        .axis_desc_style(("sans-serif", 13))
+        .x_label_formatter(&tick)
+        .light_line_style(TRANSPARENT)
+        .bold_line_style(BLACK.mix(0.14))
+        .draw()
+        .map_err(draw_err)
 }
 
 /// The light stripe behind the row at `y`, across the whole figure.
