@@ -9,7 +9,7 @@ use crate::run_tables::bias_label;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use rwg_study::stats::{wilson_interval, Z_95};
+use rwg_study::stats::{wilson_interval, CellSummary, Z_95};
 
 /// At most this many points per curve.
 const CURVE_POINTS: usize = 600;
@@ -56,6 +56,8 @@ struct Panel {
     curves: Vec<Curve>,
 }
 
+/// The whole profiles figure, ready to paint: the panels in a grid `cols`
+/// wide, their shared axes (x up to `xmax`, y from `y0`), the key.
 struct ProfilesPaint {
     panels: Vec<Panel>,
     cols: usize,
@@ -74,6 +76,7 @@ fn panel_size(cols: usize) -> (u32, u32) {
         _ => (420, 400),
     }
 }
+/// Height of the title and key above the panels.
 const HEADER_H: u32 = 70;
 /// Room right of the data for the curves' labels.
 const LABEL_ROOM: u32 = 150;
@@ -296,28 +299,17 @@ fn panel_keys(runs: &[CompareRun]) -> Vec<(String, bool)> {
     keys
 }
 
-/// The comparison's performance profiles: one panel per architecture × bias
-/// setting (see the module doc). Cells without a solved score have no
-/// normalised score and are left out.
-pub fn profiles_figure(runs: &[CompareRun], format: ImageFormat) -> Result<Figure, PlotError> {
-    let looks = Looks::new(runs);
-    let norm = |s: &rwg_study::stats::CellSummary, m: &[f64]| -> Vec<f64> {
-        m.iter().filter_map(|&x| s.normalise(x)).collect()
-    };
-    let xmax_data = runs
-        .iter()
-        .flat_map(|r| r.cells.iter().flat_map(|(s, m)| norm(s, m)))
-        .filter(|v| v.is_finite())
-        .fold(1.1f64, f64::max);
-    let xmax = xmax_data.min(3.0) * 1.03;
-    let nmax = runs
-        .iter()
-        .flat_map(|r| r.cells.iter().map(|(_, m)| m.len()))
-        .max()
-        .unwrap_or(1)
-        .max(1);
+/// A cell's sample means, normalised (none without a solved score).
+fn normalised(s: &CellSummary, means: &[f64]) -> Vec<f64> {
+    means.iter().filter_map(|&x| s.normalise(x)).collect()
+}
+
+/// The panels, in [`panel_keys`] order, each with a curve per (run, env)
+/// that has the panel's setting; the envs of the compared runs are labelled
+/// with their run when more than one run is compared.
+fn profile_panels(runs: &[CompareRun], looks: &Looks, xmax: f64) -> Vec<Panel> {
     let multi = runs.len() > 2;
-    let panels: Vec<Panel> = panel_keys(runs)
+    panel_keys(runs)
         .into_iter()
         .map(|(arch, bias)| {
             let mut curves = Vec::new();
@@ -333,7 +325,7 @@ pub fn profiles_figure(runs: &[CompareRun], format: ImageFormat) -> Result<Figur
                     } else {
                         s.id.env.clone()
                     };
-                    curves.extend(curve(&norm(s, m), label, look, xmax));
+                    curves.extend(curve(&normalised(s, m), label, look, xmax));
                 }
             }
             Panel {
@@ -341,14 +333,12 @@ pub fn profiles_figure(runs: &[CompareRun], format: ImageFormat) -> Result<Figur
                 curves,
             }
         })
-        .collect();
-    let cols = panel_keys(runs)
-        .iter()
-        .filter(|k| !k.1)
-        .count()
-        .max(panel_keys(runs).iter().filter(|k| k.1).count())
-        .clamp(1, 3);
-    let rows = panels.len().div_ceil(cols).max(1);
+        .collect()
+}
+
+/// The key above the panels: the reference set's grey (when there is
+/// one), the compared runs' colours, the band's shade.
+fn key_entries(runs: &[CompareRun], looks: &Looks) -> Vec<(String, RGBColor)> {
     let mut header = Vec::new();
     let compared: Vec<&str> = match &looks.reference {
         Some(r) => {
@@ -362,6 +352,38 @@ pub fn profiles_figure(runs: &[CompareRun], format: ImageFormat) -> Result<Figur
         PALETTE[0],
     ));
     header.push(("shade: 95% Wilson interval".into(), RGBColor(190, 218, 236)));
+    header
+}
+
+/// The grid's columns: as many as the architectures of the bias setting
+/// with the most, 1 to 3.
+fn grid_cols(runs: &[CompareRun]) -> usize {
+    let keys = panel_keys(runs);
+    let without = keys.iter().filter(|k| !k.1).count();
+    let with = keys.iter().filter(|k| k.1).count();
+    without.max(with).clamp(1, 3)
+}
+
+/// The comparison's performance profiles: one panel per architecture × bias
+/// setting (see the module doc). Cells without a solved score have no
+/// normalised score and are left out.
+pub fn profiles_figure(runs: &[CompareRun], format: ImageFormat) -> Result<Figure, PlotError> {
+    let looks = Looks::new(runs);
+    let xmax_data = runs
+        .iter()
+        .flat_map(|r| r.cells.iter().flat_map(|(s, m)| normalised(s, m)))
+        .filter(|v| v.is_finite())
+        .fold(1.1f64, f64::max);
+    let xmax = xmax_data.min(3.0) * 1.03;
+    let nmax = runs
+        .iter()
+        .flat_map(|r| r.cells.iter().map(|(_, m)| m.len()))
+        .max()
+        .unwrap_or(1)
+        .max(1);
+    let panels = profile_panels(runs, &looks, xmax);
+    let cols = grid_cols(runs);
+    let rows = panels.len().div_ceil(cols).max(1);
     let (pw, ph) = panel_size(cols);
     let size = (cols as u32 * pw, HEADER_H + rows as u32 * ph);
     Ok(Figure {
@@ -378,7 +400,7 @@ pub fn profiles_figure(runs: &[CompareRun], format: ImageFormat) -> Result<Figur
                 xmax,
                 y0: 0.6 / nmax as f64,
                 panel_w: pw,
-                header,
+                header: key_entries(runs, &looks),
             },
             size,
             format,
