@@ -10,6 +10,7 @@ use crate::rundir::block_check::{check_blocks, first_missing_owned};
 use crate::rundir::blocks::{copy_block, n_blocks, BlockIndex};
 use crate::rundir::checksum::verify_cell;
 use crate::rundir::env_record::{check_record, write_record};
+use crate::rundir::error::with_causes;
 use crate::rundir::export::{rfc3339, write_atomic};
 use crate::rundir::finalize::{cell_complete, tidy_complete_cell};
 use crate::rundir::lock::RunLock;
@@ -331,7 +332,7 @@ fn shard_blocks(
                 source,
             })?;
             if !check.problems.is_empty() {
-                let list: Vec<String> = check.problems.iter().map(|p| p.to_string()).collect();
+                let list: Vec<String> = check.problems.iter().map(|p| with_causes(p)).collect();
                 return refuse(format!(
                     "shard {k}/{count} ({}) does not verify:\n  {}\nrun it again to compute \
                      these blocks again: {}",

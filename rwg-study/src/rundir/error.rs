@@ -9,8 +9,9 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum RunDirError {
-    /// An I/O error on a file.
-    #[error("{path}: {source}")]
+    /// An I/O error on a file (the cause is chained, not printed: rwg
+    /// prints an error with its causes).
+    #[error("{path}")]
     Io {
         /// The file.
         path: PathBuf,
@@ -78,5 +79,35 @@ pub(crate) fn io_err(path: &Path) -> impl FnOnce(io::Error) -> RunDirError + '_ 
     move |source| RunDirError::Io {
         path: path.to_path_buf(),
         source,
+    }
+}
+
+/// An error with its causes, `context: cause: ...` (a cause whose text the
+/// message already holds is not repeated): the text of an error that is
+/// kept as a line of a report rather than returned with its chain.
+pub(crate) fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut source = e.source();
+    while let Some(s) = source {
+        let s_text = s.to_string();
+        if !text.contains(&s_text) {
+            text = format!("{text}: {s_text}");
+        }
+        source = s.source();
+    }
+    text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_io_error_prints_its_file_and_chains_its_cause() {
+        let e = io_err(Path::new("cells/a/scores.csv"))(io::Error::other("disk on fire"));
+        assert_eq!(e.to_string(), "cells/a/scores.csv");
+        let cause = std::error::Error::source(&e).map(|s| s.to_string());
+        assert_eq!(cause.as_deref(), Some("disk on fire"));
+        assert_eq!(with_causes(&e), "cells/a/scores.csv: disk on fire");
     }
 }

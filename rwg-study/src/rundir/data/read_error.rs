@@ -1,15 +1,15 @@
 //! [`RunReadError`]: why a run directory could not be read for analysis.
 
 use super::Unfinished;
-use crate::rundir::error::RunDirError;
+use crate::rundir::error::{with_causes, RunDirError};
 use std::path::{Path, PathBuf};
 
 /// Why a run directory could not be read.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum RunReadError {
-    /// A file could not be read.
-    #[error("cannot read {path}: {source}")]
+    /// A file could not be read (the cause is chained, not printed).
+    #[error("cannot read {path}")]
     Io {
         /// The file.
         path: PathBuf,
@@ -66,7 +66,7 @@ pub enum RunReadError {
     #[error(transparent)]
     Integrity(#[from] RunDirError),
     /// A file does not match its checksum, and reading it shows where.
-    #[error("{check}\n  first bad row: {row}")]
+    #[error("{}\n  first bad row: {}", with_causes(check), with_causes(row.as_ref()))]
     Damaged {
         /// The checksum failure.
         check: RunDirError,
@@ -114,5 +114,18 @@ pub(super) fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> RunReadError
     move |source| RunReadError::Io {
         path: path.to_path_buf(),
         source,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_io_error_says_what_it_could_not_read_and_chains_why() {
+        let e = io_err(Path::new("run/run.json"))(std::io::Error::other("disk on fire"));
+        assert_eq!(e.to_string(), "cannot read run/run.json");
+        let cause = std::error::Error::source(&e).map(|s| s.to_string());
+        assert_eq!(cause.as_deref(), Some("disk on fire"));
     }
 }
