@@ -329,6 +329,22 @@ fn edited_truncated_and_zero_filled_files_are_named_and_never_count() {
         "{e}"
     );
 
+    // A scores.csv that cannot be read (a folder in its place): verify and
+    // stats name it and say why.
+    let run = copy("unreadable");
+    let scores = run.join(cell).join("scores.csv");
+    std::fs::remove_file(&scores).unwrap();
+    std::fs::create_dir(&scores).unwrap();
+    let v = verify_fails(&run);
+    assert!(v.contains("scores.csv: not a regular file"), "{v}");
+    let e = rwg_err(&["stats", s(&run), "--no-write"]);
+    assert!(
+        e.contains("scores.csv: not a regular file")
+            && e.contains("cannot read ")
+            && e.matches("not a regular file").count() == 2,
+        "{e}"
+    );
+
     // Blocks of a shard: edited, truncated, zero-filled; verify and merge name them.
     let shards: Vec<PathBuf> = (0..2).map(|k| dir.join(format!("s{k}"))).collect();
     for (k, d) in shards.iter().enumerate() {
@@ -359,6 +375,19 @@ fn edited_truncated_and_zero_filled_files_are_named_and_never_count() {
         );
         assert_eq!(std::fs::read(&block).unwrap(), good, "{how}");
     }
+    // A block that cannot be read (a folder in its place): verify and merge
+    // name it and say why.
+    let block = shards[1].join(cell).join("blocks/b0000000.csv");
+    let good = std::fs::read(&block).unwrap();
+    std::fs::remove_file(&block).unwrap();
+    std::fs::create_dir(&block).unwrap();
+    let v = verify_fails(&shards[1]);
+    assert!(v.contains("b0000000.csv: not a regular file"), "{v}");
+    let _ = std::fs::remove_dir_all(&merged);
+    let e = rwg_err(&["merge", s(&shards[0]), s(&shards[1]), "--out", s(&merged)]);
+    assert!(e.contains("b0000000.csv: not a regular file"), "{e}");
+    std::fs::remove_dir(&block).unwrap();
+    std::fs::write(&block, good).unwrap();
     verify_ok(&shards[1]);
     let _ = std::fs::remove_dir_all(&merged);
     rwg_ok(&["merge", s(&shards[0]), s(&shards[1]), "--out", s(&merged)]);

@@ -15,7 +15,7 @@
 //!
 //! When a cell has been sampled to its end, the blocks still gathering are
 //! not written at all: [`Committer::close`] keeps them back and the cell's end
-//! finalises from them ([`crate::rundir::blocks::finalize_cell`]'s `pending`),
+//! finalises from them ([`crate::rundir::finalize::finalize_cell`]'s `pending`),
 //! so a cell computed within [`LINGER`] creates no block file (on a CartPole
 //! cell, creating, reading back and deleting its block files cost about a
 //! fifth of the whole run). An interrupted or failed cell, and a shard, commit
@@ -26,7 +26,8 @@
 //! of a whole line, and the index is keyed by block name, so its line order
 //! does not matter.
 
-use crate::rundir::blocks::{write_blocks, RunDirError, BLOCK_SAMPLES};
+use crate::rundir::blocks::{write_blocks, BLOCK_SAMPLES};
+use crate::rundir::error::RunDirError;
 use rwg_core::sampler::BlockResult;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering::SeqCst};

@@ -1,7 +1,7 @@
 //! [`StudyError`]: why planning, running or merging a study failed.
 
 use crate::manifest::ManifestError;
-use crate::rundir::blocks::RunDirError;
+use crate::rundir::error::RunDirError;
 use rwg_core::sampler::SampleError;
 use std::path::PathBuf;
 use thiserror::Error;

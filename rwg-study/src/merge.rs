@@ -4,16 +4,18 @@
 //! blocks are copied under a temporary name and renamed, finalised cells are
 //! kept, and `run.json` gets its end time last.
 
-use crate::cells::{new_meta, plan_cells, SummaryLine};
+use crate::cells::{new_meta, plan_cells, Cell, SummaryLine};
 use crate::manifest::Manifest;
 use crate::rundir::block_check::{check_blocks, first_missing_owned};
-use crate::rundir::blocks::{cell_complete, copy_block, n_blocks, tidy_complete_cell, BlockIndex};
+use crate::rundir::blocks::{copy_block, n_blocks, BlockIndex};
 use crate::rundir::checksum::verify_cell;
 use crate::rundir::env_record::{check_record, write_record};
+use crate::rundir::error::with_causes;
 use crate::rundir::export::{rfc3339, write_atomic};
+use crate::rundir::finalize::{cell_complete, tidy_complete_cell};
 use crate::rundir::lock::RunLock;
 use crate::rundir::meta::{
-    read_cell_meta, read_run_meta, write_run_meta, RunMeta, ShardMeta, RUN_FORMAT,
+    read_cell_meta, read_run_meta, write_run_meta, CellMeta, RunMeta, ShardMeta, RUN_FORMAT,
 };
 use crate::rundir::verify::shard_command;
 use crate::rundir::{cell_dir, CELLS, MANIFEST, RUN_JSON};
@@ -47,8 +49,70 @@ pub fn merge_shards(
     out: &Path,
     mut on_cell: impl FnMut(Option<&SummaryLine>),
 ) -> Result<MergeReport, StudyError> {
-    let refuse = |msg: String| Err(StudyError::Refused(msg));
-    let mut dirs: Vec<(PathBuf, Manifest, RunMeta)> = vec![];
+    let dirs = load_shards(shards)?;
+    let (m, count) = one_study(&dirs)?;
+    let owner = shard_owners(&dirs, count)?;
+    // The shards' manifests name their plugin files already: nothing to fill in.
+    let cells = plan_cells(&mut m.clone())?;
+    let nb = n_blocks(m.samples);
+    let indexes = shard_blocks(&cells, &owner, nb)?;
+    check_env_records(&cells, &owner)?;
+    crate::rundir::export::create_dir_all(out)
+        .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
+    let lock = RunLock::acquire(out)?;
+    if let Some(previous) = check_out(out, m)? {
+        if previous.end_time.is_some() {
+            check_complete_merge(out)?;
+            return Ok(MergeReport {
+                shards: count,
+                meta: previous,
+                cells_kept: cells.len(),
+                already_complete: true,
+                lock,
+            });
+        }
+    }
+    let mut meta = start_out(out, m, &dirs)?;
+    on_cell(None);
+    let mut cells_kept = 0;
+    for (ci, cell) in cells.iter().enumerate() {
+        let dest = cell_dir(out, &cell.id.dir);
+        // A cell finalised by an interrupted merge is kept as it is.
+        if cell_complete(&dest) {
+            let cm = kept_cell(cell, &dest)?;
+            meta.env_steps += cm.env_steps;
+            meta.cells.push(cm);
+            cells_kept += 1;
+            continue;
+        }
+        copy_cell_blocks(cell, &dest, &indexes[ci], ci, nb)?;
+        let (cm, totals) = cell.finalize(m, out, 0.0, false, &[])?;
+        on_cell(Some(&cell.summary_line(&totals.means, None)));
+        meta.env_steps += cm.env_steps;
+        meta.cells.push(cm);
+        write_run_meta(out, &meta)?;
+    }
+    finish_meta(out, &mut meta)?;
+    Ok(MergeReport {
+        shards: count,
+        meta,
+        cells_kept,
+        already_complete: false,
+        lock,
+    })
+}
+
+/// A shard directory given to the merge: its path, manifest and `run.json`.
+type Shard = (PathBuf, Manifest, RunMeta);
+
+fn refuse<T>(msg: String) -> Result<T, StudyError> {
+    Err(StudyError::Refused(msg))
+}
+
+/// Reads each shard directory's manifest and `run.json`, refusing one whose
+/// manifest was edited, that holds a whole run, or that has no checksums.
+fn load_shards(shards: &[PathBuf]) -> Result<Vec<Shard>, StudyError> {
+    let mut dirs = vec![];
     for d in shards {
         let m = Manifest::load(&d.join(MANIFEST)).map_err(|source| StudyError::NotARunDir {
             dir: d.clone(),
@@ -72,6 +136,12 @@ pub fn merge_shards(
         }
         dirs.push((d.clone(), m, meta));
     }
+    Ok(dirs)
+}
+
+/// Checks that the shards hold one study, split into the same number of
+/// shards; returns the study and that number.
+fn one_study(dirs: &[Shard]) -> Result<(&Manifest, u64), StudyError> {
     let Some((first_dir, m, first_meta)) = dirs.first() else {
         return refuse("no shard directories given".into());
     };
@@ -97,8 +167,14 @@ pub fn merge_shards(
             ));
         }
     }
+    Ok((m, count))
+}
+
+/// The directory of each of the `count` shards (`[k]` holds shard `k`),
+/// refusing a shard given twice or missing.
+fn shard_owners(dirs: &[Shard], count: u64) -> Result<Vec<&PathBuf>, StudyError> {
     let mut owner: Vec<Option<&PathBuf>> = vec![None; count as usize];
-    for (d, _, meta) in &dirs {
+    for (d, _, meta) in dirs {
         let k = meta.shard.expect("checked").index as usize;
         if let Some(prev) = owner[k] {
             return refuse(format!(
@@ -121,48 +197,39 @@ pub fn merge_shards(
             missing.join(", ")
         ));
     }
+    Ok(owner.into_iter().flatten().collect())
+}
 
-    // The shards' manifests name their plugin files already: nothing to fill in.
-    let cells = plan_cells(&mut m.clone())?;
-    let nb = n_blocks(m.samples);
-    let indexes = shard_blocks(&cells, &owner, nb)?;
-
-    // Every shard computed its blocks of a cell under the env as it is now.
-    for cell in &cells {
+/// Checks that every shard computed its blocks of a cell under the env as
+/// it is now.
+fn check_env_records(cells: &[Cell], owner: &[&PathBuf]) -> Result<(), StudyError> {
+    for cell in cells {
         let now = cell.env_record();
-        for d in &owner {
-            check_record(
-                &cell_dir(d.expect("checked"), &cell.id.dir),
-                &now,
-                MERGE_REFUSED,
-            )?;
+        for d in owner {
+            check_record(&cell_dir(d, &cell.id.dir), &now, MERGE_REFUSED)?;
         }
     }
+    Ok(())
+}
 
-    crate::rundir::export::create_dir_all(out)
-        .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
-    let lock = RunLock::acquire(out)?;
-    if let Some(previous) = check_out(out, m)? {
-        if previous.end_time.is_some() {
-            // Complete only if everything in it still verifies.
-            let check = crate::rundir::verify::verify_run(out);
-            if !check.problems.is_empty() {
-                return refuse(format!(
-                    "{} holds this study, merged, but its files do not verify:\n  {}\n\
-                     delete the damaged cell directories and merge again",
-                    out.display(),
-                    check.problems.join("\n  ")
-                ));
-            }
-            return Ok(MergeReport {
-                shards: count,
-                meta: previous,
-                cells_kept: cells.len(),
-                already_complete: true,
-                lock,
-            });
-        }
+/// A merge of this study in `out` that is complete counts only if
+/// everything in it still verifies.
+fn check_complete_merge(out: &Path) -> Result<(), StudyError> {
+    let check = crate::rundir::verify::verify_run(out);
+    if check.problems.is_empty() {
+        return Ok(());
     }
+    refuse(format!(
+        "{} holds this study, merged, but its files do not verify:\n  {}\n\
+         delete the damaged cell directories and merge again",
+        out.display(),
+        check.problems.join("\n  ")
+    ))
+}
+
+/// Writes the merged run's `cells/` folder and manifest; returns its
+/// `run.json` as it starts (no cells), timed from the shards'.
+fn start_out(out: &Path, m: &Manifest, dirs: &[Shard]) -> Result<RunMeta, StudyError> {
     let cells_dir = out.join(CELLS);
     crate::rundir::export::create_dir_all(&cells_dir).map_err(StudyError::io(format!(
         "cannot create {}",
@@ -181,64 +248,64 @@ pub fn merge_shards(
         .unwrap_or_default();
     let mut meta = new_meta(m, threads, start, None);
     meta.wall_s = dirs.iter().map(|s| s.2.wall_s).sum();
-    on_cell(None);
-    let mut cells_kept = 0;
-    for (ci, cell) in cells.iter().enumerate() {
-        let dest = cell_dir(out, &cell.id.dir);
-        // A cell finalised by an interrupted merge is kept as it is.
-        if cell_complete(&dest) {
-            tidy_complete_cell(&dest).map_err(|source| StudyError::RunDir {
-                context: format!("cannot tidy cell {}", cell.id.dir),
-                source,
-            })?;
-            verify_cell(&dest).map_err(|source| StudyError::RunDir {
-                context: format!("cell {} of the earlier merge does not verify", cell.id.dir),
-                source,
-            })?;
-            let cm = read_cell_meta(&dest)?;
-            meta.env_steps += cm.env_steps;
-            meta.cells.push(cm);
-            cells_kept += 1;
-            continue;
+    Ok(meta)
+}
+
+/// A cell an interrupted merge finalised: tidied, verified, its metadata.
+fn kept_cell(cell: &Cell, dest: &Path) -> Result<CellMeta, StudyError> {
+    tidy_complete_cell(dest).map_err(|source| StudyError::RunDir {
+        context: format!("cannot tidy cell {}", cell.id.dir),
+        source,
+    })?;
+    verify_cell(dest).map_err(|source| StudyError::RunDir {
+        context: format!("cell {} of the earlier merge does not verify", cell.id.dir),
+        source,
+    })?;
+    read_cell_meta(dest)
+}
+
+/// Copies the blocks of cell `ci` that `dest` lacks from the shards that
+/// own them (`indexes[k]`: shard `k`'s index of the cell), after recording
+/// (or checking) the env the cell is merged under.
+fn copy_cell_blocks(
+    cell: &Cell,
+    dest: &Path,
+    indexes: &[BlockIndex],
+    ci: usize,
+    nb: u64,
+) -> Result<(), StudyError> {
+    let now = cell.env_record();
+    if !check_record(dest, &now, MERGE_REFUSED)? {
+        write_record(dest, &now)?;
+    }
+    let dest_index = BlockIndex::load(dest).map_err(|source| StudyError::RunDir {
+        context: format!("cannot read the block index of {}", dest.display()),
+        source,
+    })?;
+    let count = indexes.len() as u64;
+    for b in 0..nb {
+        if dest_index.done(b) {
+            continue; // copied (and checked) by an interrupted merge
         }
-        let now = cell.env_record();
-        if !check_record(&dest, &now, MERGE_REFUSED)? {
-            write_record(&dest, &now)?;
-        }
-        let dest_index = BlockIndex::load(&dest).map_err(|source| StudyError::RunDir {
-            context: format!("cannot read the block index of {}", dest.display()),
+        let k = ((ci as u64 * nb + b) % count) as usize;
+        copy_block(&indexes[k], dest, b).map_err(|source| StudyError::RunDir {
+            context: format!("cannot merge block {b} of cell {}", cell.id.dir),
             source,
         })?;
-        for b in 0..nb {
-            if dest_index.done(b) {
-                continue; // copied (and checked) by an interrupted merge
-            }
-            let k = ((ci as u64 * nb + b) % count) as usize;
-            copy_block(&indexes[ci][k], &dest, b).map_err(|source| StudyError::RunDir {
-                context: format!("cannot merge block {b} of cell {}", cell.id.dir),
-                source,
-            })?;
-        }
-        let (cm, totals) = cell.finalize(m, out, 0.0, false, &[])?;
-        on_cell(Some(&cell.summary_line(&totals.means, None)));
-        meta.env_steps += cm.env_steps;
-        meta.cells.push(cm);
-        write_run_meta(out, &meta)?;
     }
+    Ok(())
+}
+
+/// Writes the merged `run.json` with its speed and end time, last.
+fn finish_meta(out: &Path, meta: &mut RunMeta) -> Result<(), StudyError> {
     meta.steps_per_s = if meta.wall_s > 0.0 {
         meta.env_steps as f64 / meta.wall_s
     } else {
         0.0
     };
     meta.end_time = Some(rfc3339(SystemTime::now()));
-    write_run_meta(out, &meta)?;
-    Ok(MergeReport {
-        shards: count,
-        meta,
-        cells_kept,
-        already_complete: false,
-        lock,
-    })
+    write_run_meta(out, meta)?;
+    Ok(())
 }
 
 /// The block index of every cell (outer) in every shard (inner, `owner[k]`
@@ -246,11 +313,10 @@ pub fn merge_shards(
 /// verify` makes ([`check_blocks`]: every block it lists is there with its
 /// digest) and holds every block it owns.
 fn shard_blocks(
-    cells: &[crate::cells::Cell],
-    owner: &[Option<&PathBuf>],
+    cells: &[Cell],
+    owner: &[&PathBuf],
     nb: u64,
 ) -> Result<Vec<Vec<BlockIndex>>, StudyError> {
-    let refuse = |msg: String| Err(StudyError::Refused(msg));
     let count = owner.len() as u64;
     let shard = |k: usize| ShardMeta {
         index: k as u64,
@@ -260,14 +326,13 @@ fn shard_blocks(
     for cell in cells {
         let mut per_shard = vec![];
         for (k, d) in owner.iter().enumerate() {
-            let d = d.expect("checked");
             let dir = cell_dir(d, &cell.id.dir);
             let check = check_blocks(&dir).map_err(|source| StudyError::RunDir {
                 context: format!("cannot read the block index of {}", dir.display()),
                 source,
             })?;
             if !check.problems.is_empty() {
-                let list: Vec<String> = check.problems.iter().map(|p| p.to_string()).collect();
+                let list: Vec<String> = check.problems.iter().map(|p| with_causes(p)).collect();
                 return refuse(format!(
                     "shard {k}/{count} ({}) does not verify:\n  {}\nrun it again to compute \
                      these blocks again: {}",
@@ -282,7 +347,6 @@ fn shard_blocks(
     }
     for (ci, cell) in cells.iter().enumerate() {
         for (k, d) in owner.iter().enumerate() {
-            let d = d.expect("checked");
             if let Some(b) = first_missing_owned(&indexes[ci][k], shard(k), ci, nb) {
                 return refuse(format!(
                     "shard {k}/{count} ({}) is incomplete: block {b} of cell {} is missing; \
@@ -305,7 +369,6 @@ const MERGE_REFUSED: &str = "a merged cell's blocks must all be computed under t
 /// Checks that `out` is empty or holds a merge of study `m`; returns that
 /// merge's metadata, if it got as far as writing `run.json`.
 fn check_out(out: &Path, m: &Manifest) -> Result<Option<RunMeta>, StudyError> {
-    let refuse = |msg: String| Err(StudyError::Refused(msg));
     let manifest_path = out.join(MANIFEST);
     if !manifest_path.exists() {
         if out.join(RUN_JSON).exists() {

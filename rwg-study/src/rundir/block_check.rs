@@ -4,8 +4,9 @@
 //! owns. A block file without an index line is not committed (a resumed
 //! run computes it again) and is no problem.
 
-use crate::rundir::blocks::{block_index, BlockIndex, RunDirError};
+use crate::rundir::blocks::{block_index, BlockIndex};
 use crate::rundir::checksum::{self, SUMS};
+use crate::rundir::error::RunDirError;
 use crate::rundir::meta::ShardMeta;
 use crate::rundir::BLOCKS;
 use std::path::Path;

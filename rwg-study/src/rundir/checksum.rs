@@ -18,7 +18,7 @@
 //! environment steps that produce them, and a standard digest lets anyone
 //! check a run with `sha256sum` alone.
 
-use crate::rundir::blocks::RunDirError;
+use crate::rundir::error::{io_err, RunDirError};
 use sha2::{Digest as _, Sha256};
 use std::collections::BTreeMap;
 use std::fs::OpenOptions;
@@ -115,11 +115,9 @@ pub fn hash_file(path: &Path) -> io::Result<Digest> {
     HashingReader::new(crate::limits::open_regular(path)?).finish()
 }
 
-fn io_err(path: &Path) -> impl FnOnce(io::Error) -> RunDirError + '_ {
-    move |source| RunDirError::Io {
-        path: path.to_path_buf(),
-        source,
-    }
+/// The SHA-256 of bytes in memory.
+pub fn digest_of(bytes: &[u8]) -> Digest {
+    Sha256::digest(bytes).into()
 }
 
 /// The entries of a `SHA256SUMS` file, by file name. With `strict`, a line

@@ -22,8 +22,10 @@
 //! - [`verify`]: checking a whole run against it (`rwg verify`).
 //! - [`meta`]: `run.json` / `cell.json` contents and cell directory names.
 //! - [`env_record`]: a cell's `env.json`, checked by resumes and merges.
-//! - [`blocks`]: block files, resume, and a cell's finalisation;
+//! - [`blocks`]: block files and their index (what a resume skips);
 //!   [`block_check`]: the check of a cell's committed blocks (`verify`, `merge`).
+//! - [`finalize`]: a cell's blocks turned into its final files.
+//! - [`error`]: [`RunDirError`](error::RunDirError), why a cell's files could not be used.
 //! - [`export`]: the CSV writers and atomic file replacement.
 //! - [`rows`]: the fast path for rwg's own plain numeric CSV rows.
 //! - [`data`]: reading a finished run for analysis, writing its statistics.
@@ -35,7 +37,9 @@ pub mod blocks;
 pub mod checksum;
 pub mod data;
 pub mod env_record;
+pub mod error;
 pub mod export;
+pub mod finalize;
 pub mod lock;
 pub mod meta;
 pub mod names;

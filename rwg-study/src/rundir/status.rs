@@ -8,7 +8,8 @@
 //! instant, never a half-written file.
 
 use crate::manifest::Manifest;
-use crate::rundir::blocks::{block_index, cell_complete, n_blocks, BlockIndex};
+use crate::rundir::blocks::{block_index, n_blocks, BlockIndex};
+use crate::rundir::finalize::cell_complete;
 use crate::rundir::meta::{CellId, ShardMeta};
 use crate::rundir::{cell_dir, BLOCKS};
 use std::path::Path;

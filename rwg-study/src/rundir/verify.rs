@@ -6,6 +6,7 @@ use crate::rundir::blocks::{block_path, n_blocks, BlockIndex};
 use crate::rundir::checksum::{self, read_sums, SUMS};
 use crate::rundir::data::{check_cell_list, Run};
 use crate::rundir::env_record::ENV_JSON;
+use crate::rundir::error::with_causes;
 use crate::rundir::meta::{read_run_meta, RunMeta, ShardMeta, RUN_FORMAT};
 use crate::rundir::status::cell_dirs;
 use crate::rundir::{cell_dir, BLOCKS, CELLS, MANIFEST, RUN_JSON};
@@ -92,20 +93,6 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
     r
 }
 
-/// An error with its causes, `context: cause: ...` (each once).
-fn with_causes(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut source = e.source();
-    while let Some(s) = source {
-        let s_text = s.to_string();
-        if !text.contains(&s_text) {
-            text = format!("{text}: {s_text}");
-        }
-        source = s.source();
-    }
-    text
-}
-
 /// Checks `manifest.toml` against the study `run.json` records, and (for a
 /// whole run) `run.json`'s cell list against the study; returns the study.
 fn check_study(dir: &Path, meta: &RunMeta, r: &mut VerifyReport) -> Option<Manifest> {
@@ -130,7 +117,7 @@ fn check_study(dir: &Path, meta: &RunMeta, r: &mut VerifyReport) -> Option<Manif
     if meta.shard.is_none() {
         let text = std::fs::read_to_string(&manifest).ok();
         if let Err(e) = check_cell_list(dir, meta, text.as_deref()) {
-            r.problems.push(e.to_string());
+            r.problems.push(with_causes(&e));
         }
     }
     study
@@ -163,7 +150,7 @@ fn verify_cell_dir(cells_dir: &Path, name: &str, run: Option<&Run>, r: &mut Veri
             for (file, d) in &sums {
                 r.files += 1;
                 if let Err(e) = checksum::verify_file(&cdir, file, d) {
-                    r.problems.push(e.to_string());
+                    r.problems.push(with_causes(&e));
                 }
             }
             what.push(format!("{} files", sums.len()));
@@ -182,12 +169,12 @@ fn verify_cell_dir(cells_dir: &Path, name: &str, run: Option<&Run>, r: &mut Veri
             });
             if let (Some((run, c)), true) = (listed, r.problems.len() == before) {
                 if let Err(e) = run.load_cell(c) {
-                    r.problems.push(e.to_string());
+                    r.problems.push(with_causes(&e));
                 }
             }
         }
         Ok(None) => {}
-        Err(e) => r.problems.push(e.to_string()),
+        Err(e) => r.problems.push(with_causes(&e)),
     }
     match verify_blocks(&cdir) {
         Ok((0, 0)) => {}
@@ -221,11 +208,11 @@ fn verify_blocks(cell_dir: &Path) -> Result<(usize, usize), Vec<String>> {
     if !cell_dir.join(BLOCKS).is_dir() {
         return Ok((0, 0));
     }
-    let check = check_blocks(cell_dir).map_err(|e| vec![e.to_string()])?;
+    let check = check_blocks(cell_dir).map_err(|e| vec![with_causes(&e)])?;
     if check.problems.is_empty() {
         Ok((check.committed, check.uncommitted))
     } else {
-        Err(check.problems.iter().map(|p| p.to_string()).collect())
+        Err(check.problems.iter().map(|p| with_causes(p)).collect())
     }
 }
 

@@ -20,11 +20,11 @@ impl CellData {
 /// A cell whose spread at a study size cannot be computed
 /// ([`CellData::spread_at`]).
 #[derive(Debug, Clone, thiserror::Error)]
-#[error("cell {cell}: {source}")]
+#[error("cell {cell}")]
 pub struct CellSpreadError {
     /// The cell's directory name.
     pub cell: String,
-    /// Why.
+    /// Why (chained, not printed).
     pub source: stats::SpreadError,
 }
 
@@ -90,5 +90,21 @@ pub fn spread_csv_fields(s: &CellSummary) -> Vec<String> {
             fmt_f64(a.p99_9_mean.median),
             fmt_f64(a.p99_9_mean.max),
         ],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cell_spread_error_names_the_cell_and_chains_why() {
+        let e = CellSpreadError {
+            cell: "CartPole-v1__1HL__nobias".into(),
+            source: stats::SpreadError::Zero,
+        };
+        assert_eq!(e.to_string(), "cell CartPole-v1__1HL__nobias");
+        let cause = std::error::Error::source(&e).map(|s| s.to_string());
+        assert_eq!(cause, Some(stats::SpreadError::Zero.to_string()));
     }
 }

@@ -2,7 +2,7 @@
 
 use super::synthetic::{write_synthetic_run, SyntheticCell, SyntheticRun};
 use super::*;
-use crate::rundir::{STATS_CSV, STATS_JSON};
+use crate::rundir::{rows, STATS_CSV, STATS_JSON};
 
 fn temp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("rwg-core-{}-{name}", std::process::id()));

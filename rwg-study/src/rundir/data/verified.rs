@@ -5,8 +5,8 @@
 use super::{
     check_samples_csv, read_samples_csv, read_scores_csv, CellData, Run, RunReadError, SampleRow,
 };
-use crate::rundir::blocks::RunDirError;
 use crate::rundir::checksum;
+use crate::rundir::error::RunDirError;
 use crate::rundir::meta::CellMeta;
 use crate::rundir::{SAMPLES_CSV, SCORES_CSV};
 use std::path::Path;
