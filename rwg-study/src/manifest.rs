@@ -44,16 +44,23 @@
 //!
 //! Unknown keys and bad values are errors that name the file, line, column
 //! and key; nothing runs.
+//!
+//! This module holds the manifest's types, its loading and what is derived
+//! from it (the resolved manifest, study differences); the text as TOML reads
+//! it is in `raw`, and each section is checked in a module of its own
+//! (`top_keys`, `weights`, `architectures`, `envs` with `jax_keys` and
+//! [`kwargs`]).
 
-use crate::limits::{self, in_range, short_enough};
-use crate::manifest_text::{self, line_col};
+use crate::limits;
+use crate::manifest_text;
+use checker::{locate, Checker};
+use raw::Raw;
 use rwg_core::sampler::WeightDist;
 use rwg_env::env::ActionDtype;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use thiserror::Error;
-use toml::Spanned;
 
 /// A manifest error, located in its file.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -84,89 +91,6 @@ pub enum ManifestLoadError {
     /// The file was read but is not a valid manifest.
     #[error(transparent)]
     Invalid(#[from] ManifestError),
-}
-
-/// A number written as a TOML integer or float.
-#[derive(Debug, Clone, Copy)]
-enum Num {
-    Int(i64),
-    Float(f64),
-}
-
-impl<'de> Deserialize<'de> for Num {
-    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Num, D::Error> {
-        struct V;
-        impl serde::de::Visitor<'_> for V {
-            type Value = Num;
-            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-                f.write_str("a number (an integer such as 195 or a float such as -140.5)")
-            }
-            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Num, E> {
-                Ok(Num::Int(v))
-            }
-            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Num, E> {
-                Ok(Num::Float(v as f64))
-            }
-            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Num, E> {
-                Ok(Num::Float(v))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-impl Num {
-    fn get(self) -> f64 {
-        match self {
-            Num::Int(i) => i as f64,
-            Num::Float(f) => f,
-        }
-    }
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct Raw {
-    seed: Option<Spanned<i64>>,
-    samples: Spanned<i64>,
-    episodes: Spanned<i64>,
-    out: Option<Spanned<String>>,
-    threads: Option<Spanned<i64>>,
-    bias: Option<Spanned<Vec<bool>>>,
-    weights: Option<RawWeights>,
-    architectures: Spanned<Vec<RawArch>>,
-    envs: Spanned<Vec<RawEnv>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawWeights {
-    distribution: Option<Spanned<String>>,
-    scale: Option<Spanned<Num>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawArch {
-    name: Spanned<String>,
-    hidden: Spanned<Vec<Spanned<i64>>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawEnv {
-    id: Spanned<String>,
-    solved: Option<Spanned<Num>>,
-    max_episode_steps: Option<Spanned<i64>>,
-    action_dtype: Option<Spanned<String>>,
-    plugin: Option<Spanned<String>>,
-    config: Option<Spanned<String>>,
-    kwargs: Option<Spanned<kwargs::RawKwargs>>,
-    python: Option<Spanned<String>>,
-    isolate: Option<Spanned<bool>>,
-    precision: Option<Spanned<String>>,
-    device: Option<Spanned<String>>,
-    networks_per_call: Option<Spanned<i64>>,
 }
 
 /// A named architecture of the manifest.
@@ -338,295 +262,26 @@ impl Manifest {
     }
 
     /// Validates manifest text. `file` names it in errors; relative plugin
-    /// paths are resolved against `base`.
+    /// paths are resolved against `base`. The sections are checked in turn
+    /// (top-level keys, `[weights]`, `[[architectures]]`, `[[envs]]`); the
+    /// first error is returned.
     pub fn parse(text: &str, file: &str, base: &Path) -> Result<Manifest, ManifestError> {
-        let err = |span: Range<usize>, msg: String| locate(file, text, span, msg);
-        manifest_text::check_no_nul(text).map_err(|e| err(e.offset..e.offset, e.message))?;
-        let raw: Raw = manifest_text::from_toml(text).map_err(|(span, mut msg)| {
-            if let Some(s) = unknown_field_suggestion(&msg) {
-                msg.push_str(&s);
-            }
-            err(span, msg)
-        })?;
-
-        // A count in `min..=max`, else an error stating the limit.
-        let count =
-            |v: &Spanned<i64>, key: &str, min: i64, max: u64| -> Result<u64, ManifestError> {
-                in_range(
-                    key,
-                    *v.get_ref(),
-                    min,
-                    i64::try_from(max).unwrap_or(i64::MAX),
-                )
-                .map(|v| v as u64)
-                .map_err(|m| err(v.span(), m))
-            };
-        // A string of at most `max` bytes.
-        let short = |v: &Spanned<String>, key: &str, max: usize| -> Result<(), ManifestError> {
-            short_enough(key, v.get_ref(), max).map_err(|m| err(v.span(), m))
-        };
-
-        let seed = match &raw.seed {
-            None => 0,
-            Some(s) if *s.get_ref() >= 0 => *s.get_ref() as u64,
-            Some(s) => {
-                return Err(err(
-                    s.span(),
-                    format!("seed: must be a non-negative integer, got {}", s.get_ref()),
-                ))
-            }
-        };
-        let samples = count(&raw.samples, "samples", 1, limits::MAX_SAMPLES)?;
-        let episodes = count(&raw.episodes, "episodes", 1, limits::MAX_EPISODES.into())? as u32;
-        let threads = raw
-            .threads
-            .as_ref()
-            .map(|t| count(t, "threads", 1, limits::MAX_THREADS as u64).map(|t| t as usize))
-            .transpose()?;
-        if let Some(o) = &raw.out {
-            short(o, "out", limits::MAX_PATH_BYTES)?;
-        }
-        let bias = match &raw.bias {
-            None => vec![false],
-            Some(b) if b.get_ref().is_empty() => {
-                return Err(err(
-                    b.span(),
-                    "bias: needs at least one setting (false, true or both)".into(),
-                ))
-            }
-            Some(b) => {
-                let mut v = b.get_ref().clone();
-                v.dedup();
-                if v.len() != b.get_ref().len() || (v.len() == 2 && v[0] == v[1]) {
-                    return Err(err(b.span(), "bias: each setting may appear once".into()));
-                }
-                v
-            }
-        };
-
-        let weights = match &raw.weights {
-            None => WeightDist::Normal { std: 1.0 },
-            Some(w) => {
-                let scale = match &w.scale {
-                    None => 1.0,
-                    Some(s) => {
-                        let v = s.get_ref().get();
-                        if !(v.is_finite() && v > 0.0) {
-                            return Err(err(
-                                s.span(),
-                                format!("weights.scale: must be a positive number, got {v}"),
-                            ));
-                        }
-                        v
-                    }
-                };
-                let dist = match w.distribution.as_ref().map(|d| (d.get_ref().as_str(), d.span())) {
-                    None | Some(("normal", _)) => WeightDist::Normal { std: scale },
-                    Some(("uniform", _)) => WeightDist::Uniform { a: scale },
-                    Some((other, span)) => {
-                        return Err(err(
-                            span,
-                            format!("weights.distribution: unknown distribution '{other}' (expected \"normal\" or \"uniform\")"),
-                        ))
-                    }
-                };
-                if let (Some(s), false) = (&w.scale, scale <= dist.max_scale()) {
-                    return Err(err(
-                        s.span(),
-                        format!(
-                            "weights.scale: {scale:e} is beyond what a {} distribution's draws \
-                             can take without overflowing a 64-bit float to infinity; the scale \
-                             must be above 0 and at most {:e}",
-                            dist.name(),
-                            dist.max_scale()
-                        ),
-                    ));
-                }
-                dist
-            }
-        };
-
-        if raw.architectures.get_ref().is_empty() {
-            return Err(err(
-                raw.architectures.span(),
-                "architectures: needs at least one architecture".into(),
-            ));
-        }
-        if raw.architectures.get_ref().len() > limits::MAX_ARCHITECTURES {
-            return Err(err(
-                raw.architectures.get_ref()[limits::MAX_ARCHITECTURES]
-                    .name
-                    .span(),
-                format!(
-                    "architectures: at most {} (rwg's limit), got {}",
-                    limits::MAX_ARCHITECTURES,
-                    raw.architectures.get_ref().len()
-                ),
-            ));
-        }
-        let mut architectures = Vec::new();
-        for (i, a) in raw.architectures.get_ref().iter().enumerate() {
-            let key = format!("architectures[{i}]");
-            let name = a.name.get_ref().trim().to_string();
-            if name.is_empty() {
-                return Err(err(a.name.span(), format!("{key}.name: must not be empty")));
-            }
-            short(&a.name, &format!("{key}.name"), limits::MAX_ARCH_NAME_BYTES)?;
-            if a.hidden.get_ref().len() > limits::MAX_HIDDEN_LAYERS {
-                return Err(err(
-                    a.hidden.span(),
-                    format!(
-                        "{key}.hidden: at most {} layers (rwg's limit), got {}",
-                        limits::MAX_HIDDEN_LAYERS,
-                        a.hidden.get_ref().len()
-                    ),
-                ));
-            }
-            if architectures.iter().any(|x: &ArchEntry| x.name == name) {
-                return Err(err(
-                    a.name.span(),
-                    format!("{key}.name: '{name}' is used twice"),
-                ));
-            }
-            let mut hidden = Vec::new();
-            for (j, h) in a.hidden.get_ref().iter().enumerate() {
-                if !(1..=limits::MAX_LAYER_UNITS as i64).contains(h.get_ref()) {
-                    return Err(err(
-                        h.span(),
-                        format!(
-                            "{key}.hidden[{j}]: a layer needs 1 to {} units (rwg's limit), got {}",
-                            limits::MAX_LAYER_UNITS,
-                            h.get_ref()
-                        ),
-                    ));
-                }
-                hidden.push(*h.get_ref() as usize);
-            }
-            architectures.push(ArchEntry {
-                name,
-                hidden,
-                name_span: a.name.span(),
-            });
-        }
-
-        if raw.envs.get_ref().is_empty() {
-            return Err(err(
-                raw.envs.span(),
-                "envs: needs at least one environment".into(),
-            ));
-        }
-        if raw.envs.get_ref().len() > limits::MAX_ENVS {
-            return Err(err(
-                raw.envs.get_ref()[limits::MAX_ENVS].id.span(),
-                format!(
-                    "envs: at most {} (rwg's limit), got {}",
-                    limits::MAX_ENVS,
-                    raw.envs.get_ref().len()
-                ),
-            ));
-        }
-        let mut envs: Vec<EnvEntry> = Vec::new();
-        for (i, e) in raw.envs.get_ref().iter().enumerate() {
-            let key = format!("envs[{i}]");
-            short(&e.id, &format!("{key}.id"), limits::MAX_ENV_ID_BYTES)?;
-            if let Some(c) = &e.config {
-                short(c, &format!("{key}.config"), limits::MAX_CONFIG_BYTES)?;
-            }
-            if let Some(p) = &e.plugin {
-                short(p, &format!("{key}.plugin"), limits::MAX_PATH_BYTES)?;
-                crate::plugin_path::check_value(&key, p.get_ref()).map_err(|m| err(p.span(), m))?;
-            }
-            let id = e.id.get_ref().clone();
-            if envs.iter().any(|x| x.id == id) {
-                let hint = if crate::gym_source::is_gym(&id) {
-                    " (one entry per id, as the id enters the seeds and the cell names: for \
-                     another configuration of the env use a registered id of its own, e.g. \
-                     gymnasium:LunarLanderContinuous-v3 beside gymnasium:LunarLander-v3, or a \
-                     second manifest)"
-                } else {
-                    ""
-                };
-                return Err(err(
-                    e.id.span(),
-                    format!("{key}.id: '{id}' is listed twice{hint}"),
-                ));
-            }
-            let solved = match &e.solved {
-                None => None,
-                Some(s) if s.get_ref().get().is_finite() => Some(s.get_ref().get()),
-                Some(s) => {
-                    return Err(err(
-                        s.span(),
-                        format!("{key}.solved: must be a finite number"),
-                    ))
-                }
-            };
-            let max_episode_steps = match &e.max_episode_steps {
-                None => None,
-                Some(m) => Some(count(
-                    m,
-                    &format!("{key}.max_episode_steps"),
-                    1,
-                    limits::MAX_EPISODE_STEPS.into(),
-                )? as u32),
-            };
-            let action_dtype = match &e.action_dtype {
-                None => ActionDtype::F64,
-                Some(d) => d
-                    .get_ref()
-                    .parse()
-                    .map_err(|m: String| err(d.span(), format!("{key}.action_dtype: {m}")))?,
-            };
-            let jax = jax_keys::check(&key, &id, e).map_err(|(span, msg)| err(span, msg))?;
-            let plugin = e.plugin.as_ref().map(|p| {
-                let p = Path::new(p.get_ref());
-                if p.is_absolute() {
-                    p.to_path_buf()
-                } else {
-                    base.join(p)
-                }
-            });
-            envs.push(EnvEntry {
-                id,
-                solved,
-                max_episode_steps,
-                action_dtype,
-                plugin,
-                config: e.config.as_ref().map(|c| c.get_ref().clone()),
-                kwargs: match &e.kwargs {
-                    None => None,
-                    Some(k) => Some(
-                        k.get_ref()
-                            .to_table(&format!("{key}.kwargs"))
-                            .map_err(|(span, msg)| err(span, msg))?,
-                    ),
-                },
-                python: e.python.as_ref().map(|p| {
-                    let v = p.get_ref();
-                    if v.contains('/') && !Path::new(v).is_absolute() {
-                        base.join(v).to_string_lossy().into_owned()
-                    } else {
-                        v.clone()
-                    }
-                }),
-                isolate: e.isolate.as_ref().is_some_and(|i| *i.get_ref()),
-                precision: jax.precision,
-                device: jax.device,
-                networks_per_call: jax.networks_per_call,
-                device_span: e.device.as_ref().map(|d| d.span()),
-                kwargs_span: e.kwargs.as_ref().map(|k| k.span()),
-                python_span: e.python.as_ref().map(|p| p.span()),
-                id_span: e.id.span(),
-                plugin_span: e.plugin.as_ref().map(|p| p.span()),
-                config_span: e.config.as_ref().map(|c| c.span()),
-            });
-        }
-
+        let at = Checker { file, text };
+        let raw = read_raw(&at)?;
+        let seed = top_keys::seed(&at, raw.seed.as_ref())?;
+        let samples = top_keys::samples(&at, &raw.samples)?;
+        let episodes = top_keys::episodes(&at, &raw.episodes)?;
+        let threads = top_keys::threads(&at, raw.threads.as_ref())?;
+        let out = top_keys::out(&at, raw.out)?;
+        let bias = top_keys::bias(&at, raw.bias.as_ref())?;
+        let weights = weights::weights(&at, raw.weights.as_ref())?;
+        let architectures = architectures::architectures(&at, &raw.architectures)?;
+        let envs = envs::envs(&at, &raw.envs, base)?;
         Ok(Manifest {
             seed,
             samples,
             episodes,
-            out: raw.out.map(|o| PathBuf::from(o.into_inner())),
+            out,
             threads,
             bias,
             weights,
@@ -714,14 +369,16 @@ impl Manifest {
     }
 }
 
-fn locate(file: &str, text: &str, span: Range<usize>, message: String) -> ManifestError {
-    let (line, column) = line_col(text, span.start);
-    ManifestError {
-        file: file.to_string(),
-        line,
-        column,
-        message,
-    }
+/// The manifest's text as TOML reads it: no NUL, valid TOML, no unknown
+/// key (with a suggestion for a misspelt one).
+fn read_raw(at: &Checker) -> Result<Raw, ManifestError> {
+    manifest_text::check_no_nul(at.text).map_err(|e| at.err(e.offset..e.offset, e.message))?;
+    manifest_text::from_toml(at.text).map_err(|(span, mut msg)| {
+        if let Some(s) = unknown_field_suggestion(&msg) {
+            msg.push_str(&s);
+        }
+        at.err(span, msg)
+    })
 }
 
 /// "did you mean ...?" for serde's "unknown field `x`, expected one of `a`, `b`" messages.
@@ -734,8 +391,14 @@ fn unknown_field_suggestion(msg: &str) -> Option<String> {
         .map(|s| format!(" (did you mean `{s}`?)"))
 }
 
+mod architectures;
+mod checker;
+mod envs;
 mod jax_keys;
 pub mod kwargs;
+mod raw;
+mod top_keys;
+mod weights;
 
 #[cfg(test)]
 mod tests;

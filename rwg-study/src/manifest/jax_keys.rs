@@ -4,7 +4,7 @@
 //! `config`, `isolate`, `action_dtype`) refused there; the same three keys
 //! on any other env are refused too.
 
-use super::RawEnv;
+use super::raw::RawEnv;
 use crate::limits;
 use rwg_jax::Precision;
 use std::ops::Range;
