@@ -14,6 +14,7 @@ use rwg_core::sampler::BlockResult;
 use rwg_core::sampler::CellPlan;
 use rwg_env::{ActionDtype, EnvSpec, Environment};
 use rwg_envs::{visit, EnvOptions, EnvVisitor};
+use rwg_plugin_host::PluginEnvType;
 use std::path::Path;
 
 /// One cell (env × architecture × bias) with everything resolved.
@@ -62,67 +63,96 @@ fn resolve_env(
     }
     crate::gym_source::check_not_gym_fields(m, i)?;
     let key = format!("envs[{i}]");
-    let id_err = |msg: String| m.error_at(e.id_span.clone(), msg);
     let ty = match &e.plugin {
-        Some(path) => {
-            let at = e.plugin_span.clone().unwrap_or(e.id_span.clone());
-            if is_builtin(&e.id) {
-                return Err(id_err(format!(
-                    "{key}.id: '{}' is a built-in environment; remove `plugin` to run it \
-                     (a plugin cannot replace a built-in id)",
-                    e.id
-                )));
-            }
-            crate::plugin_path::check_file(&key, path)
-                .map_err(|msg| m.error_at(at.clone(), msg))?;
-            let plugin = plugins
-                .file(path)
-                .map_err(|err| m.error_at(at, format!("{key}.plugin: {err}")))?;
-            match plugin.env(&e.id) {
-                Some(ty) => ty.clone(),
-                None => {
-                    let ids: Vec<&str> = plugin.envs().iter().map(|t| t.id()).collect();
-                    let hint = rwg_env::suggest::nearest(&e.id, ids.iter().copied())
-                        .map(|s| format!(" (did you mean '{s}'?)"))
-                        .unwrap_or_default();
-                    return Err(id_err(format!(
-                        "{key}.id: plugin '{}' ({}) has no environment '{}'{hint}; its environments: {}",
-                        plugin.id(),
-                        path.display(),
-                        e.id,
-                        ids.join(", ")
-                    )));
-                }
-            }
-        }
+        Some(path) => plugin_file_env(m, e, &key, path, plugins)?,
         None => match plugins.find(&e.id) {
-            Found::Builtin => {
-                if let Some(at) = e.config_span.clone() {
-                    return Err(m.error_at(
-                        at,
-                        format!(
-                            "{key}.config: '{}' is built in; only plugin environments take a config string",
-                            e.id
-                        ),
-                    ));
-                }
-                let opts = EnvOptions {
-                    action_dtype: e.action_dtype,
-                    max_episode_steps: e.max_episode_steps,
-                };
-                let spec = visit(&e.id, &opts, SpecOf).expect("a built-in id");
-                return Ok((EnvSource::Builtin(opts), spec));
-            }
+            Found::Builtin => return builtin_env(m, e, &key),
             Found::OnPath(ty) => *ty,
-            Found::Unknown(msg) => return Err(id_err(format!("envs: {msg}"))),
+            Found::Unknown(msg) => {
+                return Err(m.error_at(e.id_span.clone(), format!("envs: {msg}")))
+            }
         },
     };
-    if e.action_dtype != ActionDtype::default() {
+    open_plugin_env(m, e, &key, ty)
+}
+
+/// The env type of entry `e` (`key`) in the plugin file `path` it names.
+fn plugin_file_env(
+    m: &Manifest,
+    e: &EnvEntry,
+    key: &str,
+    path: &Path,
+    plugins: &mut Plugins,
+) -> Result<PluginEnvType, ManifestError> {
+    let at = e.plugin_span.clone().unwrap_or(e.id_span.clone());
+    let id_err = |msg: String| m.error_at(e.id_span.clone(), msg);
+    if is_builtin(&e.id) {
         return Err(id_err(format!(
-            "{key}.action_dtype: applies to built-in environments only; {} takes its settings \
-             through `config`",
-            describe(&ty)
+            "{key}.id: '{}' is a built-in environment; remove `plugin` to run it \
+             (a plugin cannot replace a built-in id)",
+            e.id
         )));
+    }
+    crate::plugin_path::check_file(key, path).map_err(|msg| m.error_at(at.clone(), msg))?;
+    let plugin = plugins
+        .file(path)
+        .map_err(|err| m.error_at(at, format!("{key}.plugin: {err}")))?;
+    if let Some(ty) = plugin.env(&e.id) {
+        return Ok(ty.clone());
+    }
+    let ids: Vec<&str> = plugin.envs().iter().map(|t| t.id()).collect();
+    let hint = rwg_env::suggest::nearest(&e.id, ids.iter().copied())
+        .map(|s| format!(" (did you mean '{s}'?)"))
+        .unwrap_or_default();
+    Err(id_err(format!(
+        "{key}.id: plugin '{}' ({}) has no environment '{}'{hint}; its environments: {}",
+        plugin.id(),
+        path.display(),
+        e.id,
+        ids.join(", ")
+    )))
+}
+
+/// Built-in env `e` (`key`), which takes no `config`.
+fn builtin_env(
+    m: &Manifest,
+    e: &EnvEntry,
+    key: &str,
+) -> Result<(EnvSource, EnvSpec), ManifestError> {
+    if let Some(at) = e.config_span.clone() {
+        return Err(m.error_at(
+            at,
+            format!(
+                "{key}.config: '{}' is built in; only plugin environments take a config string",
+                e.id
+            ),
+        ));
+    }
+    let opts = EnvOptions {
+        action_dtype: e.action_dtype,
+        max_episode_steps: e.max_episode_steps,
+    };
+    let spec = visit(&e.id, &opts, SpecOf).expect("a built-in id");
+    Ok((EnvSource::Builtin(opts), spec))
+}
+
+/// Plugin env `e` (`key`) of type `ty`, with one instance created (in a
+/// worker process if isolated) so that running the cells cannot fail to.
+fn open_plugin_env(
+    m: &Manifest,
+    e: &EnvEntry,
+    key: &str,
+    ty: PluginEnvType,
+) -> Result<(EnvSource, EnvSpec), ManifestError> {
+    if e.action_dtype != ActionDtype::default() {
+        return Err(m.error_at(
+            e.id_span.clone(),
+            format!(
+                "{key}.action_dtype: applies to built-in environments only; {} takes its settings \
+             through `config`",
+                describe(&ty)
+            ),
+        ));
     }
     let mut source = PluginSource {
         ty,
