@@ -281,6 +281,21 @@ fn duplicate_env_and_empty_lists() {
 }
 
 #[test]
+fn a_bias_setting_given_twice_is_refused_wherever_it_stands() {
+    for twice in [
+        "[true, true]",
+        "[false, true, false]",
+        "[true, false, true]",
+    ] {
+        let e = error_of(&GOOD.replace("[false, true]", twice));
+        assert_eq!(
+            e, "m.toml:5:8: bias: each setting may appear once",
+            "{twice}"
+        );
+    }
+}
+
+#[test]
 fn isolate_is_how_an_env_runs_not_part_of_the_study() {
     let m = parse(GOOD).unwrap();
     assert!(m.envs.iter().all(|e| !e.isolate));

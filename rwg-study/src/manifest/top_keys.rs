@@ -68,10 +68,10 @@ pub(super) fn bias(
             "bias: needs at least one setting (false, true or both)".into(),
         ));
     }
-    let mut v = b.get_ref().clone();
-    v.dedup();
-    if v.len() != b.get_ref().len() || (v.len() == 2 && v[0] == v[1]) {
+    let given = b.get_ref();
+    let times = |setting: bool| given.iter().filter(|&&s| s == setting).count();
+    if times(false) > 1 || times(true) > 1 {
         return Err(at.err(b.span(), "bias: each setting may appear once".into()));
     }
-    Ok(v)
+    Ok(given.clone())
 }
