@@ -121,7 +121,7 @@ pub fn set_resume(resume: String, resume_stopped: String) {
 static INTERRUPT_AT: Mutex<Option<Instant>> = Mutex::new(None);
 
 /// Ends the run's armed state early, before rwg exits on its own accord
-/// (`std::process::exit` runs the `atexit` handler).
+/// (the exit after `main` returns runs the `atexit` handler).
 pub fn disarm() {
     ARMED.store(false, SeqCst);
 }
