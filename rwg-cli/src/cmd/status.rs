@@ -238,7 +238,11 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     };
     let (unfinished, computing) = print_shards(sd, &m, count, &live);
     let merged = merged_complete(root);
-    crate::outln!("Merged run {}: {}", root.display(), merge_state(root, &m, merged));
+    crate::outln!(
+        "Merged run {}: {}",
+        root.display(),
+        merge_state(root, &m, merged)
+    );
     print_jobs(&plan, queue_error.as_deref());
     if merged {
         if !root.join(REPORT_HTML).exists() {

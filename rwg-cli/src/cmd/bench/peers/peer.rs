@@ -110,7 +110,13 @@ pub(super) fn peers_dir(args: &PeersArgs) -> Result<PathBuf> {
 }
 
 /// Runs gymnax-raw on `row`'s workload once and adds it to its measurements.
-pub(super) fn measure_peer(s: &Sitting, row: &mut Row, name: &str, episodes: u32, seed: u64) -> Result<()> {
+pub(super) fn measure_peer(
+    s: &Sitting,
+    row: &mut Row,
+    name: &str,
+    episodes: u32,
+    seed: u64,
+) -> Result<()> {
     let label = row.label();
     let env = row
         .env
