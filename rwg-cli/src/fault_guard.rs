@@ -136,6 +136,9 @@ pub fn disarm_and_exit(code: i32) -> ! {
     unsafe {
         libc::_exit(code)
     };
+    // (Called from the Ctrl-C handler and the watchdog, not on main's path:
+    // the main thread may be stuck in a plugin call, so the status cannot be
+    // returned up to `main`.)
     #[cfg(not(unix))]
     std::process::exit(code)
 }
