@@ -121,7 +121,7 @@ pub fn set_resume(resume: String, resume_stopped: String) {
 static INTERRUPT_AT: Mutex<Option<Instant>> = Mutex::new(None);
 
 /// Ends the run's armed state early, before rwg exits on its own accord
-/// (`std::process::exit` runs the `atexit` handler).
+/// (the exit after `main` returns runs the `atexit` handler).
 pub fn disarm() {
     ARMED.store(false, SeqCst);
 }
@@ -136,6 +136,9 @@ pub fn disarm_and_exit(code: i32) -> ! {
     unsafe {
         libc::_exit(code)
     };
+    // (Called from the Ctrl-C handler and the watchdog, not on main's path:
+    // the main thread may be stuck in a plugin call, so the status cannot be
+    // returned up to `main`.)
     #[cfg(not(unix))]
     std::process::exit(code)
 }

@@ -126,7 +126,7 @@ fn clap_status(e: clap::Error) -> i32 {
     }
 }
 
-/// `status` (0, 1, 2 or [`stdio::CLOSED_PIPE_STATUS`]) as the process's exit code.
+/// `status` (0, 1, 2, 130 or [`stdio::CLOSED_PIPE_STATUS`]) as the process's exit code.
 fn exit_code(status: i32) -> ExitCode {
     ExitCode::from(u8::try_from(status).unwrap_or(1))
 }
@@ -143,10 +143,17 @@ fn main() -> ExitCode {
         errln!("error: {e}");
         return exit_code(1);
     }
-    let result: Result<()> = match cli.command {
+    let status = status_of(run_command(cli.command));
+    exit_code(stdio::exit_status(status))
+}
+
+/// Runs a command; its exit status when it succeeds: 0, or `rwg run`'s own
+/// (130 after an interrupt, 1 after a failed cell, each reported already).
+fn run_command(command: Command) -> Result<i32> {
+    let done = match command {
+        Command::Run(a) => return cmd::run::run(a),
         Command::Envs(a) => cmd::envs::run(a),
         Command::Rollout(a) => cmd::rollout::run(a),
-        Command::Run(a) => cmd::run::run(a),
         Command::Merge(a) => cmd::merge::run(a),
         Command::Slurm(a) => cmd::slurm::run(a),
         Command::Status(a) => cmd::status::run(a),
@@ -162,8 +169,14 @@ fn main() -> ExitCode {
         Command::PluginWorker => cmd::plugin_worker::run(),
         Command::Bench(a) => cmd::bench::run(a),
     };
-    let status = match result {
-        Ok(()) => 0,
+    done.map(|()| 0)
+}
+
+/// The exit status of a command's result, its error printed (with a hint
+/// where one helps) before it is returned.
+fn status_of(result: Result<i32>) -> i32 {
+    match result {
+        Ok(status) => status,
         // a command's output to a closed pipe (`rwg ... | head`) ends it as
         // SIGPIPE would, without a message
         Err(e) if stdio::stdout_closed() && stdio::is_closed_pipe(&e) => stdio::CLOSED_PIPE_STATUS,
@@ -186,6 +199,5 @@ fn main() -> ExitCode {
             }
             1
         }
-    };
-    exit_code(stdio::exit_status(status))
+    }
 }

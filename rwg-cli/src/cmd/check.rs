@@ -379,24 +379,53 @@ pub fn run(mut args: Args) -> Result<()> {
     args.gym.refuse_for(&args.plugin.display().to_string())?;
     resolve_env_id(&mut args)?;
     let timeout = Duration::from_secs(args.timeout.max(1));
-    let plugin_arg = args.plugin.as_os_str();
-    let mut results: Vec<CheckResult> = vec![];
-    // (writeln, not println: `rwg check ... | head` must not panic.)
-    let report = |r: CheckResult, results: &mut Vec<CheckResult>| -> std::io::Result<()> {
-        if !args.json {
+    let mut results = Results {
+        json: args.json,
+        list: vec![],
+    };
+    let Some(loaded) = load(&args, timeout, &mut results)? else {
+        return finish(&args, &results.list);
+    };
+    report_builtin_ids(&loaded, &mut results)?;
+    for id in envs_to_check(&args, &loaded)? {
+        check_env(&args, id, timeout, &mut results)?;
+    }
+    finish(&args, &results.list)
+}
+
+/// The results of `rwg check` so far, each printed as it comes (without
+/// `--json`).
+struct Results {
+    json: bool,
+    list: Vec<CheckResult>,
+}
+
+impl Results {
+    /// Prints `r` (writeln, not println: `rwg check ... | head` must not
+    /// panic) and keeps it.
+    fn add(&mut self, r: CheckResult) -> std::io::Result<()> {
+        if !self.json {
             writeln!(crate::stdio::stdout(), "{r}")?;
         }
-        results.push(r);
+        self.list.push(r);
         Ok(())
-    };
-    let load_result = |status, message: String| CheckResult {
+    }
+}
+
+/// The result of the `load` check.
+fn load_result(status: CheckStatus, message: String) -> CheckResult {
+    CheckResult {
         env: None,
         name: "load".into(),
         status,
         message,
-    };
+    }
+}
 
-    let listing = spawn_child(&[plugin_arg], timeout)?;
+/// Loads the plugin in a checking process: what it holds, reported as the
+/// `load` check; `None` if it does not load (the failure reported).
+fn load(args: &Args, timeout: Duration, results: &mut Results) -> Result<Option<Loaded>> {
+    let listing = spawn_child(&[args.plugin.as_os_str()], timeout)?;
     let loaded = listing.lines.into_iter().find_map(|l| match l {
         Line::Loaded(l) => Some(Ok(l)),
         Line::LoadError(e) => Some(Err(e)),
@@ -405,8 +434,8 @@ pub fn run(mut args: Args) -> Result<()> {
     let loaded = match loaded {
         Some(Ok(l)) if listing.status.is_some_and(|s| s.success()) => l,
         Some(Err(e)) => {
-            report(load_result(CheckStatus::Failed, e), &mut results)?;
-            return finish(&args, &results);
+            results.add(load_result(CheckStatus::Failed, e))?;
+            return Ok(None);
         }
         _ => {
             let msg = format!(
@@ -415,46 +444,51 @@ pub fn run(mut args: Args) -> Result<()> {
                 describe_exit(listing.status, timeout),
                 stderr_tail(&listing.stderr)
             );
-            report(load_result(CheckStatus::Failed, msg), &mut results)?;
-            return finish(&args, &results);
+            results.add(load_result(CheckStatus::Failed, msg))?;
+            return Ok(None);
         }
     };
-    report(
-        load_result(
-            CheckStatus::Passed,
-            format!(
-                "plugin '{}' {} (ABI {}.{}), {} environment(s)",
-                loaded.id,
-                loaded.version,
-                loaded.abi.0,
-                loaded.abi.1,
-                loaded.envs.len()
-            ),
+    results.add(load_result(
+        CheckStatus::Passed,
+        format!(
+            "plugin '{}' {} (ABI {}.{}), {} environment(s)",
+            loaded.id,
+            loaded.version,
+            loaded.abi.0,
+            loaded.abi.1,
+            loaded.envs.len()
         ),
-        &mut results,
-    )?;
-    // An id of rwg's own can never be run from the plugin: RWG_PLUGIN_PATH
-    // skips the file and `plugin =` is refused for it.
+    ))?;
+    Ok(Some(loaded))
+}
+
+/// Fails every env of the plugin with a built-in id: such an id can never
+/// be run from the plugin (RWG_PLUGIN_PATH skips the file and `plugin =` is
+/// refused for it).
+fn report_builtin_ids(loaded: &Loaded, results: &mut Results) -> Result<()> {
     for id in loaded
         .envs
         .iter()
         .filter(|id| rwg_study::env_source::is_builtin(id))
     {
-        report(
-            CheckResult {
-                env: Some(id.clone()),
-                name: "built-in id".into(),
-                status: CheckStatus::Failed,
-                message: format!(
-                    "'{id}' is the id of a built-in environment: rwg would never run this one \
-                     (the built-in wins); give it a namespace, e.g. '{}/{id}'",
-                    loaded.id
-                ),
-            },
-            &mut results,
-        )?;
+        results.add(CheckResult {
+            env: Some(id.clone()),
+            name: "built-in id".into(),
+            status: CheckStatus::Failed,
+            message: format!(
+                "'{id}' is the id of a built-in environment: rwg would never run this one \
+                 (the built-in wins); give it a namespace, e.g. '{}/{id}'",
+                loaded.id
+            ),
+        })?;
     }
-    let envs: Vec<&String> = match &args.env {
+    Ok(())
+}
+
+/// The envs to check: `--env`'s (refused if the plugin has no such env),
+/// else all of them.
+fn envs_to_check<'a>(args: &Args, loaded: &'a Loaded) -> Result<Vec<&'a String>> {
+    Ok(match &args.env {
         None => loaded.envs.iter().collect(),
         Some(id) => match loaded.envs.iter().find(|e| *e == id) {
             Some(e) => vec![e],
@@ -464,54 +498,53 @@ pub fn run(mut args: Args) -> Result<()> {
                 loaded.envs.join(", ")
             ),
         },
-    };
+    })
+}
 
-    for id in envs {
-        let run = spawn_child(
-            &[
-                plugin_arg,
-                "--env".as_ref(),
-                id.as_ref(),
-                "--config".as_ref(),
-                args.config.as_ref(),
-            ],
-            timeout,
-        )?;
-        let mut started: Option<String> = None;
-        let mut done = false;
-        for line in run.lines {
-            match line {
-                Line::Started(name) => started = Some(name),
-                Line::Result(r) => {
-                    started = None;
-                    report(r, &mut results)?;
-                }
-                Line::Done(_) => done = true,
-                Line::Loaded(_) | Line::LoadError(_) => {}
+/// Runs env `id`'s checks in a checking process and reports each; a
+/// process that does not finish them is a failed check of its own.
+fn check_env(args: &Args, id: &str, timeout: Duration, results: &mut Results) -> Result<()> {
+    let run = spawn_child(
+        &[
+            args.plugin.as_os_str(),
+            "--env".as_ref(),
+            id.as_ref(),
+            "--config".as_ref(),
+            args.config.as_ref(),
+        ],
+        timeout,
+    )?;
+    let mut started: Option<String> = None;
+    let mut done = false;
+    for line in run.lines {
+        match line {
+            Line::Started(name) => started = Some(name),
+            Line::Result(r) => {
+                started = None;
+                results.add(r)?;
             }
-        }
-        if !done || !run.status.is_some_and(|s| s.success()) {
-            let during = match &started {
-                Some(name) => format!("during the '{name}' check"),
-                None => "between checks".into(),
-            };
-            report(
-                CheckResult {
-                    env: Some(id.clone()),
-                    name: started.unwrap_or_else(|| "process".into()),
-                    status: CheckStatus::Failed,
-                    message: format!(
-                        "the checking process {} {during}: the plugin would take rwg \
-                         down with it{}",
-                        describe_exit(run.status, timeout),
-                        stderr_tail(&run.stderr)
-                    ),
-                },
-                &mut results,
-            )?;
+            Line::Done(_) => done = true,
+            Line::Loaded(_) | Line::LoadError(_) => {}
         }
     }
-    finish(&args, &results)
+    if !done || !run.status.is_some_and(|s| s.success()) {
+        let during = match &started {
+            Some(name) => format!("during the '{name}' check"),
+            None => "between checks".into(),
+        };
+        results.add(CheckResult {
+            env: Some(id.to_string()),
+            name: started.unwrap_or_else(|| "process".into()),
+            status: CheckStatus::Failed,
+            message: format!(
+                "the checking process {} {during}: the plugin would take rwg \
+                 down with it{}",
+                describe_exit(run.status, timeout),
+                stderr_tail(&run.stderr)
+            ),
+        })?;
+    }
+    Ok(())
 }
 
 /// Prints the JSON or the summary; fails if any check failed.

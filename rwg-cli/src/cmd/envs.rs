@@ -152,67 +152,20 @@ fn plugin_rows(p: &Plugin) -> impl Iterator<Item = Row> + '_ {
 
 /// Runs `rwg envs`.
 pub fn run(args: Args) -> Result<()> {
-    let mut rows: Vec<Row> = vec![];
-    if !args.ids.is_empty() {
-        for id in &args.ids {
-            if rwg_jax::jax_id(id).is_some() {
-                rows.push(jax_row(id, &args.gym)?);
-                continue;
-            }
-            if !crate::gym::is_gym(id) {
-                anyhow::bail!(
-                    "'{id}': only gymnasium: and JAX (gymnax:, brax:, jax:) ids are described \
-                     one by one (rwg envs lists the others)"
-                );
-            }
-            let cfg = args.gym.config(id)?;
-            let env = rwg_gym::make_single(&cfg).map_err(|e| anyhow::anyhow!("{id}: {e}"))?;
-            let info = env.inner().info().clone();
-            rows.push(Row {
-                summary: format!("{} -> {}", info.observation_space, info.action_space),
-                action_dtype_sensitive: false,
-                plugin: None,
-                gymnasium: Some(GymRow {
-                    observation_space: info.observation_space.clone(),
-                    action_space: info.action_space.clone(),
-                    obs_dim: info.spec.obs_dim(),
-                    gymnasium_version: info.gymnasium.clone(),
-                    python_version: info.python.clone(),
-                    python: cfg.python.clone(),
-                }),
-                jax: None,
-                spec: info.spec,
-            });
-        }
+    let rows = if !args.ids.is_empty() {
+        args.ids
+            .iter()
+            .map(|id| described_row(id, &args.gym))
+            .collect::<Result<Vec<Row>>>()?
     } else if args.plugin.is_empty() {
-        rows.extend(REGISTRY.iter().map(|r| {
-            Row {
-                spec: make(r.id, &EnvOptions::default())
-                    .expect("registered env")
-                    .spec()
-                    .clone(),
-                summary: r.summary.to_string(),
-                action_dtype_sensitive: r.dtype_sensitive,
-                plugin: None,
-                gymnasium: None,
-                jax: None,
-            }
-        }));
-        let scan = scan_plugin_path();
-        for p in &scan.plugins {
-            rows.extend(plugin_rows(p));
-        }
-        if !scan.rejected.is_empty() {
-            crate::errln!("rejected on {PLUGIN_PATH_VAR}:");
-            for r in &scan.rejected {
-                crate::errln!("  {r}");
-            }
-        }
+        listed_rows()
     } else {
+        let mut rows = vec![];
         for path in &args.plugin {
             rows.extend(plugin_rows(&load_plugin(path)?));
         }
-    }
+        rows
+    };
     if args.json {
         writeln!(
             crate::stdio::stdout(),
@@ -221,33 +174,79 @@ pub fn run(args: Args) -> Result<()> {
         )?;
         return Ok(());
     }
+    print_table(&rows)
+}
+
+/// The row of a gymnasium: or JAX env given by id (refused for others).
+fn described_row(id: &str, gym: &crate::gym::GymArgs) -> Result<Row> {
+    if rwg_jax::jax_id(id).is_some() {
+        return jax_row(id, gym);
+    }
+    if !crate::gym::is_gym(id) {
+        anyhow::bail!(
+            "'{id}': only gymnasium: and JAX (gymnax:, brax:, jax:) ids are described \
+             one by one (rwg envs lists the others)"
+        );
+    }
+    let cfg = gym.config(id)?;
+    let env = rwg_gym::make_single(&cfg).map_err(|e| anyhow::anyhow!("{id}: {e}"))?;
+    let info = env.inner().info().clone();
+    Ok(Row {
+        summary: format!("{} -> {}", info.observation_space, info.action_space),
+        action_dtype_sensitive: false,
+        plugin: None,
+        gymnasium: Some(GymRow {
+            observation_space: info.observation_space.clone(),
+            action_space: info.action_space.clone(),
+            obs_dim: info.spec.obs_dim(),
+            gymnasium_version: info.gymnasium.clone(),
+            python_version: info.python.clone(),
+            python: cfg.python.clone(),
+        }),
+        jax: None,
+        spec: info.spec,
+    })
+}
+
+/// The built-in envs and those of the plugins on RWG_PLUGIN_PATH (the
+/// files it rejects told on stderr).
+fn listed_rows() -> Vec<Row> {
+    let mut rows: Vec<Row> = REGISTRY
+        .iter()
+        .map(|r| Row {
+            spec: make(r.id, &EnvOptions::default())
+                .expect("registered env")
+                .spec()
+                .clone(),
+            summary: r.summary.to_string(),
+            action_dtype_sensitive: r.dtype_sensitive,
+            plugin: None,
+            gymnasium: None,
+            jax: None,
+        })
+        .collect();
+    let scan = scan_plugin_path();
+    for p in &scan.plugins {
+        rows.extend(plugin_rows(p));
+    }
+    if !scan.rejected.is_empty() {
+        crate::errln!("rejected on {PLUGIN_PATH_VAR}:");
+        for r in &scan.rejected {
+            crate::errln!("  {r}");
+        }
+    }
+    rows
+}
+
+/// Prints the table of envs (with a plugin column if one is a plugin's),
+/// then the JAX envs' details.
+fn print_table(rows: &[Row]) -> Result<()> {
     let jax_lines: Vec<String> = rows
         .iter()
         .filter_map(|r| r.jax.as_ref().map(|j| jax_lines(&r.spec.id, j)))
         .collect();
     let with_plugins = rows.iter().any(|r| r.plugin.is_some());
-    let table: Vec<Vec<String>> = rows
-        .iter()
-        .map(|r| {
-            let mut cells = vec![
-                r.spec.id.clone(),
-                r.spec.observation_space.short(),
-                r.spec.action_space.short(),
-                r.spec
-                    .max_episode_steps
-                    .map_or("-".into(), |m| m.to_string()),
-                r.spec.reward_threshold.map_or("-".into(), fmt_f64),
-            ];
-            if with_plugins {
-                cells.push(
-                    r.plugin
-                        .as_ref()
-                        .map_or("(built in)".into(), |p| p.display().to_string()),
-                );
-            }
-            cells
-        })
-        .collect();
+    let table: Vec<Vec<String>> = rows.iter().map(|r| table_cells(r, with_plugins)).collect();
     let mut header = vec!["id", "observation", "action", "time limit", "solved at"];
     if with_plugins {
         header.push("plugin");
@@ -267,4 +266,25 @@ pub fn run(args: Args) -> Result<()> {
         writeln!(out, "{line}")?;
     }
     Ok(())
+}
+
+/// The cells of one env's line of the table.
+fn table_cells(r: &Row, with_plugins: bool) -> Vec<String> {
+    let mut cells = vec![
+        r.spec.id.clone(),
+        r.spec.observation_space.short(),
+        r.spec.action_space.short(),
+        r.spec
+            .max_episode_steps
+            .map_or("-".into(), |m| m.to_string()),
+        r.spec.reward_threshold.map_or("-".into(), fmt_f64),
+    ];
+    if with_plugins {
+        cells.push(
+            r.plugin
+                .as_ref()
+                .map_or("(built in)".into(), |p| p.display().to_string()),
+        );
+    }
+    cells
 }

@@ -161,8 +161,9 @@ fn apply_overrides(m: &mut Manifest, args: &Args) -> Result<()> {
     Ok(())
 }
 
-/// Runs `rwg run`.
-pub fn run(args: Args) -> Result<()> {
+/// Runs `rwg run`; the exit status: 0, or 130 after an interrupt and 1
+/// after a failed cell, each already reported with how to resume.
+pub fn run(args: Args) -> Result<i32> {
     let mut m = Manifest::load(&args.manifest)?;
     apply_overrides(&mut m, &args)?;
     let out = run_dir(&args, &m)?;
@@ -184,8 +185,10 @@ pub fn run(args: Args) -> Result<()> {
         commit_linger: crate::env_vars::commit_linger()?,
     };
     let outcome = run_with_progress(&mut m, &opts, &args, &out);
-    let Some(mut report) = finished(outcome, &args, &out)? else {
-        return Ok(());
+    let mut report = match finished(outcome, &args, &out)? {
+        Finished::Report(report) => report,
+        Finished::AlreadyComplete => return Ok(0),
+        Finished::Stopped(status) => return Ok(status),
     };
     print_summary(&report, &m, &args);
     let report_time = finish_output(&mut report, &args, &out)?;
@@ -195,22 +198,27 @@ pub fn run(args: Args) -> Result<()> {
             report_time,
         ));
     }
-    Ok(())
+    Ok(0)
 }
 
-/// The run directory: `--out`, else the manifest's `out`, else
-/// `runs/STEM`; refused if it exists and is not a directory.
-fn run_dir(args: &Args, m: &Manifest) -> Result<PathBuf> {
-    let out = match (&args.out, &m.out) {
+/// A study's directory: `out` (given on the command line), else the
+/// manifest's `out`, else `runs/STEM` for a manifest file `STEM.toml`.
+pub(crate) fn default_out(out: Option<&PathBuf>, m: &Manifest, manifest: &Path) -> PathBuf {
+    match (out, &m.out) {
         (Some(o), _) | (None, Some(o)) => o.clone(),
         (None, None) => {
-            let stem = args
-                .manifest
+            let stem = manifest
                 .file_stem()
                 .map_or("run".into(), |s| s.to_string_lossy().into_owned());
             PathBuf::from("runs").join(stem)
         }
-    };
+    }
+}
+
+/// The run directory ([`default_out`]); refused if it exists and is not a
+/// directory.
+fn run_dir(args: &Args, m: &Manifest) -> Result<PathBuf> {
+    let out = default_out(args.out.as_ref(), m, &args.manifest);
     if out.exists() && !out.is_dir() {
         anyhow::bail!(
             "{}: exists and is not a directory; the run directory (--out, or `out` in the \
@@ -259,15 +267,22 @@ fn run_with_progress(
     outcome
 }
 
-/// The report of a finished run; `None` when the directory was complete
-/// already (its report written if missing). An interrupted run or a failed
-/// cell prints how to resume and exits (130, 1).
-fn finished(
-    outcome: Result<RunOutcome, StudyError>,
-    args: &Args,
-    out: &Path,
-) -> Result<Option<Box<RunReport>>> {
-    Ok(Some(match outcome {
+/// How a run's session ended, for [`finished`]'s caller.
+enum Finished {
+    /// The run finished in this session: its report.
+    Report(Box<RunReport>),
+    /// The directory held the study, complete, already.
+    AlreadyComplete,
+    /// Stopped, how to resume printed: the exit status (130 after an
+    /// interrupt, 1 after a failed cell).
+    Stopped(i32),
+}
+
+/// What a run's outcome means: its report, a directory that was complete
+/// already (its report written if missing), or a run stopped by an
+/// interrupt or a failed cell, which prints how to resume.
+fn finished(outcome: Result<RunOutcome, StudyError>, args: &Args, out: &Path) -> Result<Finished> {
+    Ok(match outcome {
         Ok(RunOutcome::AlreadyComplete(_lock)) => {
             crate::outln!(
                 "{} already holds this study, complete; nothing to do.",
@@ -276,9 +291,9 @@ fn finished(
             if args.shard.is_none() && !args.no_report && !out.join(REPORT_HTML).exists() {
                 write_report(out, KeptEpisodes::new())?;
             }
-            return Ok(None);
+            Finished::AlreadyComplete
         }
-        Ok(RunOutcome::Finished(report)) => report,
+        Ok(RunOutcome::Finished(report)) => Finished::Report(report),
         Err(StudyError::Interrupted) => {
             crate::errln!(
                 "stopped; every finished block is saved in {}. Resume with:\n  {}",
@@ -286,7 +301,7 @@ fn finished(
                 resume_command(args, out, true)
             );
             fault_guard::disarm();
-            std::process::exit(130)
+            Finished::Stopped(130)
         }
         Err(e @ StudyError::Cell { .. }) => {
             // (an isolated plugin's crash or hang, a Gymnasium worker's, an env error)
@@ -296,10 +311,10 @@ fn finished(
                 resume_command(args, out, true)
             );
             fault_guard::disarm();
-            std::process::exit(1)
+            Finished::Stopped(1)
         }
         Err(e) => return Err(e.into()),
-    }))
+    })
 }
 
 /// Prints the summary table (whole studies) and the session's totals.

@@ -99,67 +99,14 @@ pub fn run(args: Args) -> Result<()> {
         // (how the shards run, not what: a resubmission may change it)
         m.isolate_all();
     }
-    let out = match (&args.out, &m.out) {
-        (Some(o), _) | (None, Some(o)) => o.clone(),
-        (None, None) => {
-            let stem = args
-                .manifest
-                .file_stem()
-                .map_or("run".into(), |s| s.to_string_lossy().into_owned());
-            PathBuf::from("runs").join(stem)
-        }
-    };
-    // The scripts name everything by absolute path, without `..`.
-    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
-    let root = out
-        .canonicalize()
-        .with_context(|| format!("cannot resolve {}", out.display()))?;
-    check_sbatch_path(&root)?;
-    let manifest_path = args
-        .manifest
-        .canonicalize()
-        .with_context(|| format!("cannot resolve {}", args.manifest.display()))?;
-    let rwg = std::env::current_exe().context("cannot find the rwg binary's path")?;
-    let sd = ShardedDir { root: root.clone() };
-
+    let out = crate::cmd::run::default_out(args.out.as_ref(), &m, &args.manifest);
+    let sub = Submission::resolve(&args, &out)?;
     let (common, array_only) = sbatch_options(&args)?;
-    let mut plan = if sd.exists() {
-        let plan = sd.read_plan()?;
-        if plan.shards != args.shards {
-            bail!(
-                "{} holds this study in {} shards, not {}; use --shards {} (or another --out)",
-                root.display(),
-                plan.shards,
-                args.shards,
-                plan.shards
-            );
-        }
-        let old = Manifest::load(&sd.manifest())?;
-        let diffs = old.study_differences(&m);
-        if !diffs.is_empty() {
-            bail!(
-                "{} holds a different study ({}); choose another --out",
-                root.display(),
-                diffs.join("; ")
-            );
-        }
-        plan
-    } else {
-        if root.join(MANIFEST).exists() || root.join(RUN_JSON).exists() {
-            bail!(
-                "{} already holds a run that rwg slurm did not start; choose another --out",
-                root.display()
-            );
-        }
-        Plan {
-            shards: args.shards,
-            ..Plan::default()
-        }
-    };
-    if merged_complete(&root) {
+    let mut plan = read_or_start_plan(&sub.sd, &m, args.shards)?;
+    if merged_complete(&sub.sd.root) {
         crate::outln!(
             "{} already holds this study, merged and complete; nothing to submit.",
-            root.display()
+            sub.sd.root.display()
         );
         return Ok(());
     }
@@ -168,63 +115,172 @@ pub fn run(args: Args) -> Result<()> {
         plan.sbatch = common;
         plan.sbatch_array = array_only;
     }
+    let sub = Submission {
+        unfinished: unfinished_shards(&sub.sd, &m, args.shards),
+        ..sub
+    };
+    if !args.dry_run {
+        which_sbatch()?;
+        cancel_or_refuse(&plan, &sub.sd.root)?;
+    }
+    write_study(&sub, &m, &plan)?;
+    if args.dry_run {
+        sub.print_dry_run();
+        return Ok(());
+    }
+    sub.submit(&mut plan)
+}
 
-    let unfinished: Vec<u64> = (0..args.shards)
+/// The study directory `out`, resolved: the scripts name everything by
+/// absolute path, without `..`.
+fn resolve_root(out: &Path) -> Result<PathBuf> {
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let root = out
+        .canonicalize()
+        .with_context(|| format!("cannot resolve {}", out.display()))?;
+    check_sbatch_path(&root)?;
+    Ok(root)
+}
+
+/// The plan of the study `root` holds (refused if its shard count or study
+/// differs from this one), or a new one if it holds none (refused if it
+/// holds a run that `rwg slurm` did not start).
+fn read_or_start_plan(sd: &ShardedDir, m: &Manifest, shards: u64) -> Result<Plan> {
+    let root = &sd.root;
+    if !sd.exists() {
+        if root.join(MANIFEST).exists() || root.join(RUN_JSON).exists() {
+            bail!(
+                "{} already holds a run that rwg slurm did not start; choose another --out",
+                root.display()
+            );
+        }
+        return Ok(Plan {
+            shards,
+            ..Plan::default()
+        });
+    }
+    let plan = sd.read_plan()?;
+    if plan.shards != shards {
+        bail!(
+            "{} holds this study in {} shards, not {}; use --shards {} (or another --out)",
+            root.display(),
+            plan.shards,
+            shards,
+            plan.shards
+        );
+    }
+    let old = Manifest::load(&sd.manifest())?;
+    let diffs = old.study_differences(m);
+    if !diffs.is_empty() {
+        bail!(
+            "{} holds a different study ({}); choose another --out",
+            root.display(),
+            diffs.join("; ")
+        );
+    }
+    Ok(plan)
+}
+
+/// The shards of the study in `sd` that are not complete.
+fn unfinished_shards(sd: &ShardedDir, m: &Manifest, shards: u64) -> Vec<u64> {
+    (0..shards)
         .filter(|&k| {
             !matches!(
-                shard_state(&sd.shard(k), &m, k, args.shards),
+                shard_state(&sd.shard(k), m, k, shards),
                 ShardState::Complete(_)
             )
         })
-        .collect();
+        .collect()
+}
 
-    if !args.dry_run {
-        which_sbatch()?;
-        cancel_or_refuse(&plan, &root)?;
-    }
-
-    // Write the study, the scripts and the plan.
-    for d in [sd.logs(), root.join("shards")] {
+/// Writes the study, the scripts and the plan into the study directory.
+fn write_study(sub: &Submission, m: &Manifest, plan: &Plan) -> Result<()> {
+    let sd = &sub.sd;
+    for d in [sd.logs(), sd.root.join("shards")] {
         std::fs::create_dir_all(&d).with_context(|| format!("cannot create {}", d.display()))?;
     }
     write_atomic(&sd.manifest(), m.to_toml().as_bytes())
         .with_context(|| format!("cannot write {}", sd.manifest().display()))?;
     let scripts = Scripts {
-        rwg: &rwg,
-        dir: &sd,
-        shards: args.shards,
+        rwg: &sub.rwg,
+        dir: sd,
+        shards: sub.shards,
         common: &plan.sbatch,
         array_only: &plan.sbatch_array,
     };
     write_script(&sd.array_script(), &scripts.array())?;
     write_script(&sd.merge_script(), &scripts.merge())?;
-    sd.write_plan(&plan)?;
+    sd.write_plan(plan)
+}
 
-    let array_cmd = |dep: bool| -> Vec<String> {
+/// What `rwg slurm` submits: the shards still to run and the merge.
+struct Submission {
+    /// This rwg binary, which the scripts call.
+    rwg: PathBuf,
+    /// The study directory (absolute).
+    sd: ShardedDir,
+    /// The manifest file as given, resolved (for the resubmit command).
+    manifest_path: PathBuf,
+    /// The study's shard count.
+    shards: u64,
+    /// The shards that are not complete.
+    unfinished: Vec<u64>,
+}
+
+impl Submission {
+    /// The paths of a submission of `args` into `out` (no shard known yet
+    /// to be unfinished).
+    fn resolve(args: &Args, out: &Path) -> Result<Self> {
+        let root = resolve_root(out)?;
+        let manifest_path = args
+            .manifest
+            .canonicalize()
+            .with_context(|| format!("cannot resolve {}", args.manifest.display()))?;
+        let rwg = std::env::current_exe().context("cannot find the rwg binary's path")?;
+        Ok(Submission {
+            rwg,
+            sd: ShardedDir { root },
+            manifest_path,
+            shards: args.shards,
+            unfinished: vec![],
+        })
+    }
+
+    /// The sbatch command of the job array: the unfinished shards only,
+    /// when some are complete.
+    fn array_cmd(&self) -> Vec<String> {
         let mut c = vec!["sbatch".to_string(), "--parsable".into()];
-        if dep && unfinished.len() as u64 != args.shards {
-            c.push(format!("--array={}", array_spec(&unfinished)));
+        if self.unfinished.len() as u64 != self.shards {
+            c.push(format!("--array={}", array_spec(&self.unfinished)));
         }
-        c.push(sd.array_script().to_string_lossy().into_owned());
+        c.push(self.sd.array_script().to_string_lossy().into_owned());
         c
-    };
-    let merge_cmd = |after: Option<&str>| -> Vec<String> {
+    }
+
+    /// The sbatch command of the merge job, after job `after` if any.
+    fn merge_cmd(&self, after: Option<&str>) -> Vec<String> {
         let mut c = vec!["sbatch".to_string(), "--parsable".into()];
         if let Some(id) = after {
             c.push(format!("--dependency=afterok:{id}"));
         }
-        c.push(sd.merge_script().to_string_lossy().into_owned());
+        c.push(self.sd.merge_script().to_string_lossy().into_owned());
         c
-    };
-    let resubmit = format!(
-        "{} slurm {} --shards {} --out {}",
-        sh_path(&rwg),
-        sh_path(&manifest_path),
-        args.shards,
-        sh_path(&root)
-    );
+    }
 
-    if args.dry_run {
+    /// `rwg slurm` again, to resubmit what did not finish.
+    fn resubmit(&self) -> String {
+        format!(
+            "{} slurm {} --shards {} --out {}",
+            sh_path(&self.rwg),
+            sh_path(&self.manifest_path),
+            self.shards,
+            sh_path(&self.sd.root)
+        )
+    }
+
+    /// `--dry-run`: what was written and what would be submitted.
+    fn print_dry_run(&self) {
+        let sd = &self.sd;
         crate::outln!(
             "Wrote {} and {}.",
             sd.array_script().display(),
@@ -232,70 +288,80 @@ pub fn run(args: Args) -> Result<()> {
         );
         crate::outln!(
             "Would submit ({}):",
-            describe_unfinished(&unfinished, args.shards)
+            describe_unfinished(&self.unfinished, self.shards)
         );
-        if !unfinished.is_empty() {
-            crate::outln!("  A=$({})", show_command(&array_cmd(true)));
+        if !self.unfinished.is_empty() {
+            crate::outln!("  A=$({})", show_command(&self.array_cmd()));
             crate::outln!(
                 "  sbatch --parsable --dependency=afterok:$A {}",
                 sh_path(&sd.merge_script())
             );
         } else {
-            crate::outln!("  {}", show_command(&merge_cmd(None)));
+            crate::outln!("  {}", show_command(&self.merge_cmd(None)));
         }
-        return Ok(());
     }
 
-    let mut ids = vec![];
-    let array_id = if unfinished.is_empty() {
-        crate::outln!("Every shard is complete; submitting the merge only.");
-        None
-    } else {
-        let id = sbatch(&array_cmd(true))?;
+    /// Submits the job array (if a shard is unfinished) and the merge,
+    /// recording each job in the plan, then prints how to watch them.
+    fn submit(&self, plan: &mut Plan) -> Result<()> {
+        let array_id = self.submit_array(plan)?;
+        let merge_id = sbatch(&self.merge_cmd(array_id.as_deref()))?;
+        plan.jobs.push(Job {
+            kind: "merge".into(),
+            id: merge_id.clone(),
+            tasks: vec![],
+        });
+        self.sd.write_plan(plan)?;
+        crate::outln!(
+            "Submitted merge job {merge_id}{}: merges the shards into {} (cells, stats, figures, report.html)",
+            array_id
+                .as_ref()
+                .map_or(String::new(), |a| format!(" (afterok:{a}: starts when every task of {a} succeeded)")),
+            self.sd.root.display()
+        );
+        let ids: Vec<String> = array_id.into_iter().chain([merge_id.clone()]).collect();
+        self.print_watch(&ids.join(","), &merge_id);
+        Ok(())
+    }
+
+    /// Submits the job array of the unfinished shards, if any: its job id.
+    fn submit_array(&self, plan: &mut Plan) -> Result<Option<String>> {
+        if self.unfinished.is_empty() {
+            crate::outln!("Every shard is complete; submitting the merge only.");
+            return Ok(None);
+        }
+        let id = sbatch(&self.array_cmd())?;
         plan.jobs.push(Job {
             kind: "shards".into(),
             id: id.clone(),
-            tasks: unfinished.clone(),
+            tasks: self.unfinished.clone(),
         });
-        sd.write_plan(&plan)?;
+        self.sd.write_plan(plan)?;
         crate::outln!(
             "Submitted job array {id}: {} (task K runs shard K/{} into {}/K)",
-            describe_unfinished(&unfinished, args.shards),
-            args.shards,
-            root.join("shards").display()
+            describe_unfinished(&self.unfinished, self.shards),
+            self.shards,
+            self.sd.root.join("shards").display()
         );
-        ids.push(id.clone());
-        Some(id)
-    };
-    let merge_id = sbatch(&merge_cmd(array_id.as_deref()))?;
-    plan.jobs.push(Job {
-        kind: "merge".into(),
-        id: merge_id.clone(),
-        tasks: vec![],
-    });
-    sd.write_plan(&plan)?;
-    ids.push(merge_id.clone());
-    crate::outln!(
-        "Submitted merge job {merge_id}{}: merges the shards into {} (cells, stats, figures, report.html)",
-        array_id
-            .as_ref()
-            .map_or(String::new(), |a| format!(" (afterok:{a}: starts when every task of {a} succeeded)")),
-        root.display()
-    );
-    let ids = ids.join(",");
-    crate::outln!("\nWatch:");
-    crate::outln!("  squeue -j {ids}");
-    crate::outln!(
-        "  sacct -j {ids} --format=JobID,JobName,State,ExitCode,Elapsed   # needs Slurm accounting"
-    );
-    crate::outln!("  {} status {}", sh_path(&rwg), sh_path(&root));
-    crate::outln!("  tail -f {}/shard-*.out", sh_path(&sd.logs()));
-    crate::outln!(
-        "\nIf a shard task fails or is cancelled, merge job {merge_id} cannot start (squeue shows it\n\
-         pending with reason DependencyNeverSatisfied). Once no task is queued or running, resubmit\n\
-         the unfinished shards (they resume from their committed blocks) and a new merge with:\n  {resubmit}"
-    );
-    Ok(())
+        Ok(Some(id))
+    }
+
+    /// How to watch the jobs `ids` and what to do if a shard task fails.
+    fn print_watch(&self, ids: &str, merge_id: &str) {
+        crate::outln!("\nWatch:");
+        crate::outln!("  squeue -j {ids}");
+        crate::outln!(
+            "  sacct -j {ids} --format=JobID,JobName,State,ExitCode,Elapsed   # needs Slurm accounting"
+        );
+        crate::outln!("  {} status {}", sh_path(&self.rwg), sh_path(&self.sd.root));
+        crate::outln!("  tail -f {}/shard-*.out", sh_path(&self.sd.logs()));
+        crate::outln!(
+            "\nIf a shard task fails or is cancelled, merge job {merge_id} cannot start (squeue shows it\n\
+             pending with reason DependencyNeverSatisfied). Once no task is queued or running, resubmit\n\
+             the unfinished shards (they resume from their committed blocks) and a new merge with:\n  {}",
+            self.resubmit()
+        );
+    }
 }
 
 fn describe_unfinished(unfinished: &[u64], n: u64) -> String {

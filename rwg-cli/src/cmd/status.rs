@@ -226,30 +226,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     let m = Manifest::load(&manifest)?;
     let count = plan.shards;
     let root = &sd.root;
-    crate::outln!(
-        "{}: a study in {count} shards ({} cells, {} networks x {} episodes), merged into {}",
-        root.display(),
-        cell_dirs(&m).len(),
-        m.samples,
-        m.episodes,
-        root.display()
-    );
-    // Per cell: finalised in the merged run, or the blocks the shards committed.
-    let nb = n_blocks(m.samples);
-    let mut cells: Vec<CellProgress> = progress(root, &m, None);
-    for c in cells.iter_mut().filter(|c| !c.finalised) {
-        c.blocks_done = 0;
-        c.blocks_total = nb;
-    }
-    for k in 0..count {
-        let s = ShardMeta { index: k, count };
-        for (c, sp) in cells.iter_mut().zip(progress(&sd.shard(k), &m, Some(s))) {
-            if !c.finalised {
-                c.blocks_done += sp.blocks_done;
-            }
-        }
-    }
-    print_cells(&cells, true);
+    print_study_cells(sd, &m, count);
     // What Slurm still runs or queues: those shards finish on their own.
     let (live, queue_error) = if slurm {
         match live_jobs(&plan) {
@@ -259,6 +236,68 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     } else {
         (vec![], None)
     };
+    let (unfinished, computing) = print_shards(sd, &m, count, &live);
+    let merged = merged_complete(root);
+    crate::outln!(
+        "Merged run {}: {}",
+        root.display(),
+        merge_state(root, &m, merged)
+    );
+    print_jobs(&plan, queue_error.as_deref());
+    if merged {
+        if !root.join(REPORT_HTML).exists() {
+            crate::outln!(
+                "No report yet; write it with:\n  rwg report {}",
+                sh_path(root)
+            );
+        }
+        return Ok(());
+    }
+    if !computing.is_empty() && !print_computing(&computing, &live, unfinished.is_empty()) {
+        return Ok(());
+    }
+    print_finish(sd, &manifest, count, &unfinished, slurm);
+    Ok(())
+}
+
+/// The study's heading and its cells: finalised in the merged run, or the
+/// blocks the shards committed.
+fn print_study_cells(sd: &ShardedDir, m: &Manifest, count: u64) {
+    let root = &sd.root;
+    crate::outln!(
+        "{}: a study in {count} shards ({} cells, {} networks x {} episodes), merged into {}",
+        root.display(),
+        cell_dirs(m).len(),
+        m.samples,
+        m.episodes,
+        root.display()
+    );
+    let nb = n_blocks(m.samples);
+    let mut cells: Vec<CellProgress> = progress(root, m, None);
+    for c in cells.iter_mut().filter(|c| !c.finalised) {
+        c.blocks_done = 0;
+        c.blocks_total = nb;
+    }
+    for k in 0..count {
+        let s = ShardMeta { index: k, count };
+        for (c, sp) in cells.iter_mut().zip(progress(&sd.shard(k), m, Some(s))) {
+            if !c.finalised {
+                c.blocks_done += sp.blocks_done;
+            }
+        }
+    }
+    print_cells(&cells, true);
+}
+
+/// The table of shards, with the Slurm task of each that Slurm still runs
+/// or queues: the unfinished shards no task computes, and the tasks that
+/// compute the others.
+fn print_shards<'a>(
+    sd: &ShardedDir,
+    m: &Manifest,
+    count: u64,
+    live: &'a [LiveJob],
+) -> (Vec<u64>, Vec<&'a LiveJob>) {
     let task_of = |k: u64| live.iter().find(|j| j.shard == Some(k));
     let columns = TextColumns::new(
         &[(6, Align::Left), (50, Align::Left), (0, Align::Left)],
@@ -268,7 +307,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     let (mut unfinished, mut computing) = (vec![], vec![]);
     for k in 0..count {
         let dir = sd.shard(k);
-        let mut state = match shard_state(&dir, &m, k, count) {
+        let mut state = match shard_state(&dir, m, k, count) {
             ShardState::Missing => {
                 unfinished.push(k);
                 "missing (not started)".to_string()
@@ -292,19 +331,26 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
         let (shard, dir) = (format!("{k}/{count}"), dir.display().to_string());
         crate::outln!("  {}", columns.line(&[shard, dir, state]));
     }
-    let merged = merged_complete(root);
-    let merge_state = if merged {
+    (unfinished, computing)
+}
+
+/// The merged run's state (`merged`: complete).
+fn merge_state(root: &Path, m: &Manifest, merged: bool) -> String {
+    if merged {
         "complete".to_string()
     } else if root.join(MANIFEST).is_file() {
-        let t = Totals::of(&progress(root, &m, None), false);
+        let t = Totals::of(&progress(root, m, None), false);
         format!(
             "incomplete: {} of {} cells merged (rerun the merge to finish it)",
             t.cells_done, t.cells
         )
     } else {
         "not started".to_string()
-    };
-    crate::outln!("Merged run {}: {merge_state}", root.display());
+    }
+}
+
+/// The Slurm jobs submitted, and why the queue is not known if it is not.
+fn print_jobs(plan: &Plan, queue_error: Option<&str>) {
     let ids: Vec<&str> = plan.jobs.iter().map(|j| j.id.as_str()).collect();
     if !ids.is_empty() {
         crate::outln!(
@@ -317,49 +363,49 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
             ids.join(",")
         );
     }
-    if let Some(e) = &queue_error {
+    if let Some(e) = queue_error {
         crate::outln!(
             "Slurm's queue could not be read ({e}); shards its tasks may still be computing \
              are listed below as unfinished."
         );
     }
-    if merged {
-        if !root.join(REPORT_HTML).exists() {
-            crate::outln!(
-                "No report yet; write it with:\n  rwg report {}",
-                sh_path(root)
-            );
+}
+
+/// The shards Slurm still computes and what to do when they end; whether
+/// other shards are left to finish (`all_computing`: none is).
+fn print_computing(computing: &[&LiveJob], live: &[LiveJob], all_computing: bool) -> bool {
+    crate::outln!(
+        "Slurm is still computing {}: {}.",
+        if computing.len() == 1 {
+            "a shard"
+        } else {
+            "shards"
+        },
+        computing
+            .iter()
+            .map(|j| j.describe())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    if all_computing {
+        let merge: Vec<&LiveJob> = live.iter().filter(|j| j.kind == "merge").collect();
+        match merge.first() {
+            Some(j) if j.reason != "DependencyNeverSatisfied" => crate::outln!(
+                "Merge job {} runs when they end: nothing to do but wait.",
+                j.describe()
+            ),
+            _ => crate::outln!("When they end, run rwg status again."),
         }
-        return Ok(());
+        return false;
     }
-    if !computing.is_empty() {
-        crate::outln!(
-            "Slurm is still computing {}: {}.",
-            if computing.len() == 1 {
-                "a shard"
-            } else {
-                "shards"
-            },
-            computing
-                .iter()
-                .map(|j| j.describe())
-                .collect::<Vec<_>>()
-                .join(", ")
-        );
-        if unfinished.is_empty() {
-            let merge: Vec<&LiveJob> = live.iter().filter(|j| j.kind == "merge").collect();
-            match merge.first() {
-                Some(j) if j.reason != "DependencyNeverSatisfied" => crate::outln!(
-                    "Merge job {} runs when they end: nothing to do but wait.",
-                    j.describe()
-                ),
-                _ => crate::outln!("When they end, run rwg status again."),
-            }
-            return Ok(());
-        }
-        crate::outln!("When they end, finish the other shards:");
-    }
-    let manifest = sh_path(&manifest);
+    crate::outln!("When they end, finish the other shards:");
+    true
+}
+
+/// The commands that finish the study: on Slurm (`slurm`), or here.
+fn print_finish(sd: &ShardedDir, manifest: &Path, count: u64, unfinished: &[u64], slurm: bool) {
+    let root = &sd.root;
+    let manifest = sh_path(manifest);
     if slurm {
         crate::outln!(
             "Finish it on Slurm (submits {} and the merge; the sbatch options given \
@@ -387,7 +433,7 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
             "Finish it with:"
         }
     );
-    for &k in &unfinished {
+    for &k in unfinished {
         crate::outln!(
             "  rwg run {manifest} --shard {k}/{count} --out {}",
             sh_path(&sd.shard(k))
@@ -395,5 +441,4 @@ fn sharded_status(sd: &ShardedDir, plan: Plan, manifest: PathBuf, slurm: bool) -
     }
     let shards: Vec<String> = (0..count).map(|k| sh_path(&sd.shard(k))).collect();
     crate::outln!("  rwg merge {} --out {}", shards.join(" "), sh_path(root));
-    Ok(())
 }

@@ -147,138 +147,9 @@ fn python_json(cmd: &mut Command) -> Result<serde_json::Value> {
 pub fn run(args: GymBenchArgs) -> Result<()> {
     let mut rows = vec![];
     for id in &args.envs {
-        let cfg = args.gym.config(id)?;
-        let src = GymSource::open(cfg.clone()).map_err(|e| anyhow::anyhow!("{id}: {e}"))?;
-        let gid = rwg_gym::gym_id(id).expect("a gymnasium: id").to_string();
-        let plan = CellPlan {
-            seed: 0,
-            env_id: gid.clone(),
-            arch: Architecture {
-                hidden: vec![],
-                bias: false,
-            },
-            episodes: args.episodes,
-            dist: WeightDist::Normal { std: 1.0 },
-        };
-        // Warm-up (untimed): starts the second worker process.
-        bridge_run(&src, &plan, 64.min(args.samples), 2)?;
-        let mut row = Row {
-            env: id.clone(),
-            ..Row::default()
-        };
-        let kwargs = serde_json::Value::Object(cfg.kwargs.clone()).to_string();
-        for rep in 0..args.repeats {
-            let (steps, secs, cpu) = bridge_run(&src, &plan, args.samples, 1)?;
-            row.steps_per_run = steps;
-            row.bridge_1_worker.push(steps as f64 / secs);
-            row.bridge_1_worker_cpu.push(steps as f64 / cpu);
-            let c = python_json(
-                Command::new(&cfg.python)
-                    .args(["-c", CEILING_PY, &gid, &kwargs, &steps.to_string()])
-                    .arg(rep.to_string()),
-            )?;
-            let n = c["steps"].as_f64().unwrap_or(0.0);
-            row.ceiling
-                .push(n / c["wall_s"].as_f64().unwrap_or(f64::NAN));
-            row.ceiling_cpu
-                .push(n / c["cpu_s"].as_f64().unwrap_or(f64::NAN));
-            let (steps2, secs2, cpu2) = bridge_run(&src, &plan, args.samples, 2)?;
-            row.bridge_2_workers.push(steps2 as f64 / secs2);
-            row.bridge_2_workers_cpu.push(steps2 as f64 / cpu2);
-            if let Some(peer) = &args.peer {
-                let out =
-                    std::env::temp_dir().join(format!("rwg-bench-peer-{}.csv", std::process::id()));
-                // the peer runs in its own folder (it imports its
-                // neighbours): name it, and a relative interpreter path, from
-                // here first
-                let peer = std::fs::canonicalize(peer)
-                    .with_context(|| format!("cannot find the peer script {}", peer.display()))?;
-                let python = if cfg.python.contains('/') {
-                    std::path::absolute(&cfg.python).unwrap_or_else(|_| PathBuf::from(&cfg.python))
-                } else {
-                    PathBuf::from(&cfg.python)
-                };
-                let mut cmd = Command::new(&python);
-                cmd.arg(&peer).args([
-                    "--env",
-                    &gid,
-                    "--samples",
-                    &(args.samples / 5).max(1).to_string(),
-                    "--episodes",
-                    &args.episodes.to_string(),
-                    "--out",
-                    out.to_str().unwrap_or("peer.csv"),
-                ]);
-                if let Some(dir) = peer.parent() {
-                    cmd.current_dir(dir);
-                }
-                let p = python_json(&mut cmd)?;
-                let _ = std::fs::remove_file(&out);
-                row.peer.push(p["steps_per_s"].as_f64().unwrap_or(f64::NAN));
-                row.peer_cpu
-                    .push(p["steps_per_cpu_s"].as_f64().unwrap_or(f64::NAN));
-            }
-        }
+        let row = measure_env(&args, id)?;
         if !args.json {
-            let m = |v: &[f64]| median(v);
-            crate::outln!(
-                "{id}  ({} env steps per bridge run, {} repeats; median [min-max])",
-                row.steps_per_run,
-                args.repeats
-            );
-            let columns = TextColumns::new(
-                &[
-                    (48, Align::Left),
-                    (26, Align::Right),
-                    (26, Align::Right),
-                    (0, Align::Left),
-                ],
-                " ",
-            )
-            .gap(2, "  ");
-            crate::outln!(
-                "  {}",
-                columns.line(&["", "env steps/s (wall)", "env steps/CPU-s"])
-            );
-            let line = |what: &str, wall: &[f64], cpu: &[f64], note: String| {
-                let cells = [what.to_string(), fmt_stat(wall), fmt_stat(cpu), note];
-                crate::outln!("  {}", columns.line(&cells));
-            };
-            line(
-                "pure-Python loop, pre-drawn actions (ceiling)",
-                &row.ceiling,
-                &row.ceiling_cpu,
-                String::new(),
-            );
-            line(
-                "bridge, 1 worker",
-                &row.bridge_1_worker,
-                &row.bridge_1_worker_cpu,
-                format!(
-                    "{:.2}x ceiling per CPU-s",
-                    m(&row.bridge_1_worker_cpu) / m(&row.ceiling_cpu)
-                ),
-            );
-            line(
-                "bridge, 2 workers",
-                &row.bridge_2_workers,
-                &row.bridge_2_workers_cpu,
-                format!(
-                    "{:.2}x 1 worker (wall)",
-                    m(&row.bridge_2_workers) / m(&row.bridge_1_worker)
-                ),
-            );
-            if !row.peer.is_empty() {
-                line(
-                    &format!("peer script ({} networks)", (args.samples / 5).max(1)),
-                    &row.peer,
-                    &row.peer_cpu,
-                    format!(
-                        "bridge 1 worker = {:.1}x per CPU-s",
-                        m(&row.bridge_1_worker_cpu) / m(&row.peer_cpu)
-                    ),
-                );
-            }
+            print_env(&args, &row);
         }
         rows.push(row);
     }
@@ -286,4 +157,155 @@ pub fn run(args: GymBenchArgs) -> Result<()> {
         crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
     }
     Ok(())
+}
+
+/// The measurements of env `id`: after an untimed warm-up, `--repeats`
+/// times the ceiling, the bridge with 1 and 2 workers, and the peer script.
+fn measure_env(args: &GymBenchArgs, id: &str) -> Result<Row> {
+    let cfg = args.gym.config(id)?;
+    let src = GymSource::open(cfg.clone()).map_err(|e| anyhow::anyhow!("{id}: {e}"))?;
+    let gid = rwg_gym::gym_id(id).expect("a gymnasium: id").to_string();
+    let plan = CellPlan {
+        seed: 0,
+        env_id: gid.clone(),
+        arch: Architecture {
+            hidden: vec![],
+            bias: false,
+        },
+        episodes: args.episodes,
+        dist: WeightDist::Normal { std: 1.0 },
+    };
+    // Warm-up (untimed): starts the second worker process.
+    bridge_run(&src, &plan, 64.min(args.samples), 2)?;
+    let mut row = Row {
+        env: id.to_string(),
+        ..Row::default()
+    };
+    let kwargs = serde_json::Value::Object(cfg.kwargs.clone()).to_string();
+    for rep in 0..args.repeats {
+        let (steps, secs, cpu) = bridge_run(&src, &plan, args.samples, 1)?;
+        row.steps_per_run = steps;
+        row.bridge_1_worker.push(steps as f64 / secs);
+        row.bridge_1_worker_cpu.push(steps as f64 / cpu);
+        let c = python_json(
+            Command::new(&cfg.python)
+                .args(["-c", CEILING_PY, &gid, &kwargs, &steps.to_string()])
+                .arg(rep.to_string()),
+        )?;
+        let n = c["steps"].as_f64().unwrap_or(0.0);
+        row.ceiling
+            .push(n / c["wall_s"].as_f64().unwrap_or(f64::NAN));
+        row.ceiling_cpu
+            .push(n / c["cpu_s"].as_f64().unwrap_or(f64::NAN));
+        let (steps2, secs2, cpu2) = bridge_run(&src, &plan, args.samples, 2)?;
+        row.bridge_2_workers.push(steps2 as f64 / secs2);
+        row.bridge_2_workers_cpu.push(steps2 as f64 / cpu2);
+        if let Some(peer) = &args.peer {
+            let p = run_peer(args, peer, &cfg.python, &gid)?;
+            row.peer.push(p["steps_per_s"].as_f64().unwrap_or(f64::NAN));
+            row.peer_cpu
+                .push(p["steps_per_cpu_s"].as_f64().unwrap_or(f64::NAN));
+        }
+    }
+    Ok(row)
+}
+
+/// Runs the peer script on env `gid` with `python`: its JSON line.
+fn run_peer(
+    args: &GymBenchArgs,
+    peer: &std::path::Path,
+    python: &str,
+    gid: &str,
+) -> Result<serde_json::Value> {
+    let out = std::env::temp_dir().join(format!("rwg-bench-peer-{}.csv", std::process::id()));
+    // the peer runs in its own folder (it imports its neighbours): name
+    // it, and a relative interpreter path, from here first
+    let peer = std::fs::canonicalize(peer)
+        .with_context(|| format!("cannot find the peer script {}", peer.display()))?;
+    let python = if python.contains('/') {
+        std::path::absolute(python).unwrap_or_else(|_| PathBuf::from(python))
+    } else {
+        PathBuf::from(python)
+    };
+    let mut cmd = Command::new(&python);
+    cmd.arg(&peer).args([
+        "--env",
+        gid,
+        "--samples",
+        &(args.samples / 5).max(1).to_string(),
+        "--episodes",
+        &args.episodes.to_string(),
+        "--out",
+        out.to_str().unwrap_or("peer.csv"),
+    ]);
+    if let Some(dir) = peer.parent() {
+        cmd.current_dir(dir);
+    }
+    let p = python_json(&mut cmd)?;
+    let _ = std::fs::remove_file(&out);
+    Ok(p)
+}
+
+/// Prints the table of one env's measurements.
+fn print_env(args: &GymBenchArgs, row: &Row) {
+    let m = |v: &[f64]| median(v);
+    crate::outln!(
+        "{}  ({} env steps per bridge run, {} repeats; median [min-max])",
+        row.env,
+        row.steps_per_run,
+        args.repeats
+    );
+    let columns = TextColumns::new(
+        &[
+            (48, Align::Left),
+            (26, Align::Right),
+            (26, Align::Right),
+            (0, Align::Left),
+        ],
+        " ",
+    )
+    .gap(2, "  ");
+    crate::outln!(
+        "  {}",
+        columns.line(&["", "env steps/s (wall)", "env steps/CPU-s"])
+    );
+    let line = |what: &str, wall: &[f64], cpu: &[f64], note: String| {
+        let cells = [what.to_string(), fmt_stat(wall), fmt_stat(cpu), note];
+        crate::outln!("  {}", columns.line(&cells));
+    };
+    line(
+        "pure-Python loop, pre-drawn actions (ceiling)",
+        &row.ceiling,
+        &row.ceiling_cpu,
+        String::new(),
+    );
+    line(
+        "bridge, 1 worker",
+        &row.bridge_1_worker,
+        &row.bridge_1_worker_cpu,
+        format!(
+            "{:.2}x ceiling per CPU-s",
+            m(&row.bridge_1_worker_cpu) / m(&row.ceiling_cpu)
+        ),
+    );
+    line(
+        "bridge, 2 workers",
+        &row.bridge_2_workers,
+        &row.bridge_2_workers_cpu,
+        format!(
+            "{:.2}x 1 worker (wall)",
+            m(&row.bridge_2_workers) / m(&row.bridge_1_worker)
+        ),
+    );
+    if !row.peer.is_empty() {
+        line(
+            &format!("peer script ({} networks)", (args.samples / 5).max(1)),
+            &row.peer,
+            &row.peer_cpu,
+            format!(
+                "bridge 1 worker = {:.1}x per CPU-s",
+                m(&row.bridge_1_worker_cpu) / m(&row.peer_cpu)
+            ),
+        );
+    }
 }

@@ -203,6 +203,50 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
         bail!("--rounds, --samples and --episodes must be at least 1");
     }
     let plugin = rwg_plugin_host::load_plugin(&args.plugin)?;
+    let twins = twins(&args, &plugin)?;
+    if let Some(a) = args
+        .archs
+        .iter()
+        .find(|a| !ARCHS.iter().any(|(n, _)| n == a))
+    {
+        bail!("--arch {a}: not one of 0HL, [4], [4,4]");
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .context("cannot start the thread pool")?;
+    let blocks = rwg_core::sampler::blocks(0..args.samples, BLOCK);
+    let mut rows = Vec::new();
+    for (builtin, ty) in &twins {
+        for (name, hidden) in ARCHS {
+            if !args.archs.is_empty() && !args.archs.iter().any(|a| a == name) {
+                continue;
+            }
+            let w = Workload::new(&args, builtin, ty, hidden, &blocks);
+            let (times, seen) = pool.install(|| w.measure_rounds(name))?;
+            let row = Row::of(builtin, hidden, &times, seen);
+            if !args.json {
+                if rows.is_empty() {
+                    print_row(&COLUMNS, &COLUMNS.map(|c| c.0.to_string()));
+                }
+                print_row(&COLUMNS, &cells(&row, name));
+            }
+            rows.push(row);
+        }
+    }
+    if args.json {
+        crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
+    }
+    Ok(())
+}
+
+/// The built-in envs the plugin re-exports (as `NAMESPACE/ID`), those
+/// `--env` names if given, each with the plugin's env type; refused if
+/// there is none or one has no batched calls.
+fn twins(
+    args: &PluginArgs,
+    plugin: &rwg_plugin_host::Plugin,
+) -> Result<Vec<(String, rwg_plugin_host::PluginEnvType)>> {
     let twins: Vec<(String, rwg_plugin_host::PluginEnvType)> = plugin
         .envs()
         .iter()
@@ -229,165 +273,185 @@ pub(super) fn run(args: PluginArgs) -> Result<()> {
             ty.id()
         );
     }
-    if let Some(a) = args
-        .archs
-        .iter()
-        .find(|a| !ARCHS.iter().any(|(n, _)| n == a))
-    {
-        bail!("--arch {a}: not one of 0HL, [4], [4,4]");
-    }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .context("cannot start the thread pool")?;
-    let blocks = rwg_core::sampler::blocks(0..args.samples, BLOCK);
-    let mut rows = Vec::new();
-    for (builtin, ty) in &twins {
-        for (name, hidden) in ARCHS {
-            if !args.archs.is_empty() && !args.archs.iter().any(|a| a == name) {
-                continue;
-            }
-            // The built-in id seeds all three, so they run the same episodes.
-            let plan = CellPlan {
-                seed: 0,
-                env_id: builtin.clone(),
-                arch: Architecture {
-                    hidden: hidden.to_vec(),
-                    bias: false,
-                },
-                episodes: args.episodes,
-                dist: WeightDist::Normal { std: 1.0 },
-            };
-            let source = PluginSource {
-                ty: ty.clone(),
-                config: String::new(),
-                max_episode_steps: None,
-                isolated: None,
-            };
-            let mut times: [Vec<f64>; 5] = Default::default();
-            let mut seen: Option<(u64, u64)> = None;
-            let runs = |v: usize| {
-                args.only.is_none_or(|o| o == Variant::ALL[v])
-                    && (Variant::ALL[v] != Variant::Vec || ty.has_vec_env())
-            };
-            for round in 0..args.rounds {
-                let mut round_ns = [0.0; 5];
-                for k in 0..5 {
-                    let v = (k + round) % 5; // rotate who goes first
-                    if !runs(v) {
-                        continue;
-                    }
-                    let m = pool.install(|| -> Result<Measured> {
-                        match v {
-                            0 => measure(|on_block| {
-                                let b = Builtin {
-                                    plan: &plan,
-                                    samples: args.samples,
-                                    on_block,
-                                };
-                                visit(builtin, &EnvOptions::default(), b)
-                                    .expect("a built-in id")
-                                    .expect("built-in envs do not fail")
-                            }),
-                            1 => measure(|on_block| {
-                                let make = || {
-                                    Watched::create(|| source.make().expect("a plugin instance"))
-                                };
-                                run_cell(&plan, 0..args.samples, BLOCK, 2, make, |b| {
-                                    on_block(b);
-                                    Ok::<(), SampleError>(())
-                                })
-                                .expect("the plugin env does not fail")
-                            }),
-                            3 => measure(|on_block| {
-                                let l = Lockstep {
-                                    plan: &plan,
-                                    blocks: &blocks,
-                                    on_block,
-                                };
-                                match visit_lockstep::<LANES, _>(builtin, &EnvOptions::default(), l)
-                                {
-                                    Ok(r) => r.expect("built-in envs do not fail"),
-                                    Err(_) => panic!("{builtin} has no lockstep version"),
-                                }
-                            }),
-                            _ => measure(|on_block| {
-                                let calls = if v == 2 {
-                                    LaneCalls::Batched
-                                } else {
-                                    LaneCalls::Vec
-                                };
-                                rwg_study::plugin_batch::run_blocks(
-                                    &source,
-                                    calls,
-                                    &plan,
-                                    &blocks,
-                                    2,
-                                    |b| {
-                                        on_block(b);
-                                        Ok::<(), SampleError>(())
-                                    },
-                                )
-                                .expect("the plugin env does not fail")
-                            }),
-                        }
-                    })?;
-                    let (steps, score, cpu) = m;
-                    match seen {
-                        None => seen = Some((steps, score)),
-                        Some(s) if s != (steps, score) => bail!(
-                            "{builtin} {name}: the variants ran different episodes \
-                             ({} vs {} env steps): a bug",
-                            s.0,
-                            steps
-                        ),
-                        Some(_) => {}
-                    }
-                    round_ns[v] = cpu * 1e9 / steps as f64;
-                }
-                for v in 0..5 {
-                    if runs(v) {
-                        times[v].push(round_ns[v]);
-                    }
-                }
-            }
-            let ratio_to = |v: usize, to: usize| {
-                Spread::of(
-                    times[v]
-                        .iter()
-                        .zip(&times[to])
-                        .map(|(p, b)| p / b)
-                        .collect(),
-                )
-            };
-            let ratio = |v: usize| ratio_to(v, 0);
-            let row = Row {
-                env: builtin.clone(),
+    Ok(twins)
+}
+
+/// CPU ns per env step of each variant ([`Variant::ALL`]'s order), one per
+/// round, and the (env steps, score bits) every variant ran.
+type Rounds = ([Vec<f64>; 5], Option<(u64, u64)>);
+
+/// One env and architecture, measured in its five variants.
+struct Workload<'a> {
+    args: &'a PluginArgs,
+    /// The built-in env's id.
+    builtin: &'a str,
+    ty: &'a rwg_plugin_host::PluginEnvType,
+    plan: CellPlan,
+    source: PluginSource,
+    blocks: &'a [std::ops::Range<u64>],
+}
+
+impl<'a> Workload<'a> {
+    fn new(
+        args: &'a PluginArgs,
+        builtin: &'a str,
+        ty: &'a rwg_plugin_host::PluginEnvType,
+        hidden: &[usize],
+        blocks: &'a [std::ops::Range<u64>],
+    ) -> Self {
+        // The built-in id seeds all three, so they run the same episodes.
+        let plan = CellPlan {
+            seed: 0,
+            env_id: builtin.to_string(),
+            arch: Architecture {
                 hidden: hidden.to_vec(),
-                env_steps: seen.map_or(0, |s| s.0),
-                single_ratio: ratio(1),
-                batched_ratio: ratio(2),
-                batched_lockstep_ratio: ratio_to(2, 3),
-                vec_lockstep_ratio: ratio_to(4, 3),
-                builtin_ns: Spread::of(times[0].clone()),
-                single_ns: Spread::of(times[1].clone()),
-                batched_ns: Spread::of(times[2].clone()),
-                lockstep_ns: Spread::of(times[3].clone()),
-                vec_ns: Spread::of(times[4].clone()),
-            };
-            if !args.json {
-                if rows.is_empty() {
-                    print_row(&COLUMNS, &COLUMNS.map(|c| c.0.to_string()));
-                }
-                print_row(&COLUMNS, &cells(&row, name));
-            }
-            rows.push(row);
+                bias: false,
+            },
+            episodes: args.episodes,
+            dist: WeightDist::Normal { std: 1.0 },
+        };
+        let source = PluginSource {
+            ty: ty.clone(),
+            config: String::new(),
+            max_episode_steps: None,
+            isolated: None,
+        };
+        Workload {
+            args,
+            builtin,
+            ty,
+            plan,
+            source,
+            blocks,
         }
     }
-    if args.json {
-        crate::outln!("{}", serde_json::to_string_pretty(&rows)?);
+
+    /// Whether variant `v` runs: `--only`, and the vector env only for a
+    /// plugin env that has one.
+    fn runs(&self, v: usize) -> bool {
+        self.args.only.is_none_or(|o| o == Variant::ALL[v])
+            && (Variant::ALL[v] != Variant::Vec || self.ty.has_vec_env())
     }
-    Ok(())
+
+    /// Runs the variants `--rounds` times, interleaved (who goes first
+    /// rotates); refused if two ran different episodes (a bug).
+    fn measure_rounds(&self, name: &str) -> Result<Rounds> {
+        let mut times: [Vec<f64>; 5] = Default::default();
+        let mut seen: Option<(u64, u64)> = None;
+        for round in 0..self.args.rounds {
+            let mut round_ns = [0.0; 5];
+            for k in 0..5 {
+                let v = (k + round) % 5; // rotate who goes first
+                if !self.runs(v) {
+                    continue;
+                }
+                let (steps, score, cpu) = self.measure_variant(v)?;
+                match seen {
+                    None => seen = Some((steps, score)),
+                    Some(s) if s != (steps, score) => bail!(
+                        "{} {name}: the variants ran different episodes \
+                         ({} vs {} env steps): a bug",
+                        self.builtin,
+                        s.0,
+                        steps
+                    ),
+                    Some(_) => {}
+                }
+                round_ns[v] = cpu * 1e9 / steps as f64;
+            }
+            for v in 0..5 {
+                if self.runs(v) {
+                    times[v].push(round_ns[v]);
+                }
+            }
+        }
+        Ok((times, seen))
+    }
+
+    /// One run of variant `v` ([`Variant::ALL`]'s index).
+    fn measure_variant(&self, v: usize) -> Result<Measured> {
+        let (plan, samples, builtin) = (&self.plan, self.args.samples, self.builtin);
+        match v {
+            0 => measure(|on_block| {
+                let b = Builtin {
+                    plan,
+                    samples,
+                    on_block,
+                };
+                visit(builtin, &EnvOptions::default(), b)
+                    .expect("a built-in id")
+                    .expect("built-in envs do not fail")
+            }),
+            1 => measure(|on_block| {
+                let make = || Watched::create(|| self.source.make().expect("a plugin instance"));
+                run_cell(plan, 0..samples, BLOCK, 2, make, |b| {
+                    on_block(b);
+                    Ok::<(), SampleError>(())
+                })
+                .expect("the plugin env does not fail")
+            }),
+            3 => measure(|on_block| {
+                let l = Lockstep {
+                    plan,
+                    blocks: self.blocks,
+                    on_block,
+                };
+                match visit_lockstep::<LANES, _>(builtin, &EnvOptions::default(), l) {
+                    Ok(r) => r.expect("built-in envs do not fail"),
+                    Err(_) => panic!("{builtin} has no lockstep version"),
+                }
+            }),
+            _ => measure(|on_block| {
+                let calls = if v == 2 {
+                    LaneCalls::Batched
+                } else {
+                    LaneCalls::Vec
+                };
+                rwg_study::plugin_batch::run_blocks(
+                    &self.source,
+                    calls,
+                    plan,
+                    self.blocks,
+                    2,
+                    |b| {
+                        on_block(b);
+                        Ok::<(), SampleError>(())
+                    },
+                )
+                .expect("the plugin env does not fail")
+            }),
+        }
+    }
+}
+
+impl Row {
+    /// The row of env `builtin` with `hidden` layers, from its rounds.
+    fn of(builtin: &str, hidden: &[usize], times: &[Vec<f64>; 5], seen: Option<(u64, u64)>) -> Row {
+        let ratio_to = |v: usize, to: usize| {
+            Spread::of(
+                times[v]
+                    .iter()
+                    .zip(&times[to])
+                    .map(|(p, b)| p / b)
+                    .collect(),
+            )
+        };
+        let ratio = |v: usize| ratio_to(v, 0);
+        Row {
+            env: builtin.to_string(),
+            hidden: hidden.to_vec(),
+            env_steps: seen.map_or(0, |s| s.0),
+            single_ratio: ratio(1),
+            batched_ratio: ratio(2),
+            batched_lockstep_ratio: ratio_to(2, 3),
+            vec_lockstep_ratio: ratio_to(4, 3),
+            builtin_ns: Spread::of(times[0].clone()),
+            single_ns: Spread::of(times[1].clone()),
+            batched_ns: Spread::of(times[2].clone()),
+            lockstep_ns: Spread::of(times[3].clone()),
+            vec_ns: Spread::of(times[4].clone()),
+        }
+    }
 }
 
 /// Columns of `rwg bench plugin`: header and width (negative: left-aligned).
