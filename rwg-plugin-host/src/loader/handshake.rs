@@ -70,269 +70,337 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
         path: origin.to_path_buf(),
         kind,
     };
-    // SAFETY (of every block below): the plugin keeps the header's contract
+    // SAFETY (of every call below): the plugin keeps the header's contract
     // (this function's precondition): the pointers it returns are NULL or
     // point to what the header says, its functions are callable as declared,
     // and every struct is at least as large as its `struct_size` says.
-    let p = unsafe { entry(ABI_MAJOR, ABI_MINOR) };
-    if p.is_null() {
-        return Err(err(PluginLoadErrorKind::Declined {
-            host_major: ABI_MAJOR,
-            host_minor: ABI_MINOR,
-        }));
-    }
-    // struct_size, abi_major and abi_minor lead the entry struct of every
-    // ABI version; read them before trusting the rest of the layout.
+    let (e, abi) = unsafe { read_entry(entry) }.map_err(err)?;
     // SAFETY: see above.
-    let head = unsafe { p.cast::<[u32; 3]>().read() };
-    let [size, major, minor] = head;
-    if major != ABI_MAJOR {
-        return Err(err(PluginLoadErrorKind::AbiMajor {
-            plugin_major: major,
-            plugin_minor: minor,
-            host_major: ABI_MAJOR,
-            host_minor: ABI_MINOR,
-        }));
-    }
-    if size < ENTRY_SIZE_V1_0 {
-        return Err(err(PluginLoadErrorKind::StructTooSmall {
-            what: "rwg_plugin_entry_t".into(),
-            size,
-            needed: ENTRY_SIZE_V1_0,
-        }));
-    }
-    // SAFETY: see above (`size` is at least the 1.0 entry's, all it has).
-    let e = unsafe { p.read() };
-    let tag = if e.abi_tag.is_null() {
-        "NULL".to_string()
-    } else {
-        // SAFETY: see above (a NUL-terminated string).
-        unsafe { CStr::from_ptr(e.abi_tag) }
-            .to_string_lossy()
-            .into_owned()
-    };
-    if tag.as_bytes() != ABI_TAG.to_bytes() {
-        return Err(err(PluginLoadErrorKind::AbiTag { found: tag }));
-    }
-    // SAFETY: see above (NULL or a NUL-terminated string).
-    let plugin_id = unsafe { read_str(e.plugin_id, "plugin_id", false) }.map_err(err)?;
-    if plugin_id.is_empty() {
-        return Err(err(PluginLoadErrorKind::BadString {
-            what: "plugin_id",
-            reason: "empty".into(),
-        }));
-    }
+    let fns = unsafe { read_identity(&e) }.map_err(err)?;
     // SAFETY: see above.
-    let version = unsafe { read_str(e.plugin_version, "plugin_version", true) }.map_err(err)?;
-    let env_count = e
-        .env_count
-        .ok_or_else(|| err(PluginLoadErrorKind::Null("env_count")))?;
-    let env_desc = e
-        .env_desc
-        .ok_or_else(|| err(PluginLoadErrorKind::Null("env_desc")))?;
-    let env_vtable = e
-        .env_vtable
-        .ok_or_else(|| err(PluginLoadErrorKind::Null("env_vtable")))?;
-
-    if let Some(init) = e.init {
-        let mut buf = [0 as c_char; ERR_BUF_LEN];
-        // SAFETY: see above; `buf` is writable for its length.
-        let status = unsafe { init(&HOST.0, buf.as_mut_ptr(), buf.len()) };
-        if status != RWG_OK {
-            return Err(err(PluginLoadErrorKind::InitFailed {
-                status,
-                message: buf_message(&buf),
-            }));
-        }
-    }
-
+    unsafe { run_init(e.init) }.map_err(err)?;
     let info = Arc::new(PluginInfo {
         path: origin.to_path_buf(),
-        id: plugin_id,
-        version,
-        abi: (major, minor),
+        id: fns.plugin_id.clone(),
+        version: fns.version.clone(),
+        abi,
     });
     // SAFETY: see above.
-    let n = unsafe { env_count() };
+    let n = unsafe { (fns.env_count)() };
     if n == 0 || n > MAX_ENVS {
         return Err(err(PluginLoadErrorKind::EnvCount(n)));
     }
     let mut envs: Vec<PluginEnvType> = Vec::with_capacity(n as usize);
     for index in 0..n {
-        let env_err = |id: Option<&str>, reason: String| {
-            err(PluginLoadErrorKind::Env {
-                index,
-                id: id.map(str::to_string),
-                reason,
-            })
-        };
         // SAFETY: see above (`index < n`).
-        let d = unsafe { env_desc(index) };
-        if d.is_null() {
-            return Err(env_err(None, "env_desc returned NULL".into()));
-        }
-        // SAFETY: see above (non-NULL: a descriptor, `struct_size` first).
-        let dsize = unsafe { d.cast::<u32>().read() };
-        if dsize < ENV_DESC_SIZE_V1_0 {
-            return Err(env_err(
-                None,
-                format!(
-                    "rwg_env_desc_t is too small: struct_size is {dsize}, ABI 1.0 needs at least {ENV_DESC_SIZE_V1_0} bytes"
-                ),
-            ));
-        }
-        // SAFETY: see above (at least the 1.0 size, all it has).
-        let d = unsafe { d.read() };
-        // SAFETY: see above (NULL or a NUL-terminated string).
-        let id =
-            unsafe { read_str(d.id, "id", false) }.map_err(|k| env_err(None, k.to_string()))?;
-        check_env_id(&id).map_err(|r| env_err((!id.is_empty()).then_some(id.as_str()), r))?;
-        if let Some(first) = envs.iter().find(|t| t.spec.id == id) {
-            return Err(err(PluginLoadErrorKind::DuplicateId {
-                id,
-                first: first.index,
-                second: index,
-            }));
-        }
-        // SAFETY: see above.
-        let summary = unsafe { read_str(d.summary, "summary", true) }
-            .map_err(|k| env_err(Some(&id), k.to_string()))?;
-        // SAFETY: see above (a Box's bounds hold `n` values).
-        let observation_space = unsafe { read_space(&d.observation_space) }
-            .map_err(|r| env_err(Some(&id), format!("observation space: {r}")))?;
-        if !matches!(observation_space, Space::Box(_)) {
-            return Err(env_err(
-                Some(&id),
-                "observation space: must be a Box".into(),
-            ));
-        }
-        // SAFETY: see above.
-        let action_space = unsafe { read_space(&d.action_space) }
-            .map_err(|r| env_err(Some(&id), format!("action space: {r}")))?;
-        let reward_threshold = if d.reward_threshold.is_nan() {
-            None
-        } else if d.reward_threshold.is_infinite() {
-            return Err(env_err(
-                Some(&id),
-                format!(
-                    "reward_threshold is {} (use NaN for none)",
-                    d.reward_threshold
-                ),
-            ));
-        } else {
-            Some(d.reward_threshold)
-        };
-        let spec = EnvSpec {
-            id: id.clone(),
-            observation_space,
-            action_space,
-            max_episode_steps: (d.max_episode_steps != 0).then_some(d.max_episode_steps),
-            reward_threshold,
-        };
-        // SAFETY: see above (`index < n`).
-        let vt = unsafe { env_vtable(index) };
-        if vt.is_null() {
-            return Err(env_err(Some(&id), "env_vtable returned NULL".into()));
-        }
-        // SAFETY: see above (non-NULL: a table, `struct_size` first).
-        let vsize = unsafe { vt.cast::<u32>().read() };
-        if vsize < ENV_VTABLE_SIZE_V1_0 {
-            return Err(env_err(
-                Some(&id),
-                format!(
-                    "rwg_env_vtable_t is too small: struct_size is {vsize}, ABI 1.0 needs at least {ENV_VTABLE_SIZE_V1_0} bytes"
-                ),
-            ));
-        }
-        // Read no further than the plugin's struct_size: a 1.0 table ends at
-        // last_error. Fields it does not have stay zero (None).
-        // SAFETY: all zeros is a valid table (every function `None`).
-        let mut v: RwgEnvVtable = unsafe { std::mem::zeroed() };
-        // SAFETY: see above: the plugin's table has `vsize` bytes, `v` at
-        // least the copied count, and they cannot overlap (`v` is local).
-        unsafe {
-            std::ptr::copy_nonoverlapping(
-                vt.cast::<u8>(),
-                (&mut v as *mut RwgEnvVtable).cast::<u8>(),
-                (vsize as usize).min(std::mem::size_of::<RwgEnvVtable>()),
-            )
-        };
-        let null = |f: &str| env_err(Some(&id), format!("env_vtable: {f} is NULL"));
-        if v.reset_many.is_some() != v.step_many.is_some() {
-            let (set, unset) = if v.reset_many.is_some() {
-                ("reset_many", "step_many")
-            } else {
-                ("step_many", "reset_many")
-            };
-            return Err(env_err(
-                Some(&id),
-                format!(
-                    "env_vtable: {set} is set but {unset} is NULL (ABI 1.1 needs both or neither)"
-                ),
-            ));
-        }
-        let vec_fns = [
-            ("vec_create", v.vec_create.is_some()),
-            ("vec_destroy", v.vec_destroy.is_some()),
-            ("vec_reset", v.vec_reset.is_some()),
-            ("vec_step", v.vec_step.is_some()),
-            ("vec_last_error", v.vec_last_error.is_some()),
-        ];
-        let vec = match (
-            v.vec_create,
-            v.vec_destroy,
-            v.vec_reset,
-            v.vec_step,
-            v.vec_last_error,
-        ) {
-            (Some(create), Some(destroy), Some(reset), Some(step), Some(last_error)) => {
-                Some(VecVTable {
-                    create,
-                    destroy,
-                    reset,
-                    step,
-                    last_error,
-                })
-            }
-            (None, None, None, None, None) => None,
-            _ => {
-                let names = |set: bool| {
-                    vec_fns
-                        .iter()
-                        .filter(|f| f.1 == set)
-                        .map(|f| f.0)
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                };
-                return Err(env_err(
-                    Some(&id),
-                    format!(
-                        "env_vtable: {} set but {} NULL (ABI 1.2 needs all five vector-env functions or none)",
-                        names(true),
-                        names(false)
-                    ),
-                ));
-            }
-        };
-        let vt = VTable {
-            create: v.create.ok_or_else(|| null("create"))?,
-            destroy: v.destroy.ok_or_else(|| null("destroy"))?,
-            reset: v.reset.ok_or_else(|| null("reset"))?,
-            step: v.step.ok_or_else(|| null("step"))?,
-            last_error: v.last_error.ok_or_else(|| null("last_error"))?,
-            reset_many: v.reset_many,
-            step_many: v.step_many,
-            vec,
-        };
-        envs.push(PluginEnvType {
-            info: info.clone(),
-            index,
-            spec,
-            summary,
-            vt,
-        });
+        let env = unsafe { read_env(&fns, index, &envs, &info) }.map_err(err)?;
+        envs.push(env);
     }
     Ok(Plugin { info, envs })
+}
+
+/// The plugin's identity and the functions that list its environments.
+struct Identity {
+    plugin_id: String,
+    version: String,
+    env_count: EnvCountFn,
+    env_desc: EnvDescFn,
+    env_vtable: EnvVtableFn,
+}
+
+/// Calls `entry` and checks the entry struct's head (ABI major, size, tag)
+/// before trusting the rest of it; the struct and the plugin's ABI version.
+///
+/// # Safety
+/// As [`load_from_entry`].
+unsafe fn read_entry(entry: EntryFn) -> Result<(RwgPluginEntry, (u32, u32)), PluginLoadErrorKind> {
+    // SAFETY: the contract.
+    let p = unsafe { entry(ABI_MAJOR, ABI_MINOR) };
+    if p.is_null() {
+        return Err(PluginLoadErrorKind::Declined {
+            host_major: ABI_MAJOR,
+            host_minor: ABI_MINOR,
+        });
+    }
+    // struct_size, abi_major and abi_minor lead the entry struct of every
+    // ABI version; read them before trusting the rest of the layout.
+    // SAFETY: the contract (non-NULL: an entry struct).
+    let head = unsafe { p.cast::<[u32; 3]>().read() };
+    let [size, major, minor] = head;
+    if major != ABI_MAJOR {
+        return Err(PluginLoadErrorKind::AbiMajor {
+            plugin_major: major,
+            plugin_minor: minor,
+            host_major: ABI_MAJOR,
+            host_minor: ABI_MINOR,
+        });
+    }
+    if size < ENTRY_SIZE_V1_0 {
+        return Err(PluginLoadErrorKind::StructTooSmall {
+            what: "rwg_plugin_entry_t".into(),
+            size,
+            needed: ENTRY_SIZE_V1_0,
+        });
+    }
+    // SAFETY: the contract (`size` is at least the 1.0 entry's, all it has).
+    let e = unsafe { p.read() };
+    let tag = if e.abi_tag.is_null() {
+        "NULL".to_string()
+    } else {
+        // SAFETY: the contract (a NUL-terminated string).
+        unsafe { CStr::from_ptr(e.abi_tag) }
+            .to_string_lossy()
+            .into_owned()
+    };
+    if tag.as_bytes() != ABI_TAG.to_bytes() {
+        return Err(PluginLoadErrorKind::AbiTag { found: tag });
+    }
+    Ok((e, (major, minor)))
+}
+
+/// The plugin's id and version, and its functions that must not be NULL.
+///
+/// # Safety
+/// `e` keeps the header's contract (its strings NULL or NUL-terminated).
+unsafe fn read_identity(e: &RwgPluginEntry) -> Result<Identity, PluginLoadErrorKind> {
+    // SAFETY: the contract (NULL or a NUL-terminated string).
+    let plugin_id = unsafe { read_str(e.plugin_id, "plugin_id", false) }?;
+    if plugin_id.is_empty() {
+        return Err(PluginLoadErrorKind::BadString {
+            what: "plugin_id",
+            reason: "empty".into(),
+        });
+    }
+    // SAFETY: as above.
+    let version = unsafe { read_str(e.plugin_version, "plugin_version", true) }?;
+    Ok(Identity {
+        plugin_id,
+        version,
+        env_count: e.env_count.ok_or(PluginLoadErrorKind::Null("env_count"))?,
+        env_desc: e.env_desc.ok_or(PluginLoadErrorKind::Null("env_desc"))?,
+        env_vtable: e
+            .env_vtable
+            .ok_or(PluginLoadErrorKind::Null("env_vtable"))?,
+    })
+}
+
+/// Calls the plugin's `init`, if it has one, with the host table.
+///
+/// # Safety
+/// `init` keeps the header's contract.
+unsafe fn run_init(init: Option<InitFn>) -> Result<(), PluginLoadErrorKind> {
+    let Some(init) = init else { return Ok(()) };
+    let mut buf = [0 as c_char; ERR_BUF_LEN];
+    // SAFETY: the contract; `buf` is writable for its length.
+    let status = unsafe { init(&HOST.0, buf.as_mut_ptr(), buf.len()) };
+    if status != RWG_OK {
+        return Err(PluginLoadErrorKind::InitFailed {
+            status,
+            message: buf_message(&buf),
+        });
+    }
+    Ok(())
+}
+
+/// The environment at `index`: its descriptor and its function table,
+/// validated; `envs` are those read before it (ids must not repeat).
+///
+/// # Safety
+/// `fns` keep the header's contract and `index` is below the env count.
+unsafe fn read_env(
+    fns: &Identity,
+    index: u32,
+    envs: &[PluginEnvType],
+    info: &Arc<PluginInfo>,
+) -> Result<PluginEnvType, PluginLoadErrorKind> {
+    // SAFETY: the contract (`index` below the count).
+    let (spec, summary) = unsafe { read_desc((fns.env_desc)(index), index, envs) }?;
+    // SAFETY: as above.
+    let vt = unsafe { read_vtable((fns.env_vtable)(index)) }.map_err(|reason| {
+        PluginLoadErrorKind::Env {
+            index,
+            id: Some(spec.id.clone()),
+            reason,
+        }
+    })?;
+    Ok(PluginEnvType {
+        info: info.clone(),
+        index,
+        spec,
+        summary,
+        vt,
+    })
+}
+
+/// The spec and summary of the descriptor of env `index`, validated; its id
+/// must not be one of `envs`'.
+///
+/// # Safety
+/// `d` is NULL or a descriptor keeping the header's contract.
+unsafe fn read_desc(
+    d: *const RwgEnvDesc,
+    index: u32,
+    envs: &[PluginEnvType],
+) -> Result<(EnvSpec, String), PluginLoadErrorKind> {
+    let env_err = |id: Option<&str>, reason: String| PluginLoadErrorKind::Env {
+        index,
+        id: id.map(str::to_string),
+        reason,
+    };
+    if d.is_null() {
+        return Err(env_err(None, "env_desc returned NULL".into()));
+    }
+    // SAFETY: the contract (non-NULL: a descriptor, `struct_size` first).
+    let dsize = unsafe { d.cast::<u32>().read() };
+    if dsize < ENV_DESC_SIZE_V1_0 {
+        return Err(env_err(
+            None,
+            format!(
+                "rwg_env_desc_t is too small: struct_size is {dsize}, ABI 1.0 needs at least {ENV_DESC_SIZE_V1_0} bytes"
+            ),
+        ));
+    }
+    // SAFETY: the contract (at least the 1.0 size, all it has).
+    let d = unsafe { d.read() };
+    // SAFETY: the contract (NULL or a NUL-terminated string).
+    let id = unsafe { read_str(d.id, "id", false) }.map_err(|k| env_err(None, k.to_string()))?;
+    check_env_id(&id).map_err(|r| env_err((!id.is_empty()).then_some(id.as_str()), r))?;
+    if let Some(first) = envs.iter().find(|t| t.spec.id == id) {
+        return Err(PluginLoadErrorKind::DuplicateId {
+            id,
+            first: first.index,
+            second: index,
+        });
+    }
+    let fail = |r: String| env_err(Some(&id), r);
+    // SAFETY: as above.
+    let summary =
+        unsafe { read_str(d.summary, "summary", true) }.map_err(|k| fail(k.to_string()))?;
+    // SAFETY: the contract (a Box's bounds hold `n` values).
+    let observation_space = unsafe { read_space(&d.observation_space) }
+        .map_err(|r| fail(format!("observation space: {r}")))?;
+    if !matches!(observation_space, Space::Box(_)) {
+        return Err(fail("observation space: must be a Box".into()));
+    }
+    // SAFETY: as above.
+    let action_space =
+        unsafe { read_space(&d.action_space) }.map_err(|r| fail(format!("action space: {r}")))?;
+    let reward_threshold = if d.reward_threshold.is_nan() {
+        None
+    } else if d.reward_threshold.is_infinite() {
+        return Err(fail(format!(
+            "reward_threshold is {} (use NaN for none)",
+            d.reward_threshold
+        )));
+    } else {
+        Some(d.reward_threshold)
+    };
+    let spec = EnvSpec {
+        id: id.clone(),
+        observation_space,
+        action_space,
+        max_episode_steps: (d.max_episode_steps != 0).then_some(d.max_episode_steps),
+        reward_threshold,
+    };
+    Ok((spec, summary))
+}
+
+/// A function table, validated: the five single-env functions set, the
+/// batched pair both or neither, the vector-env five all or none.
+///
+/// # Safety
+/// `vt` is NULL or a table keeping the header's contract.
+unsafe fn read_vtable(vt: *const RwgEnvVtable) -> Result<VTable, String> {
+    if vt.is_null() {
+        return Err("env_vtable returned NULL".into());
+    }
+    // SAFETY: the contract (non-NULL: a table, `struct_size` first).
+    let vsize = unsafe { vt.cast::<u32>().read() };
+    if vsize < ENV_VTABLE_SIZE_V1_0 {
+        return Err(format!(
+            "rwg_env_vtable_t is too small: struct_size is {vsize}, ABI 1.0 needs at least {ENV_VTABLE_SIZE_V1_0} bytes"
+        ));
+    }
+    // Read no further than the plugin's struct_size: a 1.0 table ends at
+    // last_error. Fields it does not have stay zero (None).
+    // SAFETY: all zeros is a valid table (every function `None`).
+    let mut v: RwgEnvVtable = unsafe { std::mem::zeroed() };
+    // SAFETY: the plugin's table has `vsize` bytes, `v` at least the copied
+    // count, and they cannot overlap (`v` is local).
+    unsafe {
+        std::ptr::copy_nonoverlapping(
+            vt.cast::<u8>(),
+            (&mut v as *mut RwgEnvVtable).cast::<u8>(),
+            (vsize as usize).min(std::mem::size_of::<RwgEnvVtable>()),
+        )
+    };
+    if v.reset_many.is_some() != v.step_many.is_some() {
+        let (set, unset) = if v.reset_many.is_some() {
+            ("reset_many", "step_many")
+        } else {
+            ("step_many", "reset_many")
+        };
+        return Err(format!(
+            "env_vtable: {set} is set but {unset} is NULL (ABI 1.1 needs both or neither)"
+        ));
+    }
+    let vec = vec_vtable(&v)?;
+    let null = |f: &str| format!("env_vtable: {f} is NULL");
+    Ok(VTable {
+        create: v.create.ok_or_else(|| null("create"))?,
+        destroy: v.destroy.ok_or_else(|| null("destroy"))?,
+        reset: v.reset.ok_or_else(|| null("reset"))?,
+        step: v.step.ok_or_else(|| null("step"))?,
+        last_error: v.last_error.ok_or_else(|| null("last_error"))?,
+        reset_many: v.reset_many,
+        step_many: v.step_many,
+        vec,
+    })
+}
+
+/// The table's vector-env functions: all five, none, or an error naming
+/// those set and those NULL.
+fn vec_vtable(v: &RwgEnvVtable) -> Result<Option<VecVTable>, String> {
+    match (
+        v.vec_create,
+        v.vec_destroy,
+        v.vec_reset,
+        v.vec_step,
+        v.vec_last_error,
+    ) {
+        (Some(create), Some(destroy), Some(reset), Some(step), Some(last_error)) => {
+            Ok(Some(VecVTable {
+                create,
+                destroy,
+                reset,
+                step,
+                last_error,
+            }))
+        }
+        (None, None, None, None, None) => Ok(None),
+        _ => {
+            let vec_fns = [
+                ("vec_create", v.vec_create.is_some()),
+                ("vec_destroy", v.vec_destroy.is_some()),
+                ("vec_reset", v.vec_reset.is_some()),
+                ("vec_step", v.vec_step.is_some()),
+                ("vec_last_error", v.vec_last_error.is_some()),
+            ];
+            let names = |set: bool| {
+                vec_fns
+                    .iter()
+                    .filter(|f| f.1 == set)
+                    .map(|f| f.0)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            Err(format!(
+                "env_vtable: {} set but {} NULL (ABI 1.2 needs all five vector-env functions or none)",
+                names(true),
+                names(false)
+            ))
+        }
+    }
 }
 
 /// Reads a plugin string. `nullable`: NULL reads as "".
