@@ -15,15 +15,16 @@ use thiserror::Error;
 pub enum GymError {
     /// The interpreter could not be started.
     #[error(
-        "cannot run Python '{python}': {source}; install Python 3 with Gymnasium \
+        "cannot run Python '{python}': {reason}; install Python 3 with Gymnasium \
              (python3 -m pip install gymnasium), or name the interpreter with `python = \"...\"` \
              in the manifest or the RWG_PYTHON environment variable"
     )]
     NoPython {
         /// The interpreter.
         python: String,
-        /// Why it did not start.
-        source: std::io::Error,
+        /// Why it did not start (in this text, so not the error's source:
+        /// the text is complete where it is shown without its chain).
+        reason: std::io::Error,
     },
     /// The worker reported a fatal error (import, registration, make, spaces...).
     #[error("{}", worker_error_text(.python, .error))]
@@ -94,7 +95,7 @@ impl From<ProcError> for GymError {
         match e {
             ProcError::Spawn { program, source } => GymError::NoPython {
                 python: program,
-                source,
+                reason: source,
             },
             ProcError::Died { how, stderr } => GymError::Died { how, stderr },
             ProcError::Timeout { secs, stderr } => GymError::Timeout { secs, stderr },
@@ -150,5 +151,27 @@ impl From<GymError> for BatchFailure {
             between_calls: false,
             error: e.into(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::error::Error as _;
+
+    /// A Python that cannot start: the reason is in the text, once, and not
+    /// chained as well (a printer of the chain would repeat it).
+    #[test]
+    fn no_python_says_why_once() {
+        let e = GymError::from(ProcError::Spawn {
+            program: "/nonexistent/python3".into(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file xyz"),
+        });
+        let text = e.to_string();
+        assert!(
+            text.starts_with("cannot run Python '/nonexistent/python3': no such file xyz; install"),
+            "{text}"
+        );
+        assert!(e.source().is_none(), "{:?}", e.source());
     }
 }

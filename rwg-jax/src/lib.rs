@@ -234,7 +234,7 @@ pub struct JaxInfo {
 pub enum JaxError {
     /// The interpreter could not be started.
     #[error(
-        "cannot run Python '{python}': {source}; install Python 3 with JAX ({python} -m pip \
+        "cannot run Python '{python}': {reason}; install Python 3 with JAX ({python} -m pip \
          install jax, or \"jax[cuda12]\" for an NVIDIA GPU) and the env's package, or name the \
          interpreter with `python = \"...\"` in the manifest or the {PYTHON_VAR} environment \
          variable"
@@ -242,8 +242,9 @@ pub enum JaxError {
     NoPython {
         /// The interpreter.
         python: String,
-        /// Why it did not start.
-        source: std::io::Error,
+        /// Why it did not start (in this text, so not the error's source:
+        /// the text is complete where it is shown without its chain).
+        reason: std::io::Error,
     },
     /// The worker reported a fatal error (`kind` says which: `import`,
     /// `unknown-env`, `make`, `space`, `device`, `compile`, `oom`, `run`...).
@@ -438,5 +439,25 @@ mod tests {
         }
         assert_eq!(Precision::from_name("float16"), None);
         assert_eq!(Precision::default(), Precision::F32);
+    }
+
+    /// A Python that cannot start: the reason is in the text, once, and not
+    /// chained as well (a printer of the chain would repeat it).
+    #[test]
+    fn no_python_says_why_once() {
+        use std::error::Error as _;
+        let e = JaxError::from_proc(
+            rwg_worker::ProcError::Spawn {
+                program: "/nonexistent/python3".into(),
+                source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file xyz"),
+            },
+            "starting",
+        );
+        let text = e.to_string();
+        assert!(
+            text.starts_with("cannot run Python '/nonexistent/python3': no such file xyz; install"),
+            "{text}"
+        );
+        assert!(e.source().is_none(), "{:?}", e.source());
     }
 }

@@ -140,7 +140,7 @@ impl JaxError {
         match e {
             ProcError::Spawn { program, source } => JaxError::NoPython {
                 python: program,
-                source,
+                reason: source,
             },
             ProcError::Died { how, stderr } => JaxError::Died { how, doing, stderr },
             ProcError::Timeout { secs, stderr } => JaxError::Timeout {

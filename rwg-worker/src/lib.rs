@@ -47,8 +47,9 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 #[non_exhaustive]
 pub enum ProcError {
-    /// The program could not be started.
-    #[error("cannot start {program}: {source}")]
+    /// The program could not be started. Why is the error's source (not
+    /// repeated in this text).
+    #[error("cannot start {program}")]
     Spawn {
         /// The program.
         program: String,
@@ -82,5 +83,23 @@ pub fn stderr_tail_text(stderr: &str) -> String {
         String::new()
     } else {
         format!("; the end of its stderr:\n{stderr}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::error::Error as _;
+
+    /// A program that cannot start: the reason is chained, not repeated in
+    /// the text (a printer of the chain shows it once).
+    #[test]
+    fn spawn_chains_why() {
+        let e = ProcError::Spawn {
+            program: "/nonexistent/worker".into(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file xyz"),
+        };
+        assert_eq!(e.to_string(), "cannot start /nonexistent/worker");
+        assert_eq!(e.source().unwrap().to_string(), "no such file xyz");
     }
 }
