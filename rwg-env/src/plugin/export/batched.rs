@@ -6,10 +6,11 @@
 //! the host's side of a call per lane. Both are instantiated per
 //! environment type `E`, so the lane loop calls `E`'s `step` directly (no
 //! trait object), and the fast path tests an instance with one comparison
-//! ([`FastKey`](super::trampolines::FastKey): healthy, and the call's
+//! ([`FastKey`](super::step::FastKey): healthy, and the call's
 //! lengths its own).
 
-use super::trampolines::{call_keys, reset, step_fast, step_inline};
+use super::step::{call_keys, step_fast, step_inline};
+use super::trampolines::reset;
 use crate::env::Environment;
 use crate::plugin::abi::*;
 

@@ -7,9 +7,10 @@ use std::fmt::Display;
 use std::sync::OnceLock;
 
 use super::batched::{reset_many, step_many};
+use super::step::step;
 use super::trampolines::{
     create, deinit, destroy, env_count, env_desc, env_vtable, get_extension, init, instantiate,
-    last_error, reset, step,
+    last_error, reset,
 };
 use super::vec_env::{
     instantiate_vec, vec_create, vec_destroy, vec_last_error, vec_reset, vec_step,

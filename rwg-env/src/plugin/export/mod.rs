@@ -23,14 +23,16 @@
 //!
 //! The files: `builder` ([`PluginBuilder`] and the C tables it becomes),
 //! `trampolines` (the `extern "C"` functions the host calls, which check
-//! their arguments, catch panics and forward to the Rust environments) and
-//! `batched` (ABI 1.1's `reset_many` / `step_many`, every exported env has
+//! their arguments, catch panics and forward to the Rust environments),
+//! `step` (the step trampoline: a fast path for well-formed calls on healthy
+//! instances, a checked path that reports any other call), `batched` (ABI 1.1's `reset_many` / `step_many`, every exported env has
 //! them: a loop over the single calls' trampolines) and `vec_env` (ABI 1.2's
 //! vector env over a [`ManyEnv`](crate::many::ManyEnv), for envs given one
 //! with [`PluginBuilder::vec_env`]).
 
 mod batched;
 mod builder;
+mod step;
 mod trampolines;
 mod vec_env;
 
