@@ -4,11 +4,12 @@
 use crate::error::DESCRIBE;
 use crate::info::{info_differences, parse_ready, GymInfo, Ready};
 use crate::protocol::{WorkerError, PROTOCOL, TAG_ERROR, TAG_READY};
-use crate::{GymConfig, GymError, BOOT_PY, CHECK_SEED, HASH_SEED_VAR, MAX_OBS, WORKER_PY};
+use crate::{GymConfig, GymError, BOOT_PY, CHECK_SEED, HASH_SEED_VAR, MAX_OBS, MODULES, WORKER_PY};
 use rwg_core::batch::{BatchEnv, BatchFailure, LaneActions, LaneOp, LaneOutcome};
 use rwg_env::EnvSpec;
 use rwg_worker::host::{handshake, PipeBatch, StartFailure, StartTimeouts};
 use rwg_worker::lane_file::LaneFile;
+use rwg_worker::python::{loader_args, LOAD_PY};
 use rwg_worker::{ProcError, Worker};
 
 /// Sends the hello message and reads the answer (tag, payload): the
@@ -53,7 +54,8 @@ impl GymBatch {
         check_reset: bool,
     ) -> Result<GymBatch, GymError> {
         let mut command = std::process::Command::new(&cfg.python);
-        command.arg("-c").arg(BOOT_PY).arg(WORKER_PY);
+        command.arg("-c").arg(BOOT_PY).arg(LOAD_PY);
+        loader_args(&mut command, WORKER_PY, &MODULES);
         command.env(HASH_SEED_VAR, &cfg.hash_seed);
         #[cfg(unix)]
         let dump = Some(libc::SIGUSR1);

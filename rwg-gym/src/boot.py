@@ -5,8 +5,9 @@ exit 97
 # The lines above: a Python string, and for a POSIX shell named as the
 # interpreter by mistake a message and an exit, before it could run
 # worker.py's text as commands. Below, in what Python 2 parses too: a check
-# that this Python can run worker.py (given as the first argument), then
-# worker.py itself.
+# that this Python can run worker.py, then rwg-worker's loader (given as the
+# first argument, taken off the arguments), which makes the modules after it
+# importable and runs worker.py.
 import sys
 
 if sys.version_info < (3, 6):
@@ -16,4 +17,4 @@ if sys.version_info < (3, 6):
         % (sys.executable, sys.version.split()[0])
     )
     sys.exit(98)
-exec(compile(sys.argv[1], "<rwg worker>", "exec"))
+exec(compile(sys.argv.pop(1), "<rwg loader>", "exec"))

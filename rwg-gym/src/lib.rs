@@ -11,7 +11,8 @@
 //! same dynamics gives.
 //!
 //! The worker program ([`WORKER_PY`]) ships inside rwg and is handed to
-//! `python -c` after [`BOOT_PY`]; the user installs only Gymnasium and the env's package. A
+//! `python -c` after [`BOOT_PY`] and rwg-worker's loader, with the modules it
+//! imports ([`MODULES`]); the user installs only Gymnasium and the env's package. A
 //! worker that crashes (a segfault in a C extension), hangs (no answer within
 //! the timeout) or raises is reported as an error naming what happened, with
 //! the Python traceback; rwg itself keeps running.
@@ -40,10 +41,23 @@ pub use error::GymError;
 pub use info::{info_differences, GymInfo};
 pub use source::{make_single, GymSource};
 
-/// The worker program, run by [`BOOT_PY`].
+/// The worker program, run by [`BOOT_PY`] through rwg-worker's loader
+/// ([`rwg_worker::python::LOAD_PY`]), with [`MODULES`] importable.
 pub const WORKER_PY: &str = include_str!("worker.py");
 
-/// What `python -c` runs, with [`WORKER_PY`] as its argument: a check that
+/// The checks of what a Gymnasium env returns (rewards, flags, observations
+/// in their spaces, the old Gym API), a module of [`WORKER_PY`]'s.
+pub const ENV_VALUES_PY: &str = include_str!("env_values.py");
+
+/// The modules [`WORKER_PY`] imports from rwg (name, source), in the
+/// order they are loaded: the pipe to rwg first.
+pub const MODULES: [(&str, &str); 2] = [
+    (rwg_worker::python::PIPE_MODULE, rwg_worker::python::PIPE_PY),
+    ("rwg_env_values", ENV_VALUES_PY),
+];
+
+/// What `python -c` runs, with the loader, [`WORKER_PY`] and [`MODULES`]
+/// as its arguments: a check that
 /// the interpreter can run the worker, in a text that every Python parses
 /// (Python 2 included) and that a POSIX shell named as the interpreter
 /// reads as a message and `exit 97` (rather than running the worker's

@@ -1,132 +1,58 @@
 """rwg's Gymnasium worker: hosts N environment instances, stepped in lockstep.
 
-rwg starts this program through boot.py (python -c BOOT WORKER) and speaks the protocol described in
-docs/bridge-protocol.md over the child's stdin/stdout. Everything the
-environments print goes to stderr: the protocol uses private duplicates of the
-original stdin/stdout, and fd 0/1 are redirected before gymnasium is imported.
+rwg starts this program through boot.py and rwg-worker's loader (python -c
+BOOT LOAD WORKER rwg_pipe PIPE rwg_env_values VALUES) and speaks the protocol
+described in docs/bridge-protocol.md over the child's stdin/stdout through
+rwg_pipe, imported first: everything the environments print goes to stderr
+(the protocol uses private duplicates of the original stdin/stdout, and fd
+0/1 are redirected before gymnasium is imported). rwg_env_values judges what
+the env returns.
 """
 
+from rwg_pipe import (  # the pipe first: it redirects fd 0/1
+    HEAD,
+    decode_kwargs,
+    fail,
+    floats,
+    in_fd,
+    out_fd,
+    progress,
+    read_msg,
+    send_json,
+    write_msg,
+)
+from rwg_env_values import (
+    FINITE,
+    OLD_RESET,
+    OLD_STEP,
+    Refused,
+    close,
+    describe,
+    flag,
+    floats_text,
+    not_real,
+    old_api,
+    outside_space,
+    reward_of,
+    take_numpy_reals,
+)
+
+import json
 import os
 import sys
+import traceback
 
 PROTOCOL = 1
 CHECK_SEED_1 = 1234567
 CHECK_SEED_2 = 7654321
 
-# --- protocol channels: private copies of fd 0/1, then fd 1 -> stderr, fd 0 -> /dev/null
-_in_fd = os.dup(0)
-_out_fd = os.dup(1)
-os.dup2(2, 1)
-_null = os.open(os.devnull, os.O_RDONLY)
-os.dup2(_null, 0)
-os.close(_null)
-sys.stdout = sys.stderr
-
-import faulthandler  # noqa: E402
-import json  # noqa: E402
-import struct  # noqa: E402
-import traceback  # noqa: E402
-
-import signal  # noqa: E402
-
-# rwg starts each worker in a process group of its own (killed with it), so
-# Ctrl-C on a terminal reaches rwg alone; a SIGINT sent to the worker's group
-# is ignored too: rwg stops after the blocks in flight and then closes the
-# pipes (as with rwg's own plugin workers), not a KeyboardInterrupt.
-signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-faulthandler.enable(file=sys.stderr)
-if hasattr(faulthandler, "register"):
-    # rwg sends SIGUSR1 to a worker that does not answer in time, to learn where it hangs.
-    faulthandler.register(signal.SIGUSR1, file=sys.stderr, all_threads=True)
-
-_HEAD = struct.Struct("<IB")
-
-
-def read_exact(n):
-    buf = bytearray(n)
-    view = memoryview(buf)
-    got = 0
-    while got < n:
-        k = os.readv(_in_fd, [view[got:]])
-        if k == 0:
-            sys.exit(0)  # rwg closed the pipe: quit quietly
-        got += k
-    return buf
-
-
-def read_msg():
-    length, tag = _HEAD.unpack(read_exact(5))
-    return tag, read_exact(length - 1)
-
-
-def write_msg(tag, *parts):
-    n = 1 + sum(len(p) for p in parts)
-    data = b"".join((_HEAD.pack(n, tag),) + parts)
-    view = memoryview(data)
-    while view:
-        k = os.write(_out_fd, view)
-        view = view[k:]
-
-
-def send_json(tag, obj):
-    write_msg(tag, json.dumps(obj, allow_nan=False).encode())
-
-
-def progress(kind):
-    """While starting: tells rwg what comes next, b"c" a call into the env (a
-    reset or step, given rwg's step timeout), b"m" gym.make (its start-up
-    timeout)."""
-    write_msg(ord("P"), kind)
-
 
 def checked(call, *args, **kwargs):
-    """A reset or step of the start-up checks, announced to rwg first."""
+    """A reset or step of the start-up checks, announced to rwg first (b"c",
+    given rwg's step timeout; b"m" announces gym.make, given its start-up
+    timeout)."""
     progress(b"c")
     return call(*args, **kwargs)
-
-
-def fail(kind, message, tb=None):
-    send_json(ord("E"), {"kind": kind, "message": message, "traceback": tb or ""})
-    sys.exit(0)
-
-
-def floats(a):
-    """A list of floats for JSON, infinities as the strings "inf"/"-inf"."""
-    out = []
-    for v in a:
-        v = float(v)
-        if v == float("inf"):
-            out.append("inf")
-        elif v == float("-inf"):
-            out.append("-inf")
-        elif v != v:
-            out.append("nan")
-        else:
-            out.append(v)
-    return out
-
-
-KWARG_TAG = "$rwg"
-_KWARG_FLOATS = {"nan": float("nan"), "inf": float("inf"), "-inf": float("-inf")}
-
-
-def decode_kwargs(v):
-    """gym.make's keyword arguments from the hello's JSON, which has no
-    nan/inf: an object whose only key is "$rwg" holds "nan", "inf" or "-inf"
-    (that float) or an object (the user's own object of that one key)."""
-    if isinstance(v, dict):
-        if len(v) == 1 and KWARG_TAG in v:
-            x = v[KWARG_TAG]
-            if isinstance(x, str) and x in _KWARG_FLOATS:
-                return _KWARG_FLOATS[x]
-            if isinstance(x, dict):
-                return {k: decode_kwargs(y) for k, y in x.items()}
-            fail("protocol", f"kwargs: {v!r} is not a value rwg encodes")
-        return {k: decode_kwargs(y) for k, y in v.items()}
-    if isinstance(v, list):
-        return [decode_kwargs(y) for y in v]
-    return v
 
 
 def main():
@@ -142,8 +68,7 @@ def main():
         from gymnasium import spaces
     except ImportError as e:
         fail("python", f"{e} (Python {sys.version.split()[0]} at {sys.executable})")
-    global _REAL
-    _REAL = (int, float, np.floating, np.integer, np.bool_)
+    take_numpy_reals(np)
     # A complex observation or reward cast to float (here or in Gymnasium's
     # flatten) raises instead of dropping the imaginary part; an env's own
     # casts are left alone.
@@ -455,7 +380,7 @@ def main():
     inbuf = bytearray(13 + ops_len + 8 * n * words)
     inview = memoryview(inbuf)
     res = bytearray(res_len)
-    head = bytearray(_HEAD.pack(res_len + 1, ord("O")))
+    head = bytearray(HEAD.pack(res_len + 1, ord("O")))
     flags = memoryview(res)[8:8 + n]
     no_flags = bytes(n)
     rewards = np.frombuffer(res, np.float64, n, 8 + ops_len)
@@ -470,12 +395,12 @@ def main():
         got = 0
         need = 5
         while got < need:
-            k = os.readv(_in_fd, [inview[got:]])
+            k = os.readv(in_fd, [inview[got:]])
             if k == 0:
                 sys.exit(0)
             got += k
             if need == 5 and got >= 5:
-                need = 4 + _HEAD.unpack_from(inbuf)[0]
+                need = 4 + HEAD.unpack_from(inbuf)[0]
                 if need > len(inbuf):
                     fail("protocol", f"message of {need} bytes, at most {len(inbuf)} expected")
         tag = inbuf[4]
@@ -565,164 +490,13 @@ def main():
         else:
             out = [head, res]
             while out:
-                k = os.writev(_out_fd, out)
+                k = os.writev(out_fd, out)
                 while out and k >= len(out[0]):
                     k -= len(out[0])
                     out.pop(0)
                 if out and k:
                     out[0] = memoryview(out[0])[k:]
 
-
-class Refused(Exception):
-    """A value the env returned that rwg does not take (the message says why)."""
-
-
-def close(env, when):
-    """env.close(), which rwg calls `when`; what it raises is refused,
-    naming the call (not the reset or probe that made rwg close it)."""
-    try:
-        env.close()
-    except Exception as e:  # noqa: BLE001 -- the env's own failure
-        raise Refused(f"close() raised {type(e).__name__}: {e} (rwg closes an instance {when})") \
-            from None
-
-
-def describe(v):
-    """A short description of a returned value: its type and shape."""
-    shape = getattr(v, "shape", None)
-    return f"a value of type {type(v).__name__}" + (f", shape {shape}" if shape is not None else "")
-
-
-def floats_text(a):
-    """The first values of array `a`, for a message."""
-    flat = list(a.reshape(-1)[:3])
-    return ", ".join(repr(x.item() if hasattr(x, "item") else x) for x in flat) + (
-        ", ..." if a.size > 3 else "")
-
-
-def not_real(what, wrapper):
-    return (f"{what}; rwg takes real numbers only (a complex value's imaginary part would be "
-            f"lost, a string is not a number): wrap the env ({wrapper}) to give real numbers")
-
-
-FINITE = ("rwg's networks take finite numbers only: fix the env, or wrap it "
-          "(gymnasium.ObservationWrapper, gymnasium.wrappers.TransformReward)")
-OLD_RESET = ("reset() must return (observation, info), as Gymnasium 0.26+ envs do (the old Gym "
-             "API returned the observation alone): update the env to the Gymnasium API, or wrap "
-             "it (shimmy's GymV21CompatibilityV0)")
-OLD_STEP = ("step() must return (observation, reward, terminated, truncated, info), as "
-            "Gymnasium 0.26+ envs do (the old Gym API returned (observation, reward, done, "
-            "info)): update the env to the Gymnasium API, or wrap it (shimmy's "
-            "GymV21CompatibilityV0)")
-
-
-def old_api(e):
-    """The message for `e`, raised where Gymnasium's own wrappers (those of
-    gym.make) unpack what the env's reset() or step() returned, when the env
-    follows the old Gym API; else None."""
-    if not isinstance(e, (ValueError, TypeError)) or "unpack" not in str(e):
-        return None
-    tb = e.__traceback__
-    while tb.tb_next is not None:
-        tb = tb.tb_next
-    code = tb.tb_frame.f_code
-    if "gymnasium" not in code.co_filename:
-        return None
-    if code.co_name == "step":
-        return f"the env's step() returned what Gymnasium cannot unpack ({e}); {OLD_STEP}"
-    if code.co_name == "reset":
-        return f"the env's reset() returned what Gymnasium cannot unpack ({e}); {OLD_RESET}"
-    return None
-
-
-_REAL = (int, float)  # and numpy's real scalar types, once numpy is imported
-
-
-def reward_of(r):
-    """The reward `r` as a float: a real number (bool, int, float, numpy's,
-    or an array of one); anything else is refused."""
-    if isinstance(r, _REAL):
-        return float(r)
-    import numpy as np
-
-    a = np.asarray(r)
-    if a.size != 1:
-        raise Refused(f"a reward of {a.size} values ({describe(r)}: {r!r}); a reward must be "
-                      f"one number: fix the env, or wrap it (gymnasium.wrappers."
-                      f"TransformReward) to give one")
-    if a.dtype.kind not in "biuf":
-        raise Refused(not_real(f"the reward {r!r} ({type(r).__name__})",
-                               "gymnasium.wrappers.TransformReward"))
-    return float(a.reshape(()))
-
-
-def flag(name, v):
-    """`terminated` or `truncated` (`name`) as a bool: a Python bool or
-    numpy's bool_; anything else is refused (a string "False" is true to
-    Python, None false: neither says what the env meant)."""
-    if v is True or v is False:
-        return v
-    import numpy as np
-
-    if type(v) is np.bool_:
-        return bool(v)
-    raise Refused(f"{name} = {v!r} (type {type(v).__name__}); terminated and truncated must be "
-                  f"booleans (Python bool or numpy.bool_): fix the env to return True or False")
-
-
-def outside_space(space, o, where=""):
-    """Why the observation `o` lies outside its discrete parts of `space`
-    (a Discrete, MultiDiscrete or MultiBinary, or one inside a Dict or Tuple),
-    which spaces.flatten would turn into another state's one-hot or an
-    IndexError; None when it does not. Box parts are not checked: a Box
-    observation beyond its bounds is taken as it is."""
-    import numpy as np
-    from gymnasium import spaces
-
-    at = f" at {where}" if where else ""
-    if isinstance(space, spaces.Discrete):
-        lo, n = int(space.start), int(space.n)
-        ok = isinstance(o, (int, np.integer, np.bool_))
-        if not ok and isinstance(o, np.ndarray) and o.shape == () and o.dtype.kind in "iu":
-            ok, o = True, o.item()
-        if not ok:
-            return (f"an observation {o!r} (type {type(o).__name__}){at} where the observation "
-                    f"space {space} takes whole numbers {lo} to {lo + n - 1}")
-        if not lo <= o < lo + n:
-            return (f"an observation {o!r}{at} outside its space {space} (whole numbers {lo} "
-                    f"to {lo + n - 1}); fix the env, or wrap it (gymnasium.ObservationWrapper)")
-        return None
-    if isinstance(space, (spaces.MultiDiscrete, spaces.MultiBinary)):
-        a = np.asarray(o)
-        if isinstance(space, spaces.MultiBinary):
-            lo, hi, text = np.zeros(space.shape, np.int64), np.ones(space.shape, np.int64), "0 or 1"
-        else:
-            lo = np.asarray(space.start, np.int64)
-            hi = lo + np.asarray(space.nvec, np.int64) - 1
-            text = "whole numbers within start and start + nvec - 1"
-        if a.shape != tuple(space.shape) or a.dtype.kind not in "biu":
-            return (f"an observation {o!r} (type {type(o).__name__}, shape {a.shape}){at} where "
-                    f"the observation space {space} takes {text} of shape {tuple(space.shape)}")
-        bad = np.argwhere((a < lo) | (a > hi))
-        if bad.size:
-            k = tuple(int(x) for x in bad[0])
-            return (f"an observation {o!r}{at} outside its space {space}: value {a[k].item()!r} at "
-                    f"{list(k)} (each is {text}); fix the env, or wrap it "
-                    f"(gymnasium.ObservationWrapper)")
-        return None
-    if isinstance(space, spaces.Dict) and isinstance(o, dict):
-        for k, sub in space.spaces.items():
-            if k in o:
-                why = outside_space(sub, o[k], f"{where}[{k!r}]")
-                if why:
-                    return why
-        return None
-    if isinstance(space, spaces.Tuple) and isinstance(o, (tuple, list)):
-        for k, (sub, v) in enumerate(zip(space.spaces, o)):
-            why = outside_space(sub, v, f"{where}[{k}]")
-            if why:
-                return why
-    return None
 
 
 def _mujoco_warning(msg):

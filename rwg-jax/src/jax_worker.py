@@ -1,89 +1,40 @@
 """rwg's JAX worker: runs rwg's policy on a JAX env, one compiled call per chunk.
 
-rwg starts this program with `python -c` and speaks the protocol of rwg-jax
-(framing as docs/bridge-protocol.md) over the child's stdin/stdout: a hello
+rwg starts this program through rwg-worker's loader (python -c LOAD WORKER
+rwg_pipe PIPE) and speaks the protocol of rwg-jax (framing as
+docs/bridge-protocol.md, by rwg_pipe) over the child's stdin/stdout: a hello
 (H) naming the env, a cell (C) naming the architecture to compile, chunks (B)
 of networks' weights and reset seeds; it answers ready (R), compiled (K) and
 the chunk's outcome (O): per episode its return, length and fault bits.
-Everything the env prints goes to stderr: the protocol uses private duplicates
-of the original stdin/stdout, and fd 0/1 are redirected before jax is imported.
+Everything the env prints goes to stderr: rwg_pipe, imported first, keeps
+private duplicates of the original stdin/stdout for the protocol and
+redirects fd 0/1 before jax is imported.
 """
 
+from rwg_pipe import (  # the pipe first: it redirects fd 0/1
+    decode_kwargs,
+    fail,
+    floats,
+    progress,
+    read_msg,
+    send_json,
+    write_msg,
+)
+
+import json
 import os
+import struct
 import sys
+import time
+import traceback
 
 PROTOCOL = 1
-
-# --- protocol channels: private copies of fd 0/1, then fd 1 -> stderr, fd 0 -> /dev/null
-_in_fd = os.dup(0)
-_out_fd = os.dup(1)
-os.dup2(2, 1)
-_null = os.open(os.devnull, os.O_RDONLY)
-os.dup2(_null, 0)
-os.close(_null)
-sys.stdout = sys.stderr
-
-import faulthandler  # noqa: E402
-import json  # noqa: E402
-import signal  # noqa: E402
-import struct  # noqa: E402
-import time  # noqa: E402
-import traceback  # noqa: E402
-
-# rwg starts each worker in a process group of its own; a SIGINT sent to the
-# group is ignored: rwg stops after the chunks in flight and closes the pipes.
-signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-faulthandler.enable(file=sys.stderr)
-if hasattr(faulthandler, "register"):
-    # rwg sends SIGUSR1 to a worker that does not answer in time, to learn where it hangs.
-    faulthandler.register(signal.SIGUSR1, file=sys.stderr, all_threads=True)
-
-_HEAD = struct.Struct("<IB")
 # XLA on CPU with one thread: rwg runs one worker per thread of its own.
 ONE_THREAD_XLA = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
 FAULT_OBS = 1
 FAULT_REWARD = 2
 
-
-def read_exact(n):
-    buf = bytearray(n)
-    view = memoryview(buf)
-    got = 0
-    while got < n:
-        k = os.readv(_in_fd, [view[got:]])
-        if k == 0:
-            sys.exit(0)  # rwg closed the pipe: quit quietly
-        got += k
-    return buf
-
-
-def read_msg():
-    length, tag = _HEAD.unpack(read_exact(5))
-    return tag, read_exact(length - 1)
-
-
-def write_msg(tag, *parts):
-    n = 1 + sum(len(p) for p in parts)
-    data = b"".join((_HEAD.pack(n, tag),) + parts)
-    view = memoryview(data)
-    while view:
-        k = os.write(_out_fd, view)
-        view = view[k:]
-
-
-def send_json(tag, obj):
-    write_msg(tag, json.dumps(obj, allow_nan=False).encode())
-
-
-def progress(kind):
-    """While starting: b"m" importing and making the env, b"c" compiling."""
-    write_msg(ord("P"), kind)
-
-
-def fail(kind, message, tb=None):
-    send_json(ord("E"), {"kind": kind, "message": message, "traceback": tb or ""})
-    sys.exit(0)
+# progress() kinds: b"m" importing and making the env, b"c" compiling.
 
 
 def fail_exc(kind, what, e):
@@ -94,44 +45,6 @@ def fail_exc(kind, what, e):
         fail("oom", f"{what} ran out of device memory ({text.splitlines()[0]}); lower "
                     f"networks_per_call in the manifest's [[envs]] entry", traceback.format_exc())
     fail(kind, f"{what} raised {text}", traceback.format_exc())
-
-
-def floats(a):
-    """A list of floats for JSON, infinities as the strings "inf"/"-inf"."""
-    out = []
-    for v in a:
-        v = float(v)
-        if v == float("inf"):
-            out.append("inf")
-        elif v == float("-inf"):
-            out.append("-inf")
-        elif v != v:
-            out.append("nan")
-        else:
-            out.append(v)
-    return out
-
-
-KWARG_TAG = "$rwg"
-_KWARG_FLOATS = {"nan": float("nan"), "inf": float("inf"), "-inf": float("-inf")}
-
-
-def decode_kwargs(v):
-    """Keyword arguments from the hello's JSON, which has no nan/inf: an
-    object whose only key is "$rwg" holds "nan", "inf" or "-inf" (that float)
-    or an object (the user's own object of that one key)."""
-    if isinstance(v, dict):
-        if len(v) == 1 and KWARG_TAG in v:
-            x = v[KWARG_TAG]
-            if isinstance(x, str) and x in _KWARG_FLOATS:
-                return _KWARG_FLOATS[x]
-            if isinstance(x, dict):
-                return {k: decode_kwargs(y) for k, y in x.items()}
-            fail("protocol", f"kwargs: {v!r} is not a value rwg encodes")
-        return {k: decode_kwargs(y) for k, y in v.items()}
-    if isinstance(v, list):
-        return [decode_kwargs(y) for y in v]
-    return v
 
 
 def import_jax(precision):

@@ -36,7 +36,8 @@ use std::ops::Range;
 use std::time::Duration;
 use thiserror::Error;
 
-/// The worker program, run with `python -c`.
+/// The worker program, run with `python -c` through rwg-worker's loader
+/// ([`rwg_worker::python::LOAD_PY`]), with the pipe module importable.
 pub const WORKER_PY: &str = include_str!("jax_worker.py");
 
 /// The prefixes of JAX env ids, in [`JaxKind`] order.

@@ -5,6 +5,7 @@
 use crate::protocol::*;
 use crate::{JaxConfig, JaxError, JaxInfo, MAX_OBS, WORKER_PY};
 use rwg_worker::host::{handshake, StartFailure, StartTimeouts};
+use rwg_worker::python::{loader_args, LOAD_PY, PIPE_MODULE, PIPE_PY};
 use rwg_worker::{ProcError, Worker};
 use std::time::Duration;
 
@@ -22,7 +23,8 @@ impl JaxWorker {
     /// Starts a worker for `cfg` and reads its ready message.
     pub fn spawn(cfg: &JaxConfig) -> Result<(JaxWorker, JaxInfo), JaxError> {
         let mut command = std::process::Command::new(&cfg.python);
-        command.arg("-c").arg(WORKER_PY);
+        command.arg("-c").arg(LOAD_PY);
+        loader_args(&mut command, WORKER_PY, &[(PIPE_MODULE, PIPE_PY)]);
         #[cfg(unix)]
         let dump = Some(libc::SIGUSR1);
         #[cfg(not(unix))]

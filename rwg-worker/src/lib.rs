@@ -26,6 +26,8 @@
 //! - [`lane_file`]: the shared 8-byte file naming the instance in a call, so a
 //!   worker that dies mid-call is reported with its episode.
 //! - [`serve`]: a Rust worker's loop over instances of any `Environment`.
+//! - [`python`]: the pipe module rwg's Python workers import and the loader
+//!   that ships it to them.
 //! - [`family`]: every process a worker starts ends with it and with rwg
 //!   (its process group; a subreaper and a mark for those that leave it).
 
@@ -34,6 +36,7 @@ pub mod host;
 pub mod lane_file;
 pub mod process;
 pub mod protocol;
+pub mod python;
 pub mod serve;
 
 pub use host::PipeBatch;
