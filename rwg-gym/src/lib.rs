@@ -17,6 +17,29 @@
 //! the timeout) or raises is reported as an error naming what happened, with
 //! the Python traceback; rwg itself keeps running.
 //!
+//! # Example
+//!
+//! A `gymnasium:` id names a Gymnasium env; opening it starts a worker with
+//! the configured Python. This one names no interpreter that exists, so it
+//! runs anywhere and shows the error a user without Python gets:
+//!
+//! ```
+//! use rwg_gym::{gym_id, GymConfig, GymError, GymSource};
+//!
+//! // The id after the prefix is Gymnasium's, and the one that enters the seeds.
+//! assert_eq!(gym_id("gymnasium:CartPole-v1"), Some("CartPole-v1"));
+//! assert_eq!(gym_id("CartPole-v1"), None);
+//!
+//! let mut config = GymConfig::new("CartPole-v1");
+//! assert_eq!(config.rwg_id(), "gymnasium:CartPole-v1");
+//! config.python = "/nonexistent/python3".into();
+//! // With a Python that has Gymnasium, `open` starts a worker, checks the env
+//! // and its reset, and `run_blocks` samples a cell's blocks with it.
+//! let err = GymSource::open(config).unwrap_err();
+//! assert!(matches!(err, GymError::NoPython { .. }));
+//! assert!(err.to_string().starts_with("cannot run Python '/nonexistent/python3': "));
+//! ```
+//!
 //! This is its own crate (not part of the runner's core) because it owns
 //! a Python program and what Gymnasium's spaces and errors mean. The worker
 //! processes, the protocol and the batched host are `rwg-worker`'s, shared

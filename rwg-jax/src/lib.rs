@@ -14,6 +14,27 @@
 //! rwg's draw ([`rwg_core::sampler::draw_block_weights`]); the episode's key
 //! is `PRNGKey(r)` of rwg's reset seed `r`.
 //!
+//! # Example
+//!
+//! A JAX env id names its library and env; opening it starts a worker with
+//! the configured Python. This one names no interpreter that exists, so it
+//! runs anywhere and shows the error a user without Python gets:
+//!
+//! ```
+//! use rwg_jax::{jax_id, JaxConfig, JaxError, JaxKind, JaxSource};
+//!
+//! let (kind, id) = jax_id("gymnax:CartPole-v1").expect("a JAX env id");
+//! assert_eq!(kind, JaxKind::Gymnax);
+//! let mut config = JaxConfig::new(kind, id);
+//! assert_eq!(config.rwg_id(), "gymnax:CartPole-v1");
+//! config.python = "/nonexistent/python3".into();
+//! // With a Python that has JAX and gymnax, `open` starts a worker, makes the
+//! // env and checks its spaces, and `run_blocks` samples a cell's blocks.
+//! let err = JaxSource::open(config).unwrap_err();
+//! assert!(matches!(err, JaxError::NoPython { .. }));
+//! assert!(err.to_string().starts_with("cannot run Python '/nonexistent/python3': "));
+//! ```
+//!
 //! # Modules
 //!
 //! - [`protocol`]: the messages (hello, cell, chunk, ready, outcome).

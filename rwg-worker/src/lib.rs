@@ -17,6 +17,30 @@
 //! the batched sampler drives), and [`serve`] is the worker's loop over
 //! instances of any [`rwg_env::Environment`].
 //!
+//! # Example
+//!
+//! The host asks a group's lanes to reset or step in one framed message;
+//! the worker reads it off its stdin and decodes it (here through a buffer
+//! rather than a pipe):
+//!
+//! ```
+//! use rwg_core::batch::{LaneActions, LaneOp};
+//! use rwg_worker::protocol::{decode_step, encode_step, read_message, TAG_STEP};
+//!
+//! // Group 0: lane 0 resets with seed 7, lane 1 steps with discrete action 1.
+//! let ops = [LaneOp::Reset(7), LaneOp::Step];
+//! let actions = LaneActions { discrete: &[0, 1], continuous: &[] };
+//! let mut bytes = Vec::new();
+//! encode_step(&mut bytes, 0, &ops, actions, 0);
+//!
+//! let (tag, payload) = read_message(&mut bytes.as_slice())?.expect("a message");
+//! assert_eq!(tag, TAG_STEP);
+//! let request = decode_step(&payload, 2, 0)?;
+//! assert_eq!((request.group, request.ops.as_slice()), (0, &ops[..]));
+//! assert_eq!(i64::from_le_bytes(request.words[1]), 1);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! # Modules
 //!
 //! - [`process`]: spawning a worker, reading its answers with a deadline,
