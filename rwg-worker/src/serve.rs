@@ -7,7 +7,7 @@ use crate::lane_file::LaneMark;
 use crate::protocol::*;
 use crate::ProcError;
 use rwg_core::batch::LaneOp;
-use rwg_env::{Action, Environment, Space};
+use rwg_env::{Action, EnvError, Environment, Space};
 use std::io::{Read, Write};
 
 /// Answers the host's step messages on `input` with outcome messages on
@@ -44,17 +44,7 @@ pub fn serve<E: Environment>(
         match tag {
             TAG_QUIT => return Ok(()),
             TAG_STEP => {}
-            other => {
-                let why = format!("unexpected message tag {other}");
-                let e = WorkerError {
-                    kind: "protocol".into(),
-                    message: why.clone(),
-                    traceback: String::new(),
-                };
-                let json = serde_json::to_vec(&e).expect("serialisable");
-                let _ = output.write_all(&message(TAG_ERROR, &json));
-                return Err(ProcError::Protocol(why));
-            }
+            other => return Err(refuse_tag(output, other)),
         }
         let req = decode_step(&payload, lanes, action_dim)?;
         if req.group >= groups {
@@ -77,31 +67,8 @@ pub fn serve<E: Environment>(
             if let Some(m) = &mut mark {
                 m.set(Some(k));
             }
-            let result = match *op {
-                LaneOp::Reset(seed) => env.reset(seed, &mut obs).map(|()| (0.0, 0)),
-                _ => {
-                    let words = &req.words[i * w..(i + 1) * w];
-                    let a = if action_dim == 0 {
-                        Action::Discrete(i64::from_le_bytes(words[0]))
-                    } else {
-                        for (x, b) in action.iter_mut().zip(words) {
-                            *x = f64::from_le_bytes(*b);
-                        }
-                        Action::Continuous(&action)
-                    };
-                    env.step(a, &mut obs).map(|s| {
-                        let mut flags = 0;
-                        if s.terminated {
-                            flags |= F_TERMINATED;
-                        }
-                        if s.truncated {
-                            flags |= F_TRUNCATED;
-                        }
-                        (s.reward, flags)
-                    })
-                }
-            };
-            match result {
+            let words = &req.words[i * w..(i + 1) * w];
+            match run_lane(env, *op, words, &mut action, &mut obs) {
                 Ok((reward, flags)) => {
                     buf[flags_at + i] = F_OK | flags;
                     buf[rew_at + 8 * i..rew_at + 8 * i + 8].copy_from_slice(&reward.to_le_bytes());
@@ -132,6 +99,54 @@ pub fn serve<E: Environment>(
             .and_then(|()| output.flush())
             .map_err(io)?;
     }
+}
+
+/// Answers a message of an unexpected `tag` with an error message (if
+/// `output` still takes it); the error to end the loop with.
+fn refuse_tag(output: &mut impl Write, tag: u8) -> ProcError {
+    let why = format!("unexpected message tag {tag}");
+    let e = WorkerError {
+        kind: "protocol".into(),
+        message: why.clone(),
+        traceback: String::new(),
+    };
+    let json = serde_json::to_vec(&e).expect("serialisable");
+    let _ = output.write_all(&message(TAG_ERROR, &json));
+    ProcError::Protocol(why)
+}
+
+/// Runs one lane's `op` (a reset, or a step with the action in `words`:
+/// a discrete action when `action` is empty, else `action.len()` values,
+/// decoded into `action`) on `env`, observing into `obs`: the reward and
+/// the terminated/truncated flags (0 and none for a reset).
+fn run_lane<E: Environment>(
+    env: &mut E,
+    op: LaneOp,
+    words: &[[u8; 8]],
+    action: &mut [f64],
+    obs: &mut [f64],
+) -> Result<(f64, u8), EnvError> {
+    if let LaneOp::Reset(seed) = op {
+        return env.reset(seed, obs).map(|()| (0.0, 0));
+    }
+    let a = if action.is_empty() {
+        Action::Discrete(i64::from_le_bytes(words[0]))
+    } else {
+        for (x, b) in action.iter_mut().zip(words) {
+            *x = f64::from_le_bytes(*b);
+        }
+        Action::Continuous(action)
+    };
+    env.step(a, obs).map(|s| {
+        let mut flags = 0;
+        if s.terminated {
+            flags |= F_TERMINATED;
+        }
+        if s.truncated {
+            flags |= F_TRUNCATED;
+        }
+        (s.reward, flags)
+    })
 }
 
 #[cfg(test)]
