@@ -326,3 +326,25 @@ fn ctrl_c_stops_a_bridge_run_like_a_builtin_one() {
     assert!(!err.contains("worker"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A Python that cannot start is reported with why, once: the error's text
+/// holds the reason, and rwg's printer of the error's causes must not add
+/// it again at the end. Needs no Python.
+#[test]
+fn a_python_that_cannot_start_is_reported_with_why_once() {
+    let out = rwg_env(
+        &["rollout", "gymnasium:CartPole-v1", "--actions", "0"],
+        &[("RWG_PYTHON", "/nonexistent/python3".as_ref())],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{err}");
+    assert!(
+        err.starts_with("error: cannot run Python '/nonexistent/python3': "),
+        "{err}"
+    );
+    assert!(
+        err.trim_end()
+            .ends_with("in the manifest or the RWG_PYTHON environment variable"),
+        "{err}"
+    );
+}
