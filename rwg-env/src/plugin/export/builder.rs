@@ -279,81 +279,7 @@ impl ExportedPlugin {
         let mut seen = HashSet::new();
         let mut envs = Vec::with_capacity(b.envs.len());
         for e in b.envs {
-            let spec = &e.spec;
-            if spec.id.is_empty() {
-                return Err(format!("plugin '{}': an environment id is empty", b.id));
-            }
-            if !seen.insert(spec.id.clone()) {
-                return Err(format!("plugin '{}': duplicate id '{}'", b.id, spec.id));
-            }
-            let obs_dim = match &spec.observation_space {
-                Space::Box(bx) if bx.dim() > 0 => bx.dim(),
-                s => {
-                    return Err(format!(
-                        "env '{}': the observation space must be a non-empty Box, not {}",
-                        spec.id,
-                        s.describe()
-                    ))
-                }
-            };
-            let action = match &spec.action_space {
-                Space::Discrete { n } if *n > 0 && (*n as u64) <= MAX_DISCRETE_N => {
-                    ActionKind::Discrete(*n as u64)
-                }
-                Space::Box(bx) if bx.dim() > 0 => ActionKind::Box(bx.dim()),
-                s => {
-                    return Err(format!(
-                        "env '{}': invalid action space {}",
-                        spec.id,
-                        s.describe()
-                    ))
-                }
-            };
-            let env_id = c_string("environment id", &spec.id)?;
-            let summary = c_string("summary", &e.summary)?;
-            let mut bounds = Vec::new();
-            let desc = RwgEnvDesc {
-                struct_size: ENV_DESC_SIZE_V1_0,
-                flags: 0,
-                id: env_id.as_ptr(),
-                summary: summary.as_ptr(),
-                observation_space: c_space(&spec.observation_space, &mut bounds),
-                action_space: c_space(&spec.action_space, &mut bounds),
-                max_episode_steps: spec.max_episode_steps.unwrap_or(0),
-                reserved: 0,
-                reward_threshold: spec.reward_threshold.unwrap_or(f64::NAN),
-            };
-            let (make_vec, vec_fns) = match e.vec {
-                Some((make, fns)) => (Some(make), Some(fns)),
-                None => (None, None),
-            };
-            let vtable = RwgEnvVtable {
-                struct_size: ENV_VTABLE_SIZE_V1_2,
-                reserved: 0,
-                create: Some(create::<P>),
-                destroy: Some(e.fns.destroy),
-                reset: Some(e.fns.reset),
-                step: Some(e.fns.step),
-                last_error: Some(e.fns.last_error),
-                reset_many: Some(e.fns.reset_many),
-                step_many: Some(e.fns.step_many),
-                vec_create: vec_fns.map(|_| vec_create::<P> as VecCreateFn),
-                vec_destroy: vec_fns.map(|f| f.destroy),
-                vec_reset: vec_fns.map(|f| f.reset),
-                vec_step: vec_fns.map(|f| f.step),
-                vec_last_error: vec_fns.map(|f| f.last_error),
-            };
-            envs.push(ExportedEnv {
-                desc,
-                vtable,
-                make: e.make,
-                make_vec,
-                obs_dim,
-                action,
-                _id: env_id,
-                _summary: summary,
-                _bounds: bounds,
-            });
+            envs.push(export_env::<P>(&b.id, e, &mut seen)?);
         }
         let entry = RwgPluginEntry {
             struct_size: ENTRY_SIZE_V1_0,
@@ -382,4 +308,94 @@ impl ExportedPlugin {
     pub fn entry(&self) -> &RwgPluginEntry {
         &self.entry
     }
+}
+
+/// One environment's descriptor and function table, checked as
+/// [`ExportedPlugin::new`] says; `seen` holds the ids exported before it.
+fn export_env<P: PluginStatic>(
+    plugin_id: &str,
+    e: EnvExport,
+    seen: &mut HashSet<String>,
+) -> Result<ExportedEnv, String> {
+    let spec = &e.spec;
+    if spec.id.is_empty() {
+        return Err(format!(
+            "plugin '{}': an environment id is empty",
+            plugin_id
+        ));
+    }
+    if !seen.insert(spec.id.clone()) {
+        return Err(format!(
+            "plugin '{}': duplicate id '{}'",
+            plugin_id, spec.id
+        ));
+    }
+    let obs_dim = match &spec.observation_space {
+        Space::Box(bx) if bx.dim() > 0 => bx.dim(),
+        s => {
+            return Err(format!(
+                "env '{}': the observation space must be a non-empty Box, not {}",
+                spec.id,
+                s.describe()
+            ))
+        }
+    };
+    let action = match &spec.action_space {
+        Space::Discrete { n } if *n > 0 && (*n as u64) <= MAX_DISCRETE_N => {
+            ActionKind::Discrete(*n as u64)
+        }
+        Space::Box(bx) if bx.dim() > 0 => ActionKind::Box(bx.dim()),
+        s => {
+            return Err(format!(
+                "env '{}': invalid action space {}",
+                spec.id,
+                s.describe()
+            ))
+        }
+    };
+    let env_id = c_string("environment id", &spec.id)?;
+    let summary = c_string("summary", &e.summary)?;
+    let mut bounds = Vec::new();
+    let desc = RwgEnvDesc {
+        struct_size: ENV_DESC_SIZE_V1_0,
+        flags: 0,
+        id: env_id.as_ptr(),
+        summary: summary.as_ptr(),
+        observation_space: c_space(&spec.observation_space, &mut bounds),
+        action_space: c_space(&spec.action_space, &mut bounds),
+        max_episode_steps: spec.max_episode_steps.unwrap_or(0),
+        reserved: 0,
+        reward_threshold: spec.reward_threshold.unwrap_or(f64::NAN),
+    };
+    let (make_vec, vec_fns) = match e.vec {
+        Some((make, fns)) => (Some(make), Some(fns)),
+        None => (None, None),
+    };
+    let vtable = RwgEnvVtable {
+        struct_size: ENV_VTABLE_SIZE_V1_2,
+        reserved: 0,
+        create: Some(create::<P>),
+        destroy: Some(e.fns.destroy),
+        reset: Some(e.fns.reset),
+        step: Some(e.fns.step),
+        last_error: Some(e.fns.last_error),
+        reset_many: Some(e.fns.reset_many),
+        step_many: Some(e.fns.step_many),
+        vec_create: vec_fns.map(|_| vec_create::<P> as VecCreateFn),
+        vec_destroy: vec_fns.map(|f| f.destroy),
+        vec_reset: vec_fns.map(|f| f.reset),
+        vec_step: vec_fns.map(|f| f.step),
+        vec_last_error: vec_fns.map(|f| f.last_error),
+    };
+    Ok(ExportedEnv {
+        desc,
+        vtable,
+        make: e.make,
+        make_vec,
+        obs_dim,
+        action,
+        _id: env_id,
+        _summary: summary,
+        _bounds: bounds,
+    })
 }
