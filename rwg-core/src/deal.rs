@@ -175,11 +175,16 @@ impl<'a> Deal<'a> {
                 out[lane.item] = r;
                 true
             }
-            Err(err) => {
-                self.fail(lane.item, lane.steps, err);
-                false
-            }
+            Err(err) => self.fail_cold(lane.item, lane.steps, err),
         }
+    }
+
+    /// [`Deal::fail`] off the hot path of a loop's stepping; false.
+    #[cold]
+    #[inline(never)]
+    pub fn fail_cold(&mut self, item: usize, step: u32, err: EnvError) -> bool {
+        self.fail(item, step, err);
+        false
     }
 
     /// Episode `item` failed at `step` (0: its reset) with `err`; the

@@ -177,7 +177,7 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
                 }
                 Err(err) => {
                     lane.stop();
-                    deal.fail(lane.item, lane.steps + 1, err);
+                    deal.fail_cold(lane.item, lane.steps + 1, err);
                 }
             }
         }
