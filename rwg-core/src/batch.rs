@@ -9,9 +9,10 @@
 //! is [`crate::sampler::run_blocks`] for such environments, with the same
 //! weights, reset seeds, network arithmetic and episode bookkeeping, so the
 //! results are identical to running the same environment one episode after
-//! the other.
+//! the other. [`SingleLane`] runs one instance as a plain environment.
 
-use crate::block::{draw_block_weights, fail_non_finite, make_failed, record_failure, BlockRun};
+use crate::block::make_failed;
+use crate::deal::{Deal, Status};
 use crate::policy::{NetShape, PolicyLanes};
 use crate::sampler::{BlockResult, CellPlan, EpisodeResult, SampleError, LANES};
 use rayon::prelude::*;
@@ -177,14 +178,15 @@ enum LaneState {
     Running,
 }
 
-#[derive(Debug, Clone, Copy)]
-struct Lane {
-    state: LaneState,
-    item: usize,
-    weights_of: usize,
-    score: f64,
-    steps: u32,
+impl Status for LaneState {
+    const FREE: LaneState = LaneState::Free;
+    #[inline(always)]
+    fn running(self) -> bool {
+        self == LaneState::Running
+    }
 }
+
+type Lane = crate::deal::Lane<LaneState>;
 
 /// One group of [`LANES`] lanes of a [`BatchLaneWorker`], with its networks.
 struct Group {
@@ -227,18 +229,11 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
             rwg_env::Space::Discrete { .. } => 0,
             rwg_env::Space::Box(b) => b.dim(),
         };
-        let free = Lane {
-            state: LaneState::Free,
-            item: 0,
-            weights_of: usize::MAX,
-            score: 0.0,
-            steps: 0,
-        };
         let groups = (0..env.groups())
             .map(|_| Group {
                 policy: PolicyLanes::new(shape.clone(), &spec.action_space),
                 obs: vec![0.0; LANES * obs_dim],
-                lanes: [free; LANES],
+                lanes: [Lane::IDLE; LANES],
                 ops: vec![LaneOp::Idle; LANES],
                 out: vec![LaneOutcome::Idle; LANES],
                 discrete: vec![0; LANES],
@@ -271,29 +266,16 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
         samples: Range<u64>,
         out: &mut [EpisodeResult],
     ) -> Result<(), SampleError> {
-        let e = plan.episodes as usize;
-        let n = (samples.end - samples.start) as usize;
-        assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
-        let nw = self.n_weights;
-        draw_block_weights(plan, &samples, nw, &mut self.block_weights);
-        let mut run = BlockRun::new(plan, samples);
-        for g in 0..self.groups.len() {
-            let group = &mut self.groups[g];
+        let weights = std::mem::take(&mut self.block_weights);
+        let mut deal = Deal::new(plan, samples, self.n_weights, weights, out);
+        for group in &mut self.groups {
             for (i, lane) in group.lanes.iter_mut().enumerate() {
-                lane.state = LaneState::Free;
-                lane.weights_of = usize::MAX;
-                start_next(
-                    &mut group.policy,
-                    &self.block_weights,
-                    nw,
-                    &mut run,
-                    i,
-                    lane,
-                );
+                *lane = Lane::IDLE;
+                start_next(&mut deal, &mut group.policy, i, lane);
             }
         }
         for g in 0..self.groups.len() {
-            self.send(g, &mut run);
+            self.send(g, &mut deal);
         }
         while self.groups.iter().any(|g| g.in_flight) {
             for g in 0..self.groups.len() {
@@ -303,54 +285,39 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
                 self.groups[g].in_flight = false;
                 let group = &mut self.groups[g];
                 if let Err(f) = self.env.recv(g, &mut group.obs, &mut group.out) {
-                    self.whole_batch_failed(f, &mut run);
+                    self.whole_batch_failed(f, &mut deal);
                     break;
                 }
-                self.absorb(g, &mut run, out);
-                if let Some((first, _, _)) = &run.failure {
-                    for group in &mut self.groups {
-                        for lane in group.lanes.iter_mut().filter(|l| l.item > *first) {
-                            lane.state = LaneState::Free;
-                        }
-                    }
+                self.absorb(g, &mut deal, out);
+                for group in &mut self.groups {
+                    deal.cut_off(&mut group.lanes);
                 }
-                self.send(g, &mut run);
+                self.send(g, &mut deal);
             }
         }
-        run.into_result()
+        deal.finish(&mut self.block_weights)
     }
 
     /// Sends group `g`'s next exchange, if any of its lanes is busy.
-    fn send(&mut self, g: usize, run: &mut BlockRun<'_>) {
+    fn send(&mut self, g: usize, deal: &mut Deal<'_>) {
         if self.dead {
             return;
         }
         let ad = self.action_dim;
         let group = &mut self.groups[g];
-        if group.lanes.iter().all(|l| l.state == LaneState::Free) {
+        if group.lanes.iter().all(|l| l.status == LaneState::Free) {
             return;
         }
-        if group.lanes.iter().any(|l| l.state == LaneState::Running) {
+        if group.lanes.iter().any(|l| l.status == LaneState::Running) {
             group.policy.forward(&group.obs);
-            let bad = group.policy.non_finite_outputs();
-            if bad != 0 {
-                let lanes = &group.lanes;
-                let failed = fail_non_finite(&group.policy, bad, run.plan, &mut run.failure, |l| {
-                    (lanes[l].state == LaneState::Running)
-                        .then(|| (lanes[l].item, lanes[l].steps + 1))
-                });
-                for (l, lane) in group.lanes.iter_mut().enumerate() {
-                    if failed >> l & 1 == 1 {
-                        lane.state = LaneState::Free;
-                    }
-                }
-                if group.lanes.iter().all(|l| l.state == LaneState::Free) {
-                    return;
-                }
+            if deal.stop_non_finite(&group.policy, &mut group.lanes)
+                && group.lanes.iter().all(|l| l.status == LaneState::Free)
+            {
+                return;
             }
         }
         for (i, lane) in group.lanes.iter().enumerate() {
-            group.ops[i] = match lane.state {
+            group.ops[i] = match lane.status {
                 LaneState::Free => LaneOp::Idle,
                 LaneState::Resetting(seed) => LaneOp::Reset(seed),
                 LaneState::Running => {
@@ -370,32 +337,28 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
         };
         match self.env.send(g, &group.ops, actions) {
             Ok(()) => group.in_flight = true,
-            Err(f) => self.whole_batch_failed(f, run),
+            Err(f) => self.whole_batch_failed(f, deal),
         }
     }
 
     /// The whole batch failed: the lane it names failed (or, if unknown,
     /// every busy lane of every group; between calls, the earliest busy
     /// episode with a message saying that none caused it).
-    fn whole_batch_failed(&mut self, f: BatchFailure, run: &mut BlockRun<'_>) {
+    fn whole_batch_failed(&mut self, f: BatchFailure, deal: &mut Deal<'_>) {
         self.poisoned = true;
         self.dead = true;
         if f.lane.is_none() && f.between_calls {
             for group in &mut self.groups {
                 group.in_flight = false;
             }
-            return self.failed_between_calls(f.error, run);
+            return self.failed_between_calls(f.error, deal);
         }
         for (h, group) in self.groups.iter_mut().enumerate() {
             group.in_flight = false;
             for (i, lane) in group.lanes.iter().enumerate() {
                 let culprit = f.lane.is_none_or(|c| c == h * LANES + i);
-                if lane.state != LaneState::Free && culprit {
-                    let step = match lane.state {
-                        LaneState::Running => lane.steps + 1,
-                        _ => 0,
-                    };
-                    record_failure(&mut run.failure, lane.item, step, f.error.clone());
+                if lane.status != LaneState::Free && culprit {
+                    deal.fail(lane.item, lane.failing_step(), f.error.clone());
                 }
             }
         }
@@ -404,23 +367,23 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
     /// A whole-batch failure that no reset or step caused: recorded at the
     /// earliest busy episode (after its last step), whose message says so
     /// and names the episodes in progress.
-    fn failed_between_calls(&mut self, error: EnvError, run: &mut BlockRun<'_>) {
+    fn failed_between_calls(&mut self, error: EnvError, deal: &mut Deal<'_>) {
         let mut busy: Vec<&Lane> = self
             .groups
             .iter()
             .flat_map(|g| &g.lanes)
-            .filter(|l| l.state != LaneState::Free)
+            .filter(|l| l.status != LaneState::Free)
             .collect();
         busy.sort_by_key(|l| l.item);
         let Some(first) = busy.first() else { return };
-        let e = run.plan.episodes as usize;
+        let e = deal.plan().episodes as usize;
         let name = |l: &Lane| {
-            let at = match l.state {
+            let at = match l.status {
                 LaneState::Running if l.steps == 0 => "after its reset".into(),
                 LaneState::Running => format!("after step {}", l.steps),
                 _ => "its reset not yet made".into(),
             };
-            let sample = run.samples.start + (l.item / e) as u64;
+            let sample = deal.samples().start + (l.item / e) as u64;
             format!("sample {sample}, episode {} ({at})", l.item % e)
         };
         let mut list: Vec<String> = busy.iter().take(4).map(|l| name(l)).collect();
@@ -433,85 +396,40 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
              episodes in progress were: {}",
             list.join("; ")
         );
-        record_failure(
-            &mut run.failure,
-            first.item,
-            first.steps,
-            EnvError::Other(text),
-        );
+        deal.fail(first.item, first.steps, EnvError::Other(text));
     }
 
     /// Takes group `g`'s outcomes into its lanes: scores, finished episodes
     /// (their lanes get the next episode), failures.
-    fn absorb(&mut self, g: usize, run: &mut BlockRun<'_>, out: &mut [EpisodeResult]) {
-        let nw = self.n_weights;
+    fn absorb(&mut self, g: usize, deal: &mut Deal<'_>, out: &mut [EpisodeResult]) {
         let group = &mut self.groups[g];
         for (i, lane) in group.lanes.iter_mut().enumerate() {
             match std::mem::replace(&mut group.out[i], LaneOutcome::Idle) {
                 LaneOutcome::Idle => {}
-                LaneOutcome::Reset => {
-                    lane.state = LaneState::Running;
-                    lane.score = 0.0;
-                    lane.steps = 0;
-                }
+                LaneOutcome::Reset => lane.begin(LaneState::Running),
                 LaneOutcome::Step(s) => {
-                    lane.score += s.reward;
-                    lane.steps += 1;
-                    if s.terminated || s.truncated {
-                        lane.state = LaneState::Free;
-                        match EpisodeResult::finished(lane.score, lane.steps) {
-                            Ok(r) => {
-                                out[lane.item] = r;
-                                if run.failure.is_none() {
-                                    start_next(
-                                        &mut group.policy,
-                                        &self.block_weights,
-                                        nw,
-                                        run,
-                                        i,
-                                        lane,
-                                    );
-                                }
-                            }
-                            Err(err) => {
-                                record_failure(&mut run.failure, lane.item, lane.steps, err)
-                            }
-                        }
+                    let ended = s.terminated || s.truncated;
+                    if deal.stepped(lane, s.reward, ended, out) {
+                        start_next(deal, &mut group.policy, i, lane);
                     }
                 }
                 LaneOutcome::Failed(err) => {
                     self.poisoned = true;
-                    let step = match lane.state {
-                        LaneState::Running => lane.steps + 1,
-                        _ => 0,
-                    };
-                    lane.state = LaneState::Free;
-                    record_failure(&mut run.failure, lane.item, step, err);
+                    let step = lane.failing_step();
+                    lane.stop();
+                    deal.fail(lane.item, step, err);
                 }
             }
         }
     }
 }
 
-/// Gives lane `i` the next episode of the block (its network's weights and
-/// a pending reset), unless all have started.
-fn start_next(
-    policy: &mut PolicyLanes<LANES>,
-    block_weights: &[f64],
-    nw: usize,
-    run: &mut BlockRun<'_>,
-    i: usize,
-    lane: &mut Lane,
-) {
-    let Some(ep) = run.next_episode() else {
-        return;
-    };
-    if lane.weights_of != ep.k {
-        policy.set_weights(i, &block_weights[ep.k * nw..(ep.k + 1) * nw]);
-        lane.weights_of = ep.k;
+/// Deals lane `i` the next episode of the block (its network's weights and
+/// a pending reset), unless all have started or one failed.
+fn start_next(deal: &mut Deal<'_>, policy: &mut PolicyLanes<LANES>, i: usize, lane: &mut Lane) {
+    if let Some(ep) = deal.next(policy, i, lane) {
+        lane.status = LaneState::Resetting(ep.seed);
     }
-    lane.item = ep.item;
-    lane.state = LaneState::Resetting(ep.seed);
 }
 
 /// A worker on loan from a [`BatchPool`], given back when dropped (unless its
@@ -581,105 +499,8 @@ where
     Ok(())
 }
 
-/// Runs one instance of a batch environment as a plain [`rwg_env::Environment`]
-/// (lane 0 only): for rollouts, checks and replays outside the sampler.
-pub struct SingleLane<B: BatchEnv> {
-    env: B,
-    ops: Vec<LaneOp>,
-    out: Vec<LaneOutcome>,
-    discrete: Vec<i64>,
-    continuous: Vec<f64>,
-    obs: Vec<f64>,
-    dead: Option<EnvError>,
-}
-
-impl<B: BatchEnv> SingleLane<B> {
-    /// Wraps `env` (any number of lanes; lane 0 is used).
-    pub fn new(env: B) -> Self {
-        let n = env.lanes();
-        let d = env.spec().obs_dim();
-        SingleLane {
-            ops: vec![LaneOp::Idle; n],
-            out: vec![LaneOutcome::Idle; n],
-            discrete: vec![0; n],
-            continuous: vec![
-                0.0;
-                n * match &env.spec().action_space {
-                    rwg_env::Space::Box(b) => b.dim(),
-                    rwg_env::Space::Discrete { .. } => 0,
-                }
-            ],
-            obs: vec![0.0; n * d],
-            env,
-            dead: None,
-        }
-    }
-
-    /// The batch environment.
-    pub fn inner(&self) -> &B {
-        &self.env
-    }
-
-    fn run(&mut self, op: LaneOp, obs: &mut [f64]) -> Result<LaneOutcome, EnvError> {
-        if let Some(e) = &self.dead {
-            return Err(e.clone());
-        }
-        self.ops[0] = op;
-        let actions = LaneActions {
-            discrete: &self.discrete,
-            continuous: &self.continuous,
-        };
-        if let Err(f) = self
-            .env
-            .exchange(&self.ops, actions, &mut self.obs, &mut self.out)
-        {
-            self.dead = Some(f.error.clone());
-            return Err(f.error);
-        }
-        let d = obs.len();
-        obs.copy_from_slice(&self.obs[..d]);
-        Ok(std::mem::replace(&mut self.out[0], LaneOutcome::Idle))
-    }
-}
-
-impl<B: BatchEnv> rwg_env::Environment for SingleLane<B> {
-    fn spec(&self) -> &EnvSpec {
-        self.env.spec()
-    }
-
-    fn reset(&mut self, seed: u64, obs: &mut [f64]) -> Result<(), EnvError> {
-        match self.run(LaneOp::Reset(seed), obs)? {
-            LaneOutcome::Failed(e) => Err(e),
-            _ => Ok(()),
-        }
-    }
-
-    fn step(&mut self, action: Action<'_>, obs: &mut [f64]) -> Result<Step, EnvError> {
-        let dim = self.continuous.len() / self.env.lanes();
-        match action {
-            Action::Discrete(a) if dim == 0 => self.discrete[0] = a,
-            Action::Discrete(a) => {
-                return Err(EnvError::InvalidAction(format!(
-                    "discrete action {a} given to a continuous action space"
-                )))
-            }
-            Action::Continuous(a) => {
-                if a.len() != dim {
-                    return Err(EnvError::InvalidAction(format!(
-                        "action has {} values, the action space has {dim}",
-                        a.len()
-                    )));
-                }
-                self.continuous[..dim].copy_from_slice(a);
-            }
-        }
-        match self.run(LaneOp::Step, obs)? {
-            LaneOutcome::Step(s) => Ok(s),
-            LaneOutcome::Failed(e) => Err(e),
-            other => Err(EnvError::Other(format!("unexpected outcome {other:?}"))),
-        }
-    }
-}
+mod single;
+pub use single::SingleLane;
 
 #[cfg(test)]
 mod tests;

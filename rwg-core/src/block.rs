@@ -1,10 +1,7 @@
-//! A block's episodes, as the three lane loops hand them out
-//! ([`crate::sampler::LaneWorker`], [`crate::many::ManyLaneWorker`],
-//! [`crate::batch::BatchLaneWorker`]): the block's weights, the next episode
-//! (its network and reset seed), the first failure in episode order, and
-//! (for the first two) what a lane is doing.
-//! What differs between the loops is how they step their lanes; what is
-//! here is why their results are the same.
+//! A block of a cell's networks: their weights, its episodes in order
+//! (sample-major) with their reset seeds, and the first failure in episode
+//! order with where it happened. The lane loops deal them out through
+//! `crate::deal`.
 
 use crate::plan::{draw_weights, reset_seed, weight_rng, CellPlan, SampleError};
 use rwg_env::EnvError;
@@ -26,33 +23,6 @@ pub fn draw_block_weights(plan: &CellPlan, samples: &Range<u64>, nw: usize, out:
         );
         draw_weights(&mut rng, plan.dist, &mut w[..nw]);
     }
-}
-
-/// What one lane of a [`crate::sampler::LaneWorker`] or a
-/// [`crate::many::ManyLaneWorker`] is doing.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Lane {
-    /// Whether the lane is running an episode.
-    pub active: bool,
-    /// The episode: `sample_in_block * episodes + episode`.
-    pub item: usize,
-    /// Which sample of the block the lane's weights belong to.
-    pub weights_of: usize,
-    /// The episode's score so far.
-    pub score: f64,
-    /// The episode's steps so far.
-    pub steps: u32,
-}
-
-impl Lane {
-    /// A lane with no episode and no network's weights.
-    pub const IDLE: Lane = Lane {
-        active: false,
-        item: 0,
-        weights_of: usize::MAX,
-        score: 0.0,
-        steps: 0,
-    };
 }
 
 /// One episode of the block, as [`BlockRun::next_episode`] hands it out.
@@ -128,48 +98,6 @@ impl<'a> BlockRun<'a> {
                 })
             }
         }
-    }
-}
-
-/// Fails every lane of `policy` whose network outputs are not finite
-/// (bit `l` of `mask`, from [`PolicyLanes::non_finite_outputs`]): lane `l`
-/// is running episode `item(l)` at step `step(l)`; returns the lanes failed.
-pub(crate) fn fail_non_finite<const K: usize>(
-    policy: &crate::policy::PolicyLanes<K>,
-    mask: u64,
-    plan: &CellPlan,
-    failure: &mut Option<(usize, u32, EnvError)>,
-    mut at: impl FnMut(usize) -> Option<(usize, u32)>,
-) -> u64 {
-    let mut failed = 0;
-    for l in (0..K).filter(|l| mask >> l & 1 == 1) {
-        let (Some((item, step)), Some(v)) = (at(l), policy.non_finite_output(l)) else {
-            continue;
-        };
-        failed |= 1 << l;
-        record_failure(failure, item, step, non_finite_output(plan, v));
-    }
-    failed
-}
-
-/// [`fail_non_finite`] for the lanes of a [`crate::sampler::LaneWorker`]
-/// or [`crate::many::ManyLaneWorker`] after a forward pass: a lane whose
-/// outputs are not finite fails its episode and stops.
-pub(crate) fn stop_non_finite<const K: usize>(
-    policy: &crate::policy::PolicyLanes<K>,
-    plan: &CellPlan,
-    failure: &mut Option<(usize, u32, EnvError)>,
-    lanes: &mut [Lane; K],
-) {
-    let bad = policy.non_finite_outputs();
-    if bad == 0 {
-        return;
-    }
-    let failed = fail_non_finite(policy, bad, plan, failure, |l| {
-        lanes[l].active.then(|| (lanes[l].item, lanes[l].steps + 1))
-    });
-    for (l, lane) in lanes.iter_mut().enumerate() {
-        lane.active &= failed >> l & 1 == 0;
     }
 }
 

@@ -10,9 +10,8 @@
 //! can be in flight), the call is synchronous and the buffers are the
 //! worker's own, so nothing is copied or wrapped per lane.
 
-use crate::block::{
-    draw_block_weights, make_failed, record_failure, stop_non_finite, BlockRun, Lane,
-};
+use crate::block::make_failed;
+use crate::deal::{Deal, Lane};
 use crate::policy::{NetShape, PolicyLanes};
 use crate::sampler::{BlockResult, CellPlan, EpisodeResult, SampleError, LANES};
 use rayon::prelude::*;
@@ -73,117 +72,97 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
         samples: Range<u64>,
         out: &mut [EpisodeResult],
     ) -> Result<(), SampleError> {
-        let e = plan.episodes as usize;
-        let n = (samples.end - samples.start) as usize;
-        assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
         let nw = self.policy.shape().n_weights();
-        draw_block_weights(plan, &samples, nw, &mut self.block_weights);
-        let mut lanes = [Lane::IDLE; LANES];
-        let mut run = BlockRun::new(plan, samples);
+        let weights = std::mem::take(&mut self.block_weights);
+        let mut deal = Deal::new(plan, samples, nw, weights, out);
+        let mut lanes = [Lane::<bool>::IDLE; LANES];
         for (i, lane) in lanes.iter_mut().enumerate() {
-            self.start_next(&mut run, i, lane);
+            self.start_next(&mut deal, i, lane);
         }
-        self.reset_pending(&mut run, &mut lanes);
-        while lanes.iter().any(|l| l.active) {
+        self.reset_pending(&mut deal, &mut lanes);
+        while lanes.iter().any(|l| l.running()) {
             self.policy.forward(&self.obs);
-            stop_non_finite(&self.policy, plan, &mut run.failure, &mut lanes);
-            if !lanes.iter().any(|l| l.active) {
+            deal.stop_non_finite(&self.policy, &mut lanes);
+            if !lanes.iter().any(|l| l.running()) {
                 break;
             }
-            for (m, lane) in self.step_mask.iter_mut().zip(&lanes) {
-                *m = u8::from(lane.active);
-            }
-            self.policy.actions_into(&self.step_mask, &mut self.actions);
-            let mut failed = [false; LANES];
-            let failure = &mut run.failure;
-            self.env.step_many(
-                &self.step_mask,
-                &self.actions,
-                &mut self.obs,
-                &mut self.rewards,
-                &mut self.terminated,
-                &mut self.truncated,
-                &mut |i, err| {
-                    failed[i] = true;
-                    record_failure(failure, lanes[i].item, lanes[i].steps + 1, err);
-                },
-            );
-            for (i, lane) in lanes.iter_mut().enumerate() {
-                if !lane.active {
-                    continue;
-                }
-                if failed[i] {
-                    lane.active = false;
-                    continue;
-                }
-                lane.score += self.rewards[i];
-                lane.steps += 1;
-                if self.terminated[i] == 1 || self.truncated[i] == 1 {
-                    lane.active = false;
-                    match EpisodeResult::finished(lane.score, lane.steps) {
-                        Ok(r) => {
-                            out[lane.item] = r;
-                            self.start_next(&mut run, i, lane);
-                        }
-                        Err(err) => record_failure(&mut run.failure, lane.item, lane.steps, err),
-                    }
-                }
-            }
-            self.reset_pending(&mut run, &mut lanes);
-            if let Some((first, _, _)) = &run.failure {
-                // Episodes after the failing one do not matter any more.
-                for lane in lanes.iter_mut().filter(|l| l.item > *first) {
-                    lane.active = false;
-                }
-            }
+            self.step_lanes(&mut deal, &mut lanes, out);
+            self.reset_pending(&mut deal, &mut lanes);
+            deal.cut_off(&mut lanes);
         }
-        run.into_result()
+        deal.finish(&mut self.block_weights)
     }
 
-    /// Gives lane `i` the next episode of the block (its network's weights,
+    /// Steps every running lane once, in one `step_many`; a lane whose
+    /// episode ended is dealt the next one.
+    fn step_lanes(
+        &mut self,
+        deal: &mut Deal<'_>,
+        lanes: &mut [Lane<bool>; LANES],
+        out: &mut [EpisodeResult],
+    ) {
+        for (m, lane) in self.step_mask.iter_mut().zip(lanes.iter()) {
+            *m = u8::from(lane.running());
+        }
+        self.policy.actions_into(&self.step_mask, &mut self.actions);
+        let mut failed = [false; LANES];
+        self.env.step_many(
+            &self.step_mask,
+            &self.actions,
+            &mut self.obs,
+            &mut self.rewards,
+            &mut self.terminated,
+            &mut self.truncated,
+            &mut |i, err| {
+                failed[i] = true;
+                deal.fail(lanes[i].item, lanes[i].steps + 1, err);
+            },
+        );
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            if !lane.running() {
+                continue;
+            }
+            if failed[i] {
+                lane.stop();
+                continue;
+            }
+            let ended = self.terminated[i] == 1 || self.truncated[i] == 1;
+            if deal.stepped(lane, self.rewards[i], ended, out) {
+                self.start_next(deal, i, lane);
+            }
+        }
+    }
+
+    /// Deals lane `i` the next episode of the block (its network's weights,
     /// its reset seed, marked for the next `reset_many`), unless all have
     /// started or one failed.
-    fn start_next(&mut self, run: &mut BlockRun<'_>, i: usize, lane: &mut Lane) {
-        if run.failure.is_some() {
-            return;
+    fn start_next(&mut self, deal: &mut Deal<'_>, i: usize, lane: &mut Lane<bool>) {
+        if let Some(ep) = deal.next(&mut self.policy, i, lane) {
+            self.seeds[i] = ep.seed;
+            self.reset_mask[i] = 1;
         }
-        let Some(ep) = run.next_episode() else {
-            return;
-        };
-        if lane.weights_of != ep.k {
-            let nw = self.policy.shape().n_weights();
-            self.policy
-                .set_weights(i, &self.block_weights[ep.k * nw..(ep.k + 1) * nw]);
-            lane.weights_of = ep.k;
-        }
-        self.seeds[i] = ep.seed;
-        self.reset_mask[i] = 1;
-        lane.item = ep.item;
     }
 
     /// Resets the lanes [`Self::start_next`] marked, in one call.
-    fn reset_pending(&mut self, run: &mut BlockRun<'_>, lanes: &mut [Lane; LANES]) {
+    fn reset_pending(&mut self, deal: &mut Deal<'_>, lanes: &mut [Lane<bool>; LANES]) {
         if !self.reset_mask.contains(&1) {
             return;
         }
         let mut failed = [false; LANES];
-        let failure = &mut run.failure;
         self.env.reset_many(
             &self.reset_mask,
             &self.seeds,
             &mut self.obs,
             &mut |i, err| {
                 failed[i] = true;
-                record_failure(failure, lanes[i].item, 0, err);
+                deal.fail(lanes[i].item, 0, err);
             },
         );
         for (i, lane) in lanes.iter_mut().enumerate() {
             if self.reset_mask[i] == 1 {
                 self.reset_mask[i] = 0;
                 if !failed[i] {
-                    lane.active = true;
-                    lane.score = 0.0;
-                    lane.steps = 0;
+                    lane.begin(true);
                 }
             }
         }

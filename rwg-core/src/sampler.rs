@@ -7,7 +7,7 @@
 //! scheduling, thread count or on which other cells a manifest contains.
 
 pub use crate::block::draw_block_weights;
-use crate::block::{record_failure, stop_non_finite, BlockRun, Lane};
+use crate::deal::{Deal, Lane};
 pub use crate::plan::{
     draw_weights, reset_seed, weight_rng, CellPlan, EpisodeResult, SampleError, WeightDist,
 };
@@ -138,83 +138,62 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
         samples: Range<u64>,
         out: &mut [EpisodeResult],
     ) -> Result<(), SampleError> {
-        let e = plan.episodes as usize;
-        let n = (samples.end - samples.start) as usize;
-        assert_eq!(out.len(), n * e, "results of {n} samples x {e} episodes");
         let nw = self.policy.shape().n_weights();
-        draw_block_weights(plan, &samples, nw, &mut self.block_weights);
-        let mut lanes = [Lane::IDLE; K];
-        let mut run = BlockRun::new(plan, samples);
+        let weights = std::mem::take(&mut self.block_weights);
+        let mut deal = Deal::new(plan, samples, nw, weights, out);
+        let mut lanes = [Lane::<bool>::IDLE; K];
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            self.start_next(&mut deal, i, lane);
+        }
+        while lanes.iter().any(|l| l.running()) {
+            self.policy.forward(&self.obs);
+            deal.stop_non_finite(&self.policy, &mut lanes);
+            self.step_lanes(&mut deal, &mut lanes, out);
+            deal.cut_off(&mut lanes);
+        }
+        deal.finish(&mut self.block_weights)
+    }
+
+    /// Steps every running lane once with its action; a lane whose episode
+    /// ended starts the next one.
+    #[inline(always)]
+    fn step_lanes(
+        &mut self,
+        deal: &mut Deal<'_>,
+        lanes: &mut [Lane<bool>; K],
+        out: &mut [EpisodeResult],
+    ) {
         let d = self.obs_dim;
         for (i, lane) in lanes.iter_mut().enumerate() {
-            self.start_next(&mut run, i, lane);
-        }
-        while lanes.iter().any(|l| l.active) {
-            self.policy.forward(&self.obs);
-            stop_non_finite(&self.policy, plan, &mut run.failure, &mut lanes);
-            for (i, lane) in lanes.iter_mut().enumerate() {
-                if !lane.active {
-                    continue;
-                }
-                let action = self.policy.action(i);
-                match self.envs[i].step(action, &mut self.obs[i * d..(i + 1) * d]) {
-                    Ok(s) => {
-                        lane.score += s.reward;
-                        lane.steps += 1;
-                        if s.terminated || s.truncated {
-                            lane.active = false;
-                            match EpisodeResult::finished(lane.score, lane.steps) {
-                                Ok(r) => {
-                                    out[lane.item] = r;
-                                    self.start_next(&mut run, i, lane);
-                                }
-                                Err(err) => {
-                                    record_failure(&mut run.failure, lane.item, lane.steps, err)
-                                }
-                            }
-                        }
-                    }
-                    Err(err) => {
-                        lane.active = false;
-                        record_failure(&mut run.failure, lane.item, lane.steps + 1, err);
-                    }
-                }
+            if !lane.running() {
+                continue;
             }
-            if let Some((first, _, _)) = &run.failure {
-                // Episodes after the failing one do not matter any more.
-                for lane in lanes.iter_mut().filter(|l| l.item > *first) {
-                    lane.active = false;
+            let action = self.policy.action(i);
+            match self.envs[i].step(action, &mut self.obs[i * d..(i + 1) * d]) {
+                Ok(s) => {
+                    if deal.stepped(lane, s.reward, s.terminated || s.truncated, out) {
+                        self.start_next(deal, i, lane);
+                    }
+                }
+                Err(err) => {
+                    lane.stop();
+                    deal.fail_cold(lane.item, lane.steps + 1, err);
                 }
             }
         }
-        run.into_result()
     }
 
     /// Starts the next episode of the block on lane `i` (resetting its env,
     /// loading its network's weights), unless all have started or one failed.
-    fn start_next(&mut self, run: &mut BlockRun<'_>, i: usize, lane: &mut Lane) {
-        if run.failure.is_some() {
-            return;
-        }
-        let Some(ep) = run.next_episode() else {
+    fn start_next(&mut self, deal: &mut Deal<'_>, i: usize, lane: &mut Lane<bool>) {
+        let Some(ep) = deal.next(&mut self.policy, i, lane) else {
             return;
         };
-        if lane.weights_of != ep.k {
-            let nw = self.policy.shape().n_weights();
-            self.policy
-                .set_weights(i, &self.block_weights[ep.k * nw..(ep.k + 1) * nw]);
-            lane.weights_of = ep.k;
-        }
         let d = self.obs_dim;
-        STARTING.with(|c| c.set((run.samples.start + ep.k as u64, ep.episode)));
+        STARTING.with(|c| c.set((deal.samples().start + ep.k as u64, ep.episode)));
         match self.envs[i].reset(ep.seed, &mut self.obs[i * d..(i + 1) * d]) {
-            Ok(()) => {
-                lane.active = true;
-                lane.item = ep.item;
-                lane.score = 0.0;
-                lane.steps = 0;
-            }
-            Err(err) => record_failure(&mut run.failure, ep.item, 0, err),
+            Ok(()) => lane.begin(true),
+            Err(err) => deal.fail(ep.item, 0, err),
         }
     }
 }
