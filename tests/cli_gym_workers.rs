@@ -598,10 +598,11 @@ fn processes_an_env_starts_end_with_rwg_on_any_catchable_signal() {
 fn a_worker_killed_between_calls_is_not_blamed_on_an_episode() {
     let Some(py) = python() else { return };
     let dir = temp_dir("gym-family-between");
+    // Long enough (about a minute) that the kill below always lands mid-run.
     let m = write(
         &dir,
         "m.toml",
-        "samples = 20000\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
+        "samples = 400000\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
          [[envs]]\nid = \"gymnasium:rwg_trust_envs:Trust-v0\"\n",
     );
     let kill = |sig: &str, pid: u32| {
