@@ -1,6 +1,6 @@
 //! Dealing a block's episodes to the lanes of the three lane loops
 //! ([`crate::sampler::LaneWorker`], [`crate::many::ManyLaneWorker`],
-//! [`crate::batch::BatchLaneWorker`]): which network and episode a free lane
+//! [`crate::remote::RemoteLaneWorker`]): which network and episode a free lane
 //! takes next (its weights loaded, its reset seed), the return of each
 //! episode, the failure of one that breaks (its reset, a step, a network
 //! output that is not finite) and the cut-off of the episodes after the

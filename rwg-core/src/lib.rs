@@ -3,7 +3,7 @@
 //! Random Weight Guessing itself: the tanh [`policy`] networks (with the
 //! numpy-exact [`tanh`]) and the [`sampler`] that draws their weights from
 //! seeds and runs them on environments, in blocks of networks and lanes of
-//! episodes side by side; [`batch`] and [`many`] are the same loop for
+//! episodes side by side; [`remote`] and [`many`] are the same loop for
 //! environments that step all lanes in one call (a remote Gymnasium worker,
 //! a plugin's ABI 1.1 batched calls). The environment contract it runs against is
 //! `rwg-env`; the study runner around it (manifest, run directory,
@@ -95,15 +95,15 @@
 //!   finite included) and the cut-off after the first one.
 //! - [`sampler`]: `run_blocks` over lanes of episodes, one env instance per
 //!   lane, and `blocks`, cutting a cell's samples into blocks of 32.
-//! - [`batch`]: the same over a `BatchEnv` with exchanges in flight (worker
+//! - [`remote`]: the same over a `RemoteEnv` with exchanges in flight (worker
 //!   processes); [`many`]: over a `ManyEnv` stepping all lanes in one call.
 
-pub mod batch;
 mod block;
 mod deal;
 pub mod many;
 mod plan;
 pub mod policy;
+pub mod remote;
 pub mod sampler;
 pub mod tanh;
 #[cfg(test)]

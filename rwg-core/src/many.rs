@@ -6,7 +6,7 @@
 //! It is [`crate::sampler::LaneWorker`] with one call per step for all
 //! lanes instead of one per lane: the same weights, reset seeds, network
 //! arithmetic and episode bookkeeping, so the results are identical. Unlike
-//! [`crate::batch::BatchEnv`] (built for a remote host, with exchanges that
+//! [`crate::remote::RemoteEnv`] (built for a remote host, with exchanges that
 //! can be in flight), the call is synchronous and the buffers are the
 //! worker's own, so nothing is copied or wrapped per lane.
 

@@ -1,7 +1,7 @@
 //! What a cell computes and where its randomness comes from: the
 //! [`CellPlan`], the weights of network `n` and the reset seed of its
 //! episode `e`, and what an episode or a failure reports. The loops that
-//! run the plan are [`crate::sampler`], [`crate::many`] and [`crate::batch`]
+//! run the plan are [`crate::sampler`], [`crate::many`] and [`crate::remote`]
 //! (which re-export these names from [`crate::sampler`]).
 //!
 //! # Seeds

@@ -1,4 +1,4 @@
-//! Test helpers shared by the sampler loops' unit tests (`batch`, `many`).
+//! Test helpers shared by the sampler loops' unit tests (`remote`, `many`).
 
 use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 

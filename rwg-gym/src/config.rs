@@ -22,7 +22,7 @@ pub struct GymConfig {
     pub max_episode_steps: Option<u32>,
     /// dtype of the continuous action arrays handed to `step()`.
     pub action_dtype: ActionDtype,
-    /// How long one batch step may take (and one reset or step of the
+    /// How long one exchange may take (and one reset or step of the
     /// checks made when a worker starts).
     pub timeout: Duration,
     /// How long a worker may take to import the env and make its instances.

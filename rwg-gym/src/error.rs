@@ -3,7 +3,7 @@
 
 use crate::protocol::WorkerError;
 use crate::{START_TIMEOUT_VAR, TIMEOUT_VAR};
-use rwg_core::batch::BatchFailure;
+use rwg_core::remote::RemoteFailure;
 use rwg_env::EnvError;
 use rwg_worker::host::Describe;
 use rwg_worker::ProcError;
@@ -144,9 +144,9 @@ impl From<GymError> for EnvError {
     }
 }
 
-impl From<GymError> for BatchFailure {
+impl From<GymError> for RemoteFailure {
     fn from(e: GymError) -> Self {
-        BatchFailure {
+        RemoteFailure {
             lane: None,
             between_calls: false,
             error: e.into(),

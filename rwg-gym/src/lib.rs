@@ -4,7 +4,7 @@
 //! `module` first) runs in Python worker processes: each hosts [`GROUPS`]
 //! groups of [`rwg_core::sampler::LANES`] instances of the env, made with
 //! `gym.make`, and resets/steps a group in lockstep, one exchange over its
-//! stdin/stdout per batch step (one group in flight while rwg works on the
+//! stdin/stdout per exchange (one group in flight while rwg works on the
 //! other), in the binary format of `docs/bridge-protocol.md`. Everything
 //! else — weights, the network's forward pass, reset seeds, statistics —
 //! stays in rwg, so a Gymnasium env gives the numbers a built-in env of the
@@ -42,26 +42,26 @@
 //!
 //! This is its own crate (not part of the runner's core) because it owns
 //! a Python program and what Gymnasium's spaces and errors mean. The worker
-//! processes, the protocol and the batched host are `rwg-worker`'s, shared
+//! processes, the protocol and the host side of the exchanges are `rwg-worker`'s, shared
 //! with the isolated plugin workers.
 
 pub use rwg_worker::describe_status;
 pub use rwg_worker::protocol;
 
-mod batch;
 mod config;
 mod error;
 mod info;
 pub mod kwargs;
+mod lanes;
 mod source;
 
-pub use batch::GymBatch;
 pub use config::{
     default_hash_seed, default_python, default_start_timeout, default_timeout, python_setting,
     start_timeout_setting, timeout_setting, GymConfig, MAX_TIMEOUT_S, PYTHON_VAR,
 };
 pub use error::GymError;
 pub use info::{info_differences, GymInfo};
+pub use lanes::GymLanes;
 pub use source::{make_single, GymSource};
 
 /// The worker program, run by [`BOOT_PY`] through rwg-worker's loader
@@ -94,7 +94,7 @@ pub const PREFIX: &str = "gymnasium:";
 /// whole observation as input, so an image is far beyond what RWG measures.
 pub const MAX_OBS: usize = 4096;
 
-/// Default time a batch step may take before the worker counts as hung.
+/// Default time an exchange may take before the worker counts as hung.
 pub const DEFAULT_TIMEOUT_S: f64 = 60.0;
 
 /// The environment variable overriding [`DEFAULT_TIMEOUT_S`] (seconds).

@@ -1,8 +1,8 @@
 //! One Gymnasium environment of a study ([`GymSource`]): its first worker,
 //! the workers kept between cells, and single instances.
 
-use crate::{GymBatch, GymConfig, GymError, GymInfo, GROUPS};
-use rwg_core::batch::{run_blocks_batched, BatchPool, SingleLane};
+use crate::{GymConfig, GymError, GymInfo, GymLanes, GROUPS};
+use rwg_core::remote::{run_blocks_remote, RemotePool, SingleLane};
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError, LANES};
 use rwg_env::EnvError;
 use std::ops::Range;
@@ -12,7 +12,7 @@ use std::ops::Range;
 pub struct GymSource {
     config: GymConfig,
     info: GymInfo,
-    pool: BatchPool<GymBatch>,
+    pool: RemotePool<GymLanes>,
 }
 
 impl std::fmt::Debug for GymSource {
@@ -27,11 +27,11 @@ impl GymSource {
     /// Starts one worker (checking that the env builds, its spaces are
     /// supported and its reset is deterministic) and keeps it for the run.
     pub fn open(mut config: GymConfig) -> Result<GymSource, GymError> {
-        let first = GymBatch::spawn(&config, LANES, GROUPS, true)?;
+        let first = GymLanes::spawn(&config, LANES, GROUPS, true)?;
         let info = first.info().clone();
         // The workers started later (and single instances) need not probe again.
         config.fresh_per_episode = Some(info.fresh_per_episode);
-        let pool = BatchPool::default();
+        let pool = RemotePool::default();
         pool.put(first);
         Ok(GymSource { config, info, pool })
     }
@@ -46,7 +46,7 @@ impl GymSource {
         &self.info
     }
 
-    /// Runs blocks of a cell (see [`run_blocks_batched`]): one worker process
+    /// Runs blocks of a cell (see [`run_blocks_remote`]): one worker process
     /// per thread of the current rayon pool, reused across calls. Each
     /// worker started here must describe the env as the first did, its
     /// checked reset included ([`info_differences`](crate::info_differences)).
@@ -61,13 +61,13 @@ impl GymSource {
         G: FnMut(BlockResult) -> Result<(), X>,
         X: From<SampleError> + Send,
     {
-        run_blocks_batched(
+        run_blocks_remote(
             plan,
             blocks,
             wave,
             &self.pool,
             || {
-                GymBatch::spawn(&self.config, LANES, GROUPS, true)
+                GymLanes::spawn(&self.config, LANES, GROUPS, true)
                     .and_then(|w| w.same_as(&self.info))
                     .map_err(EnvError::from)
             },
@@ -89,15 +89,15 @@ impl GymSource {
 
     /// A single instance behind [`rwg_env::Environment`] (for rollouts,
     /// checks and replays), in a worker of its own.
-    pub fn make_single(&self) -> Result<SingleLane<GymBatch>, GymError> {
+    pub fn make_single(&self) -> Result<SingleLane<GymLanes>, GymError> {
         // (the config carries the probe's verdict on fresh instances)
-        let worker = GymBatch::spawn(&self.config, 1, 1, true)?.same_as(&self.info)?;
+        let worker = GymLanes::spawn(&self.config, 1, 1, true)?.same_as(&self.info)?;
         Ok(SingleLane::new(worker))
     }
 }
 
 /// A single instance of the env `config` describes, without the checks of
 /// [`GymSource::open`].
-pub fn make_single(config: &GymConfig) -> Result<SingleLane<GymBatch>, GymError> {
-    Ok(SingleLane::new(GymBatch::spawn(config, 1, 1, false)?))
+pub fn make_single(config: &GymConfig) -> Result<SingleLane<GymLanes>, GymError> {
+    Ok(SingleLane::new(GymLanes::spawn(config, 1, 1, false)?))
 }

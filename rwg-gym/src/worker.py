@@ -372,7 +372,7 @@ def main():
             mark = mmap.mmap(f.fileno(), 8)
     mark[0] = 255
 
-    # --- the batch loop (the hot path: one message in, one out, per batch step)
+    # --- the exchange loop (the hot path: one message in, one out, per exchange)
     n = lanes
     words = max(1, act_dim)
     ops_len = (n + 7) // 8 * 8

@@ -46,7 +46,7 @@ impl EnvSource {
     /// one `step_many`) where they have one and
     /// [`use_lockstep`](crate::runner::use_lockstep) says so; plugin envs
     /// see [`PluginSource::run_blocks`]; Gymnasium envs run through the
-    /// batched sampler (`rwg_core::batch`); JAX envs through their workers'
+    /// remote sampler (`rwg_core::remote`); JAX envs through their workers'
     /// compiled calls (`rwg_jax`). Called inside the run's worker pool.
     pub fn run_blocks(
         &self,
@@ -57,7 +57,7 @@ impl EnvSource {
         match self {
             EnvSource::Builtin(opts) => run_builtin(opts, plan, blocks, on_block),
             EnvSource::Plugin(p) => p.run_blocks(plan, blocks, on_block),
-            // Batched: one Python worker per thread steps its 16 lanes together.
+            // Remote: one Python worker per thread steps its 16 lanes together.
             EnvSource::Gym(g) => g.run_blocks(plan, blocks, wave(), on_block),
             // Compiled calls of many networks: one worker process per thread on
             // a CPU device, one on a GPU or TPU (rwg_jax::JaxSource::workers_for).
@@ -174,7 +174,7 @@ impl PluginSource {
     }
 
     /// Runs the given blocks of a cell of this plugin env (see
-    /// [`EnvSource::run_blocks`]): isolated, batched through one worker
+    /// [`EnvSource::run_blocks`]): isolated, stepped by exchanges with one worker
     /// process per thread ([`isolate`](crate::isolate)); with ABI 1.2's
     /// vector env or 1.1's batched calls, one call stepping a worker's lanes
     /// ([`plugin_batch`](crate::plugin_batch)); else through the generic

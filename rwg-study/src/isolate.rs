@@ -1,26 +1,26 @@
 //! Isolated plugin environments (`isolate = true` in an `[[envs]]` entry,
 //! `rwg run --isolate`): the env's instances run in worker processes — the
 //! program running the study started again as `PROGRAM __plugin-worker`
-//! ([`IsolateSettings`]) — stepped in batches over the protocol of
+//! ([`IsolateSettings`]) — stepped in exchanges over the protocol of
 //! `docs/bridge-protocol.md` (`rwg-worker`, shared with the Gymnasium
 //! bridge). A plugin that crashes, aborts, calls `exit()` or hangs ends its
 //! worker, not the run: the cell fails with an error naming the plugin,
 //! env, network, episode and step, and every committed block is kept.
 //!
 //! The results are those of the in-process env: the host computes the same
-//! weights, reset seeds and actions (`rwg_core::batch`), and the worker
+//! weights, reset seeds and actions (`rwg_core::remote`), and the worker
 //! makes each instance exactly as the runner does (`PluginEnvType::make`,
 //! with the manifest's config and time limit).
 //!
 //! [`IsolatedPlugin`] is the host's side, [`worker_main`] the worker's.
 
 use crate::env_source::PluginSource;
-use rwg_core::batch::{
-    run_blocks_batched, BatchEnv, BatchFailure, BatchPool, LaneActions, LaneOp, LaneOutcome,
+use rwg_core::remote::{
+    run_blocks_remote, LaneActions, LaneOp, LaneOutcome, RemoteEnv, RemoteFailure, RemotePool,
 };
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError, LANES};
 use rwg_env::{EnvError, EnvSpec, Space};
-use rwg_worker::host::{handshake, Describe, PipeBatch, StartFailure, StartTimeouts};
+use rwg_worker::host::{handshake, Describe, PipeLanes, StartFailure, StartTimeouts};
 use rwg_worker::lane_file::{LaneFile, LaneMark};
 use rwg_worker::protocol::{
     message, read_message, WorkerError, PROTOCOL, TAG_ERROR, TAG_HELLO, TAG_PROGRESS, TAG_READY,
@@ -47,14 +47,14 @@ pub struct IsolateSettings {
     pub program: PathBuf,
     /// Its arguments (by default [`WORKER_SUBCOMMAND`]).
     pub args: Vec<String>,
-    /// How long one batch step (a reset or step of each lane of a group)
+    /// How long one exchange (a reset or step of each lane of a group)
     /// may take before the worker counts as hung and is killed; `None`: no
     /// limit.
     pub timeout: Option<Duration>,
 }
 
 impl Default for IsolateSettings {
-    /// The running program as `PROGRAM __plugin-worker`, 60 s per batch step.
+    /// The running program as `PROGRAM __plugin-worker`, 60 s per exchange.
     fn default() -> Self {
         IsolateSettings {
             program: std::env::current_exe().unwrap_or_else(|_| PathBuf::from("rwg")),
@@ -164,7 +164,7 @@ pub struct IsolatedPlugin {
     prefix: String,
     spec: EnvSpec,
     settings: IsolateSettings,
-    pool: BatchPool<Named>,
+    pool: RemotePool<Named>,
 }
 
 impl std::fmt::Debug for IsolatedPlugin {
@@ -201,7 +201,7 @@ impl IsolatedPlugin {
             prefix: format!("plugin '{}' env '{}'", ty.plugin().id, ty.id()),
             spec,
             settings: settings(),
-            pool: BatchPool::default(),
+            pool: RemotePool::default(),
         };
         let first = iso.spawn()?;
         iso.pool.put(first);
@@ -271,7 +271,7 @@ impl IsolatedPlugin {
             t => return Err(protocol(format!("unexpected tag {t}"))),
         }
         Ok(Named {
-            pipe: PipeBatch::new(
+            pipe: PipeLanes::new(
                 worker,
                 lane_file,
                 self.spec.clone(),
@@ -291,7 +291,7 @@ impl IsolatedPlugin {
             .unwrap_or(Duration::from_secs(10 * 365 * 24 * 3600))
     }
 
-    /// Runs blocks of a cell (see [`run_blocks_batched`]): one worker
+    /// Runs blocks of a cell (see [`run_blocks_remote`]): one worker
     /// process per thread of the current rayon pool, reused across calls.
     pub fn run_blocks<G, X>(
         &self,
@@ -304,7 +304,7 @@ impl IsolatedPlugin {
         G: FnMut(BlockResult) -> Result<(), X>,
         X: From<SampleError> + Send,
     {
-        run_blocks_batched(plan, blocks, wave, &self.pool, || self.spawn(), on_block)
+        run_blocks_remote(plan, blocks, wave, &self.pool, || self.spawn(), on_block)
     }
 
     /// Number of worker processes started and idle.
@@ -313,16 +313,16 @@ impl IsolatedPlugin {
     }
 }
 
-/// A worker's batch, whose whole-batch failures (the process died or hung)
+/// A worker's lanes, whose whole-env failures (the process died or hung)
 /// name the plugin and env (lane failures carry the plugin's own message,
 /// which does).
 pub struct Named {
-    pipe: PipeBatch,
+    pipe: PipeLanes,
     prefix: std::sync::Arc<str>,
 }
 
 impl Named {
-    fn named(&self, mut f: BatchFailure) -> BatchFailure {
+    fn named(&self, mut f: RemoteFailure) -> RemoteFailure {
         if let EnvError::Other(m) = &f.error {
             f.error = EnvError::Other(format!("{}: {m}", self.prefix));
         }
@@ -330,7 +330,7 @@ impl Named {
     }
 }
 
-impl BatchEnv for Named {
+impl RemoteEnv for Named {
     fn spec(&self) -> &EnvSpec {
         self.pipe.spec()
     }
@@ -348,7 +348,7 @@ impl BatchEnv for Named {
         group: usize,
         ops: &[LaneOp],
         actions: LaneActions<'_>,
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         self.pipe
             .send(group, ops, actions)
             .map_err(|f| self.named(f))
@@ -359,7 +359,7 @@ impl BatchEnv for Named {
         group: usize,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         self.pipe.recv(group, obs, out).map_err(|f| self.named(f))
     }
 }

@@ -1,11 +1,11 @@
-//! [`PipeBatch`]: the host's side of a started worker, a
-//! [`BatchEnv`] whose exchanges are the protocol's step and outcome messages.
+//! [`PipeLanes`]: the host's side of a started worker, a
+//! [`RemoteEnv`] whose exchanges are the protocol's step and outcome messages.
 
 use crate::lane_file::LaneFile;
 use crate::process::Worker;
 use crate::protocol::*;
 use crate::ProcError;
-use rwg_core::batch::{BatchEnv, BatchFailure, LaneActions, LaneOp, LaneOutcome};
+use rwg_core::remote::{LaneActions, LaneOp, LaneOutcome, RemoteEnv, RemoteFailure};
 use rwg_env::{EnvError, EnvSpec, Space, Step};
 use std::time::Duration;
 
@@ -72,7 +72,7 @@ pub fn handshake(
 
 /// A started worker hosting `groups × lanes` instances of one environment,
 /// past its handshake.
-pub struct PipeBatch {
+pub struct PipeLanes {
     worker: Worker,
     groups: usize,
     /// The ops last sent to each group (to read its answer).
@@ -89,8 +89,8 @@ pub struct PipeBatch {
     recv: Vec<u8>,
 }
 
-impl PipeBatch {
-    /// The batch over `worker`, which answered the hello (given `lane_file`)
+impl PipeLanes {
+    /// The lanes of `worker`, which answered the hello (given `lane_file`)
     /// for `spec` with `lanes` lanes in each of `groups` groups; each step
     /// may take `timeout`.
     pub fn new(
@@ -101,13 +101,13 @@ impl PipeBatch {
         groups: usize,
         timeout: Duration,
         describe: Describe,
-    ) -> PipeBatch {
+    ) -> PipeLanes {
         let obs_dim = spec.obs_dim();
         let action_dim = match &spec.action_space {
             Space::Discrete { .. } => 0,
             Space::Box(b) => b.dim(),
         };
-        PipeBatch {
+        PipeLanes {
             worker,
             groups,
             sent: vec![vec![LaneOp::Idle; lanes]; groups],
@@ -128,10 +128,10 @@ impl PipeBatch {
         &self.worker
     }
 
-    /// A whole-batch failure, naming the lane the worker was on (if any).
-    fn failure(&self, e: ProcError) -> BatchFailure {
+    /// A whole-env failure, naming the lane the worker was on (if any).
+    fn failure(&self, e: ProcError) -> RemoteFailure {
         let mark = self.lane_file.mark();
-        BatchFailure {
+        RemoteFailure {
             lane: mark
                 .map(usize::from)
                 .filter(|&l| l < self.lanes * self.groups),
@@ -148,8 +148,9 @@ impl PipeBatch {
         payload: &[u8],
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), BatchFailure> {
-        let protocol = |m: String| BatchFailure::from((self.describe.proc)(ProcError::Protocol(m)));
+    ) -> Result<(), RemoteFailure> {
+        let protocol =
+            |m: String| RemoteFailure::from((self.describe.proc)(ProcError::Protocol(m)));
         let n = self.lanes;
         let ops = &self.sent[group];
         if tag == TAG_ERROR {
@@ -231,7 +232,7 @@ impl PipeBatch {
     }
 }
 
-impl BatchEnv for PipeBatch {
+impl RemoteEnv for PipeLanes {
     fn spec(&self) -> &EnvSpec {
         &self.spec
     }
@@ -249,7 +250,7 @@ impl BatchEnv for PipeBatch {
         group: usize,
         ops: &[LaneOp],
         actions: LaneActions<'_>,
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         encode_step(&mut self.send, group, ops, actions, self.action_dim);
         self.sent[group].copy_from_slice(ops);
         self.worker.send(&self.send).map_err(|e| self.failure(e))
@@ -260,7 +261,7 @@ impl BatchEnv for PipeBatch {
         group: usize,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         let base = outcome_len(self.lanes, self.obs_dim);
         // Room for the usual answer, so that one read takes it.
         if self.recv.len() < 5 + base {
@@ -277,7 +278,7 @@ impl BatchEnv for PipeBatch {
     }
 }
 
-impl Drop for PipeBatch {
+impl Drop for PipeLanes {
     fn drop(&mut self) {
         let _ = self.worker.send(&message(TAG_QUIT, &[]));
     }

@@ -13,8 +13,8 @@
 //!
 //! This crate is both sides of the protocol: [`process`] starts a worker and
 //! reads its answers with a deadline (and says how it ended when it dies),
-//! [`host`] is the [`rwg_core::batch::BatchEnv`] over a started worker (what
-//! the batched sampler drives), and [`serve`] is the worker's loop over
+//! [`host`] is the [`rwg_core::remote::RemoteEnv`] over a started worker (what
+//! the remote sampler drives), and [`serve`] is the worker's loop over
 //! instances of any [`rwg_env::Environment`].
 //!
 //! # Example
@@ -24,7 +24,7 @@
 //! rather than a pipe):
 //!
 //! ```
-//! use rwg_core::batch::{LaneActions, LaneOp};
+//! use rwg_core::remote::{LaneActions, LaneOp};
 //! use rwg_worker::protocol::{decode_step, encode_step, read_message, TAG_STEP};
 //!
 //! // Group 0: lane 0 resets with seed 7, lane 1 steps with discrete action 1.
@@ -46,7 +46,7 @@
 //! - [`process`]: spawning a worker, reading its answers with a deadline,
 //!   [`describe_status`] for how it ended.
 //! - [`protocol`]: the binary messages of `docs/bridge-protocol.md`.
-//! - [`host`]: [`PipeBatch`], the `BatchEnv` over a started worker.
+//! - [`host`]: [`PipeLanes`], the `RemoteEnv` over a started worker.
 //! - [`lane_file`]: the shared 8-byte file naming the instance in a call, so a
 //!   worker that dies mid-call is reported with its episode.
 //! - [`serve`]: a Rust worker's loop over instances of any `Environment`.
@@ -63,7 +63,7 @@ pub mod protocol;
 pub mod python;
 pub mod serve;
 
-pub use host::PipeBatch;
+pub use host::PipeLanes;
 pub use process::{describe_status, Worker};
 
 use thiserror::Error;

@@ -1,8 +1,8 @@
 //! The exchange format (docs/bridge-protocol.md): length-prefixed messages,
-//! JSON for the handshake, fixed binary layouts for every batch step.
+//! JSON for the handshake, fixed binary layouts for every exchange.
 
 use crate::ProcError;
-use rwg_core::batch::{LaneActions, LaneOp};
+use rwg_core::remote::{LaneActions, LaneOp};
 use serde::{Deserialize, Serialize};
 
 /// Version of the protocol; the worker refuses another.
@@ -19,9 +19,9 @@ pub const TAG_READY: u8 = b'R';
 pub const TAG_PROGRESS: u8 = b'P';
 /// Worker -> host: a fatal error (JSON: kind, message, traceback); the worker exits.
 pub const TAG_ERROR: u8 = b'E';
-/// Host -> worker: one batch step.
+/// Host -> worker: one exchange.
 pub const TAG_STEP: u8 = b'S';
-/// Worker -> host: the outcome of a batch step.
+/// Worker -> host: the outcome of an exchange.
 pub const TAG_OUTCOME: u8 = b'O';
 /// Host -> worker: quit.
 pub const TAG_QUIT: u8 = b'Q';

@@ -6,7 +6,7 @@
 use crate::lane_file::LaneMark;
 use crate::protocol::*;
 use crate::ProcError;
-use rwg_core::batch::LaneOp;
+use rwg_core::remote::LaneOp;
 use rwg_env::{Action, EnvError, Environment, Space};
 use std::io::{Read, Write};
 
@@ -152,7 +152,7 @@ fn run_lane<E: Environment>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rwg_core::batch::LaneActions;
+    use rwg_core::remote::LaneActions;
     use rwg_envs::EnvOptions;
 
     /// Two groups of 3 CartPoles served from a script of messages give the

@@ -83,12 +83,12 @@ pub struct Args {
     /// Seconds one call into a plugin env (create, reset or step) may take
     /// before rwg reports it as hung and exits (0: no limit). In-process, a
     /// stuck call cannot be stopped, so rwg exits; with isolation it is one
-    /// batch step of a worker (a reset or step of each of 16 instances),
+    /// exchange of a worker (a reset or step of each of 16 instances),
     /// and the worker is killed.
     #[arg(long, value_name = "SECONDS", default_value_t = fault_guard::DEFAULT_STEP_TIMEOUT_S)]
     step_timeout: u64,
     /// Run every plugin env isolated, as `isolate = true` in its `[[envs]]`
-    /// entry does: in worker processes (rwg itself), stepped in batches.
+    /// entry does: in worker processes (rwg itself), stepped in exchanges.
     /// A plugin that crashes, aborts, exits or hangs then ends its worker,
     /// not rwg: the run stops with an error naming the env, network,
     /// episode and step, every committed block kept, and a rerun resumes.

@@ -5,7 +5,7 @@ use crate::test_envs::Toy;
 use rwg_env::Space;
 use rwg_env::{Action, EnvSpec, Environment};
 
-/// [`LANES`] toys behind the [`ManyEnv`] interface, one call per batch.
+/// [`LANES`] toys behind the [`ManyEnv`] interface, one call for all lanes.
 struct Many {
     envs: Vec<Toy>,
     /// Masks seen (to check that idle lanes are never called).

@@ -1,11 +1,11 @@
-//! Batched environments: many instances stepped together in one call, and the
-//! sampler loop that drives them.
+//! Remote environments: many instances in another process, reset or stepped
+//! together in one exchange, and the sampler loop that drives them.
 //!
 //! The built-in and plugin environments are stepped one instance at a time
 //! ([`crate::sampler::LaneWorker`], static dispatch). An environment hosted
 //! elsewhere — a Python process running Gymnasium (the `rwg-gym` crate) —
-//! pays a round trip per call, so it implements [`BatchEnv`] instead: one
-//! call resets or steps every lane of a worker at once. [`run_blocks_batched`]
+//! pays a round trip per call, so it implements [`RemoteEnv`] instead: one
+//! call resets or steps every lane of a worker at once. [`run_blocks_remote`]
 //! is [`crate::sampler::run_blocks`] for such environments, with the same
 //! weights, reset seeds, network arithmetic and episode bookkeeping, so the
 //! results are identical to running the same environment one episode after
@@ -55,9 +55,9 @@ pub struct LaneActions<'a> {
     pub continuous: &'a [f64],
 }
 
-/// A whole batch failed (e.g. the process hosting it died or hung).
+/// The whole remote env failed (e.g. the process hosting it died or hung).
 #[derive(Debug, Clone, PartialEq)]
-pub struct BatchFailure {
+pub struct RemoteFailure {
     /// The lane that was running when it happened, if known, counted across
     /// groups (`group * lanes + lane`).
     pub lane: Option<usize>,
@@ -69,9 +69,9 @@ pub struct BatchFailure {
     pub error: EnvError,
 }
 
-impl From<EnvError> for BatchFailure {
+impl From<EnvError> for RemoteFailure {
     fn from(error: EnvError) -> Self {
-        BatchFailure {
+        RemoteFailure {
             lane: None,
             between_calls: false,
             error,
@@ -82,11 +82,11 @@ impl From<EnvError> for BatchFailure {
 /// Many instances of one environment, reset and stepped together.
 ///
 /// The instances form `groups()` groups of `lanes()` lanes. An exchange with
-/// a group is split in two, [`BatchEnv::send`] and [`BatchEnv::recv`], so
+/// a group is split in two, [`RemoteEnv::send`] and [`RemoteEnv::recv`], so
 /// that one group can be in flight while the caller works on another (a
 /// remote host then never waits for the caller); the groups' answers come
 /// back in the order they were sent.
-pub trait BatchEnv {
+pub trait RemoteEnv {
     /// The environment's description (the same for every lane).
     fn spec(&self) -> &EnvSpec;
 
@@ -104,50 +104,50 @@ pub trait BatchEnv {
         group: usize,
         ops: &[LaneOp],
         actions: LaneActions<'_>,
-    ) -> Result<(), BatchFailure>;
+    ) -> Result<(), RemoteFailure>;
 
     /// Finishes the oldest exchange in flight, which must be `group`'s: lane
     /// `i`'s observation goes into `obs[i * obs_dim..]`, its outcome into
-    /// `out[i]`. An `Err` (from either half) means the whole batch failed
+    /// `out[i]`. An `Err` (from either half) means the whole remote env failed
     /// (e.g. the process hosting it died): no lane's outcome is valid and
-    /// the batch must not be used again; the failure names the lane that was
+    /// the remote env must not be used again; the failure names the lane that was
     /// running, if known.
     fn recv(
         &mut self,
         group: usize,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), BatchFailure>;
+    ) -> Result<(), RemoteFailure>;
 
-    /// [`BatchEnv::send`] then [`BatchEnv::recv`] with group 0.
+    /// [`RemoteEnv::send`] then [`RemoteEnv::recv`] with group 0.
     fn exchange(
         &mut self,
         ops: &[LaneOp],
         actions: LaneActions<'_>,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         self.send(0, ops, actions)?;
         self.recv(0, obs, out)
     }
 }
 
-/// A set of idle batch environments, shared by the worker threads: a worker
+/// A set of idle remote environments, shared by the worker threads: a worker
 /// takes one (or makes a new one) and gives it back when done, so a costly
 /// instance (a process) is reused across blocks and cells.
-pub struct BatchPool<B> {
+pub struct RemotePool<B> {
     idle: Mutex<Vec<B>>,
 }
 
-impl<B> Default for BatchPool<B> {
+impl<B> Default for RemotePool<B> {
     fn default() -> Self {
-        BatchPool {
+        RemotePool {
             idle: Mutex::new(Vec::new()),
         }
     }
 }
 
-impl<B> BatchPool<B> {
+impl<B> RemotePool<B> {
     /// Gives `b` back for reuse.
     pub fn put(&self, b: B) {
         self.idle.lock().unwrap_or_else(|p| p.into_inner()).push(b);
@@ -169,7 +169,7 @@ impl<B> BatchPool<B> {
     }
 }
 
-/// What one lane of a [`BatchLaneWorker`] is doing.
+/// What one lane of a [`RemoteLaneWorker`] is doing.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum LaneState {
     Free,
@@ -188,7 +188,7 @@ impl Status for LaneState {
 
 type Lane = crate::deal::Lane<LaneState>;
 
-/// One group of [`LANES`] lanes of a [`BatchLaneWorker`], with its networks.
+/// One group of [`LANES`] lanes of a [`RemoteLaneWorker`], with its networks.
 struct Group {
     policy: PolicyLanes<LANES>,
     obs: Vec<f64>,
@@ -200,12 +200,12 @@ struct Group {
     in_flight: bool,
 }
 
-/// [`crate::sampler::LaneWorker`] for a [`BatchEnv`]: [`LANES`] episodes side
-/// by side in each of the env's groups, one exchange per group and batch
-/// step. A lane whose episode ends is reset in its group's next exchange
+/// [`crate::sampler::LaneWorker`] for a [`RemoteEnv`]: [`LANES`] episodes side
+/// by side in each of the env's groups, one exchange per group and
+/// step of the env. A lane whose episode ends is reset in its group's next exchange
 /// (while the other lanes step), so every exchange is a single round trip;
 /// with several groups, one is in flight while the worker handles another.
-pub struct BatchLaneWorker<B> {
+pub struct RemoteLaneWorker<B> {
     env: B,
     groups: Vec<Group>,
     action_dim: usize,
@@ -213,14 +213,18 @@ pub struct BatchLaneWorker<B> {
     n_weights: usize,
     /// Set when the environment failed: it must not be reused.
     poisoned: bool,
-    /// Set when the whole batch failed: nothing more can be sent.
+    /// Set when the whole remote env failed: nothing more can be sent.
     dead: bool,
 }
 
-impl<B: BatchEnv> BatchLaneWorker<B> {
+impl<B: RemoteEnv> RemoteLaneWorker<B> {
     /// A worker for `plan` on `env`, whose groups must have [`LANES`] lanes.
     pub fn new(env: B, plan: &CellPlan) -> Self {
-        assert_eq!(env.lanes(), LANES, "a batch env of {LANES} lanes per group");
+        assert_eq!(
+            env.lanes(),
+            LANES,
+            "a remote env of {LANES} lanes per group"
+        );
         let spec = env.spec();
         let n_out = NetShape::outputs_for(&spec.action_space);
         let shape = NetShape::new(spec.obs_dim(), &plan.arch, n_out);
@@ -241,7 +245,7 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
                 in_flight: false,
             })
             .collect();
-        BatchLaneWorker {
+        RemoteLaneWorker {
             n_weights: shape.n_weights(),
             env,
             groups,
@@ -285,7 +289,7 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
                 self.groups[g].in_flight = false;
                 let group = &mut self.groups[g];
                 if let Err(f) = self.env.recv(g, &mut group.obs, &mut group.out) {
-                    self.whole_batch_failed(f, &mut deal);
+                    self.whole_env_failed(f, &mut deal);
                     break;
                 }
                 self.absorb(g, &mut deal, out);
@@ -337,14 +341,14 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
         };
         match self.env.send(g, &group.ops, actions) {
             Ok(()) => group.in_flight = true,
-            Err(f) => self.whole_batch_failed(f, deal),
+            Err(f) => self.whole_env_failed(f, deal),
         }
     }
 
-    /// The whole batch failed: the lane it names failed (or, if unknown,
+    /// The whole remote env failed: the lane it names failed (or, if unknown,
     /// every busy lane of every group; between calls, the earliest busy
     /// episode with a message saying that none caused it).
-    fn whole_batch_failed(&mut self, f: BatchFailure, deal: &mut Deal<'_>) {
+    fn whole_env_failed(&mut self, f: RemoteFailure, deal: &mut Deal<'_>) {
         self.poisoned = true;
         self.dead = true;
         if f.lane.is_none() && f.between_calls {
@@ -364,7 +368,7 @@ impl<B: BatchEnv> BatchLaneWorker<B> {
         }
     }
 
-    /// A whole-batch failure that no reset or step caused: recorded at the
+    /// A whole-env failure that no reset or step caused: recorded at the
     /// earliest busy episode (after its last step), whose message says so
     /// and names the episodes in progress.
     fn failed_between_calls(&mut self, error: EnvError, deal: &mut Deal<'_>) {
@@ -432,36 +436,36 @@ fn start_next(deal: &mut Deal<'_>, policy: &mut PolicyLanes<LANES>, i: usize, la
     }
 }
 
-/// A worker on loan from a [`BatchPool`], given back when dropped (unless its
+/// A worker on loan from a [`RemotePool`], given back when dropped (unless its
 /// environment failed).
-struct Lease<'p, B: BatchEnv> {
-    pool: &'p BatchPool<B>,
-    worker: Option<BatchLaneWorker<B>>,
+struct Lease<'p, B: RemoteEnv> {
+    pool: &'p RemotePool<B>,
+    worker: Option<RemoteLaneWorker<B>>,
 }
 
-impl<B: BatchEnv> Drop for Lease<'_, B> {
+impl<B: RemoteEnv> Drop for Lease<'_, B> {
     fn drop(&mut self) {
-        if let Some(env) = self.worker.take().and_then(BatchLaneWorker::into_env) {
+        if let Some(env) = self.worker.take().and_then(RemoteLaneWorker::into_env) {
             self.pool.put(env);
         }
     }
 }
 
-/// [`crate::sampler::run_blocks`] for a batched environment: the blocks run
-/// in parallel on the current rayon pool, each worker thread on a batch env
+/// [`crate::sampler::run_blocks`] for a remote environment: the blocks run
+/// in parallel on the current rayon pool, each worker thread on a remote env
 /// taken from `pool` (or made by `make` when none is idle) and given back
-/// afterwards, so at most one batch env per thread exists. Results, their
+/// afterwards, so at most one remote env per thread exists. Results, their
 /// order and the first error are those of `run_blocks`.
-pub fn run_blocks_batched<B, F, G, X>(
+pub fn run_blocks_remote<B, F, G, X>(
     plan: &CellPlan,
     blocks: &[Range<u64>],
     wave: usize,
-    pool: &BatchPool<B>,
+    pool: &RemotePool<B>,
     make: F,
     mut on_block: G,
 ) -> Result<(), X>
 where
-    B: BatchEnv + Send,
+    B: RemoteEnv + Send,
     F: Fn() -> Result<B, EnvError> + Sync,
     G: FnMut(BlockResult) -> Result<(), X>,
     X: From<SampleError> + Send,
@@ -478,7 +482,7 @@ where
                     };
                     Ok(Lease {
                         pool,
-                        worker: Some(BatchLaneWorker::new(env, plan)),
+                        worker: Some(RemoteLaneWorker::new(env, plan)),
                     })
                 },
                 |lease, range| {

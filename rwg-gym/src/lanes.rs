@@ -1,13 +1,13 @@
-//! One worker process hosting lanes of a Gymnasium env ([`GymBatch`]):
-//! starting it, its handshake, and the batched host over it.
+//! One worker process hosting lanes of a Gymnasium env ([`GymLanes`]):
+//! starting it, its handshake, and the host side of the exchanges over it.
 
 use crate::error::DESCRIBE;
 use crate::info::{info_differences, parse_ready, GymInfo, Ready};
 use crate::protocol::{WorkerError, PROTOCOL, TAG_ERROR, TAG_READY};
 use crate::{GymConfig, GymError, BOOT_PY, CHECK_SEED, HASH_SEED_VAR, MAX_OBS, MODULES, WORKER_PY};
-use rwg_core::batch::{BatchEnv, BatchFailure, LaneActions, LaneOp, LaneOutcome};
+use rwg_core::remote::{LaneActions, LaneOp, LaneOutcome, RemoteEnv, RemoteFailure};
 use rwg_env::EnvSpec;
-use rwg_worker::host::{handshake, PipeBatch, StartFailure, StartTimeouts};
+use rwg_worker::host::{handshake, PipeLanes, StartFailure, StartTimeouts};
 use rwg_worker::lane_file::LaneFile;
 use rwg_worker::python::{loader_args, LOAD_PY};
 use rwg_worker::{ProcError, Worker};
@@ -39,12 +39,12 @@ fn start(
 }
 
 /// A worker process hosting `lanes` instances of one Gymnasium env.
-pub struct GymBatch {
-    pub(crate) pipe: PipeBatch,
+pub struct GymLanes {
+    pub(crate) pipe: PipeLanes,
     info: GymInfo,
 }
 
-impl GymBatch {
+impl GymLanes {
     /// Starts a worker with `lanes` instances; with `check_reset`, it also
     /// checks that two `reset(seed=s)` give the same observation.
     pub fn spawn(
@@ -52,7 +52,7 @@ impl GymBatch {
         lanes: usize,
         groups: usize,
         check_reset: bool,
-    ) -> Result<GymBatch, GymError> {
+    ) -> Result<GymLanes, GymError> {
         let mut command = std::process::Command::new(&cfg.python);
         command.arg("-c").arg(BOOT_PY).arg(LOAD_PY);
         loader_args(&mut command, WORKER_PY, &MODULES);
@@ -92,7 +92,7 @@ impl GymBatch {
             t => return Err(GymError::Protocol(format!("unexpected tag {t}"))),
         };
         let info = parse_ready(cfg, ready)?;
-        let pipe = PipeBatch::new(
+        let pipe = PipeLanes::new(
             worker,
             lane_file,
             info.spec.clone(),
@@ -101,7 +101,7 @@ impl GymBatch {
             cfg.timeout,
             DESCRIBE,
         );
-        Ok(GymBatch { pipe, info })
+        Ok(GymLanes { pipe, info })
     }
 
     /// The environment as the worker described it.
@@ -111,7 +111,7 @@ impl GymBatch {
 
     /// This worker, if it describes the env as `first` does; else an error
     /// naming what differs.
-    pub(crate) fn same_as(self, first: &GymInfo) -> Result<GymBatch, GymError> {
+    pub(crate) fn same_as(self, first: &GymInfo) -> Result<GymLanes, GymError> {
         let differences = info_differences(first, &self.info);
         if differences.is_empty() {
             Ok(self)
@@ -124,7 +124,7 @@ impl GymBatch {
     }
 }
 
-impl BatchEnv for GymBatch {
+impl RemoteEnv for GymLanes {
     fn spec(&self) -> &EnvSpec {
         &self.info.spec
     }
@@ -142,7 +142,7 @@ impl BatchEnv for GymBatch {
         group: usize,
         ops: &[LaneOp],
         actions: LaneActions<'_>,
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         self.pipe.send(group, ops, actions)
     }
 
@@ -151,7 +151,7 @@ impl BatchEnv for GymBatch {
         group: usize,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         self.pipe.recv(group, obs, out)
     }
 }

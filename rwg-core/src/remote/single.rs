@@ -1,13 +1,13 @@
-//! One instance of a batch environment as a plain [`rwg_env::Environment`]
+//! One instance of a remote environment as a plain [`rwg_env::Environment`]
 //! ([`SingleLane`]), for what steps one episode at a time outside the
 //! sampler: rollouts, checks, replays.
 
-use super::{BatchEnv, LaneActions, LaneOp, LaneOutcome};
+use super::{LaneActions, LaneOp, LaneOutcome, RemoteEnv};
 use rwg_env::{Action, EnvError, EnvSpec, Step};
 
-/// Runs one instance of a batch environment as a plain [`rwg_env::Environment`]
+/// Runs one instance of a remote environment as a plain [`rwg_env::Environment`]
 /// (lane 0 only): for rollouts, checks and replays outside the sampler.
-pub struct SingleLane<B: BatchEnv> {
+pub struct SingleLane<B: RemoteEnv> {
     env: B,
     ops: Vec<LaneOp>,
     out: Vec<LaneOutcome>,
@@ -17,7 +17,7 @@ pub struct SingleLane<B: BatchEnv> {
     dead: Option<EnvError>,
 }
 
-impl<B: BatchEnv> SingleLane<B> {
+impl<B: RemoteEnv> SingleLane<B> {
     /// Wraps `env` (any number of lanes; lane 0 is used).
     pub fn new(env: B) -> Self {
         let n = env.lanes();
@@ -39,7 +39,7 @@ impl<B: BatchEnv> SingleLane<B> {
         }
     }
 
-    /// The batch environment.
+    /// The remote environment.
     pub fn inner(&self) -> &B {
         &self.env
     }
@@ -66,7 +66,7 @@ impl<B: BatchEnv> SingleLane<B> {
     }
 }
 
-impl<B: BatchEnv> rwg_env::Environment for SingleLane<B> {
+impl<B: RemoteEnv> rwg_env::Environment for SingleLane<B> {
     fn spec(&self) -> &EnvSpec {
         self.env.spec()
     }

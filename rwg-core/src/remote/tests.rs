@@ -7,7 +7,7 @@ use rwg_env::Environment;
 /// An exchange in flight: group, ops, discrete and continuous actions.
 type Sent = (usize, Vec<LaneOp>, Vec<i64>, Vec<f64>);
 
-/// `groups` × `LANES` plain envs behind the batch interface, as a bridge
+/// `groups` × `LANES` plain envs behind the remote interface, as a bridge
 /// would host them; exchanges are answered in the order sent.
 struct Hosted {
     envs: Vec<Toy>,
@@ -25,7 +25,7 @@ impl Hosted {
     }
 }
 
-impl BatchEnv for Hosted {
+impl RemoteEnv for Hosted {
     fn spec(&self) -> &EnvSpec {
         self.envs[0].spec()
     }
@@ -40,7 +40,7 @@ impl BatchEnv for Hosted {
         group: usize,
         ops: &[LaneOp],
         actions: LaneActions<'_>,
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         self.queue.push_back((
             group,
             ops.to_vec(),
@@ -54,7 +54,7 @@ impl BatchEnv for Hosted {
         group: usize,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         let (g, ops, discrete, continuous) = self.queue.pop_front().expect("in flight");
         assert_eq!(g, group, "answers come back in the order sent");
         for i in 0..LANES {
@@ -84,7 +84,7 @@ impl BatchEnv for Hosted {
 }
 
 #[test]
-fn batched_lanes_give_the_lane_workers_results_and_first_error() {
+fn remote_lanes_give_the_lane_workers_results_and_first_error() {
     let (mut oks, mut errs) = (0, 0);
     for continuous in [false, true] {
         for episodes in [1, 3] {
@@ -111,7 +111,7 @@ fn batched_lanes_give_the_lane_workers_results_and_first_error() {
                     let r_want = lw.run_block(&plan, samples.clone(), &mut want);
                     for groups in [1, 2, 3] {
                         let hosted = Hosted::new(Toy::new(fail_every, continuous), groups);
-                        let mut bw = BatchLaneWorker::new(hosted, &plan);
+                        let mut bw = RemoteLaneWorker::new(hosted, &plan);
                         let mut got = vec![blank; n];
                         let r_got = bw.run_block(&plan, samples.clone(), &mut got);
                         assert_eq!(
@@ -150,7 +150,7 @@ fn pool_reuses_and_drops_failed_envs() {
         episodes: 2,
         dist: WeightDist::Normal { std: 1.0 },
     };
-    let pool = BatchPool::default();
+    let pool = RemotePool::default();
     let made = std::sync::atomic::AtomicUsize::new(0);
     let make = || {
         made.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
@@ -164,7 +164,7 @@ fn pool_reuses_and_drops_failed_envs() {
         .build()
         .unwrap()
         .install(|| {
-            run_blocks_batched(&plan, &blocks, 2, pool_ref, make, |b| {
+            run_blocks_remote(&plan, &blocks, 2, pool_ref, make, |b| {
                 n += b.episodes.len();
                 Ok::<(), SampleError>(())
             })
@@ -175,7 +175,7 @@ fn pool_reuses_and_drops_failed_envs() {
     assert_eq!(made.load(std::sync::atomic::Ordering::SeqCst), 1);
 }
 
-/// [`Hosted`] whose `dies_at`-th answer is a whole-batch failure between
+/// [`Hosted`] whose `dies_at`-th answer is a whole-env failure between
 /// calls (its process killed while it waited).
 struct DiesBetweenCalls {
     hosted: Hosted,
@@ -183,7 +183,7 @@ struct DiesBetweenCalls {
     dies_at: usize,
 }
 
-impl BatchEnv for DiesBetweenCalls {
+impl RemoteEnv for DiesBetweenCalls {
     fn spec(&self) -> &EnvSpec {
         self.hosted.spec()
     }
@@ -198,7 +198,7 @@ impl BatchEnv for DiesBetweenCalls {
         group: usize,
         ops: &[LaneOp],
         actions: LaneActions<'_>,
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         self.hosted.send(group, ops, actions)
     }
     fn recv(
@@ -206,10 +206,10 @@ impl BatchEnv for DiesBetweenCalls {
         group: usize,
         obs: &mut [f64],
         out: &mut [LaneOutcome],
-    ) -> Result<(), BatchFailure> {
+    ) -> Result<(), RemoteFailure> {
         self.answers += 1;
         if self.answers == self.dies_at {
-            return Err(BatchFailure {
+            return Err(RemoteFailure {
                 lane: None,
                 between_calls: true,
                 error: EnvError::Other("the worker was killed by signal 9".into()),
@@ -239,7 +239,7 @@ fn a_failure_between_calls_blames_no_episode() {
         answers: 0,
         dies_at: 3,
     };
-    let mut bw = BatchLaneWorker::new(env, &plan);
+    let mut bw = RemoteLaneWorker::new(env, &plan);
     let mut out = vec![
         EpisodeResult {
             score: f64::NAN,
@@ -264,5 +264,5 @@ fn a_failure_between_calls_blames_no_episode() {
         "{text}"
     );
     assert!(text.contains("12 more"), "{text}");
-    assert!(bw.into_env().is_none(), "a dead batch is not reused");
+    assert!(bw.into_env().is_none(), "a dead remote env is not reused");
 }
