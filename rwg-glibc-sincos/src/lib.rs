@@ -22,6 +22,27 @@
 //! points here are `unsafe`: calling them is sound only on a CPU with their
 //! instruction sets. On other architectures the crate is empty.
 //!
+//! # Example
+//!
+//! Four arguments at once, the last beyond the vector range (handed to the
+//! libm function passed in); every result has the bits of the process's own
+//! libm `sin`, which Rust's `f64::sin` calls:
+//!
+//! ```
+//! # #[cfg(target_arch = "x86_64")]
+//! # {
+//! if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+//!     let x = [0.5, -1.25, 3.0, 1e300];
+//!     let mut out = [0.0; 4];
+//!     // SAFETY: the CPU has AVX2 and FMA (checked just above).
+//!     unsafe { rwg_glibc_sincos::sin_lanes(&x, &mut out, f64::sin) };
+//!     for (x, s) in x.iter().zip(out) {
+//!         assert_eq!(s.to_bits(), x.sin().to_bits());
+//!     }
+//! }
+//! # }
+//! ```
+//!
 //! # Origin and licence
 //!
 //! This crate is a translation into Rust (AVX2+FMA intrinsics over four
