@@ -48,6 +48,17 @@ OLD_STEP = ("step() must return (observation, reward, terminated, truncated, inf
             "GymV21CompatibilityV0)")
 
 
+def step_refusal(res, e):
+    """Why rwg refuses step()'s result `res`, where unpacking or reading it
+    raised `e` (in the caller's frame, not in the env)."""
+    if type(res) is not tuple or len(res) != 5:
+        n = f"{len(res)} values" if type(res) is tuple else describe(res)
+        return f"step() returned {n}; {OLD_STEP}"
+    return (f"rwg cannot read what step() returned ({type(e).__name__}: {e}): terminated "
+            f"and truncated must be booleans (they are {res[2]!r} and {res[3]!r}), the "
+            f"reward a real number")
+
+
 def old_api(e):
     """The message for `e`, raised where Gymnasium's own wrappers (those of
     gym.make) unpack what the env's reset() or step() returned, when the env

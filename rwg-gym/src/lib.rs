@@ -72,11 +72,18 @@ pub const WORKER_PY: &str = include_str!("worker.py");
 /// in their spaces, the old Gym API), a module of [`WORKER_PY`]'s.
 pub const ENV_VALUES_PY: &str = include_str!("env_values.py");
 
+/// A Gymnasium env's spaces as rwg takes them (the flat observation space,
+/// a Discrete or bounded Box action space, each observation flattened or
+/// refused), a module of [`WORKER_PY`]'s that imports [`ENV_VALUES_PY`].
+pub const ENV_SPACES_PY: &str = include_str!("env_spaces.py");
+
 /// The modules [`WORKER_PY`] imports from rwg (name, source), in the
-/// order they are loaded: the pipe to rwg first.
-pub const MODULES: [(&str, &str); 2] = [
+/// order they are loaded: the pipe to rwg first, each module after those it
+/// imports.
+pub const MODULES: [(&str, &str); 3] = [
     (rwg_worker::python::PIPE_MODULE, rwg_worker::python::PIPE_PY),
     ("rwg_env_values", ENV_VALUES_PY),
+    ("rwg_env_spaces", ENV_SPACES_PY),
 ];
 
 /// What `python -c` runs, with the loader, [`WORKER_PY`] and [`MODULES`]
@@ -130,4 +137,40 @@ const CHECK_SEED: u64 = 20_200_509;
 /// built-in `CartPole-v1` meets.
 pub fn gym_id(id: &str) -> Option<&str> {
     id.strip_prefix(PREFIX)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The rwg modules a shipped Python text imports (`from rwg_x import`,
+    /// `import rwg_x`), in the order it names them.
+    fn rwg_imports(source: &str) -> Vec<&str> {
+        source
+            .lines()
+            .filter_map(|line| {
+                let rest = line
+                    .strip_prefix("from ")
+                    .or_else(|| line.strip_prefix("import "))?;
+                let name = rest.split([' ', ',', '.']).next()?;
+                name.starts_with("rwg_").then_some(name)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn each_shipped_module_is_loaded_after_the_modules_it_imports() {
+        let names: Vec<&str> = MODULES.iter().map(|(name, _)| *name).collect();
+        for (k, (name, source)) in MODULES.iter().enumerate() {
+            for import in rwg_imports(source) {
+                assert!(
+                    names[..k].contains(&import),
+                    "{name} imports {import}, which MODULES does not load before it: {names:?}"
+                );
+            }
+        }
+        let worker = rwg_imports(WORKER_PY);
+        assert_eq!(worker, ["rwg_pipe", "rwg_env_values", "rwg_env_spaces"]);
+        assert!(worker.iter().all(|import| names.contains(import)));
+    }
 }
