@@ -142,35 +142,12 @@ pub fn gym_id(id: &str) -> Option<&str> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The rwg modules a shipped Python text imports (`from rwg_x import`,
-    /// `import rwg_x`), in the order it names them.
-    fn rwg_imports(source: &str) -> Vec<&str> {
-        source
-            .lines()
-            .filter_map(|line| {
-                let rest = line
-                    .strip_prefix("from ")
-                    .or_else(|| line.strip_prefix("import "))?;
-                let name = rest.split([' ', ',', '.']).next()?;
-                name.starts_with("rwg_").then_some(name)
-            })
-            .collect()
-    }
+    use rwg_worker::python::{check_load_order, rwg_imports};
 
     #[test]
     fn each_shipped_module_is_loaded_after_the_modules_it_imports() {
-        let names: Vec<&str> = MODULES.iter().map(|(name, _)| *name).collect();
-        for (k, (name, source)) in MODULES.iter().enumerate() {
-            for import in rwg_imports(source) {
-                assert!(
-                    names[..k].contains(&import),
-                    "{name} imports {import}, which MODULES does not load before it: {names:?}"
-                );
-            }
-        }
+        check_load_order(WORKER_PY, &MODULES).unwrap();
         let worker = rwg_imports(WORKER_PY);
         assert_eq!(worker, ["rwg_pipe", "rwg_env_values", "rwg_env_spaces"]);
-        assert!(worker.iter().all(|import| names.contains(import)));
     }
 }

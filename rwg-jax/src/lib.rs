@@ -38,6 +38,7 @@
 //! # Modules
 //!
 //! - [`protocol`]: the messages (hello, cell, chunk, ready, outcome).
+//! - The worker's Python: [`WORKER_PY`] and its [`MODULES`].
 //! - `worker`: one worker process, its handshake, compiles and chunks.
 //! - [`chunks`]: blocks cut into chunks, outcomes put back into blocks in order.
 //! - `run`: the chunks handed to the workers, one in flight each.
@@ -58,8 +59,35 @@ use std::time::Duration;
 use thiserror::Error;
 
 /// The worker program, run with `python -c` through rwg-worker's loader
-/// ([`rwg_worker::python::LOAD_PY`]), with the pipe module importable.
+/// ([`rwg_worker::python::LOAD_PY`]), with [`MODULES`] importable: the
+/// protocol's side of the worker (start-up, device, serving messages).
 pub const WORKER_PY: &str = include_str!("jax_worker.py");
+
+/// The fault bits of an episode, failures reported through the pipe, the
+/// versions of installed distributions: a module every other one imports.
+pub const COMMON_PY: &str = include_str!("jax_common.py");
+
+/// The env sources (gymnax, Brax, `jax:module:callable`), each adapted to
+/// the interface the episode loop drives.
+pub const ENVS_PY: &str = include_str!("jax_envs.py");
+
+/// The env's spaces as rwg takes them, and rwg's policy in JAX.
+pub const POLICY_PY: &str = include_str!("jax_policy.py");
+
+/// The compiled program of a cell: the episode loop, vmapped over episodes
+/// and networks, and a chunk of networks run through it.
+pub const EPISODE_PY: &str = include_str!("jax_episode.py");
+
+/// The modules [`WORKER_PY`] imports from rwg (name, source), in the order
+/// they are loaded: the pipe to rwg first, each module after those it
+/// imports.
+pub const MODULES: [(&str, &str); 5] = [
+    (rwg_worker::python::PIPE_MODULE, rwg_worker::python::PIPE_PY),
+    ("rwg_jax_worker_common", COMMON_PY),
+    ("rwg_jax_worker_envs", ENVS_PY),
+    ("rwg_jax_worker_policy", POLICY_PY),
+    ("rwg_jax_worker_episode", EPISODE_PY),
+];
 
 /// The prefixes of JAX env ids, in [`JaxKind`] order.
 pub const PREFIXES: [&str; 3] = ["gymnax:", "brax:", "jax:"];
@@ -432,6 +460,11 @@ impl JaxSource {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn each_shipped_module_is_loaded_after_the_modules_it_imports() {
+        rwg_worker::python::check_load_order(WORKER_PY, &MODULES).unwrap();
+    }
 
     #[test]
     fn jax_ids_name_their_kind_and_seed_id() {

@@ -3,9 +3,9 @@
 //! deadlines), past its handshake; compiles cells and runs chunks.
 
 use crate::protocol::*;
-use crate::{JaxConfig, JaxError, JaxInfo, MAX_OBS, WORKER_PY};
+use crate::{JaxConfig, JaxError, JaxInfo, MAX_OBS, MODULES, WORKER_PY};
 use rwg_worker::host::{handshake, StartFailure, StartTimeouts};
-use rwg_worker::python::{loader_args, LOAD_PY, PIPE_MODULE, PIPE_PY};
+use rwg_worker::python::{loader_args, LOAD_PY};
 use rwg_worker::{ProcError, Worker};
 use std::time::Duration;
 
@@ -24,7 +24,7 @@ impl JaxWorker {
     pub fn spawn(cfg: &JaxConfig) -> Result<(JaxWorker, JaxInfo), JaxError> {
         let mut command = std::process::Command::new(&cfg.python);
         command.arg("-c").arg(LOAD_PY);
-        loader_args(&mut command, WORKER_PY, &[(PIPE_MODULE, PIPE_PY)]);
+        loader_args(&mut command, WORKER_PY, &MODULES);
         #[cfg(unix)]
         let dump = Some(libc::SIGUSR1);
         #[cfg(not(unix))]

@@ -1,0 +1,162 @@
+"""The environment sources of rwg's JAX worker: each makes an env from its
+library (gymnax, Brax, a user's `jax:module:callable`) and adapts it to the one
+interface the episode loop drives (`Adapted`). `MAKERS` maps the protocol's
+source name to its maker."""
+
+from rwg_pipe import fail
+from rwg_jax_worker_common import fail_exc, version_of
+
+import sys
+import traceback
+
+
+class Adapted:
+    """An env as the episode loop drives it: reset(key) -> (obs, state),
+    step(key, state, action) -> (obs, state, reward, done); its spaces and
+    time limit; `versions` of what made it."""
+
+    def __init__(self, reset, step, obs_space, act_space, max_steps, versions):
+        self.reset, self.step = reset, step
+        self.obs_space, self.act_space = obs_space, act_space
+        self.max_steps, self.versions = max_steps, versions
+
+
+def gymnax_step(env, params):
+    """gymnax's raw step (no auto-reset) where the env has one."""
+    raw = getattr(env, "step_env", None) or env.step
+
+    def step(key, state, action):
+        out = raw(key, state, action, params)
+        if len(out) == 6:  # (obs, state, reward, terminated, truncated, info)
+            return out[0], out[1], out[2], out[3] | out[4]
+        return out[0], out[1], out[2], out[3]
+
+    return step
+
+
+def replace_params(params, kwargs, where):
+    """`params.replace(**kwargs)`, refusing fields params does not have."""
+    import dataclasses
+
+    if not kwargs:
+        return params
+    try:
+        fields = [f.name for f in dataclasses.fields(params)]
+    except TypeError:
+        fields = None
+    if fields is not None:
+        unknown = sorted(k for k in kwargs if k not in fields)
+        if unknown:
+            fail("make", f"{where} has no field {', '.join(unknown)}; its fields are: "
+                         f"{', '.join(fields)}")
+    try:
+        return params.replace(**kwargs)
+    except BaseException as e:  # noqa: BLE001
+        fail_exc("make", f"{where}.replace(**{kwargs!r})", e)
+
+
+def limit_of(params, max_steps, what):
+    if max_steps is not None:
+        return int(max_steps)
+    t = getattr(params, "max_steps_in_episode", None)
+    if t is None:
+        fail("make", f"{what} has no params.max_steps_in_episode: give max_episode_steps in the "
+                     f"manifest's [[envs]] entry")
+    return int(t)
+
+
+def make_gymnax(name, kwargs, max_steps):
+    try:
+        import gymnax
+    except ImportError as e:
+        fail("import", f"gymnax is not installed for {sys.executable} ({e}); install it with "
+                       f"`{sys.executable} -m pip install gymnax`", traceback.format_exc())
+    known = list(gymnax.registered_envs)
+    if name not in known:
+        fail("unknown-env", f"gymnax has no environment {name!r}; its environments are: "
+                            f"{', '.join(known)}")
+    try:
+        env, params = gymnax.make(name)
+    except BaseException as e:  # noqa: BLE001
+        fail_exc("make", f"gymnax.make({name!r})", e)
+    params = replace_params(params, kwargs, f"gymnax {name}'s env params")
+    if max_steps is not None and hasattr(params, "max_steps_in_episode"):
+        params = params.replace(max_steps_in_episode=int(max_steps))
+    return Adapted(lambda k: env.reset(k, params), gymnax_step(env, params),
+                   env.observation_space(params), env.action_space(params),
+                   limit_of(params, max_steps, f"gymnax {name}"),
+                   {"gymnax": version_of("gymnax")})
+
+
+class BraxBox:
+    """A brax env's observation or action space, in gymnax's Box terms."""
+
+    def __init__(self, bound, size):
+        import numpy as np
+
+        self.low = np.full((size,), -bound)
+        self.high = np.full((size,), bound)
+        self.shape = (size,)
+
+    def __repr__(self):
+        return f"Box({self.low[0]}, {self.high[0]}, {self.shape})"
+
+
+def make_brax(name, kwargs, max_steps):
+    try:
+        import brax.envs
+    except ImportError as e:
+        fail("import", f"brax is not installed for {sys.executable} ({e}); install it with "
+                       f"`{sys.executable} -m pip install brax`", traceback.format_exc())
+    known = sorted(getattr(brax.envs, "_envs", {}))
+    if known and name not in known:
+        fail("unknown-env", f"brax has no environment {name!r}; its environments are: "
+                            f"{', '.join(known)}")
+    try:
+        env = brax.envs.get_environment(name, **kwargs)
+    except BaseException as e:  # noqa: BLE001
+        fail_exc("make", f"brax.envs.get_environment({name!r}, **{kwargs!r})", e)
+
+    def reset(key):
+        s = env.reset(key)
+        return s.obs, s
+
+    def step(key, state, action):
+        s = env.step(state, action)
+        return s.obs, s, s.reward, s.done > 0.5
+
+    return Adapted(reset, step, BraxBox(float("inf"), int(env.observation_size)),
+                   BraxBox(1.0, int(env.action_size)),
+                   int(max_steps) if max_steps is not None else 1000,
+                   {"brax": version_of("brax")})
+
+
+def make_custom(target, kwargs, max_steps):
+    import importlib
+
+    module, _, attr = target.partition(":")
+    if not module or not attr:
+        fail("make", f"jax:{target} is not jax:module:callable (e.g. jax:my_pkg.envs:make_env)")
+    try:
+        mod = importlib.import_module(module)
+    except ImportError as e:
+        fail("import", f"cannot import module {module!r} ({type(e).__name__}: {e}); install the "
+                       f"package that provides it (`{sys.executable} -m pip install ...`) or put "
+                       f"its folder on PYTHONPATH", traceback.format_exc())
+    except BaseException as e:  # noqa: BLE001
+        fail_exc("import", f"import {module}", e)
+    fn = getattr(mod, attr, None)
+    if not callable(fn):
+        fail("make", f"module {module} has no callable {attr!r}")
+    try:
+        env, params = fn(**kwargs)
+    except BaseException as e:  # noqa: BLE001
+        fail_exc("make", f"{target}(**{kwargs!r})", e)
+    return Adapted(lambda k: env.reset(k, params), gymnax_step(env, params),
+                   env.observation_space(params), env.action_space(params),
+                   limit_of(params, max_steps, f"jax:{target}"),
+                   {"module": version_of(module.split(".")[0])})
+
+
+# The hello message's `source` -> make(name, kwargs, max_steps) -> Adapted.
+MAKERS = {"gymnax": make_gymnax, "brax": make_brax, "jax": make_custom}

@@ -1,0 +1,69 @@
+"""rwg's policy in JAX: the env's spaces checked and described for rwg (the
+ready message's fields), and the network x = tanh(W @ [x, 1]) per layer with
+its action map (argmax, or the box's bounds)."""
+
+from rwg_pipe import fail, floats
+
+
+def refuse_composite(space, what):
+    if hasattr(space, "spaces") or type(space).__name__ in ("Dict", "Tuple"):
+        fail("space", f"{what} space {space!r} is a {type(space).__name__} space: rwg takes "
+                      f"Discrete and Box spaces (or objects with .n or .low/.high/.shape); "
+                      f"give the env a flat one")
+
+
+def describe_spaces(env, max_obs):
+    """The R message's space fields, and (discrete n, box low, box high,
+    action shape) for the policy."""
+    import numpy as np
+
+    obs, act = env.obs_space, env.act_space
+    refuse_composite(obs, "observation")
+    refuse_composite(act, "action")
+    if hasattr(obs, "low") and hasattr(obs, "shape"):
+        shape = tuple(int(s) for s in obs.shape)
+        low = np.broadcast_to(np.asarray(obs.low, dtype=np.float64), shape).reshape(-1)
+        high = np.broadcast_to(np.asarray(obs.high, dtype=np.float64), shape).reshape(-1)
+    elif hasattr(obs, "n"):
+        shape, low, high = (1,), np.zeros(1), np.array([float(obs.n) - 1])
+    else:
+        fail("space", f"observation space {obs!r} has neither .low/.high/.shape nor .n")
+    dim = int(np.prod(shape, dtype=np.int64))
+    if dim == 0 or dim > max_obs:
+        fail("space", f"observation space {obs!r} has {dim} values; rwg takes 1 to {max_obs}")
+    fields = {"obs_shape": list(shape), "obs_dim": dim, "obs_low": floats(low),
+              "obs_high": floats(high), "observation_space": repr(obs), "action_space": repr(act)}
+    if hasattr(act, "n") and not hasattr(act, "low"):
+        fields["action"] = {"discrete": int(act.n)}
+        return fields, (int(act.n), None, None, None)
+    if not (hasattr(act, "low") and hasattr(act, "high") and hasattr(act, "shape")):
+        fail("space", f"action space {act!r} has neither .n nor .low/.high/.shape")
+    ashape = tuple(int(s) for s in act.shape)
+    alow = np.broadcast_to(np.asarray(act.low, dtype=np.float64), ashape).reshape(-1)
+    ahigh = np.broadcast_to(np.asarray(act.high, dtype=np.float64), ashape).reshape(-1)
+    if alow.size == 0 or not (np.all(np.isfinite(alow)) and np.all(np.isfinite(ahigh))):
+        fail("space", f"action space {act!r} has non-finite bounds (or no values); rwg maps "
+                      f"tanh outputs onto the bounds, so every dimension needs finite ones")
+    fields["action"] = {"box": {"low": floats(alow), "high": floats(ahigh), "shape": list(ashape)}}
+    return fields, (None, alow, ahigh, ashape)
+
+
+def policy_fn(jnp, layers, bias, dt, space):
+    """rwg's policy: x = tanh(W @ [x, 1]) per layer; argmax or the box map."""
+    n, low, high, ashape = space
+    if n is None:
+        symmetric = bool((low == -high).all())
+        lo, hi = jnp.asarray(low, dt), jnp.asarray(high, dt)
+
+    def policy(Ws, obs):
+        x = jnp.ravel(obs).astype(dt)
+        for W in Ws:
+            if bias:
+                x = jnp.concatenate([x, jnp.ones((1,), dt)])
+            x = jnp.tanh(W @ x)
+        if n is not None:
+            return jnp.argmax(x).astype(jnp.int32)
+        a = hi * x if symmetric else lo + (x + 1) / 2 * (hi - lo)
+        return a.reshape(ashape)
+
+    return policy
