@@ -6,19 +6,19 @@
     python examples/jax-replay.py --weights net.json --reset-seed R
 
 With RUN_DIR it asks `rwg replay --export-weights` (rwg on PATH, or --rwg) for the
-network's weights and reset seeds, reads the env's kwargs, precision, device and
-networks_per_call from the run, prints the episode's return and length beside the
-ones in the cell's scores.csv, and exits 1 if they differ. With --weights (a file of
+network's weights and reset seeds, reads the env's kwargs, precisions, device and
+lanes from the run, prints the episode's return and length beside the ones in the
+cell's scores.csv, and exits 1 if they differ. With --weights (a file of
 `rwg replay --export-weights`) the options give what the run would have.
 
 It runs rwg's arithmetic (docs/jax.md, "Keys and policy"): key data [r >> 32,
 r & 0xFFFFFFFF]; k_reset, k_steps = split(key); step t uses fold_in(k_steps, t); per
 layer x = tanh(W @ concat(x, [1])) (bias) or tanh(W @ x); argmax, or high * tanh(y)
 for a symmetric box, else low + (tanh(y) + 1) / 2 * (high - low); the return summed
-in the precision, the episode ended at the first done or at the time limit. It
-computes at the shape rwg compiles (networks_per_call networks x the cell's episodes,
-every network this one), so on the device and versions of the run the bits are the
-run's. Needs jax, and gymnax or brax for their envs.
+in the precision, the episode ended at the first done or at the time limit. It runs
+them by rwg's own program (`lane_program`: the lanes that never idle), the network's
+episodes alone: on the device kind and versions of the run the bits are the run's.
+Needs jax, and gymnax or brax for their envs.
 """
 
 import argparse
@@ -45,8 +45,9 @@ def parse_args():
     p.add_argument("--max-episode-steps", type=int, help="the time limit (default: the export's)")
     p.add_argument("--precision", default="float32", choices=["float32", "float64"])
     p.add_argument("--device", help='"cpu", "gpu", "gpu:1"... (default: jax.devices()[0])')
-    p.add_argument("--networks-per-call", type=int,
-                   help="as the run's (default: 256 on a CPU, 4096 otherwise)")
+    p.add_argument("--matmul-precision", default="highest", choices=["highest", "high", "default"])
+    p.add_argument("--lanes", type=int,
+                   help="as the run's env.json (default: 1024 on a CPU, 65536 otherwise)")
     a = p.parse_args()
     if (a.run_dir is None) == (a.weights is None):
         p.error("give a run directory or --weights FILE, not both")
@@ -84,7 +85,8 @@ def from_run(a):
         row = next(r for r in f if r.startswith(f"{a.sample},{a.episode},"))
     stored = row.strip().split(",")[2:4]
     setting = dict(kwargs=entry.get("kwargs", {}), precision=record["precision"],
-                   device=entry.get("device"), networks_per_call=record["networks_per_call"])
+                   matmul_precision=record["matmul_precision"], device=entry.get("device"),
+                   lanes=record["lanes"])
     return export, setting, (float(stored[0]), int(stored[1]))
 
 
@@ -125,8 +127,114 @@ def make_env(env_id, kwargs, limit):
     return reset, step, action, getattr(params, "max_steps_in_episode", None)
 
 
-def replay(export, setting, reset_seed, lanes):
-    """(return, length) of the network's episode from `reset_seed`, at rwg's shape."""
+def lane_program(reset, step, act, dtype, T, N, E, L):
+    """rwg's compiled program of a cell (docs/jax.md, "Keys and policy"), as
+    rwg's worker writes it: N networks x E episodes on L lanes; a lane whose
+    episode ended waits until `refill_at` lanes have, or none runs, then every
+    waiting lane writes its result and takes the next episode. Every
+    per-episode computation has the lanes' shape, so an episode's bits do not
+    depend on N or on which lane runs it; they do depend on L (and on this
+    exact program: XLA fuses it as a whole)."""
+    jnp, lax, tree = jax.numpy, jax.lax, jax.tree_util
+    M = N * E
+    blocks = -(-M // L)
+
+    def not_finite(x):
+        return ~jnp.all(jnp.isfinite(jnp.asarray(x)))
+
+    def bit(cond, b):
+        return jnp.where(cond, b, 0).astype(jnp.uint8)
+
+    def reset1(key_data):
+        key = jax.random.wrap_key_data(key_data, impl="threefry2x32")
+        k_reset, k_steps = jax.random.split(key)
+        obs, state = reset(k_reset)
+        return obs, state, jax.random.key_data(k_steps), bit(not_finite(obs), 1)
+
+    def step1(Ws, obs, state, k_steps, t):
+        a = act(Ws, obs)
+        key = jax.random.fold_in(jax.random.wrap_key_data(k_steps, impl="threefry2x32"), t)
+        obs, state, r, d = step(key, state, a)
+        r = jnp.asarray(r).astype(dtype)
+        return obs, state, r, jnp.asarray(d, bool), bit(not_finite(obs), 1) | bit(not_finite(r), 2)
+
+    vreset, vstep = jax.vmap(reset1), jax.vmap(step1)
+
+    def lanes_where(mask, a, b):
+        return tree.tree_map(
+            lambda x, y: jnp.where(mask.reshape((L,) + (1,) * (x.ndim - 1)), x, y), a, b)
+
+    def resets(keys, total):
+        flat = jnp.zeros((blocks * L, 2), jnp.uint32).at[:M].set(keys.reshape(M, 2))
+        shape = jax.eval_shape(vreset, flat[:L])
+        out = tree.tree_map(lambda s: jnp.zeros((blocks,) + s.shape, s.dtype), shape)
+
+        def one(b, out):
+            got = vreset(lax.dynamic_slice_in_dim(flat, b * L, L))
+            return tree.tree_map(lambda o, g: o.at[b].set(g), out, got)
+
+        out = lax.fori_loop(0, (total + L - 1) // L, one, out)
+        return tree.tree_map(lambda o: o.reshape((blocks * L,) + o.shape[2:]), out)
+
+    def refill(c, Ws, start, total):
+        (item, obs, state, ks, t, ret, fault, done, WL, nxt, out) = c
+        ended = done & (item < total)
+        at = jnp.where(ended, item, blocks * L)
+        out = tuple(o.at[at].set(v, mode="drop") for o, v in zip(out, (ret, t, fault)))
+        rank = jnp.cumsum(done, dtype=jnp.int32) - 1
+        new = jnp.where(done, nxt + rank, item)
+        take = done & (new < total)
+        i = jnp.minimum(new, blocks * L - 1)
+        obs0, state0, ks0, f0 = tree.tree_map(lambda x: x[i], start)
+        gW = [W[jnp.minimum(i // E, N - 1)] for W in Ws]
+        obs, state = lanes_where(take, (obs0, state0), (obs, state))
+        ks = jnp.where(take[:, None], ks0, ks)
+        WL = lanes_where(take, gW, WL)
+        t = jnp.where(done, 0, t)
+        ret = jnp.where(done, jnp.zeros((), dtype), ret)
+        fault = jnp.where(take, f0, jnp.where(done, 0, fault).astype(jnp.uint8))
+        nxt = jnp.minimum(nxt + jnp.sum(done, dtype=jnp.int32), total)
+        return (new, obs, state, ks, t, ret, fault, done & ~take, WL, nxt, out)
+
+    def program(Ws, keys, n, refill_at):
+        total = n * E
+        start = resets(keys, total)
+        obs, state = tree.tree_map(lambda x: x[:L], start[:2])
+        out = (jnp.zeros((blocks * L,), dtype), jnp.zeros((blocks * L,), jnp.int32),
+               jnp.zeros((blocks * L,), jnp.uint8))
+        c = (jnp.full((L,), blocks * L, jnp.int32), obs, state, jnp.zeros((L, 2), jnp.uint32),
+             jnp.zeros((L,), jnp.int32), jnp.zeros((L,), dtype), jnp.zeros((L,), jnp.uint8),
+             jnp.ones((L,), bool), [jnp.zeros((L,) + W.shape[1:], dtype) for W in Ws],
+             jnp.int32(0), out)
+        c = refill(c, Ws, start, total)
+
+        def body(lc):
+            c, trips = lc
+            (item, obs, state, ks, t, ret, fault, done, WL, nxt, out) = c
+            obs, state, r, d, f = vstep(WL, obs, state, ks, t)
+            run = ~done
+            ret = jnp.where(run, ret + r, ret)
+            t = jnp.where(run, t + 1, t)
+            fault = jnp.where(run, fault | f, fault)
+            done = done | (d | (t >= T))
+            c = (item, obs, state, ks, t, ret, fault, done, WL, nxt, out)
+            waiting = jnp.sum(done & (item < total), dtype=jnp.int32)
+            now = (waiting >= refill_at) | jnp.all(done)
+            c = lax.cond(now, lambda c: refill(c, Ws, start, total), lambda c: c, c)
+            return c, trips + 1
+
+        c, trips = lax.while_loop(lambda lc: jnp.any(lc[0][0] < total), body,
+                                  (c, jnp.int32(0)))
+        ret, length, fault = (o[:M].reshape(N, E) for o in c[-1])
+        return ret, length, fault, trips
+
+    return jax.jit(program)
+
+
+def replay(export, setting, reset_seed, seeds):
+    """(return, length) of the network's episode from `reset_seed`, by rwg's
+    program with the run's lanes (the network alone: its episodes are
+    `seeds`)."""
     if setting["precision"] == "float64":
         jax.config.update("jax_enable_x64", True)
     dtype = jnp.dtype(setting["precision"])
@@ -143,52 +251,28 @@ def replay(export, setting, reset_seed, lanes):
     def act(Ws, obs):
         x = jnp.ravel(obs).astype(dtype)
         for W in Ws:
-            x = jnp.tanh(W @ (jnp.concatenate([x, jnp.ones(1, dtype)]) if bias else x))
+            if bias:
+                x = jnp.concatenate([x, jnp.ones((1,), dtype)])
+            x = jnp.tanh(W @ x)
         if n is not None:
             return jnp.argmax(x).astype(jnp.int32)
         return (high * x if symmetric else low + (x + 1) / 2 * (high - low)).reshape(shape)
 
-    def not_finite(x):
-        return ~jnp.all(jnp.isfinite(jnp.asarray(x)))
-
-    def episode(Ws, key_data):
-        key = jax.random.wrap_key_data(key_data, impl="threefry2x32")
-        k_reset, k_steps = jax.random.split(key)
-        obs, state = reset(k_reset)
-
-        # rwg's fault bits (1: a non-finite observation, 2: reward) are computed and
-        # returned as rwg's worker does: without them XLA fuses the program otherwise,
-        # and a float64 return can differ in its last bit (a multiply-add contracted).
-        fault = jnp.where(not_finite(obs), 1, 0).astype(jnp.uint8)
-
-        def body(c):  # a lane stops at its first done; vmap keeps a stopped lane's values
-            obs, state, t, ret, fault, _ = c
-            obs, state, r, d = step(jax.random.fold_in(k_steps, t), state, act(Ws, obs))
-            r = jnp.asarray(r).astype(dtype)
-            fault = fault | jnp.where(not_finite(obs), 1, 0).astype(jnp.uint8)
-            fault = fault | jnp.where(not_finite(r), 2, 0).astype(jnp.uint8)
-            t = t + 1
-            return obs, state, t, ret + r, fault, jnp.asarray(d, bool) | (t >= T)
-
-        c = (obs, state, jnp.int32(0), jnp.zeros((), dtype), fault, jnp.bool_(False))
-        _, _, t, ret, fault, _ = jax.lax.while_loop(lambda c: ~c[5], body, c)
-        return ret, t, fault
-
     dev = jax.devices()[0]
     if setting["device"]:
         kind, _, i = setting["device"].partition(":")
-        dev = jax.devices(kind)[int(i or 0)]
-    N = setting["networks_per_call"] or (256 if dev.platform == "cpu" else 4096)
-    Ws = [jnp.broadcast_to(np.asarray(layer["weights"], np.float64).astype(dtype),
-                           (N,) + tuple(layer["shape"])) for layer in export["layers"]]
-    words = [[r >> 32, r & 0xFFFFFFFF] for r in lanes]
-    keys = jnp.broadcast_to(jnp.asarray(words, jnp.uint32), (N, len(lanes), 2))
-    f = jax.jit(jax.vmap(jax.vmap(episode, in_axes=(None, 0)), in_axes=(0, 0)))
-    rets, lens, faults = f(*jax.device_put((Ws, keys), dev))
-    rets, lens = np.asarray(rets, np.float64), np.asarray(lens)
-    e = lanes.index(reset_seed)
-    if not ((rets[:, e] == rets[0, e]).all() and (lens[:, e] == lens[0, e]).all()):
-        sys.exit("the copies of the network disagree: this JAX computes a lane by its place")
+        dev = jax.local_devices(backend=kind)[int(i or 0)]
+    L = setting["lanes"] or (1024 if dev.platform == "cpu" else 65536)
+    E = len(seeds)
+    Ws = [np.asarray(layer["weights"], np.float64).astype(dtype)[None] for layer in export["layers"]]
+    # the key data of reset seed r: uint32 words [r >> 32, r & 0xFFFFFFFF] (numpy, exact)
+    words = np.array([[r >> 32, r & 0xFFFFFFFF] for r in seeds], np.uint32).reshape(1, E, 2)
+    with jax.default_matmul_precision(setting["matmul_precision"]):
+        f = lane_program(reset, step, act, dtype, T, 1, E, L)
+        args = jax.device_put((Ws, words, np.int32(1), np.int32(max(1, L // 8))), dev)
+        rets, lens, faults, _ = f(*args)
+    e = seeds.index(reset_seed)
+    rets, lens, faults = np.asarray(rets, np.float64), np.asarray(lens), np.asarray(faults)
     if faults[0, e]:
         what = "observation" if faults[0, e] & 1 else "reward"
         print(f"the episode saw a non-finite {what}", file=sys.stderr)
@@ -205,13 +289,13 @@ def main():
             export = json.load(f)
         if a.max_episode_steps:
             export["max_episode_steps"] = a.max_episode_steps
-        setting = dict(kwargs=json.loads(a.kwargs), precision=a.precision, device=a.device,
-                       networks_per_call=a.networks_per_call)
-    lanes = list(export["reset_seeds"])
-    seed = lanes[a.episode] if a.episode is not None else a.reset_seed
-    if seed not in lanes:
-        lanes[0] = seed
-    ret, length, dev = replay(export, setting, seed, lanes)
+        setting = dict(kwargs=json.loads(a.kwargs), precision=a.precision,
+                       matmul_precision=a.matmul_precision, device=a.device, lanes=a.lanes)
+    seeds = list(export["reset_seeds"])
+    seed = seeds[a.episode] if a.episode is not None else a.reset_seed
+    if seed not in seeds:
+        seeds[0] = seed
+    ret, length, dev = replay(export, setting, seed, seeds)
     print(f"return {ret!r} length {length} (reset seed {seed}, {setting['precision']}, "
           f"{dev}, jax {jax.__version__})")
     if stored is not None:
@@ -222,9 +306,15 @@ def main():
 
 
 if __name__ == "__main__":
-    # on a CPU, XLA as rwg's workers run it: one thread (unless XLA_FLAGS is set)
-    os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false "
-                                       "intra_op_parallelism_threads=1")
+    # XLA as rwg's workers run it: one thread on a CPU, no kernel chosen by timing
+    # on a GPU (unless XLA_FLAGS names these flags)
+    flags = os.environ.get("XLA_FLAGS", "")
+    for name, flag in [("xla_cpu_multi_thread_eigen", "--xla_cpu_multi_thread_eigen=false "
+                                                      "intra_op_parallelism_threads=1"),
+                       ("xla_gpu_deterministic_ops", "--xla_gpu_deterministic_ops=true")]:
+        if name not in flags:
+            flags = f"{flags} {flag}".strip()
+    os.environ["XLA_FLAGS"] = flags
     import jax
     import jax.numpy as jnp
     import numpy as np

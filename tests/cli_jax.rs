@@ -1,8 +1,10 @@
 //! JAX envs (`gymnax:`, `brax:`, `jax:module:callable`) in studies, end to
 //! end with the real `rwg` binary: a study writes the run directory every
 //! study writes, with the bytes of `scores.csv`, `samples.csv` and
-//! `stats.csv` the same for any thread count, for merged shards and for a
-//! resumed run; network n has the weights of the built-in env's network n;
+//! `stats.csv` the same for any thread count, networks per call, number of
+//! devices, for merged shards and for a resumed run (one that changes the
+//! networks per call too); a second study of a cell compiles nothing (the
+//! compilation cache); network n has the weights of the built-in env's network n;
 //! what a resume must keep (precision, the versions recorded in `env.json`)
 //! is checked; a non-finite observation stops the run naming the network and
 //! episode; `rwg replay` works for JAX cells; the workers end with rwg.
@@ -21,7 +23,7 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 /// The bytes that must not depend on how a study was run: each cell's
-/// `scores.csv` and `samples.csv`, and the run's `stats.csv`.
+/// `scores.csv` and `samples.csv`, and the run's `stats.csv` if it has one.
 fn results(run: &Path) -> Vec<(String, Vec<u8>)> {
     let mut cells: Vec<PathBuf> = std::fs::read_dir(run.join("cells"))
         .unwrap()
@@ -39,10 +41,10 @@ fn results(run: &Path) -> Vec<(String, Vec<u8>)> {
             ));
         }
     }
-    out.push((
-        "stats.csv".into(),
-        std::fs::read(run.join("stats.csv")).unwrap(),
-    ));
+    // (a run with --no-report has no stats.csv)
+    if let Ok(stats) = std::fs::read(run.join("stats.csv")) {
+        out.push(("stats.csv".into(), stats));
+    }
     out
 }
 
@@ -147,7 +149,9 @@ fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
         let jax = &record["jax"];
         assert_eq!(jax["precision"], "float32", "{record}");
         assert_eq!(jax["platform"], "cpu", "{record}");
-        assert_eq!(jax["networks_per_call"], 256, "{record}");
+        assert_eq!(jax["lanes"], 1024, "{record}");
+        assert_eq!(jax["matmul_precision"], "highest", "{record}");
+        assert!(jax.get("networks_per_call").is_none(), "{record}");
         assert_eq!(jax["versions"]["jax"], "0.10.2", "{record}");
         assert_eq!(jax["versions"]["gymnax"], "1.0.1", "{record}");
     }
@@ -216,9 +220,11 @@ fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// 1 vs 2 threads, two shards merged, and a run stopped by Ctrl-C after its
-/// first block and resumed give the same bytes; a resume whose env.json
-/// records another jax version, or with another precision, is refused.
+/// 1 vs 2 threads (and 32 vs 64 networks per call), two shards merged, and
+/// a run stopped by Ctrl-C after its first block and resumed with another
+/// networks_per_call give the same bytes; a resume whose env.json records
+/// another jax version, or with another precision or matmul precision, is
+/// refused.
 #[test]
 fn threads_shards_and_resume_give_the_same_bytes_under_the_same_jax() {
     let Some(py) = python() else { return };
@@ -240,7 +246,14 @@ fn threads_shards_and_resume_give_the_same_bytes_under_the_same_jax() {
         out
     };
     let t1 = run("t1", &["--threads", "1"]);
-    let t2 = run("t2", &["--threads", "2"]);
+    // networks_per_call says how, not what: 64 per call, the same bytes
+    let m64 = write(
+        &dir,
+        "m64.toml",
+        &body.replace("networks_per_call = 32", "networks_per_call = 64"),
+    );
+    let t2 = dir.join("t2");
+    ok(&["run", &m64, "--out", s(&t2), "--threads", "2"]);
     assert_same(&t1, &t2);
 
     let s0 = run("s0", &["--shard", "0/2", "--threads", "2"]);
@@ -275,18 +288,95 @@ fn threads_shards_and_resume_give_the_same_bytes_under_the_same_jax() {
     assert!(e.contains("jax: 0.4.30 then, 0.10.2 now"), "{e}");
     assert!(e.contains("env.json"), "{e}");
 
-    // another precision is another study
-    let f64_body = body.replace(
-        "networks_per_call = 32",
-        "networks_per_call = 32\nprecision = \"float64\"",
-    );
-    let m64 = write(&dir, "m64.toml", &f64_body);
-    let e = err(&["run", &m64, "--out", s(&stopped)]);
-    assert!(e.contains("holds a different study"), "{e}");
-    assert!(e.contains("float64"), "{e}");
+    // another precision, or matmul precision, is another study
+    for (key, value) in [("precision", "float64"), ("matmul_precision", "default")] {
+        let other = body.replace(
+            "networks_per_call = 32",
+            &format!("networks_per_call = 32\n{key} = \"{value}\""),
+        );
+        let other = write(&dir, "other.toml", &other);
+        let e = err(&["run", &other, "--out", s(&stopped)]);
+        assert!(e.contains("holds a different study"), "{e}");
+        assert!(e.contains(value), "{e}");
+    }
 
-    ok(&["run", &m, "--out", s(&stopped), "--threads", "2"]);
+    // resumed with 64 networks per call where it started with 32
+    ok(&["run", &m64, "--out", s(&stopped), "--threads", "2"]);
     assert_same(&t1, &stopped);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The `jit_program` entries of a compilation cache folder.
+fn cached_programs(cache: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(cache)
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .filter(|n| n.starts_with("jit_program"))
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// One worker running two (forced) CPU devices gives the bytes of a run on
+/// one, and says so in the run's first lines; a second study of the same
+/// cell reads its program from the compilation cache: it compiles nothing.
+#[test]
+fn every_device_gives_one_devices_bytes_and_a_second_study_compiles_nothing() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-devices");
+    let cache = dir.join("cache");
+    let m = write(
+        &dir,
+        "m.toml",
+        &manifest(
+            &py,
+            "gymnax:CartPole-v1",
+            "networks_per_call = 32\ndevice = \"cpu\"",
+            160,
+            2,
+            false,
+        ),
+    );
+    let run = |name: &str, devices: Option<u32>| {
+        let out = dir.join(name);
+        let mut cmd = rwg_cmd(&["run", &m, "--out", s(&out), "--threads", "1", "--no-report"]);
+        cmd.env("RWG_JAX_CACHE", &cache);
+        if let Some(n) = devices {
+            cmd.env(
+                "XLA_FLAGS",
+                format!("--xla_force_host_platform_device_count={n}"),
+            );
+        }
+        let res = cmd.output().unwrap();
+        let e = String::from_utf8_lossy(&res.stderr).into_owned();
+        assert!(res.status.success(), "{name}: {e}");
+        (out, e)
+    };
+    let (one, said) = run("one", None);
+    assert!(
+        said.contains("gymnax:CartPole-v1: JAX on cpu:0 (cpu, 1 device)"),
+        "{said}"
+    );
+    assert!(said.contains(&format!("cached in {}", s(&cache))), "{said}");
+    let compiled = cached_programs(&cache);
+    assert!(
+        !compiled.is_empty(),
+        "nothing cached in {}",
+        cache.display()
+    );
+    let (two, said) = run("two", Some(2));
+    assert!(
+        said.contains("JAX on cpu:0, cpu:1 (cpu, 2 devices)"),
+        "{said}"
+    );
+    assert_same(&one, &two);
+    let before = cached_programs(&cache);
+    let (again, _) = run("again", None);
+    assert_same(&one, &again);
+    assert_eq!(cached_programs(&cache), before, "the second study compiled");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -35,14 +35,21 @@ fn replay(py: &str, args: &[&str]) -> Output {
         .arg("--rwg")
         .arg(rwg_bin())
         .env("PYTHONPATH", repo().join("examples/jax-env"))
+        .env("RWG_JAX_CACHE", cache())
         .env_remove("XLA_FLAGS")
         .output()
         .unwrap()
 }
 
+/// The compilation cache of the JAX tests (as `tests/jax_common.rs`'s).
+fn cache() -> PathBuf {
+    std::env::temp_dir().join("rwg-test-jax-cache")
+}
+
 /// A study of three JAX envs: gymnax's CartPole-v1 (float32, discrete),
-/// Pendulum-v1 (float64, a box, 32 networks per call) and the point mass
-/// of examples/jax-env (a box, with kwargs and a time limit of its own).
+/// Pendulum-v1 (float64, a box, 32 networks per call: the replay runs the
+/// network alone all the same) and the point mass of examples/jax-env (a
+/// box, with kwargs and a time limit of its own).
 fn run_study(py: &str, dir: &Path) -> PathBuf {
     let manifest = dir.join("m.toml");
     std::fs::write(
@@ -65,6 +72,7 @@ fn run_study(py: &str, dir: &Path) -> PathBuf {
         .args(["--threads", "2", "--no-report", "--out"])
         .arg(&out)
         .env("PYTHONPATH", repo().join("examples/jax-env"))
+        .env("RWG_JAX_CACHE", cache())
         .env_remove("RWG_PYTHON")
         .env_remove("XLA_FLAGS")
         .output()
@@ -161,6 +169,7 @@ fn jax_replay_recomputes_scores_bit_for_bit() {
         ])
         .args(["--sample", "5", "--export-weights", net.to_str().unwrap()])
         .env("PYTHONPATH", repo().join("examples/jax-env"))
+        .env("RWG_JAX_CACHE", cache())
         .output()
         .unwrap();
     assert!(
@@ -170,14 +179,7 @@ fn jax_replay_recomputes_scores_bit_for_bit() {
     );
     let want = stored(&run, "gymnax:Pendulum-v1", 5, 2);
     let net_s = net.to_str().unwrap();
-    let args = [
-        "--weights",
-        net_s,
-        "--episode",
-        "2",
-        "--networks-per-call",
-        "32",
-    ];
+    let args = ["--weights", net_s, "--episode", "2", "--lanes", "1024"];
     let got = printed(&replay(
         &py,
         &[&args[..], &["--precision", "float64"]].concat(),

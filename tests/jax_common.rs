@@ -24,11 +24,19 @@ pub fn python() -> Option<String> {
     }
 }
 
-/// `rwg` with the `jax:` test envs importable and no JAX variable of the caller.
+/// The compilation cache the JAX tests share (the program a test compiles
+/// is read back by the others and by later runs of the tests).
+pub fn test_cache() -> std::path::PathBuf {
+    std::env::temp_dir().join("rwg-test-jax-cache")
+}
+
+/// `rwg` with the `jax:` test envs importable, the tests' compilation cache
+/// and no JAX variable of the caller.
 pub fn rwg_cmd(args: &[&str]) -> Command {
     let mut c = Command::new(rwg_bin());
     c.args(args)
         .env("PYTHONPATH", data_dir())
+        .env("RWG_JAX_CACHE", test_cache())
         .env_remove("RWG_JAX_TIMEOUT")
         .env_remove("RWG_PYTHON")
         .env_remove("XLA_FLAGS")

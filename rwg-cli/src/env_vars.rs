@@ -43,7 +43,7 @@ type Check = fn() -> Result<(), VarError>;
 /// Every variable rwg reads with its check. `RWG_PLUGIN_PATH` (any list of
 /// folders) and the `rwg bench peers` variables (paths, read by its
 /// arguments) take any value.
-pub const CHECKS: [(&str, Check); 10] = [
+pub const CHECKS: [(&str, Check); 11] = [
     (PROGRESS_INTERVAL_VAR, || progress_interval().map(drop)),
     (COMMIT_LINGER_VAR, || commit_linger().map(drop)),
     (rwg_gym::TIMEOUT_VAR, || {
@@ -56,6 +56,7 @@ pub const CHECKS: [(&str, Check); 10] = [
     (rwg_jax::TIMEOUT_VAR, || {
         rwg_jax::timeout_setting().map(drop)
     }),
+    (rwg_jax::CACHE_VAR, || rwg_jax::cache_setting().map(drop)),
     (rwg_study::plugin_batch::BATCH_VAR, || {
         rwg_study::plugin_batch::calls_settings().map(drop)
     }),

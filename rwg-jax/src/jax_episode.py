@@ -1,6 +1,20 @@
-"""The compiled program of a cell: one episode as a `lax.while_loop`, vmapped
-over episodes and networks and compiled once at the cell's padded shape, and a
-chunk of networks run through it."""
+"""The compiled program of a cell: lanes that never idle.
+
+A chunk holds N networks x E episodes ("items"). The program runs them on L
+lanes (the cell's `lanes`): each lane runs one episode at a time, and a lane
+whose episode ended takes the chunk's next item inside the compiled loop, so
+no lane waits for the chunk's longest episode. A lane that ends waits until
+`refill` lanes have ended (or none runs any more); then every waiting lane
+writes its result and takes an item at once, so the bookkeeping is paid once
+per group. In an env whose episodes all run to the time limit the lanes end
+together: one refill per L episodes, every lane busy, as a plain batch would.
+
+Every per-episode computation has the shape of the L lanes, whatever N (the
+resets run L at a time too), and the arithmetic of a lane does not depend on
+its place: an episode's return is the same bits whichever chunk, lane or
+networks_per_call computes it. Only L (and the cell: env, architecture,
+precision, device kind, versions) fixes the program.
+"""
 
 from rwg_pipe import fail
 from rwg_jax_worker_common import FAULT_OBS, FAULT_REWARD
@@ -9,46 +23,126 @@ from rwg_jax_worker_policy import policy_fn
 import struct
 
 
-def episode_fn(jax, env, policy, dt):
-    """One episode: (returns, length, fault bits) of network Ws from key data."""
-    jnp, lax = jax.numpy, jax.lax
-    T = env.max_steps
+def lane_fns(jax, env, policy, dt):
+    """(reset, step) of one lane: reset(key data) -> (obs, state, step key
+    data, fault); step(W, obs, state, step key data, t) -> (obs, state,
+    reward, done, fault bits)."""
+    jnp = jax.numpy
 
     def not_finite(x):
         return ~jnp.all(jnp.isfinite(jnp.asarray(x)))
 
-    def episode(Ws, key_data):
+    def bit(cond, b):
+        return jnp.where(cond, b, 0).astype(jnp.uint8)
+
+    def reset(key_data):
         key = jax.random.wrap_key_data(key_data, impl="threefry2x32")
         k_reset, k_steps = jax.random.split(key)
         obs, state = env.reset(k_reset)
-        fault = jnp.where(not_finite(obs), FAULT_OBS, 0).astype(jnp.uint8)
+        return obs, state, jax.random.key_data(k_steps), bit(not_finite(obs), FAULT_OBS)
 
-        def cond(c):
-            return ~c[5]
+    def step(Ws, obs, state, k_steps, t):
+        a = policy(Ws, obs)
+        key = jax.random.fold_in(jax.random.wrap_key_data(k_steps, impl="threefry2x32"), t)
+        obs, state, r, d = env.step(key, state, a)
+        r = jnp.asarray(r).astype(dt)
+        fault = bit(not_finite(obs), FAULT_OBS) | bit(not_finite(r), FAULT_REWARD)
+        return obs, state, r, jnp.asarray(d, bool), fault
 
-        def body(c):
-            obs, state, t, ret, fault, _ = c
-            a = policy(Ws, obs)
-            obs, state, r, d = env.step(jax.random.fold_in(k_steps, t), state, a)
-            r = jnp.asarray(r).astype(dt)
-            fault = fault | jnp.where(not_finite(obs), FAULT_OBS, 0).astype(jnp.uint8)
-            fault = fault | jnp.where(not_finite(r), FAULT_REWARD, 0).astype(jnp.uint8)
-            t = t + 1
-            done = jnp.logical_or(jnp.asarray(d, bool), t >= T)
-            return obs, state, t, ret + r, fault, done
-
-        init = (obs, state, jnp.int32(0), jnp.zeros((), dt), fault, jnp.bool_(T <= 0))
-        _, _, t, ret, fault, _ = lax.while_loop(cond, body, init)
-        return ret, t, fault
-
-    return episode
+    return reset, step
 
 
-def compile_cell(jax, env, dev, dt, space, obs_dim, cell):
-    """The compiled call of a cell and its layer shapes."""
-    jnp = jax.numpy
+def chunk_program(jax, env, policy, dt, N, E, L):
+    """The chunk's program: (weights per layer (N, out, in), keys (N, E, 2),
+    n networks, refill) -> (returns, lengths, faults) (N, E), loop trips."""
+    jnp, lax = jax.numpy, jax.lax
+    T = env.max_steps
+    M = N * E
+    blocks = -(-M // L)
+    reset, step = lane_fns(jax, env, policy, dt)
+    vreset, vstep = jax.vmap(reset), jax.vmap(step)
+    tree = jax.tree_util
+
+    def lanes_where(mask, a, b):
+        return tree.tree_map(
+            lambda x, y: jnp.where(mask.reshape((L,) + (1,) * (x.ndim - 1)), x, y), a, b)
+
+    def resets(keys, total):
+        """Every item's reset, computed L items at a time (the lanes' shape)."""
+        flat = jnp.zeros((blocks * L, 2), jnp.uint32).at[:M].set(keys.reshape(M, 2))
+        shape = jax.eval_shape(vreset, flat[:L])
+        out = tree.tree_map(lambda s: jnp.zeros((blocks,) + s.shape, s.dtype), shape)
+
+        def one(b, out):
+            got = vreset(lax.dynamic_slice_in_dim(flat, b * L, L))
+            return tree.tree_map(lambda o, g: o.at[b].set(g), out, got)
+
+        # a trip count known only when the chunk runs: the same loop for every N
+        out = lax.fori_loop(0, (total + L - 1) // L, one, out)
+        return tree.tree_map(lambda o: o.reshape((blocks * L,) + o.shape[2:]), out)
+
+    def refill(c, Ws, start, total):
+        """Lanes that ended write their result; every lane without an
+        episode takes the next item, if any."""
+        (item, obs, state, ks, t, ret, fault, done, WL, nxt, out) = c
+        ended = done & (item < total)
+        at = jnp.where(ended, item, blocks * L)  # out of bounds: dropped
+        out = tuple(o.at[at].set(v, mode="drop") for o, v in zip(out, (ret, t, fault)))
+        rank = jnp.cumsum(done, dtype=jnp.int32) - 1
+        new = jnp.where(done, nxt + rank, item)
+        take = done & (new < total)
+        i = jnp.minimum(new, blocks * L - 1)
+        obs0, state0, ks0, f0 = tree.tree_map(lambda x: x[i], start)
+        gW = [W[jnp.minimum(i // E, N - 1)] for W in Ws]
+        obs, state = lanes_where(take, (obs0, state0), (obs, state))
+        ks = jnp.where(take[:, None], ks0, ks)
+        WL = lanes_where(take, gW, WL)
+        t = jnp.where(done, 0, t)
+        ret = jnp.where(done, jnp.zeros((), dt), ret)
+        fault = jnp.where(take, f0, jnp.where(done, 0, fault).astype(jnp.uint8))
+        nxt = jnp.minimum(nxt + jnp.sum(done, dtype=jnp.int32), total)
+        return (new, obs, state, ks, t, ret, fault, done & ~take, WL, nxt, out)
+
+    def program(Ws, keys, n, refill_at):
+        total = n * E
+        start = resets(keys, total)
+        obs, state = tree.tree_map(lambda x: x[:L], start[:2])
+        out = (jnp.zeros((blocks * L,), dt), jnp.zeros((blocks * L,), jnp.int32),
+               jnp.zeros((blocks * L,), jnp.uint8))
+        c = (jnp.full((L,), blocks * L, jnp.int32), obs, state, jnp.zeros((L, 2), jnp.uint32),
+             jnp.zeros((L,), jnp.int32), jnp.zeros((L,), dt), jnp.zeros((L,), jnp.uint8),
+             jnp.ones((L,), bool), [jnp.zeros((L,) + W.shape[1:], dt) for W in Ws],
+             jnp.int32(0), out)
+        c = refill(c, Ws, start, total)
+
+        def cond(lc):
+            return jnp.any(lc[0][0] < total)
+
+        def body(lc):
+            c, trips = lc
+            (item, obs, state, ks, t, ret, fault, done, WL, nxt, out) = c
+            obs, state, r, d, f = vstep(WL, obs, state, ks, t)
+            run = ~done
+            ret = jnp.where(run, ret + r, ret)
+            t = jnp.where(run, t + 1, t)
+            fault = jnp.where(run, fault | f, fault)
+            done = done | (d | (t >= T))
+            c = (item, obs, state, ks, t, ret, fault, done, WL, nxt, out)
+            waiting = jnp.sum(done & (item < total), dtype=jnp.int32)
+            now = (waiting >= refill_at) | jnp.all(done)
+            c = lax.cond(now, lambda c: refill(c, Ws, start, total), lambda c: c, c)
+            return c, trips + 1
+
+        c, trips = lax.while_loop(cond, body, (c, jnp.int32(0)))
+        ret, length, fault = (o[:M].reshape(N, E) for o in c[-1])
+        return ret, length, fault, trips
+
+    return program
+
+
+def cell_layers(space, obs_dim, cell):
+    """The cell's layer shapes (out, in[+1]) and weights per network."""
     hidden, bias = [int(h) for h in cell["hidden"]], bool(cell["bias"])
-    N, E = int(cell["networks"]), int(cell["episodes"])
     n_out = space[0] if space[0] is not None else len(space[1])
     sizes = [obs_dim] + hidden + [n_out]
     layers = [(sizes[i + 1], sizes[i] + int(bias)) for i in range(len(sizes) - 1)]
@@ -56,34 +150,67 @@ def compile_cell(jax, env, dev, dt, space, obs_dim, cell):
     if nw != int(cell["n_weights"]):
         fail("protocol", f"rwg counts {cell['n_weights']} weights, the worker {nw} "
                          f"(layers {layers})")
-    episode = episode_fn(jax, env, policy_fn(jnp, layers, bias, dt, space), dt)
-    call = jax.jit(jax.vmap(jax.vmap(episode, in_axes=(None, 0)), in_axes=(0, 0)))
-    sharding = jax.sharding.SingleDeviceSharding(dev)
-    specs = ([jax.ShapeDtypeStruct((N, o, i), dt, sharding=sharding) for o, i in layers],
-             jax.ShapeDtypeStruct((N, E, 2), jnp.uint32, sharding=sharding))
-    return call.lower(*specs).compile(), layers, nw, N, E
+    return layers, nw
 
 
-def run_chunk(jax, dev, dt, compiled, payload):
-    """The O message's parts for a B message's payload."""
+class Compiled:
+    """A cell's program compiled for each of the worker's devices."""
+
+    def __init__(self, calls, layers, nw, N, E, refill_at):
+        self.calls, self.layers, self.nw = calls, layers, nw
+        self.N, self.E, self.refill_at = N, E, refill_at
+
+
+def compile_cell(jax, env, devs, dt, space, obs_dim, cell):
+    """The cell's program (see the module's doc), compiled once per device."""
+    jnp = jax.numpy
+    layers, nw = cell_layers(space, obs_dim, cell)
+    N, E, L = int(cell["networks"]), int(cell["episodes"]), int(cell["lanes"])
+    policy = policy_fn(jnp, layers, bool(cell["bias"]), dt, space)
+    program = jax.jit(chunk_program(jax, env, policy, dt, N, E, L))
+    calls = []
+    with jax.default_matmul_precision(cell["matmul_precision"]):
+        for dev in devs:
+            sh = jax.sharding.SingleDeviceSharding(dev)
+            specs = ([jax.ShapeDtypeStruct((N, o, i), dt, sharding=sh) for o, i in layers],
+                     jax.ShapeDtypeStruct((N, E, 2), jnp.uint32, sharding=sh),
+                     jax.ShapeDtypeStruct((), jnp.int32, sharding=sh),
+                     jax.ShapeDtypeStruct((), jnp.int32, sharding=sh))
+            calls.append((dev, program.lower(*specs).compile()))
+    return Compiled(calls, layers, nw, N, E, max(1, int(cell.get("refill", L // 8))))
+
+
+def dispatch_chunk(jax, dt, compiled, payload, k):
+    """Starts a B message's chunk on device `k % devices` (JAX runs it
+    asynchronously); returns what `outcome` needs."""
     import numpy as np
 
-    fn, layers, nw, N, E = compiled
+    c = compiled
     n, e = struct.unpack_from("<II", payload, 0)
-    if not (1 <= n <= N) or e != E:
-        fail("protocol", f"a chunk of {n} networks x {e} episodes for a cell of {N} x {E}")
-    w = np.frombuffer(payload, dtype="<f8", count=n * nw, offset=8).reshape(n, nw)
-    seeds = np.frombuffer(payload, dtype="<u8", count=n * e, offset=8 + 8 * n * nw).reshape(n, e)
-    wp = np.zeros((N, nw), dtype=np.float64)
+    if not (1 <= n <= c.N) or e != c.E:
+        fail("protocol", f"a chunk of {n} networks x {e} episodes for a cell of {c.N} x {c.E}")
+    w = np.frombuffer(payload, dtype="<f8", count=n * c.nw, offset=8).reshape(n, c.nw)
+    seeds = np.frombuffer(payload, dtype="<u8", count=n * e, offset=8 + 8 * n * c.nw)
+    wp = np.zeros((c.N, c.nw), dtype=np.float64)
     wp[:n] = w
-    keys = np.zeros((N, E, 2), dtype=np.uint32)
-    keys[:n, :, 0] = (seeds >> np.uint64(32)).astype(np.uint32)
-    keys[:n, :, 1] = (seeds & np.uint64(0xFFFFFFFF)).astype(np.uint32)
+    keys = np.zeros((c.N * c.E, 2), dtype=np.uint32)
+    keys[:n * e, 0] = (seeds >> np.uint64(32)).astype(np.uint32)
+    keys[:n * e, 1] = (seeds & np.uint64(0xFFFFFFFF)).astype(np.uint32)
+    dev, fn = c.calls[k % len(c.calls)]
     Ws, off = [], 0
-    for o, i in layers:
-        Ws.append(jax.device_put(wp[:, off:off + o * i].reshape(N, o, i).astype(dt), dev))
+    for o, i in c.layers:
+        Ws.append(wp[:, off:off + o * i].reshape(c.N, o, i).astype(dt))
         off += o * i
-    ret, length, fault = fn(Ws, jax.device_put(keys, dev))
+    args = jax.device_put((Ws, keys.reshape(c.N, c.E, 2), np.int32(n), np.int32(c.refill_at)),
+                          dev)
+    return n, fn(*args)
+
+
+def outcome(pending):
+    """The O message's parts of a dispatched chunk (waits for its results)."""
+    import numpy as np
+
+    n, (ret, length, fault, _trips) = pending
     ret = np.asarray(ret)[:n].astype("<f8").reshape(-1)
     length = np.asarray(length)[:n].astype("<u4").reshape(-1)
     fault = np.asarray(fault)[:n].astype(np.uint8).reshape(-1)

@@ -4,8 +4,12 @@ rwg starts this program through rwg-worker's loader (python -c LOAD WORKER
 rwg_pipe PIPE) and speaks the protocol of rwg-jax (framing as
 docs/bridge-protocol.md, by rwg_pipe) over the child's stdin/stdout: a hello
 (H) naming the env, a cell (C) naming the architecture to compile, chunks (B)
-of networks' weights and reset seeds; it answers ready (R), compiled (K) and
-the chunk's outcome (O): per episode its return, length and fault bits.
+of networks' weights and reset seeds, a flush (F); it answers ready (R),
+compiled (K) and chunks' outcomes (O): per episode its return, length and fault
+bits. A chunk is dispatched to a device as soon as it is read (JAX runs it
+asynchronously) and its outcome written when rwg asks for it: a B message says
+how many of the oldest chunks in flight to answer after it, F answers them all,
+so the next chunk is on the device while rwg reads the last one's results.
 Everything the env prints goes to stderr: rwg_pipe, imported first, keeps
 private duplicates of the original stdin/stdout for the protocol and
 redirects fd 0/1 before jax is imported.
@@ -22,24 +26,37 @@ from rwg_pipe import (  # the pipe first: it redirects fd 0/1
 from rwg_jax_worker_common import fail_exc, version_of
 from rwg_jax_worker_envs import MAKERS
 from rwg_jax_worker_policy import describe_spaces
-from rwg_jax_worker_episode import compile_cell, run_chunk
+from rwg_jax_worker_episode import compile_cell, dispatch_chunk, outcome
 
+import collections
 import json
 import os
+import struct
 import sys
 import time
 import traceback
 
 PROTOCOL = 1
-# XLA on CPU with one thread: rwg runs one worker per thread of its own.
-ONE_THREAD_XLA = "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1"
+# XLA's flags rwg sets unless XLA_FLAGS names them: on a CPU one thread (rwg
+# runs a worker per thread of its own); on a GPU no choice of kernel by timing
+# (autotuning), so two GPUs of one kind run the same program.
+RWG_XLA_FLAGS = {
+    "xla_cpu_multi_thread_eigen":
+        "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
+    "xla_gpu_deterministic_ops": "--xla_gpu_deterministic_ops=true",
+}
 
 # progress() kinds: b"m" importing and making the env, b"c" compiling.
 
 
-def import_jax(precision):
-    """jax, configured for `precision` before anything is traced."""
-    os.environ.setdefault("XLA_FLAGS", ONE_THREAD_XLA)
+def import_jax(precision, cache_dir):
+    """jax, configured for `precision` and the compilation cache before
+    anything is traced."""
+    flags = os.environ.get("XLA_FLAGS", "")
+    for name, flag in RWG_XLA_FLAGS.items():
+        if name not in flags:
+            flags = f"{flags} {flag}".strip()
+    os.environ["XLA_FLAGS"] = flags
     try:
         import jax
     except ImportError as e:
@@ -48,16 +65,23 @@ def import_jax(precision):
                        f"`{sys.executable} -m pip install \"jax[cuda12]\"` (NVIDIA GPU)",
              traceback.format_exc())
     jax.config.update("jax_enable_x64", precision == "float64")
+    if cache_dir:
+        # every compiled program is kept: a resume or a shard compiles nothing
+        jax.config.update("jax_compilation_cache_dir", cache_dir)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
     return jax
 
 
-def pick_device(jax, name):
-    """`jax.devices(kind)[index]` for "kind[:index]", default jax.devices()[0]."""
+def pick_devices(jax, name):
+    """The devices a worker runs: for "kind:index" that one; for "kind" (or
+    no name: JAX's default kind) every local device of that kind of the
+    first one's model."""
     try:
-        if name is None:
-            return jax.devices()[0]
-        kind, _, index = name.partition(":")
-        return jax.devices(kind)[int(index or 0)]
+        kind, _, index = (name or "").partition(":")
+        devs = jax.local_devices(backend=kind or None)
+        if index:
+            return [devs[int(index)]]
+        return [d for d in devs if d.device_kind == devs[0].device_kind]
     except BaseException as e:  # noqa: BLE001 -- unknown backend, index out of range
         try:
             known = ", ".join(f"{d.platform}:{d.id} ({d.device_kind})" for d in jax.devices())
@@ -67,13 +91,15 @@ def pick_device(jax, name):
 
 
 def start(hello):
-    """Imports, picks the device, makes the env: (jax, device, dtype, env, R fields, space)."""
+    """Imports, picks the devices, makes the env: (jax, devices, dtype, env, R
+    fields, space)."""
     precision = hello.get("precision", "float32")
     if precision not in ("float32", "float64"):
         fail("protocol", f"precision {precision!r}")
     progress(b"m")
-    jax = import_jax(precision)
-    dev = pick_device(jax, hello.get("device"))
+    jax = import_jax(precision, hello.get("compile_cache"))
+    devs = pick_devices(jax, hello.get("device"))
+    dev = devs[0]
     dt = jax.numpy.float64 if precision == "float64" else jax.numpy.float32
     kwargs = {k: decode_kwargs(v) for k, v in (hello.get("kwargs") or {}).items()}
     source, name, max_steps = hello["source"], hello["env"], hello.get("max_episode_steps")
@@ -85,6 +111,7 @@ def start(hello):
     if env.max_steps < 1 or env.max_steps >= 2**31:
         fail("make", f"time limit {env.max_steps}: rwg takes 1 to {2**31 - 1} steps")
     fields, space = describe_spaces(env, int(hello.get("max_obs", 4096)))
+    fields["item_bytes"] = start_bytes(jax, env, dev)
     import jaxlib
 
     versions = {"python": sys.version.split()[0], "jax": jax.__version__,
@@ -92,24 +119,65 @@ def start(hello):
     versions.update(env.versions)
     fields.update({"max_episode_steps": env.max_steps, "precision": precision,
                    "versions": {k: v for k, v in versions.items() if v is not None},
-                   "device": f"{dev.platform}:{dev.id}", "device_kind": dev.device_kind,
-                   "platform": dev.platform})
-    return jax, dev, dt, env, fields, space
+                   "device": ", ".join(f"{d.platform}:{d.id}" for d in devs),
+                   "devices": len(devs), "device_kind": dev.device_kind,
+                   "platform": dev.platform, "memory": device_memory(dev)})
+    return jax, devs, dt, env, fields, space
 
 
-def serve(jax, dev, dt, env, space, obs_dim):
-    compiled, cache = None, {}
+def start_bytes(jax, env, dev):
+    """Bytes of an episode's start (observation and state), from a trace of
+    the env's reset (nothing runs)."""
+    import numpy as np
+
+    def reset(key_data):
+        return env.reset(jax.random.wrap_key_data(key_data, impl="threefry2x32"))
+
+    try:
+        with jax.default_device(dev):
+            out = jax.eval_shape(reset, jax.ShapeDtypeStruct((2,), jax.numpy.uint32))
+    except BaseException as e:  # noqa: BLE001
+        fail_exc("make", "tracing the env's reset", e)
+    return sum(int(np.prod(x.shape)) * x.dtype.itemsize for x in jax.tree_util.tree_leaves(out))
+
+
+def device_memory(dev):
+    """The device's memory in bytes as its allocator sees it, or None (a CPU)."""
+    try:
+        stats = dev.memory_stats() or {}
+    except BaseException:  # noqa: BLE001 -- not every backend reports it
+        return None
+    limit = stats.get("bytes_limit")
+    return int(limit) if limit else None
+
+
+def answer(flight, count):
+    """Writes the outcomes of the `count` oldest chunks in flight."""
+    for _ in range(min(count, len(flight))):
+        try:
+            parts = outcome(flight.popleft())
+        except SystemExit:
+            raise
+        except BaseException as e:  # noqa: BLE001
+            fail_exc("run", "running a chunk", e)
+        write_msg(ord("O"), *parts)
+
+
+def serve(jax, devs, dt, env, space, obs_dim):
+    compiled, cache, flight, sent = None, {}, collections.deque(), 0
     while True:
         tag, payload = read_msg()
         if tag == ord("Q"):
             sys.exit(0)
         if tag == ord("C"):
+            if flight:
+                fail("protocol", "a cell while chunks are in flight")
             cell = json.loads(payload.decode())
             key = json.dumps(cell, sort_keys=True)
             t0 = time.perf_counter()
             if key not in cache:
                 try:
-                    cache[key] = compile_cell(jax, env, dev, dt, space, obs_dim, cell)
+                    cache[key] = compile_cell(jax, env, devs, dt, space, obs_dim, cell)
                 except SystemExit:
                     raise
                 except BaseException as e:  # noqa: BLE001
@@ -119,13 +187,17 @@ def serve(jax, dev, dt, env, space, obs_dim):
         elif tag == ord("B"):
             if compiled is None:
                 fail("protocol", "a chunk before any cell")
+            (answers,) = struct.unpack_from("<I", payload, 0)
             try:
-                parts = run_chunk(jax, dev, dt, compiled, payload)
+                flight.append(dispatch_chunk(jax, dt, compiled, memoryview(payload)[8:], sent))
             except SystemExit:
                 raise
             except BaseException as e:  # noqa: BLE001
                 fail_exc("run", "running a chunk", e)
-            write_msg(ord("O"), *parts)
+            sent += 1
+            answer(flight, answers)
+        elif tag == ord("F"):
+            answer(flight, len(flight))
         else:
             fail("protocol", f"unexpected message {chr(tag)!r}")
 
@@ -137,9 +209,9 @@ def main():
     hello = json.loads(payload.decode())
     if hello.get("protocol") != PROTOCOL:
         fail("protocol", f"rwg speaks protocol {hello.get('protocol')}, this worker {PROTOCOL}")
-    jax, dev, dt, env, fields, space = start(hello)
+    jax, devs, dt, env, fields, space = start(hello)
     send_json(ord("R"), fields)
-    serve(jax, dev, dt, env, space, fields["obs_dim"])
+    serve(jax, devs, dt, env, space, fields["obs_dim"])
 
 
 try:

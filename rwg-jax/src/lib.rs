@@ -7,12 +7,14 @@
 //! back.
 //!
 //! The worker program ([`WORKER_PY`]) ships inside rwg and is handed to
-//! `python -c`; it compiles `jit(vmap(networks, vmap(episodes, episode)))`
-//! once per cell at one shape (`networks_per_call` networks; a short chunk
-//! is padded), so a network's results are the same bits whatever the
-//! chunking of blocks, the threads, shards or a resume. The weights are
-//! rwg's draw ([`rwg_core::sampler::draw_block_weights`]); the episode's key
-//! is `PRNGKey(r)` of rwg's reset seed `r`.
+//! `python -c`; it compiles one program per cell: `lanes` episodes at a
+//! time, a lane whose episode ended taking the chunk's next (network,
+//! episode) inside the compiled loop (`jax_episode.py`). Every per-episode
+//! computation has the lanes' shape, so a network's results are the same
+//! bits whatever the chunk that holds it, `networks_per_call`, the threads,
+//! devices, shards or a resume. The weights are rwg's draw
+//! ([`rwg_core::sampler::draw_block_weights`]); the episode's key is
+//! `PRNGKey(r)` of rwg's reset seed `r`.
 //!
 //! # Example
 //!
@@ -40,22 +42,27 @@
 //! - [`protocol`]: the messages (hello, cell, chunk, ready, outcome).
 //! - The worker's Python: [`WORKER_PY`] and its [`MODULES`].
 //! - `worker`: one worker process, its handshake, compiles and chunks.
+//! - `config`: [`JaxConfig`], the precisions, the settings from `RWG_*`.
+//! - `source`: [`JaxSource`], its workers, a cell's program shape.
 //! - [`chunks`]: blocks cut into chunks, outcomes put back into blocks in order.
-//! - `run`: the chunks handed to the workers, one in flight each.
+//! - `run`: the chunks handed to the workers, pipelined.
 
 pub mod chunks;
+mod config;
 pub mod protocol;
 mod run;
+mod source;
 mod worker;
 
-use worker::JaxWorker;
+pub use config::{
+    cache_setting, default_python, default_timeout, timeout_setting, JaxConfig, MatmulPrecision,
+    Precision,
+};
+pub use source::{JaxSource, StartingSource};
 
-use rwg_core::sampler::{BlockResult, CellPlan, SampleError};
 use rwg_env::EnvSpec;
 use rwg_worker::protocol::WorkerError;
 use std::collections::BTreeMap;
-use std::ops::Range;
-use std::time::Duration;
 use thiserror::Error;
 
 /// The worker program, run with `python -c` through rwg-worker's loader
@@ -104,11 +111,26 @@ pub const MAX_TIMEOUT_S: f64 = 604_800.0;
 /// `networks_per_call` must be a multiple of this.
 pub const NETWORKS_MULTIPLE: u32 = 32;
 
-/// Default networks per compiled call on a CPU device.
-pub const DEFAULT_NETWORKS_CPU: u32 = 256;
+/// Lanes (episodes run at once) of a cell's program on a CPU.
+pub const DEFAULT_LANES_CPU: u32 = 1024;
 
-/// Default networks per compiled call on a GPU or TPU device.
-pub const DEFAULT_NETWORKS_ACCELERATOR: u32 = 4096;
+/// Lanes of a cell's program on a GPU or TPU.
+pub const DEFAULT_LANES_ACCELERATOR: u32 = 65_536;
+
+/// The default chunk holds this many episodes per lane (fewer when the
+/// device's memory is short).
+pub const EPISODES_PER_LANE: u32 = 32;
+
+/// The largest default `networks_per_call`.
+pub const MAX_DEFAULT_NETWORKS: u32 = 65_536;
+
+/// The share of a GPU's or TPU's memory the default chunks may take (two
+/// chunks are in flight per device).
+pub const MEMORY_SHARE: f64 = 0.25;
+
+/// The environment variable naming the folder of JAX's persistent
+/// compilation cache (`off`: none); see [`cache_setting`].
+pub const CACHE_VAR: &str = "RWG_JAX_CACHE";
 
 /// The largest flat observation accepted (values).
 pub const MAX_OBS: usize = 4096;
@@ -152,111 +174,6 @@ pub fn jax_id(id: &str) -> Option<(JaxKind, &str)> {
         .find_map(|k| id.strip_prefix(k.prefix()).map(|rest| (k, rest)))
 }
 
-/// The float type the policy and the env compute in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub enum Precision {
-    /// `float32` (JAX's default).
-    #[default]
-    F32,
-    /// `float64` (`jax_enable_x64`).
-    F64,
-}
-
-impl Precision {
-    /// The manifest's names, in variant order.
-    pub const NAMES: [&'static str; 2] = ["float32", "float64"];
-
-    /// `float32` or `float64`.
-    pub fn name(self) -> &'static str {
-        Self::NAMES[self as usize]
-    }
-
-    /// The precision named `name` ([`Precision::NAMES`]).
-    pub fn from_name(name: &str) -> Option<Precision> {
-        match name {
-            "float32" => Some(Precision::F32),
-            "float64" => Some(Precision::F64),
-            _ => None,
-        }
-    }
-}
-
-/// Everything that determines a JAX environment source.
-#[derive(Debug, Clone, PartialEq)]
-pub struct JaxConfig {
-    /// Which library.
-    pub kind: JaxKind,
-    /// The id after the prefix (`CartPole-v1`, `my_pkg.envs:make_env`).
-    pub id: String,
-    /// The Python interpreter.
-    pub python: String,
-    /// Keyword arguments (gymnax: env params fields; brax:
-    /// `get_environment` kwargs; jax: the callable's), encoded as
-    /// `rwg_gym::kwargs` does (nan/inf as `{"$rwg": "nan"}`).
-    pub kwargs: serde_json::Map<String, serde_json::Value>,
-    /// The manifest's time limit override.
-    pub max_episode_steps: Option<u32>,
-    /// The precision.
-    pub precision: Precision,
-    /// The JAX device (`cpu`, `gpu:1`); `None`: `jax.devices()[0]`.
-    pub device: Option<String>,
-    /// Networks per compiled call; `None`: by platform
-    /// ([`DEFAULT_NETWORKS_CPU`], [`DEFAULT_NETWORKS_ACCELERATOR`]).
-    pub networks_per_call: Option<u32>,
-    /// How long a start, a compile or a call may take.
-    pub timeout: Duration,
-}
-
-impl JaxConfig {
-    /// A config for `id` (without the prefix) of `kind` with defaults: the
-    /// Python from [`default_python`], no kwargs, the env's own time limit,
-    /// float32, the default device and call size, [`default_timeout`].
-    pub fn new(kind: JaxKind, id: &str) -> Self {
-        JaxConfig {
-            kind,
-            id: id.to_string(),
-            python: default_python(),
-            kwargs: Default::default(),
-            max_episode_steps: None,
-            precision: Precision::F32,
-            device: None,
-            networks_per_call: None,
-            timeout: default_timeout(),
-        }
-    }
-
-    /// The full rwg id (`gymnax:CartPole-v1`).
-    pub fn rwg_id(&self) -> String {
-        format!("{}{}", self.kind.prefix(), self.id)
-    }
-}
-
-/// `RWG_PYTHON` if set, else `python3` (as for `gymnasium:` envs).
-pub fn default_python() -> String {
-    rwg_env::vars::text(PYTHON_VAR)
-        .ok()
-        .flatten()
-        .unwrap_or_else(|| "python3".into())
-}
-
-/// [`TIMEOUT_VAR`] (seconds from 0.001 to [`MAX_TIMEOUT_S`]) if set, else
-/// [`DEFAULT_TIMEOUT_S`]; an error naming the variable for any other value.
-pub fn timeout_setting() -> Result<Duration, rwg_env::vars::VarError> {
-    rwg_env::vars::seconds(
-        TIMEOUT_VAR,
-        0.001,
-        MAX_TIMEOUT_S,
-        Duration::from_secs_f64(DEFAULT_TIMEOUT_S),
-        "how long a JAX worker may take to start, to compile a cell or to run one call",
-    )
-}
-
-/// [`timeout_setting`], or [`DEFAULT_TIMEOUT_S`] if that is an error (the
-/// `rwg` binary checks the variable before it runs a command).
-pub fn default_timeout() -> Duration {
-    timeout_setting().unwrap_or(Duration::from_secs_f64(DEFAULT_TIMEOUT_S))
-}
-
 /// The environment as the worker described it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JaxInfo {
@@ -268,14 +185,21 @@ pub struct JaxInfo {
     pub action_space: String,
     /// Versions: `python`, `jax`, `jaxlib`, and `gymnax`, `brax` or `module`.
     pub versions: BTreeMap<String, String>,
-    /// The device used (`cpu:0`, `cuda:0`).
+    /// The devices used (`cpu:0`, `cuda:0, cuda:1`).
     pub device: String,
-    /// The device's kind (`cpu`, `NVIDIA H200`).
+    /// How many devices a worker runs (all of one kind).
+    pub devices: usize,
+    /// The devices' kind (`cpu`, `NVIDIA H200`).
     pub device_kind: String,
     /// JAX's platform (`cpu`, `gpu`, `tpu`).
     pub platform: String,
     /// The precision the worker ran.
     pub precision: Precision,
+    /// A device's memory as its allocator reports it (`None`: a CPU).
+    pub memory: Option<u64>,
+    /// Bytes an episode's start (its observation and state) takes on the
+    /// device.
+    pub item_bytes: u64,
 }
 
 /// What can go wrong with a JAX environment.
@@ -348,115 +272,6 @@ fn worker_error_text(python: &str, e: &WorkerError) -> String {
     s
 }
 
-/// One JAX environment of a study: its config, its description, and the
-/// worker processes kept between cells.
-pub struct JaxSource {
-    config: JaxConfig,
-    info: JaxInfo,
-    pool: std::sync::Mutex<Vec<JaxWorker>>,
-}
-
-impl std::fmt::Debug for JaxSource {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("JaxSource")
-            .field("config", &self.config)
-            .finish()
-    }
-}
-
-impl JaxSource {
-    /// Starts one worker (imports, makes the env, checks its spaces and the
-    /// device) and keeps it for the run.
-    pub fn open(config: JaxConfig) -> Result<JaxSource, JaxError> {
-        let (first, info) = JaxWorker::spawn(&config)?;
-        Ok(JaxSource {
-            config,
-            info,
-            pool: std::sync::Mutex::new(vec![first]),
-        })
-    }
-
-    /// The environment as the worker described it.
-    pub fn info(&self) -> &JaxInfo {
-        &self.info
-    }
-
-    /// The config.
-    pub fn config(&self) -> &JaxConfig {
-        &self.config
-    }
-
-    /// Networks per compiled call: the config's, else the platform's default.
-    pub fn networks_per_call(&self) -> u32 {
-        self.config.networks_per_call.unwrap_or(if self.on_cpu() {
-            DEFAULT_NETWORKS_CPU
-        } else {
-            DEFAULT_NETWORKS_ACCELERATOR
-        })
-    }
-
-    fn on_cpu(&self) -> bool {
-        self.info.platform == "cpu"
-    }
-
-    /// Worker processes a run with `threads` threads uses: `threads` on a
-    /// CPU device, 1 on a GPU or TPU.
-    pub fn workers_for(&self, threads: usize) -> usize {
-        if self.on_cpu() {
-            threads.max(1)
-        } else {
-            1
-        }
-    }
-
-    /// CPU seconds used so far by the idle worker processes, where the OS
-    /// reports it.
-    pub fn workers_cpu_seconds(&self) -> Option<f64> {
-        self.lock_pool().iter().map(|w| w.cpu_seconds()).sum()
-    }
-
-    fn lock_pool(&self) -> std::sync::MutexGuard<'_, Vec<JaxWorker>> {
-        self.pool.lock().unwrap_or_else(|p| p.into_inner())
-    }
-
-    /// An idle worker, or a new one (which must describe the env as the
-    /// first did).
-    fn take_worker(&self) -> Result<JaxWorker, JaxError> {
-        if let Some(w) = self.lock_pool().pop() {
-            return Ok(w);
-        }
-        let (w, info) = JaxWorker::spawn(&self.config)?;
-        if info != self.info {
-            return Err(JaxError::OtherInfo(format!(
-                "{info:?} where the first reported {:?}",
-                self.info
-            )));
-        }
-        Ok(w)
-    }
-
-    /// Runs `blocks` of a cell on [`JaxSource::workers_for`]`(threads)`
-    /// workers (kept between calls), in chunks of
-    /// [`JaxSource::networks_per_call`] networks of consecutive blocks, one
-    /// chunk in flight per worker, and hands the results to `on_block` in
-    /// block order. Stops at the first failure in network order (a fault
-    /// bit, a worker's error, death or timeout) or the first error
-    /// `on_block` returns; the blocks handed out before stay valid.
-    pub fn run_blocks<G, X>(
-        &self,
-        plan: &CellPlan,
-        blocks: &[Range<u64>],
-        threads: usize,
-        on_block: G,
-    ) -> Result<(), X>
-    where
-        G: FnMut(BlockResult) -> Result<(), X>,
-        X: From<SampleError> + Send,
-    {
-        run::run_blocks(self, plan, blocks, threads, on_block)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -485,15 +300,6 @@ mod tests {
         let cfg = JaxConfig::new(JaxKind::Custom, "m:f");
         assert_eq!(cfg.rwg_id(), "jax:m:f");
         assert_eq!(jax_id(&cfg.rwg_id()), Some((JaxKind::Custom, "m:f")));
-    }
-
-    #[test]
-    fn precisions_go_by_their_manifest_names() {
-        for p in [Precision::F32, Precision::F64] {
-            assert_eq!(Precision::from_name(p.name()), Some(p));
-        }
-        assert_eq!(Precision::from_name("float16"), None);
-        assert_eq!(Precision::default(), Precision::F32);
     }
 
     /// A Python that cannot start: the reason is in the text, once, and not

@@ -1,9 +1,15 @@
 //! The JAX worker's messages (framing as `docs/bridge-protocol.md`): the
-//! hello, cell and chunk messages rwg sends, the ready and outcome messages
-//! the worker answers. Tags shared with the Gymnasium bridge come from
-//! [`rwg_worker::protocol`].
+//! hello, cell, chunk and flush messages rwg sends, the ready, compiled and
+//! outcome messages the worker answers. Tags shared with the Gymnasium
+//! bridge come from [`rwg_worker::protocol`].
+//!
+//! Chunks are pipelined: the worker starts a chunk on a device as soon as
+//! it reads it and writes outcomes in the order the chunks came, only when
+//! asked: a chunk message says how many of the oldest chunks in flight to
+//! answer after it, a flush answers them all. Both sides alternate one
+//! chunk sent, its answers read, so neither waits on a full pipe.
 
-use crate::{JaxConfig, JaxError, JaxInfo, Precision};
+use crate::{JaxConfig, JaxError, JaxInfo, MatmulPrecision, Precision};
 use rwg_env::{BoxSpace, EnvSpec, Space};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -19,6 +25,8 @@ pub const TAG_CELL: u8 = b'C';
 pub const TAG_COMPILED: u8 = b'K';
 /// Host -> worker: a chunk of networks (binary).
 pub const TAG_CHUNK: u8 = b'B';
+/// Host -> worker: answer every chunk in flight (no payload).
+pub const TAG_FLUSH: u8 = b'F';
 
 /// Fault bit: a non-finite observation was seen while the episode ran.
 pub const FAULT_OBS: u8 = 1;
@@ -36,6 +44,7 @@ pub fn hello(cfg: &JaxConfig, max_obs: usize) -> serde_json::Value {
         "precision": cfg.precision.name(),
         "device": cfg.device,
         "max_obs": max_obs,
+        "compile_cache": cfg.compile_cache,
     })
 }
 
@@ -52,6 +61,12 @@ pub struct CellShape {
     pub episodes: u32,
     /// Weights per network.
     pub n_weights: usize,
+    /// Episodes run at once (the program's lanes).
+    pub lanes: u32,
+    /// Ended lanes that wait before they take new episodes together.
+    pub refill: u32,
+    /// The precision of matrix products.
+    pub matmul_precision: MatmulPrecision,
 }
 
 impl CellShape {
@@ -63,16 +78,30 @@ impl CellShape {
             "networks": self.networks,
             "episodes": self.episodes,
             "n_weights": self.n_weights,
+            "lanes": self.lanes,
+            "refill": self.refill,
+            "matmul_precision": self.matmul_precision.name(),
         })
     }
 }
 
-/// Encodes a chunk message into `buf`: `n` networks' weights (`weights`,
-/// network-major, `n * n_weights` values) and `n * episodes` reset seeds.
-pub fn encode_chunk(buf: &mut Vec<u8>, n: usize, episodes: u32, weights: &[f64], seeds: &[u64]) {
+/// Encodes a chunk message into `buf`: how many of the oldest chunks in
+/// flight the worker answers after starting this one (`answers`, padded to
+/// 8 bytes), then `n` networks' weights (`weights`, network-major, `n *
+/// n_weights` values) and `n * episodes` reset seeds.
+pub fn encode_chunk(
+    buf: &mut Vec<u8>,
+    answers: u32,
+    n: usize,
+    episodes: u32,
+    weights: &[f64],
+    seeds: &[u64],
+) {
     debug_assert_eq!(seeds.len(), n * episodes as usize);
     begin(buf, TAG_CHUNK);
-    buf.reserve(8 + 8 * (weights.len() + seeds.len()));
+    buf.reserve(16 + 8 * (weights.len() + seeds.len()));
+    buf.extend_from_slice(&answers.to_le_bytes());
+    buf.extend_from_slice(&[0; 4]);
     buf.extend_from_slice(&(n as u32).to_le_bytes());
     buf.extend_from_slice(&episodes.to_le_bytes());
     for w in weights {
@@ -137,9 +166,12 @@ pub struct Ready {
     action_space: String,
     versions: BTreeMap<String, String>,
     device: String,
+    devices: usize,
     device_kind: String,
     platform: String,
     precision: String,
+    memory: Option<u64>,
+    item_bytes: u64,
 }
 
 fn floats(v: &[serde_json::Value]) -> Result<Vec<f64>, JaxError> {
@@ -184,9 +216,12 @@ pub fn parse_ready(cfg: &JaxConfig, r: Ready) -> Result<JaxInfo, JaxError> {
         action_space: r.action_space,
         versions: r.versions,
         device: r.device,
+        devices: r.devices.max(1),
         device_kind: r.device_kind,
         platform: r.platform,
         precision,
+        memory: r.memory,
+        item_bytes: r.item_bytes,
     })
 }
 
@@ -198,13 +233,15 @@ mod tests {
     #[test]
     fn a_chunk_is_counts_weights_then_seeds() {
         let mut buf = vec![];
-        encode_chunk(&mut buf, 2, 1, &[1.5, -2.0], &[7, u64::MAX]);
+        encode_chunk(&mut buf, 1, 2, 1, &[1.5, -2.0], &[7, u64::MAX]);
         assert_eq!(
             u32::from_le_bytes(buf[..4].try_into().unwrap()) as usize,
             buf.len() - 4
         );
         assert_eq!(buf[4], TAG_CHUNK);
         let p = &buf[5..];
+        assert_eq!(&p[..8], &[1, 0, 0, 0, 0, 0, 0, 0]);
+        let p = &p[8..];
         assert_eq!(&p[..8], &[2, 0, 0, 0, 1, 0, 0, 0]);
         assert_eq!(&p[8..16], &1.5f64.to_le_bytes());
         assert_eq!(&p[16..24], &(-2.0f64).to_le_bytes());
@@ -238,8 +275,9 @@ mod tests {
             "obs_high": ["inf", "inf", "inf", "inf"],
             "action": {"box": {"low": [-1.0], "high": [1.0], "shape": [1]}},
             "max_episode_steps": 1000, "observation_space": "Box", "action_space": "Box",
-            "versions": {"jax": "0.10.2"}, "device": "cpu:0", "device_kind": "cpu",
-            "platform": "cpu", "precision": "float64"
+            "versions": {"jax": "0.10.2"}, "device": "cpu:0", "devices": 1,
+            "device_kind": "cpu", "platform": "cpu", "precision": "float64", "memory": null,
+            "item_bytes": 40
         }))
         .unwrap();
         let info = parse_ready(&cfg, r).unwrap();

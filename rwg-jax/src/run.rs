@@ -1,17 +1,21 @@
 //! [`crate::JaxSource::run_blocks`]: the chunks of a cell handed round
-//! robin to the workers (one thread each, one chunk in flight each, the next
-//! chunk's weights and seeds drawn while the worker computes), their
-//! outcomes put back together in chunk order.
+//! robin to the workers (one thread each), their outcomes put back together
+//! in chunk order. Each worker has one chunk more in flight than it has
+//! devices: the next chunk is on its way while a device computes, and the
+//! next chunk's weights and seeds are drawn meanwhile. With the compilation
+//! cache on, the first worker compiles the cell and the others, started
+//! meanwhile, read its program from the cache.
 
 use crate::chunks::{chunk_len, chunks, results, Assembly, Chunk};
 use crate::protocol::{CellShape, Outcome};
 use crate::worker::JaxWorker;
 use crate::{JaxError, JaxSource};
-use rwg_core::policy::NetShape;
 use rwg_core::sampler::{draw_block_weights, reset_seed, BlockResult, CellPlan, SampleError};
 use rwg_env::EnvError;
+use std::collections::VecDeque;
 use std::ops::Range;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::Barrier;
 
 /// Outcomes a worker thread may have ready before they are put back.
 const AHEAD_PER_WORKER: usize = 2;
@@ -28,33 +32,30 @@ where
     G: FnMut(BlockResult) -> Result<(), X>,
     X: From<SampleError> + Send,
 {
-    let spec = &src.info.spec;
-    let shape = NetShape::new(
-        spec.obs_dim(),
-        &plan.arch,
-        NetShape::outputs_for(&spec.action_space),
-    );
-    let cell = CellShape {
-        hidden: plan.arch.hidden.clone(),
-        bias: plan.arch.bias,
-        networks: src.networks_per_call(),
-        episodes: plan.episodes,
-        n_weights: shape.n_weights(),
-    };
+    let cell = src.cell_shape(plan);
     let all = chunks(blocks, cell.networks as usize);
     let mut assembly = Assembly::new(blocks, plan.episodes);
     if all.is_empty() {
         return assembly.add(&[], &mut on_block);
     }
     let workers = src.workers_for(threads).min(all.len());
+    // with a compilation cache, the first worker's compile serves the others
+    let compiled = src
+        .config
+        .compile_cache
+        .is_some()
+        .then(|| Barrier::new(workers));
     std::thread::scope(|scope| {
         let mut outcomes = vec![];
         let mut handles = vec![];
         for t in 0..workers {
             let (tx, rx) = sync_channel(AHEAD_PER_WORKER);
             outcomes.push(rx);
-            let (cell, all) = (&cell, &all);
-            handles.push(scope.spawn(move || serve(src, plan, cell, all, (t, workers), tx)));
+            let (cell, all, compiled) = (&cell, &all, compiled.as_ref());
+            handles.push(scope.spawn(move || {
+                let w = ready_worker(src, cell, t, compiled);
+                serve(src, plan, cell, all, (t, workers), w, tx)
+            }));
         }
         let r = collect(plan, &all, &outcomes, &mut assembly, &mut on_block);
         drop(outcomes); // the threads end after their chunk in flight
@@ -112,9 +113,31 @@ fn chunk_error(plan: &CellPlan, chunk: &Chunk, e: JaxError) -> SampleError {
     }
 }
 
-/// A worker thread `t` of `workers`: takes a worker (idle or new),
-/// compiles the cell, runs chunks `t`, `t + workers`, ... in order, drawing
-/// each chunk's inputs while the worker runs the one before. Returns the
+/// Worker thread `t`'s worker (idle or new) with the cell compiled. With
+/// `compiled` (a compilation cache), thread 0 compiles first and the others
+/// wait for it (starting their workers meanwhile), then read the cache.
+fn ready_worker(
+    src: &JaxSource,
+    cell: &CellShape,
+    t: usize,
+    compiled: Option<&Barrier>,
+) -> Result<JaxWorker, JaxError> {
+    let mut worker = src.take_worker();
+    if t == 0 {
+        worker = worker.and_then(|mut w| w.set_cell(cell).map(|_| w));
+    }
+    if let Some(b) = compiled {
+        b.wait(); // every thread passes here once, whatever failed
+    }
+    if t != 0 {
+        worker = worker.and_then(|mut w| w.set_cell(cell).map(|_| w));
+    }
+    worker
+}
+
+/// A worker thread `t` of `workers`: runs chunks `t`, `t + workers`, ... in
+/// order on `worker`, one more in flight than it has devices, drawing each
+/// chunk's inputs while the worker runs the ones before. Returns the
 /// worker if it is still sound.
 fn serve(
     src: &JaxSource,
@@ -122,38 +145,55 @@ fn serve(
     cell: &CellShape,
     all: &[Chunk],
     (t, workers): (usize, usize),
+    worker: Result<JaxWorker, JaxError>,
     outcomes: SyncSender<Result<Outcome, JaxError>>,
 ) -> Option<JaxWorker> {
-    let mut worker = match src.take_worker() {
-        Ok(mut w) => w.set_cell(cell).map(|_| w),
-        Err(e) => Err(e),
+    let mut w = match worker {
+        Ok(w) => w,
+        Err(e) => {
+            // a start-up or compile failure, reported for its first chunk
+            let _ = outcomes.send(Err(e));
+            return None;
+        }
     };
+    let depth = src.info.devices + 1;
+    let mine: Vec<usize> = (t..all.len()).step_by(workers).collect();
+    let mut sent = VecDeque::new();
     let mut inputs = (vec![], vec![]);
     let mut next = (vec![], vec![]);
-    chunk_inputs(plan, cell, &all[t], &mut next);
-    for c in (t..all.len()).step_by(workers) {
-        std::mem::swap(&mut inputs, &mut next);
-        let w = match worker {
-            Ok(ref mut w) => w,
-            Err(e) => {
-                // a start-up or compile failure, reported for its first chunk
-                let _ = outcomes.send(Err(e));
-                return None;
-            }
-        };
-        let n = chunk_len(&all[c]);
-        let outcome = w.send_chunk(n, &inputs.0, &inputs.1).and_then(|()| {
-            if let Some(after) = all.get(c + workers) {
-                chunk_inputs(plan, cell, after, &mut next);
-            }
-            w.recv_outcome(inputs.1.len())
-        });
+    chunk_inputs(plan, cell, &all[mine[0]], &mut next);
+    let episodes = plan.episodes as usize;
+    let answer = |w: &mut JaxWorker, sent: &mut VecDeque<usize>| {
+        let c = sent.pop_front().expect("a chunk in flight");
+        let outcome = w.recv_outcome(chunk_len(&all[c]) * episodes);
         let broken = outcome.is_err();
-        if outcomes.send(outcome).is_err() || broken {
+        outcomes.send(outcome).is_ok() && !broken
+    };
+    for (j, &c) in mine.iter().enumerate() {
+        std::mem::swap(&mut inputs, &mut next);
+        let answers = usize::from(w.in_flight() + 1 >= depth);
+        if let Err(e) = w.send_chunk(answers, chunk_len(&all[c]), &inputs.0, &inputs.1) {
+            let _ = outcomes.send(Err(e));
+            return None;
+        }
+        sent.push_back(c);
+        if let Some(&after) = mine.get(j + 1) {
+            chunk_inputs(plan, cell, &all[after], &mut next);
+        }
+        if answers == 1 && !answer(&mut w, &mut sent) {
             return None;
         }
     }
-    worker.ok()
+    if let Err(e) = w.flush() {
+        let _ = outcomes.send(Err(e));
+        return None;
+    }
+    while !sent.is_empty() {
+        if !answer(&mut w, &mut sent) {
+            return None;
+        }
+    }
+    Some(w)
 }
 
 /// The weights (network-major) and reset seeds (network-major, then

@@ -47,6 +47,8 @@ fn config(py: &str, kind: JaxKind, id: &str) -> JaxConfig {
     let mut cfg = JaxConfig::new(kind, id);
     cfg.python = py.into();
     cfg.networks_per_call = Some(32);
+    // the JAX tests' compilation cache, not the user's
+    cfg.compile_cache = Some(std::env::temp_dir().join("rwg-test-jax-cache"));
     cfg
 }
 

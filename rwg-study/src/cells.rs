@@ -49,10 +49,11 @@ fn resolve_env(
     m: &Manifest,
     i: usize,
     plugins: &mut Plugins,
+    jax: &mut std::collections::HashMap<usize, rwg_jax::StartingSource>,
 ) -> Result<(EnvSource, EnvSpec), ManifestError> {
     let e: &EnvEntry = &m.envs[i];
     if crate::jax_source::is_jax(&e.id) {
-        let src = crate::jax_source::open_entry(m, i)?;
+        let src = crate::jax_source::open_entry(m, i, jax.remove(&i))?;
         let spec = src.info().spec.clone();
         return Ok((EnvSource::Jax(std::sync::Arc::new(src)), spec));
     }
@@ -198,8 +199,10 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
     // (env index, architecture index) of each cell, to name colliding entries
     let mut owners = vec![];
     let mut plugins = Plugins::default();
+    // JAX workers import while the other envs are resolved
+    let mut jax = crate::jax_source::start_all(m);
     for i in 0..m.envs.len() {
-        let (source, spec) = resolve_env(m, i, &mut plugins)?;
+        let (source, spec) = resolve_env(m, i, &mut plugins, &mut jax)?;
         if let EnvSource::Plugin(p) = &source {
             if m.envs[i].plugin.is_none() {
                 m.envs[i].plugin = Some(std::path::absolute(p.path()).map_err(StudyError::io(
@@ -390,7 +393,9 @@ impl Cell {
                 device_kind: j.info().device_kind.clone(),
                 platform: j.info().platform.clone(),
                 precision: j.info().precision.name().to_string(),
-                networks_per_call: j.networks_per_call(),
+                matmul_precision: j.config().matmul_precision.name().to_string(),
+                lanes: j.lanes(),
+                refill: (j.lanes() / 8).max(1),
             }),
             _ => record,
         }

@@ -1,11 +1,14 @@
 //! JAX environments (`gymnax:ID`, `brax:NAME`, `jax:module:callable`) in a
 //! manifest: an `[[envs]]` entry turned into a [`JaxConfig`] (its `kwargs`,
-//! `python`, time limit, `precision`, `device`, `networks_per_call`), and
-//! the workers' start-up errors located at the manifest line that explains
-//! them. The keys themselves are checked where the manifest is parsed.
+//! `python`, time limit, `precision`, `matmul_precision`, `device`,
+//! `networks_per_call`), the workers of every JAX entry started at once
+//! (their imports overlap rwg's planning and each other), and the workers'
+//! start-up errors located at the manifest line that explains them. The keys
+//! themselves are checked where the manifest is parsed.
 
 use crate::manifest::{EnvEntry, Manifest, ManifestError};
-use rwg_jax::{JaxConfig, JaxError, JaxKind, JaxSource};
+use rwg_jax::{JaxConfig, JaxError, JaxKind, JaxSource, StartingSource};
+use std::collections::HashMap;
 
 /// Whether `id` names a JAX env (`gymnax:`, `brax:` or `jax:`).
 pub fn is_jax(id: &str) -> bool {
@@ -24,18 +27,32 @@ pub fn config_of(e: &EnvEntry) -> JaxConfig {
     }
     cfg.max_episode_steps = e.max_episode_steps;
     cfg.precision = e.precision.unwrap_or_default();
+    cfg.matmul_precision = e.matmul_precision.unwrap_or_default();
     cfg.device = e.device.clone();
     cfg.networks_per_call = e.networks_per_call;
     cfg
 }
 
-/// Opens env `i` of the manifest (one worker: the env made, its spaces and
-/// the device checked), or an error pointing at the manifest line that
-/// explains it.
-pub fn open_entry(m: &Manifest, i: usize) -> Result<JaxSource, ManifestError> {
+/// Starts the first worker of every JAX entry of the manifest, by entry
+/// index, without waiting for them.
+pub fn start_all(m: &Manifest) -> HashMap<usize, StartingSource> {
+    (0..m.envs.len())
+        .filter(|&i| is_jax(&m.envs[i].id))
+        .map(|i| (i, JaxSource::start(config_of(&m.envs[i]))))
+        .collect()
+}
+
+/// Opens env `i` of the manifest (one worker, `started` already or started
+/// now: the env made, its spaces and the device checked), or an error
+/// pointing at the manifest line that explains it.
+pub fn open_entry(
+    m: &Manifest,
+    i: usize,
+    started: Option<StartingSource>,
+) -> Result<JaxSource, ManifestError> {
     let e = &m.envs[i];
-    let cfg = config_of(e);
-    JaxSource::open(cfg).map_err(|err| {
+    let started = started.unwrap_or_else(|| JaxSource::start(config_of(e)));
+    started.open().map_err(|err| {
         let at = match &err {
             JaxError::NoPython { .. } => e.python_span.clone(),
             JaxError::Worker { error, .. } => match error.kind.as_str() {

@@ -152,13 +152,21 @@ pub struct EnvEntry {
         serialize_with = "jax_keys::serialize_precision"
     )]
     pub precision: Option<rwg_jax::Precision>,
+    /// The precision of a JAX env's matrix products (the manifest's, else
+    /// `highest`); `None` for every other env. Part of the study.
+    #[serde(
+        skip_serializing_if = "Option::is_none",
+        serialize_with = "jax_keys::serialize_matmul_precision"
+    )]
+    pub matmul_precision: Option<rwg_jax::MatmulPrecision>,
     /// The JAX device a JAX env runs on (`cpu`, `gpu:1`; `None`: JAX's
     /// first). How, not what: not part of the study (the device used is
     /// recorded in each cell's `env.json`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub device: Option<String>,
     /// Networks in one compiled call of a JAX env (`None`: rwg-jax's
-    /// default for the device's platform). Part of the study.
+    /// default, from the lanes and the device's memory). How, not what: a
+    /// network's results do not depend on it, so it is not part of the study.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub networks_per_call: Option<u32>,
     /// Where the `device` value stands, if given.
@@ -340,9 +348,10 @@ impl Manifest {
 
     /// How the study of `other` differs from this one (empty: the same study).
     /// Compares what [`Manifest::to_toml`] writes, key by key, except the
-    /// envs' `isolate` and `device` (they change where an env runs, not its
-    /// results; the device a JAX cell ran on is compared through its
-    /// `env.json`, [`crate::rundir::env_record`]).
+    /// envs' `isolate`, `device` and `networks_per_call` (they change where
+    /// or how an env runs, not its results; the kind of device a JAX cell
+    /// ran on is compared through its `env.json`,
+    /// [`crate::rundir::env_record`]).
     pub fn study_differences(&self, other: &Manifest) -> Vec<String> {
         let study = |m: &Manifest| {
             let mut t: toml::Table = toml::from_str(&m.to_toml()).expect("valid TOML");
@@ -350,6 +359,7 @@ impl Manifest {
                 for e in envs.iter_mut().filter_map(|e| e.as_table_mut()) {
                     e.remove("isolate");
                     e.remove("device");
+                    e.remove("networks_per_call");
                 }
             }
             t

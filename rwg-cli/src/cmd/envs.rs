@@ -71,8 +71,9 @@ struct JaxRow {
     device: String,
     device_kind: String,
     platform: String,
+    devices: usize,
     precision: &'static str,
-    networks_per_call: u32,
+    lanes: u32,
     python: String,
 }
 
@@ -93,10 +94,11 @@ fn jax_row(id: &str, gym: &crate::gym::GymArgs) -> Result<Row> {
             obs_dim: info.spec.obs_dim(),
             versions: info.versions,
             device: info.device,
+            devices: info.devices,
             device_kind: info.device_kind,
             platform: info.platform,
             precision: info.precision.name(),
-            networks_per_call: src.networks_per_call(),
+            lanes: src.lanes(),
             python,
         }),
         spec: info.spec,
@@ -117,7 +119,7 @@ fn jax_lines(id: &str, j: &JaxRow) -> String {
     }
     format!(
         "\n{id}\n  observation: {}\n  action: {}\n  versions: {}\n  device: {} ({}, \
-         platform {}), {}, {} networks per call",
+         platform {}), {}, {} lanes",
         j.observation_space,
         j.action_space,
         versions.join(", "),
@@ -125,7 +127,7 @@ fn jax_lines(id: &str, j: &JaxRow) -> String {
         j.device_kind,
         j.platform,
         j.precision,
-        j.networks_per_call
+        j.lanes
     )
 }
 

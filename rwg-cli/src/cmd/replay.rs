@@ -25,9 +25,9 @@ stored score, and fails if any differs. With --episode: prints that episode step
 step, like `rwg rollout`. --export-weights writes the network as JSON so it can be
 rebuilt in numpy and run in Gymnasium (docs/guide.md shows how).
 
-A JAX env's cell (gymnax:, brax:, jax:) is replayed through a JAX worker, in a
-compiled call of the cell's shape on the device kind its env.json records, so
-the returns are the run's bit for bit; its episodes are not shown step by step.
+A JAX env's cell (gymnax:, brax:, jax:) is replayed through a JAX worker, by the
+cell's compiled program on the device kind its env.json records, so the returns
+are the run's bit for bit; its episodes are not shown step by step.
 
 Example:
   rwg replay runs/quick --env CartPole-v0 --arch 0HL --sample 17 --episode 3")]
@@ -323,11 +323,11 @@ fn compare_episodes(
 
 /// What a replay under another JAX env than the cell's says to do.
 const JAX_REPLAY_REFUSED: &str = "a JAX cell is replayed under the JAX, env library, kind of \
-    device, precision and call size its blocks were computed under (other ones may give other \
+    device, precisions and lanes its blocks were computed under (other ones may give other \
     bits): run the replay where they are the same";
 
-/// `rwg replay` of a JAX env's cell: the network's episodes in one compiled
-/// call of the cell's shape, through a worker of the cell's env.
+/// `rwg replay` of a JAX env's cell: the network's episodes by the cell's
+/// compiled program, through a worker of the cell's env.
 fn replay_jax(args: &Args, m: &Manifest, cell: &Cell, j: &rwg_jax::JaxSource) -> Result<()> {
     let policy = cell.plan.policy(&cell.spec, args.sample);
     write_export(args, cell, &policy, m.episodes)?;

@@ -44,8 +44,9 @@ processes: a crash or hang is reported by rwg and the results are the same.
 
 JAX envs (gymnax:ID, brax:NAME, jax:module:callable) run in Python worker
 processes, the episodes of networks_per_call networks in one compiled call:
---threads workers on the CPU (one XLA thread each), one worker on a GPU or
-TPU. The results are the same for any --threads, shards or resume.
+--threads workers on the CPU (one XLA thread each), one worker running every
+GPU or TPU. The results are the same for any --threads, networks_per_call,
+number of devices, shards or resume.
 
 Examples:
   rwg run examples/quick.toml
@@ -249,6 +250,7 @@ fn run_with_progress(
         display,
         checks: vec![],
         started: Some(guard_texts(out, &resume_command(args, out, true))),
+        jax_lines: !args.quiet,
     };
     let outcome = run_study(m, opts, &mut progress);
     // A failed run does not wait for the checks (a hanging plugin's would
@@ -456,6 +458,8 @@ struct WithChecks<'a> {
     /// What the fault handlers print once the run directory holds the
     /// study (see [`resume_command`]), set when the run starts.
     started: Option<(String, String)>,
+    /// Say how each JAX env runs (devices, networks per call, cache).
+    jax_lines: bool,
 }
 
 impl Progress for WithChecks<'_> {
@@ -476,6 +480,16 @@ impl Progress for WithChecks<'_> {
                 self.checks.push(std::thread::spawn(move || {
                     crate::cmd::check::contract_warnings(&path, &id, &config)
                 }));
+            }
+        }
+        if self.jax_lines {
+            let mut said = std::collections::HashSet::new();
+            for c in cells {
+                if let EnvSource::Jax(j) = &c.source {
+                    if said.insert(c.id.env.clone()) {
+                        crate::errln!("{}", j.run_line(&c.plan));
+                    }
+                }
             }
         }
         self.display.planned(cells);

@@ -57,6 +57,7 @@ fn env(
         python: python(e, base),
         isolate: e.isolate.as_ref().is_some_and(|i| *i.get_ref()),
         precision: jax.precision,
+        matmul_precision: jax.matmul_precision,
         device: jax.device,
         networks_per_call: jax.networks_per_call,
         device_span: e.device.as_ref().map(|d| d.span()),

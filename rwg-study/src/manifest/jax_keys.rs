@@ -1,12 +1,12 @@
 //! The keys of JAX envs (`gymnax:`, `brax:`, `jax:module:callable`) in an
-//! `[[envs]]` entry: `precision`, `device`, `networks_per_call`, checked
-//! where they stand, and the keys a JAX env does not take (`plugin`,
-//! `config`, `isolate`, `action_dtype`) refused there; the same three keys
-//! on any other env are refused too.
+//! `[[envs]]` entry: `precision`, `matmul_precision`, `device`,
+//! `networks_per_call`, checked where they stand, and the keys a JAX env
+//! does not take (`plugin`, `config`, `isolate`, `action_dtype`) refused
+//! there; the same four keys on any other env are refused too.
 
 use super::raw::RawEnv;
 use crate::limits;
-use rwg_jax::Precision;
+use rwg_jax::{MatmulPrecision, Precision};
 use std::ops::Range;
 use toml::Spanned;
 
@@ -14,6 +14,8 @@ use toml::Spanned;
 pub(super) struct JaxKeys {
     /// `Some` for a JAX env (the manifest's, else float32), `None` for others.
     pub precision: Option<Precision>,
+    /// `Some` for a JAX env (the manifest's, else highest), `None` for others.
+    pub matmul_precision: Option<MatmulPrecision>,
     /// The device asked for, if any.
     pub device: Option<String>,
     /// Networks per compiled call, if given.
@@ -25,8 +27,12 @@ type Located = (Range<usize>, String);
 
 /// Checks the JAX keys of entry `key` (`envs[i]`) with id `id`.
 pub(super) fn check(key: &str, id: &str, e: &RawEnv) -> Result<JaxKeys, Located> {
-    let given: [(&str, Option<Range<usize>>); 3] = [
+    let given: [(&str, Option<Range<usize>>); 4] = [
         ("precision", e.precision.as_ref().map(Spanned::span)),
+        (
+            "matmul_precision",
+            e.matmul_precision.as_ref().map(Spanned::span),
+        ),
         ("device", e.device.as_ref().map(Spanned::span)),
         (
             "networks_per_call",
@@ -45,6 +51,7 @@ pub(super) fn check(key: &str, id: &str, e: &RawEnv) -> Result<JaxKeys, Located>
         }
         return Ok(JaxKeys {
             precision: None,
+            matmul_precision: None,
             device: None,
             networks_per_call: None,
         });
@@ -72,6 +79,20 @@ pub(super) fn check(key: &str, id: &str, e: &RawEnv) -> Result<JaxKeys, Located>
             )
         })?,
     };
+    let matmul_precision = match &e.matmul_precision {
+        None => MatmulPrecision::default(),
+        Some(p) => MatmulPrecision::from_name(p.get_ref()).ok_or_else(|| {
+            (
+                p.span(),
+                format!(
+                    "{key}.matmul_precision: expected \"highest\" (full float32 products, the \
+                     default), \"high\" or \"default\" (faster, lower-precision products on \
+                     some GPUs and TPUs), got {:?}",
+                    p.get_ref()
+                ),
+            )
+        })?,
+    };
     let device = match &e.device {
         None => None,
         Some(d) => Some(device(key, d)?),
@@ -82,6 +103,7 @@ pub(super) fn check(key: &str, id: &str, e: &RawEnv) -> Result<JaxKeys, Located>
     };
     Ok(JaxKeys {
         precision: Some(precision),
+        matmul_precision: Some(matmul_precision),
         device,
         networks_per_call,
     })
@@ -156,6 +178,17 @@ fn networks_per_call(key: &str, n: &Spanned<i64>) -> Result<u32, Located> {
         ));
     }
     Ok(v as u32)
+}
+
+/// Writes an env's matmul precision as the manifest spells it (`"highest"`).
+pub(super) fn serialize_matmul_precision<S: serde::Serializer>(
+    p: &Option<MatmulPrecision>,
+    s: S,
+) -> Result<S::Ok, S::Error> {
+    match p {
+        Some(p) => s.serialize_str(p.name()),
+        None => s.serialize_none(),
+    }
 }
 
 /// Writes an env's precision as the manifest spells it (`"float32"`).

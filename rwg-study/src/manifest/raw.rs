@@ -89,6 +89,7 @@ pub(super) struct RawEnv {
     pub(super) python: Option<Spanned<String>>,
     pub(super) isolate: Option<Spanned<bool>>,
     pub(super) precision: Option<Spanned<String>>,
+    pub(super) matmul_precision: Option<Spanned<String>>,
     pub(super) device: Option<Spanned<String>>,
     pub(super) networks_per_call: Option<Spanned<i64>>,
 }

@@ -338,26 +338,41 @@ fn jax_study(id: &str, extra: &str) -> String {
 }
 
 #[test]
-fn jax_envs_write_their_precision_and_call_size_into_the_study() {
+fn jax_envs_write_their_precisions_into_the_study_not_their_call_size() {
     let m = parse(&jax_study("gymnax:CartPole-v1", "")).unwrap();
     assert_eq!(m.envs[0].precision, Some(rwg_jax::Precision::F32));
-    assert!(
-        m.to_toml().contains("precision = \"float32\""),
-        "{}",
-        m.to_toml()
+    assert_eq!(
+        m.envs[0].matmul_precision,
+        Some(rwg_jax::MatmulPrecision::Highest)
     );
-    // an explicit float32 is the default's study
-    let f32 = parse(&jax_study("gymnax:CartPole-v1", "precision = \"float32\"")).unwrap();
+    for line in ["precision = \"float32\"", "matmul_precision = \"highest\""] {
+        assert!(m.to_toml().contains(line), "{line}: {}", m.to_toml());
+    }
+    // an explicit float32 (or highest) is the default's study
+    let f32 = parse(&jax_study(
+        "gymnax:CartPole-v1",
+        "precision = \"float32\"\nmatmul_precision = \"highest\"",
+    ))
+    .unwrap();
     assert!(m.study_differences(&f32).is_empty());
-    let f64 = parse(&jax_study("gymnax:CartPole-v1", "precision = \"float64\"")).unwrap();
-    let d = m.study_differences(&f64);
-    assert!(d.len() == 1 && d[0].contains("float64"), "{d:?}");
+    for (key, value) in [("precision", "float64"), ("matmul_precision", "default")] {
+        let o = parse(&jax_study(
+            "gymnax:CartPole-v1",
+            &format!("{key} = \"{value}\""),
+        ))
+        .unwrap();
+        let d = m.study_differences(&o);
+        assert!(d.len() == 1 && d[0].contains(value), "{d:?}");
+    }
+    // networks per call is written back, and is how, not what (as the
+    // device): the default's study, a resume may change it
     let calls = parse(&jax_study("brax:ant", "networks_per_call = 64")).unwrap();
     let again = parse(&calls.to_toml()).unwrap();
     assert_eq!(again.envs[0].networks_per_call, Some(64));
     let other = parse(&jax_study("brax:ant", "networks_per_call = 128")).unwrap();
-    assert_eq!(calls.study_differences(&other).len(), 1);
-    // the device is how, not what
+    assert!(calls.study_differences(&other).is_empty());
+    let default = parse(&jax_study("brax:ant", "")).unwrap();
+    assert!(calls.study_differences(&default).is_empty());
     let gpu = parse(&jax_study(
         "brax:ant",
         "networks_per_call = 64\ndevice = \"gpu:1\"",
@@ -368,7 +383,10 @@ fn jax_envs_write_their_precision_and_call_size_into_the_study() {
     assert!(calls.study_differences(&gpu).is_empty());
     // built-in envs have none of it
     let b = parse(GOOD).unwrap();
-    assert!(b.envs.iter().all(|e| e.precision.is_none()));
+    assert!(b
+        .envs
+        .iter()
+        .all(|e| e.precision.is_none() && e.matmul_precision.is_none()));
     assert!(!b.to_toml().contains("precision"));
 }
 
@@ -379,6 +397,11 @@ fn jax_keys_are_checked_where_they_stand() {
             "gymnax:CartPole-v1",
             "precision = \"float16\"",
             "m.toml:8:13: envs[0].precision: expected \"float32\" or \"float64\"",
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "matmul_precision = \"tf32\"",
+            "m.toml:8:20: envs[0].matmul_precision: expected \"highest\"",
         ),
         (
             "gymnax:CartPole-v1",
@@ -439,6 +462,11 @@ fn jax_keys_are_checked_where_they_stand() {
             "gymnasium:Ant-v5",
             "device = \"cpu\"",
             "envs[0].device: applies to JAX environments only",
+        ),
+        (
+            "CartPole-v1",
+            "matmul_precision = \"high\"",
+            "envs[0].matmul_precision: applies to JAX environments only",
         ),
         (
             "CartPole-v1",

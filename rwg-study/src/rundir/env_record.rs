@@ -2,8 +2,8 @@
 //! (its spaces, time limit and reward threshold, and for a Gymnasium env
 //! Gymnasium's own text of its spaces and the workers' `PYTHONHASHSEED`; for
 //! a JAX env the library's text of its spaces, the versions of JAX and the
-//! env's library, the device's kind and platform, the precision and the
-//! networks per compiled call).
+//! env's library, the device's kind and platform, the precisions and the
+//! episode loop: its lanes and when ended lanes refill).
 //! Every block of a cell must be computed under the same env, so a resume
 //! or a merge compares the env as it is now with this record and is refused
 //! when they differ, naming the difference (a new version of the env's
@@ -42,8 +42,9 @@ pub struct EnvRecord {
 }
 
 /// What a JAX env's worker reported, in [`EnvRecord`]: every block of a
-/// cell is computed by the same JAX, env library, kind of device, precision
-/// and call size.
+/// cell is computed by the same JAX, env library, kind of device,
+/// precisions and lanes (the compiled program; how many networks a call
+/// holds, or how many devices run it, changes no result).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct JaxRecord {
     /// The library's text of the observation space.
@@ -59,8 +60,14 @@ pub struct JaxRecord {
     pub platform: String,
     /// `float32` or `float64`.
     pub precision: String,
-    /// Networks per compiled call.
-    pub networks_per_call: u32,
+    /// The precision of matrix products (`highest`, `high`, `default`).
+    pub matmul_precision: String,
+    /// The episode loop: `lanes` episodes at once, a lane whose episode
+    /// ended taking the next one; compared.
+    pub lanes: u32,
+    /// Ended lanes that wait to refill together (shown, not compared: it
+    /// changes the speed, not the results).
+    pub refill: u32,
 }
 
 /// The version key shown in a record but not compared.
@@ -93,10 +100,11 @@ impl JaxRecord {
         differ("platform", &self.platform, &now.platform);
         differ("precision", &self.precision, &now.precision);
         differ(
-            "networks per call",
-            &self.networks_per_call.to_string(),
-            &now.networks_per_call.to_string(),
+            "matmul precision",
+            &self.matmul_precision,
+            &now.matmul_precision,
         );
+        differ("lanes", &self.lanes.to_string(), &now.lanes.to_string());
         out
     }
 
@@ -372,12 +380,14 @@ mod tests {
             device_kind: kind.into(),
             platform: "cpu".into(),
             precision: "float32".into(),
-            networks_per_call: 256,
+            matmul_precision: "highest".into(),
+            lanes: 1024,
+            refill: 128,
         }
     }
 
     #[test]
-    fn a_jax_record_compares_versions_device_precision_and_call_size() {
+    fn a_jax_record_compares_versions_device_precisions_and_lanes() {
         let dir = std::env::temp_dir().join(format!("rwg-env-record-jax-{}", std::process::id()));
         let then =
             EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(jax("0.10.2", "3.11.7", "cpu"));
@@ -387,9 +397,15 @@ mod tests {
         let other_python =
             EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(jax("0.10.2", "3.12.1", "cpu"));
         assert!(check_record(&dir, &other_python, "refused").unwrap());
+        // nor when ended lanes refill
+        let mut other_refill = jax("0.10.2", "3.11.7", "cpu");
+        other_refill.refill = 1;
+        let other_refill = EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(other_refill);
+        assert!(check_record(&dir, &other_refill, "refused").unwrap());
         let mut now = jax("0.4.30", "3.11.7", "NVIDIA H200");
         now.precision = "float64".into();
-        now.networks_per_call = 4096;
+        now.matmul_precision = "default".into();
+        now.lanes = 65536;
         let now = EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(now);
         let err = check_record(&dir, &now, "do this").unwrap_err().to_string();
         for s in [
@@ -397,7 +413,8 @@ mod tests {
             "jaxlib: 0.10.2 then, 0.4.30 now",
             "device kind: cpu then, NVIDIA H200 now",
             "precision: float32 then, float64 now",
-            "networks per call: 256 then, 4096 now",
+            "matmul precision: highest then, default now",
+            "lanes: 1024 then, 65536 now",
             "(gymnax 1.0.1, jax 0.10.2, jaxlib 0.10.2, Python 3.11.7)",
         ] {
             assert!(err.contains(s), "{s:?} missing in {err}");
