@@ -450,7 +450,8 @@ fn bench_peers_gymnax_source_checks_its_workloads() {
 
 /// Smoke test of `rwg bench peers --source gymnax`: rwg runs gymnax's
 /// Pendulum-v1 as its `gymnax:` env (its worker on the peer's Python) beside
-/// gymnax-raw on tiny counts. Needs RWG_PEER_PYTHON, as the test above.
+/// gymnax-raw on tiny counts, against gymnax-raw's whole process, then
+/// against its compiled run. Needs RWG_PEER_PYTHON, as the test above.
 #[test]
 fn bench_peers_gymnax_source_measures_rwgs_jax_source() {
     let test = "bench_peers_gymnax_source_measures_rwgs_jax_source";
@@ -468,9 +469,9 @@ fn bench_peers_gymnax_source_measures_rwgs_jax_source() {
         .args(["bench", "peers", "--source", "gymnax", "--python", &python])
         .args(["--work-dir", work.to_str().unwrap(), "--env", "Pendulum-v1"])
         .args([
-            "--rwg-samples",
+            "--whole-samples",
             "6",
-            "--peer-samples",
+            "--compiled-samples",
             "4",
             "--episodes",
             "2",
@@ -485,23 +486,30 @@ fn bench_peers_gymnax_source_measures_rwgs_jax_source() {
     let out = String::from_utf8(out.stdout).unwrap();
     let v: serde_json::Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["setup"]["source"], "gymnax", "{out}");
-    let r = &v["rows"][0];
-    assert_eq!(v["rows"].as_array().unwrap().len(), 1, "{out}");
-    assert_eq!(r["env"], "gymnax:Pendulum-v1", "{out}");
+    let rows = v["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2, "{out}");
     // Pendulum never terminates: every episode lasts its 200-step limit.
-    assert_eq!(r["rwg"][0]["env_steps"], serde_json::json!([2400, 2400]));
-    assert_eq!(
-        r["gymnax_raw"]["env_steps"],
-        serde_json::json!([1600, 1600])
-    );
-    let ratios = r["rwg"][0]["ratio"]["values"].as_array().unwrap();
-    assert_eq!(ratios.len(), 2, "{out}");
-    for (i, ratio) in ratios.iter().enumerate() {
-        let rate = |side: &serde_json::Value| side["steps_per_cpu_s"][i].as_f64().unwrap();
-        let (a, b) = (rate(&r["rwg"][0]), rate(&r["gymnax_raw"]));
-        assert!(a > 0.0 && b > 0.0, "{out}");
-        assert_eq!(ratio.as_f64().unwrap(), a / b, "{out}");
+    for (r, time, steps) in [(&rows[0], "whole", 2400), (&rows[1], "compiled", 1600)] {
+        assert_eq!(r["env"], "gymnax:Pendulum-v1", "{out}");
+        assert_eq!(r["peer_time"], time, "{out}");
+        assert_eq!(r["rwg"][0]["env_steps"], serde_json::json!([steps, steps]));
+        assert_eq!(
+            r["gymnax_raw"]["env_steps"],
+            serde_json::json!([steps, steps])
+        );
+        let ratios = r["rwg"][0]["ratio"]["values"].as_array().unwrap();
+        assert_eq!(ratios.len(), 2, "{out}");
+        for (i, ratio) in ratios.iter().enumerate() {
+            let rate = |side: &serde_json::Value| side["steps_per_cpu_s"][i].as_f64().unwrap();
+            let (a, b) = (rate(&r["rwg"][0]), rate(&r["gymnax_raw"]));
+            assert!(a > 0.0 && b > 0.0, "{out}");
+            assert_eq!(ratio.as_f64().unwrap(), a / b, "{out}");
+        }
     }
+    // The whole process takes more CPU than its compiled run alone (Python,
+    // imports, compilation): per step, at these tiny counts, many times more.
+    let cpu = |r: &serde_json::Value| r["gymnax_raw"]["cpu_s"][0].as_f64().unwrap();
+    assert!(cpu(&rows[0]) > 10.0 * cpu(&rows[1]), "{out}");
     // rwg's side is a real run of gymnax:Pendulum-v1 on the peer's Python.
     let manifest = std::fs::read_to_string(work.join("w0.toml")).unwrap();
     assert!(

@@ -1,6 +1,8 @@
 //! `rwg bench peers`: the whole `rwg run --threads 1` command against the
 //! strongest peer, gymnax-raw (`gymnax_rwg.py --step raw`), measured side by
-//! side in one invocation.
+//! side in one invocation. With `--source gymnax` it makes two comparisons:
+//! rwg's whole run against gymnax-raw's whole process on the paper's 10^4
+//! networks, then against gymnax-raw's compiled run alone on 3 x 10^4.
 //!
 //! Both sides run as child processes, interleaved (round by round, workload
 //! by workload, alternating which side goes first), pinned to one core, and
@@ -11,7 +13,8 @@
 //!   report, everything `rwg run` does;
 //! - gymnax-raw: the CPU time its JSON line reports for the compiled program's
 //!   run (JAX start-up and XLA compilation excluded, as the peer reports them
-//!   separately).
+//!   separately), or, in a whole-process comparison, the child's whole CPU
+//!   time, as for rwg.
 //!
 //! Env steps on both sides are the transitions inside episodes (every step of
 //! every episode, up to and including the terminal or truncating one).
@@ -21,7 +24,9 @@
 //! workload identically (checked), so the levels differ in speed only.
 //! With `--source gymnax`, rwg runs gymnax's envs as its `gymnax:` envs
 //! instead ([`source`]): the child's CPU time then includes its JAX worker
-//! process (a waited-for grandchild), JAX's start-up and the compilation.
+//! process (a waited-for grandchild), JAX's start-up and the compilation,
+//! each run with an empty compilation cache of its own (`RWG_JAX_CACHE`), so
+//! every run compiles as gymnax-raw does.
 //! [`report`] holds the measurements, their ratios and the table.
 
 mod peer;
@@ -37,7 +42,7 @@ use rwg_env::simd::Simd;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-pub use source::{Source, PEER_WORKLOADS};
+pub use source::{Part, PeerTime, Source, PEER_WORKLOADS};
 
 /// The `pip install` line of the peer's virtualenv (versions that work with
 /// `gymnax_rwg.py`; `six` because gymnax 1.0.1 imports it undeclared).
@@ -75,14 +80,24 @@ pub struct PeersArgs {
     /// (gymnax's envs as rwg's `gymnax:` envs, run by the peer's Python).
     #[arg(long, value_enum, default_value_t = Source::Builtin)]
     source: Source,
-    /// Networks per workload for `rwg run` (default: 3000; 100000 with
-    /// --source gymnax).
+    /// Networks per workload for `rwg run` (default: 3000; built-in envs
+    /// only).
     #[arg(long, value_name = "N")]
     rwg_samples: Option<u64>,
-    /// Networks per workload for gymnax-raw (default: 1000; 100000 with
-    /// --source gymnax).
+    /// Networks per workload for gymnax-raw (default: 1000; built-in envs
+    /// only).
     #[arg(long, value_name = "N")]
     peer_samples: Option<u64>,
+    /// With --source gymnax: networks per workload (both sides) of the
+    /// comparison of whole processes (default: 10000, the paper's N; 0
+    /// leaves it out).
+    #[arg(long, value_name = "N")]
+    whole_samples: Option<u64>,
+    /// With --source gymnax: networks per workload (both sides) of the
+    /// comparison with gymnax-raw's compiled run alone (default: 30000; 0
+    /// leaves it out).
+    #[arg(long, value_name = "N")]
+    compiled_samples: Option<u64>,
     /// Episodes per network (both sides).
     #[arg(long, value_name = "E", default_value_t = 20)]
     episodes: u32,
@@ -191,18 +206,33 @@ struct Sitting {
     python: PathBuf,
     peers_dir: PathBuf,
     work: PathBuf,
-    rwg_samples: u64,
-    peer_samples: u64,
 }
 
 /// The checks of the arguments that need no peer: counts, levels, envs.
-/// Returns rwg's SIMD levels and the (rwg, peer) samples.
-fn check_args(args: &PeersArgs) -> Result<(Vec<Simd>, u64, u64)> {
-    let (rwg_default, peer_default) = args.source.default_samples();
-    let rwg_samples = args.rwg_samples.unwrap_or(rwg_default);
-    let peer_samples = args.peer_samples.unwrap_or(peer_default);
-    if rwg_samples == 0 || peer_samples == 0 || args.episodes == 0 || args.rounds == 0 {
-        bail!("--rwg-samples, --peer-samples, --episodes and --rounds must be at least 1");
+/// Returns rwg's SIMD levels and the sitting's comparisons.
+fn check_args(args: &PeersArgs) -> Result<(Vec<Simd>, Vec<Part>)> {
+    match args.source {
+        Source::Builtin if args.whole_samples.is_some() || args.compiled_samples.is_some() => {
+            bail!("--whole-samples and --compiled-samples are for --source gymnax")
+        }
+        Source::Gymnax if args.rwg_samples.is_some() || args.peer_samples.is_some() => bail!(
+            "--rwg-samples and --peer-samples are for the built-in envs: with --source gymnax \
+             both sides run the same networks, --whole-samples and --compiled-samples"
+        ),
+        _ => {}
+    }
+    let parts = args.source.parts(
+        (args.rwg_samples, args.peer_samples),
+        (args.whole_samples, args.compiled_samples),
+    );
+    let zero = parts
+        .iter()
+        .any(|p| p.rwg_samples == 0 || p.peer_samples == 0);
+    if parts.is_empty() || zero || args.episodes == 0 || args.rounds == 0 {
+        bail!(
+            "--rwg-samples, --peer-samples, --episodes and --rounds must be at least 1, and \
+             --whole-samples and --compiled-samples cannot both be 0"
+        );
     }
     if args.source == Source::Gymnax && !args.simd.is_empty() {
         bail!(
@@ -223,7 +253,7 @@ fn check_args(args: &PeersArgs) -> Result<(Vec<Simd>, u64, u64)> {
             );
         }
     }
-    Ok((levels, rwg_samples, peer_samples))
+    Ok((levels, parts))
 }
 
 /// `builtin` or `gymnax`, as `--source` takes it.
@@ -251,7 +281,15 @@ fn measure_rwg(s: &Sitting, row: &mut Row, name: &str, k: usize) -> Result<()> {
         Source::Builtin => format!("RWG_SIMD={level} rwg run ({label})"),
         Source::Gymnax => format!("rwg run ({label}; its manifest: {})", manifest.display()),
     };
-    let (_, cpu, wall) = measure(cmd, &what)?;
+    // every gymnax: run compiles, as gymnax-raw does: an empty cache each
+    let cache = s.work.join(format!("{name}-jax-cache"));
+    if s.source == Source::Gymnax {
+        let _ = std::fs::remove_dir_all(&cache);
+        cmd.env(rwg_jax::CACHE_VAR, &cache);
+    }
+    let measured = measure(cmd, &what);
+    let _ = std::fs::remove_dir_all(&cache);
+    let (_, cpu, wall) = measured?;
     let steps = run_env_steps(&run_dir)?;
     row.rwg[k].measured.push(steps, cpu, wall);
     Ok(())
@@ -288,7 +326,7 @@ fn measure_round(s: &Sitting, args: &PeersArgs, row: &mut Row, i: usize, round: 
     let text = s.source.manifest_text(
         &peer_env,
         &row.hidden,
-        s.rwg_samples,
+        row.rwg[0].measured.samples,
         args.episodes,
         args.seed,
         &s.python,
@@ -313,7 +351,7 @@ fn measure_round(s: &Sitting, args: &PeersArgs, row: &mut Row, i: usize, round: 
         "round {}/{}  {:<32}{}",
         round + 1,
         args.rounds,
-        row.label(),
+        format!("{} ({})", row.label(), row.samples_label()),
         row.progress()
     );
     Ok(())
@@ -321,7 +359,7 @@ fn measure_round(s: &Sitting, args: &PeersArgs, row: &mut Row, i: usize, round: 
 
 /// Runs `rwg bench peers`.
 pub fn run(args: PeersArgs) -> Result<()> {
-    let (levels, rwg_samples, peer_samples) = check_args(&args)?;
+    let (levels, parts) = check_args(&args)?;
     let peers_dir = peers_dir(&args)?;
     let python = peer_python(&args)?;
     let rwg = match &args.rwg {
@@ -347,25 +385,26 @@ pub fn run(args: PeersArgs) -> Result<()> {
         python,
         peers_dir,
         work,
-        rwg_samples,
-        peer_samples,
     };
     let s = &sitting;
-    let mut rows: Vec<Row> = s
+    let workloads: Vec<_> = s
         .source
         .workloads()
         .iter()
         .filter(|w| args.envs.is_empty() || args.envs.iter().any(|e| e == w.0))
-        .map(|&(env, hidden)| {
-            let env = s.source.rwg_env(env);
-            Row::new(
-                &env,
-                hidden,
-                args.episodes,
-                &s.levels,
-                rwg_samples,
-                peer_samples,
-            )
+        .collect();
+    let mut rows: Vec<Row> = parts
+        .iter()
+        .flat_map(|&part| {
+            workloads.iter().map(move |&&(env, hidden)| {
+                Row::new(
+                    &s.source.rwg_env(env),
+                    hidden,
+                    args.episodes,
+                    &s.levels,
+                    part,
+                )
+            })
         })
         .collect();
     let setup_start = (now_utc(), load_avg());
@@ -390,15 +429,15 @@ pub fn run(args: PeersArgs) -> Result<()> {
 fn setup(s: &Sitting, args: &PeersArgs, start: (String, String), cpus: usize) -> Setup {
     let rwg_command = match s.source {
         Source::Builtin => format!(
-            "rwg run <one-cell manifest> --threads 1 --force-new --out <dir>  ({} networks x {} \
-             episodes, no bias, report included)",
-            s.rwg_samples, args.episodes
+            "rwg run <one-cell manifest> --threads 1 --force-new --out <dir>  (the row's \
+             networks x {} episodes, no bias, report included)",
+            args.episodes
         ),
         Source::Gymnax => format!(
             "rwg run <one-cell manifest of gymnax:<env>, python = the peer's> --threads 1 \
-             --force-new --out <dir>  ({} networks x {} episodes, no bias, float32, JAX \
-             start-up, compilation and report included)",
-            s.rwg_samples, args.episodes
+             --force-new --out <dir>  (the row's networks x {} episodes, no bias, float32, an \
+             empty RWG_JAX_CACHE: JAX start-up, compilation and report included)",
+            args.episodes
         ),
     };
     Setup {
@@ -415,9 +454,9 @@ fn setup(s: &Sitting, args: &PeersArgs, start: (String, String), cpus: usize) ->
         rwg_binary: s.rwg.display().to_string(),
         rwg_command,
         peer_command: format!(
-            "python gymnax_rwg.py --step raw --env <env> --hidden <h> --no-bias --samples {} \
-             --episodes {} --seed {}",
-            s.peer_samples, args.episodes, args.seed
+            "python gymnax_rwg.py --step raw --env <env> --hidden <h> --no-bias --samples <the \
+             row's networks> --episodes {} --seed {} --out <csv>",
+            args.episodes, args.seed
         ),
     }
 }

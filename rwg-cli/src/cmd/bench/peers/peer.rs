@@ -4,7 +4,7 @@
 
 use super::process::measure;
 use super::report::Row;
-use super::{PeersArgs, Sitting, PEER_PIP_PACKAGES};
+use super::{PeerTime, PeersArgs, Sitting, PEER_PIP_PACKAGES};
 use anyhow::{bail, Context, Result};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -109,7 +109,9 @@ pub(super) fn peers_dir(args: &PeersArgs) -> Result<PathBuf> {
         .with_context(|| format!("cannot resolve --peers {}", args.peers.display()))
 }
 
-/// Runs gymnax-raw on `row`'s workload once and adds it to its measurements.
+/// Runs gymnax-raw on `row`'s workload once and adds it to its measurements:
+/// its compiled run's CPU time (as its JSON line reports it), or its whole
+/// process's, as the row says.
 pub(super) fn measure_peer(
     s: &Sitting,
     row: &mut Row,
@@ -134,7 +136,11 @@ pub(super) fn measure_peer(
             "--hidden",
             &hidden.join(","),
         ])
-        .args(["--no-bias", "--samples", &s.peer_samples.to_string()])
+        .args([
+            "--no-bias",
+            "--samples",
+            &row.gymnax_raw.samples.to_string(),
+        ])
         .args([
             "--episodes",
             &episodes.to_string(),
@@ -144,9 +150,12 @@ pub(super) fn measure_peer(
         .arg("--out")
         .arg(s.work.join(format!("{name}-gymnax.csv")))
         .current_dir(&s.peers_dir);
-    let (stdout, _, _) = measure(cmd, &format!("gymnax-raw ({label})"))?;
+    let (stdout, cpu, wall) = measure(cmd, &format!("gymnax-raw ({label})"))?;
     let p = parse_peer_output(&stdout).with_context(|| format!("gymnax-raw ({label})"))?;
-    row.gymnax_raw.push(p.env_steps, p.cpu_s, p.wall_s);
+    match row.peer_time {
+        PeerTime::Compiled => row.gymnax_raw.push(p.env_steps, p.cpu_s, p.wall_s),
+        PeerTime::Whole => row.gymnax_raw.push(p.env_steps, cpu, wall),
+    }
     row.gymnax_compile_s.push(p.compile_s);
     Ok(())
 }

@@ -4,7 +4,7 @@
 //! and the table.
 
 use super::super::spread;
-use super::Source;
+use super::{Part, PeerTime, Source};
 use rwg_analysis::table::{Align, TextColumns};
 use rwg_env::simd::Simd;
 use serde::Serialize;
@@ -98,6 +98,8 @@ pub(super) struct Row {
     pub(super) env: String,
     pub(super) hidden: Vec<usize>,
     pub(super) episodes: u32,
+    /// What gymnax-raw's CPU time counts (rwg's is always its whole run).
+    pub(super) peer_time: PeerTime,
     /// rwg at each level of `--simd`, in the order listed.
     pub(super) rwg: Vec<Level>,
     pub(super) gymnax_raw: Side,
@@ -108,20 +110,25 @@ pub(super) struct Row {
 }
 
 impl Row {
-    /// A workload with nothing measured yet: rwg at `levels` on
-    /// `rwg_samples` networks, gymnax-raw on `peer_samples`.
+    /// A workload of comparison `part` with nothing measured yet: rwg at
+    /// `levels`.
     pub(super) fn new(
         env: &str,
         hidden: &[usize],
         episodes: u32,
         levels: &[Simd],
-        rwg_samples: u64,
-        peer_samples: u64,
+        part: Part,
     ) -> Row {
+        let Part {
+            rwg_samples,
+            peer_samples,
+            peer_time,
+        } = part;
         Row {
             env: env.to_string(),
             hidden: hidden.to_vec(),
             episodes,
+            peer_time,
             rwg: levels
                 .iter()
                 .map(|l| Level {
@@ -139,6 +146,24 @@ impl Row {
     /// `CartPole-v0 [4,4]`.
     pub(super) fn label(&self) -> String {
         format!("{} {}", self.env, hidden_label(&self.hidden))
+    }
+
+    /// How many networks each side ran: `10^4`, `3 x 10^4`, or `3 x 10^3 / 64`.
+    pub(super) fn samples_label(&self) -> String {
+        let n = |s: u64| {
+            let e = (s as f64).log10().round() as u32;
+            match 10u64.checked_pow(e).filter(|_| s >= 1000) {
+                Some(p) if p == s => format!("10^{e}"),
+                Some(p) if s.is_multiple_of(p) => format!("{} x 10^{e}", s / p),
+                _ => s.to_string(),
+            }
+        };
+        let (a, b) = (self.rwg[0].measured.samples, self.gymnax_raw.samples);
+        if a == b {
+            n(a)
+        } else {
+            format!("{} / {}", n(a), n(b))
+        }
     }
 
     /// Recomputes the ratios from the measurements.
@@ -220,11 +245,16 @@ fn hidden_label(h: &[usize]) -> String {
     }
 }
 
-/// The table's header and rows: the workload, rwg at each level,
+/// The table's header and rows: the workload, its networks (rwg's /
+/// gymnax-raw's) and what gymnax-raw's time counts, rwg at each level,
 /// gymnax-raw, each level over gymnax-raw, and the last level over the
 /// first (with more than one level).
 fn table_cells(rows: &[Row], source: Source, levels: &[&str]) -> (Vec<String>, Vec<Vec<String>>) {
-    let mut header = vec!["workload".to_string()];
+    let mut header = vec![
+        "workload".to_string(),
+        "networks".to_string(),
+        "gymnax-raw counts".to_string(),
+    ];
     header.extend(levels.iter().map(|l| source.column(l)));
     header.push("gymnax-raw".into());
     header.extend(levels.iter().map(|l| match source {
@@ -240,7 +270,11 @@ fn table_cells(rows: &[Row], source: Source, levels: &[&str]) -> (Vec<String>, V
     let body = rows
         .iter()
         .map(|row| {
-            let mut cells = vec![row.label()];
+            let mut cells = vec![
+                row.label(),
+                row.samples_label(),
+                row.peer_time.label().to_string(),
+            ];
             cells.extend(row.rwg.iter().map(|l| rate(&l.measured)));
             cells.push(rate(&row.gymnax_raw));
             cells.extend(row.rwg.iter().map(|l| ratio(&l.ratio)));
@@ -275,8 +309,9 @@ pub(super) fn print_table(r: &Report) {
     }
     crate::outln!("gymnax-raw: {}", s.peer_command);
     crate::outln!(
-        "env steps per CPU-second, median [min-max]; rwg: whole process; gymnax-raw: its run, \
-         compile excluded; ratios paired by round\n"
+        "env steps per CPU-second, median [min-max]; rwg: its whole process; gymnax-raw: its \
+         whole process, or its compiled run alone (start-up and compilation excluded), as each \
+         row says; ratios paired by round\n"
     );
     let (header, body) = table_cells(&r.rows, s.source, &s.simd_levels);
     let columns: Vec<(usize, Align)> = (0..header.len())
@@ -287,7 +322,7 @@ pub(super) fn print_table(r: &Report) {
                 .chain([header[i].chars().count()])
                 .max()
                 .unwrap_or(0);
-            (width, if i == 0 { Align::Left } else { Align::Right })
+            (width, if i < 3 { Align::Left } else { Align::Right })
         })
         .collect();
     let columns = TextColumns::new(&columns, "  ");
@@ -350,7 +385,12 @@ mod tests {
     /// with `rwg[k]` steps per CPU-second in each round (one CPU-second
     /// each), gymnax-raw with 5, 10 and 20.
     fn measured(levels: &[Simd], rwg: &[[u64; 3]]) -> Row {
-        let mut row = Row::new("Pendulum-v1", &[4], 20, levels, 30, 10);
+        let part = Part {
+            rwg_samples: 30,
+            peer_samples: 10,
+            peer_time: PeerTime::Compiled,
+        };
+        let mut row = Row::new("Pendulum-v1", &[4], 20, levels, part);
         for round in 0..3 {
             for (l, rates) in row.rwg.iter_mut().zip(rwg) {
                 l.measured.push(rates[round], 1.0, 1.0);
@@ -415,6 +455,8 @@ mod tests {
             header,
             [
                 "workload",
+                "networks",
+                "gymnax-raw counts",
                 "rwg avx2",
                 "rwg avx512",
                 "gymnax-raw",
@@ -423,18 +465,48 @@ mod tests {
                 "avx512 / avx2"
             ]
         );
-        assert_eq!(body[0][0], "Pendulum-v1 [4]");
-        assert_eq!(body[0][1], "2.000e1 [1.00e1-3.00e1]");
-        assert_eq!(body[0][4], "2.00x [1.00-3.00]");
-        assert_eq!(body[0][6], "1.000x [0.500-4.000]");
+        assert_eq!(body[0][..3], ["Pendulum-v1 [4]", "30 / 10", "compiled run"]);
+        assert_eq!(body[0][3], "2.000e1 [1.00e1-3.00e1]");
+        assert_eq!(body[0][6], "2.00x [1.00-3.00]");
+        assert_eq!(body[0][8], "1.000x [0.500-4.000]");
         let one = [measured(&[Simd::Scalar], &[[10, 30, 20]])];
         let (header, body) = table_cells(&one, Source::Builtin, &["scalar"]);
-        assert_eq!(header.len(), 4);
-        assert_eq!(body[0].len(), 4);
+        assert_eq!(header.len(), 6);
+        assert_eq!(body[0].len(), 6);
         let (header, _) = table_cells(&one, Source::Gymnax, &["scalar"]);
         assert_eq!(
             header,
-            ["workload", "rwg gymnax:", "gymnax-raw", "rwg / gymnax-raw"]
+            [
+                "workload",
+                "networks",
+                "gymnax-raw counts",
+                "rwg gymnax:",
+                "gymnax-raw",
+                "rwg / gymnax-raw"
+            ]
+        );
+    }
+
+    #[test]
+    fn networks_are_said_in_powers_of_ten_where_they_are_one() {
+        let row = |rwg: u64, peer: u64, peer_time| {
+            let part = Part {
+                rwg_samples: rwg,
+                peer_samples: peer,
+                peer_time,
+            };
+            Row::new("gymnax:Acrobot-v1", &[], 20, &[Simd::Scalar], part)
+        };
+        let whole = row(10_000, 10_000, PeerTime::Whole);
+        assert_eq!(whole.samples_label(), "10^4");
+        assert_eq!(whole.peer_time.label(), "whole process");
+        assert_eq!(
+            row(30_000, 30_000, PeerTime::Compiled).samples_label(),
+            "3 x 10^4"
+        );
+        assert_eq!(
+            row(3000, 64, PeerTime::Compiled).samples_label(),
+            "3 x 10^3 / 64"
         );
     }
 

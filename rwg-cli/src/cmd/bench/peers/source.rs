@@ -29,6 +29,47 @@ pub const GYMNAX_WORKLOADS: [Workload; 5] = [
     ("Pendulum-v1", &[4]),
 ];
 
+/// What gymnax-raw's CPU time counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PeerTime {
+    /// Its compiled program's run alone (start-up and compilation excluded).
+    Compiled,
+    /// Its whole process: Python's start-up, the imports, the compilation,
+    /// the run and its CSV, as rwg's side is always measured.
+    Whole,
+}
+
+impl PeerTime {
+    /// How the table says it.
+    pub fn label(self) -> &'static str {
+        match self {
+            PeerTime::Compiled => "compiled run",
+            PeerTime::Whole => "whole process",
+        }
+    }
+}
+
+/// One comparison of a sitting: networks per workload on each side and
+/// what gymnax-raw's time counts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Part {
+    /// Networks of rwg's run.
+    pub rwg_samples: u64,
+    /// Networks of gymnax-raw's run.
+    pub peer_samples: u64,
+    /// What gymnax-raw's time counts.
+    pub peer_time: PeerTime,
+}
+
+/// The networks of `--source gymnax`'s whole-process comparison by default
+/// (the paper's N).
+pub const WHOLE_SAMPLES: u64 = 10_000;
+
+/// The networks of `--source gymnax`'s comparison with gymnax-raw's compiled
+/// run by default.
+pub const COMPILED_SAMPLES: u64 = 30_000;
+
 /// rwg's side of the comparison.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -57,14 +98,36 @@ impl Source {
         }
     }
 
-    /// Networks per workload for (rwg, gymnax-raw) when not given: rates are
-    /// compared, so each side gets what takes it seconds. rwg's JAX source
-    /// pays JAX's start-up and an XLA compilation in every run, so it gets
-    /// the peer's count.
-    pub fn default_samples(self) -> (u64, u64) {
+    /// The comparisons of a sitting. Built-in envs: rwg on `rwg` networks
+    /// (default 3000) against gymnax-raw's compiled run on `peer` (default
+    /// 1000): rates are compared, so each side gets what takes it seconds.
+    /// gymnax's envs: both sides on the same networks, rwg's whole run against
+    /// gymnax-raw's whole process on `whole` networks (default
+    /// [`WHOLE_SAMPLES`]), then against its compiled run alone on `compiled`
+    /// (default [`COMPILED_SAMPLES`]); 0 leaves a comparison out.
+    pub fn parts(
+        self,
+        (rwg, peer): (Option<u64>, Option<u64>),
+        (whole, compiled): (Option<u64>, Option<u64>),
+    ) -> Vec<Part> {
         match self {
-            Source::Builtin => (3000, 1000),
-            Source::Gymnax => (100_000, 100_000),
+            Source::Builtin => vec![Part {
+                rwg_samples: rwg.unwrap_or(3000),
+                peer_samples: peer.unwrap_or(1000),
+                peer_time: PeerTime::Compiled,
+            }],
+            Source::Gymnax => [
+                (whole.unwrap_or(WHOLE_SAMPLES), PeerTime::Whole),
+                (compiled.unwrap_or(COMPILED_SAMPLES), PeerTime::Compiled),
+            ]
+            .into_iter()
+            .filter(|&(n, _)| n > 0)
+            .map(|(n, peer_time)| Part {
+                rwg_samples: n,
+                peer_samples: n,
+                peer_time,
+            })
+            .collect(),
         }
     }
 
@@ -159,5 +222,33 @@ mod tests {
         assert_eq!(GYMNAX_WORKLOADS[0], ("CartPole-v1", &[4usize, 4][..]));
         assert_eq!(Source::Gymnax.rwg_env("Acrobot-v1"), "gymnax:Acrobot-v1");
         assert_eq!(Source::Builtin.rwg_env("Acrobot-v1"), "Acrobot-v1");
+    }
+
+    #[test]
+    fn gymnax_compares_whole_processes_then_the_compiled_run() {
+        let parts = Source::Gymnax.parts((None, None), (None, None));
+        let got: Vec<_> = parts
+            .iter()
+            .map(|p| (p.rwg_samples, p.peer_samples, p.peer_time))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                (10_000, 10_000, PeerTime::Whole),
+                (30_000, 30_000, PeerTime::Compiled)
+            ]
+        );
+        let only_whole = Source::Gymnax.parts((None, None), (Some(64), Some(0)));
+        assert_eq!(only_whole.len(), 1);
+        assert_eq!(only_whole[0].rwg_samples, 64);
+        let builtin = Source::Builtin.parts((Some(6), None), (None, None));
+        assert_eq!(
+            builtin,
+            [Part {
+                rwg_samples: 6,
+                peer_samples: 1000,
+                peer_time: PeerTime::Compiled
+            }]
+        );
     }
 }
