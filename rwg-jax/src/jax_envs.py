@@ -6,8 +6,11 @@ source name to its maker."""
 from rwg_pipe import fail
 from rwg_jax_worker_common import fail_exc, version_of
 
+import importlib.abc
+import importlib.machinery
 import sys
 import traceback
+import types
 
 
 class Adapted:
@@ -65,9 +68,63 @@ def limit_of(params, max_steps, what):
     return int(t)
 
 
+class _Deferred(types.ModuleType):
+    """A module gymnax imports only to draw (matplotlib, seaborn), not loaded:
+    rwg never draws, and loading them takes seconds."""
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        raise AttributeError(f"{self.__name__}.{name}: rwg's JAX worker does not load "
+                             f"{self.__name__.split('.')[0]} (gymnax imports it to draw)")
+
+
+class _DeferDrawing(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """While gymnax is imported: `_Deferred` stand-ins for its drawing modules."""
+
+    ROOTS = ("matplotlib", "seaborn")
+
+    def find_spec(self, name, path, target=None):
+        if name.split(".")[0] in self.ROOTS:
+            return importlib.machinery.ModuleSpec(name, self, is_package=True)
+        return None
+
+    def create_module(self, spec):
+        m = _Deferred(spec.name)
+        m.__path__ = []
+        return m
+
+    def exec_module(self, module):
+        pass
+
+
+def import_gymnax():
+    """gymnax, imported without its drawing modules where it allows (else
+    as it is): seconds less per worker."""
+    import importlib
+
+    if any(r in sys.modules for r in _DeferDrawing.ROOTS):
+        return importlib.import_module("gymnax")
+    finder = _DeferDrawing()
+    sys.meta_path.insert(0, finder)
+    try:
+        return importlib.import_module("gymnax")
+    except ImportError:
+        raise
+    except Exception:  # noqa: BLE001 -- it needs them after all: import it as it is
+        for m in [m for m in sys.modules if m.split(".")[0] == "gymnax"]:
+            del sys.modules[m]
+    finally:
+        sys.meta_path.remove(finder)
+        for m in [m for m in sys.modules if m.split(".")[0] in _DeferDrawing.ROOTS]:
+            if isinstance(sys.modules[m], _Deferred):
+                del sys.modules[m]
+    return importlib.import_module("gymnax")
+
+
 def make_gymnax(name, kwargs, max_steps):
     try:
-        import gymnax
+        gymnax = import_gymnax()
     except ImportError as e:
         fail("import", f"gymnax is not installed for {sys.executable} ({e}); install it with "
                        f"`{sys.executable} -m pip install gymnax`", traceback.format_exc())
