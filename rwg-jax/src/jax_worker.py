@@ -20,7 +20,8 @@ from rwg_pipe import (  # the pipe first: it redirects fd 0/1
     write_msg,
 )
 from rwg_jax_worker_common import fail_exc, version_of
-from rwg_jax_worker_envs import MAKERS
+from rwg_jax_worker_families import MAKERS
+from rwg_jax_worker_obs import structured
 from rwg_jax_worker_policy import describe_spaces
 from rwg_jax_worker_episode import compile_cell, run_chunk
 
@@ -66,6 +67,24 @@ def pick_device(jax, name):
         fail("device", f"no JAX device {name!r} ({type(e).__name__}: {e}); this JAX has: {known}")
 
 
+def action_mask(env, hello):
+    """How the policy picks a discrete action, recorded with the cell:
+    `legal` (argmax over the legal actions the family gives), `off` (the
+    family gives them, the manifest turned them off: plain argmax), `none`
+    (the family gives none). Drops the env's legal actions when not used."""
+    if env.legal is None or space_is_box(env):
+        env.legal = None
+        return "none"
+    if hello.get("action_mask", True):
+        return "legal"
+    env.legal = None
+    return "off"
+
+
+def space_is_box(env):
+    return hasattr(env.act_space, "low")
+
+
 def start(hello):
     """Imports, picks the device, makes the env: (jax, device, dtype, env, R fields, space)."""
     precision = hello.get("precision", "float32")
@@ -81,10 +100,13 @@ def start(hello):
     if make is None:
         fail("protocol", f"source {source!r}")
     with jax.default_device(dev):
-        env = make(name, kwargs, max_steps)
+        env = make(name, kwargs, max_steps, hello.get("package") or source)
+        env, described, leaves = structured(jax, env, dt)
     if env.max_steps < 1 or env.max_steps >= 2**31:
         fail("make", f"time limit {env.max_steps}: rwg takes 1 to {2**31 - 1} steps")
-    fields, space = describe_spaces(env, int(hello.get("max_obs", 4096)))
+    fields, space = describe_spaces(env, int(hello.get("max_obs", 4096)), leaves)
+    fields.update({"observation_leaves": described, "action_mask": action_mask(env, hello),
+                   "settings": {str(k): str(v) for k, v in env.settings.items()}})
     import jaxlib
 
     versions = {"python": sys.version.split()[0], "jax": jax.__version__,
