@@ -11,8 +11,6 @@ pub enum JaxKind {
     Gymnax,
     /// `brax:NAME`: `brax.envs.get_environment(NAME)`.
     Brax,
-    /// `jax:module:callable`: a user's function returning `(env, params)`.
-    Custom,
     /// `playground:NAME`: `mujoco_playground.registry.load(NAME)`.
     Playground,
     /// `jumanji:ID`: `jumanji.make(ID)`.
@@ -25,6 +23,8 @@ pub enum JaxKind {
     Xminigrid,
     /// `pgx:ID`: `pgx.make(ID)` (single-player games).
     Pgx,
+    /// `jax:module:callable`: a user's function returning `(env, params)`.
+    Custom,
 }
 
 /// One JAX env source.
@@ -85,14 +85,6 @@ pub const FAMILIES: [Family; 9] = [
         "brax.envs.get_environment(NAME)",
     ),
     row(
-        JaxKind::Custom,
-        ("jax:", "jax"),
-        "jax:module:callable",
-        "your own module",
-        "",
-        "module.callable(**kwargs) -> (env, params)",
-    ),
-    row(
         JaxKind::Playground,
         ("playground:", "playground"),
         "playground:NAME",
@@ -139,6 +131,14 @@ pub const FAMILIES: [Family; 9] = [
         "Pgx",
         "pgx",
         "pgx.make(ID)",
+    ),
+    row(
+        JaxKind::Custom,
+        ("jax:", "jax"),
+        "jax:module:callable",
+        "your own module",
+        "",
+        "module.callable(**kwargs) -> (env, params)",
     ),
 ];
 
