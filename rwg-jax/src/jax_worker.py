@@ -19,7 +19,7 @@ from rwg_pipe import (  # the pipe first: it redirects fd 0/1
     send_json,
     write_msg,
 )
-from rwg_jax_worker_common import fail_exc, version_of
+from rwg_jax_worker_common import fail_exc, import_family, version_of
 from rwg_jax_worker_families import MAKERS
 from rwg_jax_worker_obs import structured
 from rwg_jax_worker_policy import describe_spaces
@@ -43,7 +43,11 @@ def import_jax(precision):
     os.environ.setdefault("XLA_FLAGS", ONE_THREAD_XLA)
     try:
         import jax
-    except ImportError as e:
+    except BaseException as e:  # noqa: BLE001
+        import importlib.util
+
+        if importlib.util.find_spec("jax") is not None:
+            import_family("jax", "jax", "JAX")  # installed but failing: says why
         fail("import", f"jax is not installed for {sys.executable} ({e}); install it with "
                        f"`{sys.executable} -m pip install jax` (CPU) or "
                        f"`{sys.executable} -m pip install \"jax[cuda12]\"` (NVIDIA GPU)",
