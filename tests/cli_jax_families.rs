@@ -36,8 +36,9 @@ fn jax_record(run: &Path) -> serde_json::Value {
 /// A study of env `id` (entry lines `entry`): 1024 networks x 2 episodes in
 /// calls of 32, run on 2 threads, as two shards on 1 thread merged, and
 /// stopped by Ctrl-C after its first block then resumed; the three give the
-/// same bytes. Returns the 2-thread run's `env.json` record.
-fn same_bytes_every_way(name: &str, id: &str, entry: &str) -> Option<serde_json::Value> {
+/// same bytes. Returns the 2-thread run's `env.json` record and its
+/// `scores.csv`.
+fn same_bytes_every_way(name: &str, id: &str, entry: &str) -> Option<(serde_json::Value, String)> {
     let py = python()?;
     let dir = temp_dir(name);
     // 32 calls of 32 networks: the run goes on after its first block, so Ctrl-C
@@ -86,8 +87,10 @@ fn same_bytes_every_way(name: &str, id: &str, entry: &str) -> Option<serde_json:
     run("stopped", &["--threads", "1"]);
     assert_same(&t2, &stopped);
     let record = jax_record(&t2);
+    let scores =
+        std::fs::read_to_string(t2.join(format!("cells/{cell}__0HL__nobias/scores.csv"))).unwrap();
     let _ = std::fs::remove_dir_all(&dir);
-    Some(record)
+    Some((record, scores))
 }
 
 fn leaves(record: &serde_json::Value) -> Vec<(String, String)> {
@@ -109,7 +112,7 @@ fn leaves(record: &serde_json::Value) -> Vec<(String, String)> {
 #[test]
 fn jumanji_snake_is_the_same_every_way_with_its_legal_actions() {
     let entry = "max_episode_steps = 15";
-    let Some(r) = same_bytes_every_way("fam-jumanji", "jumanji:Snake-v1", entry) else {
+    let Some((r, _)) = same_bytes_every_way("fam-jumanji", "jumanji:Snake-v1", entry) else {
         return;
     };
     assert_eq!(
@@ -152,7 +155,7 @@ fn a_craftax_classic_study_runs_without_auto_reset() {
 #[test]
 fn navix_is_the_same_every_way() {
     let id = "navix:Navix-DoorKey-5x5-v0";
-    let Some(r) = same_bytes_every_way("fam-navix", id, "max_episode_steps = 20") else {
+    let Some((r, _)) = same_bytes_every_way("fam-navix", id, "max_episode_steps = 20") else {
         return;
     };
     assert_eq!(r["versions"]["navix"], "0.7.4", "{r}");
@@ -163,7 +166,7 @@ fn navix_is_the_same_every_way() {
 #[test]
 fn xland_minigrid_is_the_same_every_way() {
     let id = "xminigrid:MiniGrid-EmptyRandom-6x6";
-    let Some(r) = same_bytes_every_way("fam-xland", id, "max_episode_steps = 20") else {
+    let Some((r, _)) = same_bytes_every_way("fam-xland", id, "max_episode_steps = 20") else {
         return;
     };
     assert_eq!(
@@ -179,7 +182,7 @@ fn xland_minigrid_is_the_same_every_way() {
 #[test]
 fn pgx_2048_is_the_same_every_way_and_masks_can_be_turned_off() {
     let entry = "max_episode_steps = 40";
-    let Some(r) = same_bytes_every_way("fam-pgx", "pgx:2048", entry) else {
+    let Some((r, legal)) = same_bytes_every_way("fam-pgx", "pgx:2048", entry) else {
         return;
     };
     assert_eq!(
@@ -207,6 +210,32 @@ fn pgx_2048_is_the_same_every_way_and_masks_can_be_turned_off() {
     assert_eq!(jax_record(&off)["action_mask"], "off");
     let saved = std::fs::read_to_string(off.join("manifest.toml")).unwrap();
     assert!(saved.contains("action_mask = false"), "{saved}");
+    // network n's episode 0 has the same weights and reset seed in both: with
+    // the mask it never plays an illegal move; without, Pgx ends the game at
+    // the first one (reward -1), so some episodes are shorter
+    let rows = |text: &str| -> Vec<(String, u32)> {
+        text.lines()
+            .skip(1)
+            .filter(|l| l.split(',').nth(1) == Some("0"))
+            .take(32)
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                (f[2].to_string(), f[3].parse().unwrap())
+            })
+            .collect()
+    };
+    let off_scores =
+        std::fs::read_to_string(off.join("cells/pgx=2048__0HL__nobias/scores.csv")).unwrap();
+    let (with, without) = (rows(&legal), rows(&off_scores));
+    assert_eq!((with.len(), without.len()), (32, 32));
+    assert!(
+        with.iter().zip(&without).any(|(w, o)| o.1 < w.1),
+        "no game ended sooner without the mask: {with:?} {without:?}"
+    );
+    assert!(
+        with.iter().zip(&without).all(|(w, o)| o.1 <= w.1),
+        "a game lasted longer without the mask: {with:?} {without:?}"
+    );
 
     let e = err(&["envs", "pgx:tic_tac_toe", "--python", &py]);
     assert!(e.contains("game of 2 players") && e.contains("2048"), "{e}");
@@ -269,5 +298,36 @@ fn a_family_that_fails_to_import_says_why() {
     let e = err(&["envs", "jumanji:Snake-v9", "--python", &py]);
     assert!(e.contains("Jumanji has no environment 'Snake-v9'"), "{e}");
     assert!(e.contains("Snake-v1") && e.contains("Game2048-v1"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Assets a library downloads on first use are named at start when they are
+/// missing: Playground's locomotion robots (MuJoCo Menagerie) and an XLand
+/// benchmark's rulesets.
+#[test]
+fn missing_assets_are_named_at_start() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("fam-assets");
+    let e = err(&["envs", "playground:Go1JoystickFlatTerrain", "--python", &py]);
+    assert!(
+        e.contains("MuJoCo Menagerie") && e.contains("mujoco_menagerie"),
+        "{e}"
+    );
+    assert!(e.contains("commit"), "{e}");
+    let out = rwg_cmd(&[
+        "envs",
+        "xminigrid:XLand-MiniGrid-R1-9x9",
+        "--python",
+        &py,
+        "--kwargs",
+        r#"{"benchmark": "trivial-21k", "ruleset": 0}"#,
+    ])
+    .env("XLAND_MINIGRID_DATA", &dir)
+    .output()
+    .unwrap();
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "{e}");
+    assert!(e.contains("benchmark 'trivial-21k' is not at"), "{e}");
+    assert!(e.contains("XLAND_MINIGRID_DATA"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }

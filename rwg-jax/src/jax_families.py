@@ -143,8 +143,9 @@ def jumanji_make_error(name, e):
     if name.startswith("Sokoban"):
         fail("assets", f"Jumanji's {name} loads DeepMind's Boxoban levels on first use (from the "
                        f"Hugging Face hub, into its cache under ~/.cache/huggingface or $HF_HOME), "
-                       f"and that failed: {type(e).__name__}: {e}; make the env once on a machine "
-                       f"with the network and copy the cache, or point HF_HOME at a copy")
+                       f"and that failed: {type(e).__name__}: {str(e).rstrip('.')}; make the env "
+                       f"once on a machine with the network and copy the cache, or point HF_HOME "
+                       f"at a copy")
     fail_exc("make", f"jumanji.make({name!r})", e)
 
 
