@@ -484,6 +484,26 @@ fn every_column_the_binary_writes_is_documented() {
         json_keys(&serde_json::from_str(text).unwrap(), &mut keys);
         keys.into_iter().collect::<Vec<String>>()
     };
+    let paired = |format: &str| {
+        rwg_ok(&[
+            "compare",
+            a_s,
+            b_s,
+            "--paired",
+            "CartPole-v0",
+            "CartPole-v0",
+            "--format",
+            format,
+        ])
+    };
+    let paired_cols: Vec<String> = paired("csv")
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .map(String::from)
+        .collect();
+    let paired_keys = json_of(&paired("json"));
     let stats_keys = json_of(&std::fs::read_to_string(a.join("stats.json")).unwrap());
     let compare_keys = json_of(&rwg_ok(&["compare", a_s, b_s, "--format", "json"]));
     let (guide, both) = (
@@ -501,6 +521,16 @@ fn every_column_the_binary_writes_is_documented() {
         ),
         ("stats.json", stats_keys, both),
         ("rwg compare --format json", compare_keys, both),
+        (
+            "rwg compare --paired --format csv",
+            paired_cols,
+            &["docs/reference.md"][..],
+        ),
+        (
+            "rwg compare --paired --format json",
+            paired_keys,
+            &["docs/reference.md"][..],
+        ),
     ];
     let mut bad = Vec::new();
     for (what, columns, pages) in written {
