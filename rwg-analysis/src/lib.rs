@@ -87,6 +87,8 @@
 //!   text-column layout); [`fmt`]: how numbers are written in them.
 //! - [`plot`]: the paper's figures and the comparison figures.
 //! - [`report`] writes `report.html`.
+//! - [`jax_cells`]: how a run's JAX cells computed (device, precision,
+//!   networks per call, versions), from their `env.json`.
 //! - [`compare`]: `rwg compare`: its rows, difficulty ranking
 //!   ([`compare::ranking`]), table, CSV, figures and HTML page
 //!   ([`compare::page`]).
@@ -98,6 +100,7 @@
 
 pub mod compare;
 pub mod fmt;
+pub mod jax_cells;
 pub mod paired;
 pub mod plot;
 pub mod report;
