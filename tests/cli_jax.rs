@@ -119,7 +119,51 @@ fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
         &manifest(&py, "gymnax:CartPole-v1", "", 64, 3, true),
     );
     let run = dir.join("run");
-    ok(&["run", &m, "--out", s(&run), "--threads", "2"]);
+    let out = rwg_cmd(&["run", &m, "--out", s(&run), "--threads", "2", "--timing"])
+        .env("RWG_PROGRESS_INTERVAL", "0.5")
+        .output()
+        .unwrap();
+    let text = output_text(&out);
+    assert!(out.status.success(), "{text}");
+    // while the workers compile, the progress says so, with no rate or ETA
+    let compiling: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains("compiling for"))
+        .collect();
+    assert!(!compiling.is_empty(), "{text}");
+    assert!(
+        compiling
+            .iter()
+            .all(|l| !l.contains("networks/s") && !l.contains("ETA")),
+        "{text}"
+    );
+    // --timing: each cell's sampling split into compile and run
+    let mut timing = text
+        .lines()
+        .skip_while(|l| !l.starts_with("phase (wall ms)"));
+    let header = timing
+        .next()
+        .unwrap_or_else(|| panic!("no timing table: {text}"));
+    assert!(header.contains(" sampling   compile        run "), "{text}");
+    let rows: Vec<&str> = timing.collect();
+    for arch in ["0HL", "1HL"] {
+        let row = rows
+            .iter()
+            .find(|l| l.starts_with(&format!("{CARTPOLE}__{arch}__nobias")))
+            .unwrap_or_else(|| panic!("no timing row of {arch}: {text}"));
+        let ms: Vec<f64> = row
+            .split_whitespace()
+            .skip(1)
+            .take(3)
+            .map(|x| x.parse().unwrap())
+            .collect();
+        // sampling = compile + run, to the rounding of each to 0.1 ms
+        assert!(
+            (ms[0] - ms[1] - ms[2]).abs() <= 0.11 && ms[1] > 0.0,
+            "{row}"
+        );
+    }
+    assert!(text.contains("(JAX compile "), "{text}");
     for f in [
         "manifest.toml",
         "run.json",
