@@ -471,14 +471,12 @@ fn every_column_the_binary_writes_is_documented() {
     rwg_ok(&["stats", a_s, "--at-n", "4"]);
     let cell = a.join("cells/CartPole-v0__0HL__nobias");
     let b_s = b.to_str().unwrap();
-    let compare = rwg_ok(&["compare", a_s, b_s, "--format", "csv"]);
-    let compare_cols: Vec<String> = compare
-        .lines()
-        .next()
-        .unwrap()
-        .split(',')
-        .map(String::from)
-        .collect();
+    // the first line of a CSV text, split
+    let columns = |csv: String| -> Vec<String> {
+        let first = csv.lines().next().unwrap_or_default().to_string();
+        first.split(',').map(String::from).collect()
+    };
+    let compare_cols = columns(rwg_ok(&["compare", a_s, b_s, "--format", "csv"]));
     let json_of = |text: &str| {
         let mut keys = BTreeSet::new();
         json_keys(&serde_json::from_str(text).unwrap(), &mut keys);
@@ -496,13 +494,7 @@ fn every_column_the_binary_writes_is_documented() {
             format,
         ])
     };
-    let paired_cols: Vec<String> = paired("csv")
-        .lines()
-        .next()
-        .unwrap()
-        .split(',')
-        .map(String::from)
-        .collect();
+    let paired_cols = columns(paired("csv"));
     let paired_keys = json_of(&paired("json"));
     let stats_keys = json_of(&std::fs::read_to_string(a.join("stats.json")).unwrap());
     let compare_keys = json_of(&rwg_ok(&["compare", a_s, b_s, "--format", "json"]));
