@@ -15,6 +15,10 @@ mod paired;
 
 /// Arguments of `rwg compare`.
 #[derive(clap::Args)]
+#[command(after_help = "\
+Examples:
+  rwg compare runs/quick runs/quick-seed1 --html compare.html
+  rwg compare runs/quick runs/quick-seed1 --paired CartPole-v0 CartPole-v0 --format csv")]
 pub struct Args {
     /// Run directories, as written by `rwg run`.
     #[arg(required = true)]
