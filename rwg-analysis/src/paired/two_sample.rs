@@ -3,8 +3,9 @@
 //!
 //! - [`ks_two_sample`]: the two-sample Kolmogorov–Smirnov test of two equally
 //!   large samples, exact: SciPy's `ks_2samp(a, b, method="exact")`
-//!   (Hodges 1958's count of lattice paths that leave the band `|x − y| < h`;
-//!   SciPy's `_compute_prob_outside_square`).
+//!   (the reflection-principle count of the lattice paths that leave the
+//!   band `|x − y| < h`, Gnedenko and Korolyuk 1951, summed as SciPy's
+//!   `_compute_prob_outside_square` sums it).
 //! - [`mcnemar_exact`]: McNemar's test of paired binary outcomes, exact: the
 //!   two-sided binomial test of the discordant pairs at ½ (SciPy's
 //!   `binomtest(b, b + c, 0.5)`, statsmodels' `mcnemar(exact=True)`).
