@@ -327,19 +327,9 @@ class Run:
         directory was moved or deleted."""
         c = self.cell(env, arch, bias)
         path, data = self._cell_file(c, "scores.csv")
-        df = _read_csv(data, path, SCORES_HEADER, {"sample": np.int64, "episode": np.int64, "score": np.float64, "steps": np.int64})
+        df = read_scores_csv(data, path)
+        check_score_rows(df, c, path)
         n, e = int(c["samples"]), int(c["episodes"])
-        want_sample = np.repeat(np.arange(n, dtype=np.int64), e)
-        want_episode = np.tile(np.arange(e, dtype=np.int64), n)
-        if len(df) != n * e or not (
-            np.array_equal(df["sample"].to_numpy(), want_sample)
-            and np.array_equal(df["episode"].to_numpy(), want_episode)
-        ):
-            msg = (
-                f"{path}: {len(df)} rows, not the {n} networks x {e} episodes in order that "
-                "run.json records for the cell"
-            )
-            raise RunDamagedError(msg, [msg])
         # copy=True: a writeable array whatever pandas version (pandas 3
         # hands out read-only views of its columns).
         return df["score"].to_numpy(dtype=np.float64, copy=True).reshape(n, e)
@@ -359,6 +349,12 @@ class Run:
             raise RunDamagedError(msg, [msg])
         return df.set_index("sample")
 
+    def tidy(self) -> pd.DataFrame:
+        """Every episode of every cell as one tidy DataFrame: ``rwg.tidy(run)``."""
+        from ._tidy import tidy
+
+        return tidy(self)
+
     def __repr__(self) -> str:
         return (
             f"<rwg.Run {self.path!r}: {len(self.cells)} cells, {self.meta.get('samples')} networks "
@@ -366,10 +362,41 @@ class Run:
         )
 
 
-def _read_csv(data: bytes, path: str, header: List[str], types: Dict[str, Any]) -> pd.DataFrame:
+_SCORE_TYPES = {"sample": np.int64, "episode": np.int64, "score": np.float64, "steps": np.int64}
+
+
+def read_scores_csv(data: bytes, path: str, exact_header: bool = True) -> pd.DataFrame:
+    """A cell's ``scores.csv``: its header must be :data:`SCORES_HEADER`,
+    or (``exact_header=False``) start with it, further columns read as
+    pandas reads them."""
+    return _read_csv(data, path, SCORES_HEADER, _SCORE_TYPES, exact_header)
+
+
+def check_score_rows(df: pd.DataFrame, cell: Dict[str, Any], path: str) -> None:
+    """Raises :class:`RunDamagedError` unless ``df`` holds the cell's
+    networks x episodes, in order, as ``run.json`` records them."""
+    n, e = int(cell["samples"]), int(cell["episodes"])
+    want_sample = np.repeat(np.arange(n, dtype=np.int64), e)
+    want_episode = np.tile(np.arange(e, dtype=np.int64), n)
+    if len(df) != n * e or not (
+        np.array_equal(df["sample"].to_numpy(), want_sample)
+        and np.array_equal(df["episode"].to_numpy(), want_episode)
+    ):
+        msg = (
+            f"{path}: {len(df)} rows, not the {n} networks x {e} episodes in order that "
+            "run.json records for the cell"
+        )
+        raise RunDamagedError(msg, [msg])
+
+
+def _read_csv(
+    data: bytes, path: str, header: List[str], types: Dict[str, Any], exact: bool = True
+) -> pd.DataFrame:
     first = data.split(b"\n", 1)[0].decode("utf-8", "replace").strip()
-    if first.split(",") != header:
-        msg = f"{path}:1: header {first!r}, expected {','.join(header)!r}"
+    got = first.split(",")
+    if (got != header) if exact else (got[: len(header)] != header):
+        expected = ",".join(header) + ("" if exact else ",...")
+        msg = f"{path}:1: header {first!r}, expected {expected!r}"
         raise RunDamagedError(msg, [msg])
     try:
         return pd.read_csv(io.BytesIO(data), dtype=types, **_EXACT)
