@@ -94,6 +94,39 @@ fn an_overflowing_total_reward_fails_the_episode_on_every_plugin_path() {
     );
 }
 
+/// Finite episode totals too large for the statistics (1e308: two of them
+/// overflow a mean, one squared a variance) are refused where they enter,
+/// naming the env, network, episode and value, on every plugin path; before,
+/// the run exited 0 with infinite means and `rwg top` refused its own
+/// `samples.csv`.
+#[test]
+fn a_finite_total_beyond_what_the_statistics_hold_is_refused_where_it_enters() {
+    let dir = temp_dir("values-plugin-huge-total");
+    let env = format!(
+        "{HEAD}[[envs]]\nid = \"broken/HugeReward-v0\"\nplugin = \"{}\"\nmax_episode_steps = 1\n",
+        broken_plugin().display()
+    );
+    for (path, isolate) in [("in-process", ""), ("isolated", "isolate = true\n")] {
+        let m = write(&dir, &format!("{path}.toml"), &format!("{env}{isolate}"));
+        let out = dir.join(path);
+        let err = rwg_err(&["run", &m, "--out", out.to_str().unwrap(), "--no-report"]);
+        assert!(
+            err.contains(
+                "broken/HugeReward-v0: sample 0, episode 0, step 1: the episode's total \
+                 reward is 1e308, beyond"
+            ),
+            "{path}: {err}"
+        );
+        assert!(err.contains("1e100"), "{path}: {err}");
+        assert!(err.contains("scale the rewards"), "{path}: {err}");
+        let cell = out.join("cells/broken+HugeReward-v0__0HL__nobias");
+        assert!(
+            !cell.join("samples.csv").exists(),
+            "{path}: samples.csv written"
+        );
+    }
+}
+
 #[test]
 fn gymnasium_an_overflowing_total_reward_fails_the_episode() {
     let Some(py) = python() else { return };

@@ -10,6 +10,7 @@ pub use crate::block::draw_block_weights;
 use crate::deal::{Deal, Lane};
 pub use crate::plan::{
     draw_weights, reset_seed, weight_rng, CellPlan, EpisodeResult, SampleError, WeightDist,
+    MAX_RETURN,
 };
 use crate::policy::{NetShape, Policy, PolicyLanes};
 use rayon::prelude::*;
@@ -469,7 +470,7 @@ mod tests {
     }
 
     #[test]
-    fn an_overflowing_total_fails_the_episode_where_it_ends() {
+    fn an_overflowing_or_too_large_total_fails_the_episode_where_it_ends() {
         use crate::test_envs::Toy;
         let plan = CellPlan {
             env_id: "Toy-v0".into(),
@@ -492,23 +493,23 @@ mod tests {
             let mut w = Worker::new(Toy::new(5, false), &plan);
             let seq = w.run_sample(&plan, n, &mut [got[0]]);
             assert_eq!(res, seq, "sample {n}");
-            if steps == 1 {
-                assert_eq!(res, Ok(()));
-                assert_eq!(got[0].score, f64::MAX);
-                singles += 1;
+            let e = res.unwrap_err();
+            assert_eq!((e.sample, e.episode, e.step), (n, 0, steps as u32));
+            // one step: f64::MAX, finite but beyond what the statistics hold
+            let (total, counter) = if steps == 1 {
+                ("1.7976931348623157e308, beyond ±1e100", &mut singles)
             } else {
-                let e = res.unwrap_err();
-                assert_eq!((e.sample, e.episode, e.step), (n, 0, steps as u32));
-                assert!(
-                    e.error
-                        .to_string()
-                        .starts_with("the episode's total reward is inf"),
-                    "{e}"
-                );
-                sums += 1;
-            }
+                ("inf: its rewards are finite", &mut sums)
+            };
+            let msg = e.error.to_string();
+            let want = format!("the episode's total reward is {total}");
+            assert!(msg.starts_with(&want), "{e}");
+            *counter += 1;
         }
-        assert!(sums > 0, "no episode overflowed ({singles} of one step)");
+        assert!(
+            sums > 0 && singles > 0,
+            "{sums} overflowed, {singles} of one step"
+        );
     }
 
     #[test]
