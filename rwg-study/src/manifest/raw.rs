@@ -91,4 +91,5 @@ pub(super) struct RawEnv {
     pub(super) precision: Option<Spanned<String>>,
     pub(super) device: Option<Spanned<String>>,
     pub(super) networks_per_call: Option<Spanned<i64>>,
+    pub(super) non_finite: Option<Spanned<String>>,
 }

@@ -6,6 +6,7 @@ use super::*;
 
 fn meta(solved: Option<f64>) -> CellMeta {
     CellMeta {
+        non_finite_episodes: None,
         id: CellId::new("Fixture-v0", "0HL", &[], false),
         n_weights: 8,
         obs_dim: 4,
