@@ -29,6 +29,16 @@ fn parse_n(s: &str) -> Result<usize, String> {
     }
 }
 
+/// `x` with 3 decimals, in scientific notation from 8 digits before the
+/// point on (returns reach ±1e100).
+fn fixed(x: f64) -> String {
+    if x.abs() >= 1e7 {
+        format!("{x:.3e}")
+    } else {
+        format!("{x:.3}")
+    }
+}
+
 /// Runs `rwg top`.
 pub fn run(args: Args) -> Result<()> {
     rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
@@ -85,10 +95,10 @@ pub fn run(args: Args) -> Result<()> {
         for (s, mean, std, min, max, cut) in rows.iter().take(args.n) {
             let mut values = vec![
                 s.to_string(),
-                format!("{mean:.3}"),
-                format!("{std:.3}"),
-                format!("{min:.3}"),
-                format!("{max:.3}"),
+                fixed(*mean),
+                fixed(*std),
+                fixed(*min),
+                fixed(*max),
             ];
             if flagged {
                 values.push(cut.to_string());
