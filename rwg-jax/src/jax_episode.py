@@ -31,7 +31,7 @@ def episode_fn(jax, env, policy, dt, end=False):
 
         def body(c):
             obs, state, t, ret, fault, _ = c
-            a = policy(Ws, obs)
+            a = policy(Ws, obs, env.legal(state) if env.legal else None)
             obs, state, r, d = env.step(jax.random.fold_in(k_steps, t), state, a)
             r = jnp.asarray(r).astype(dt)
             fault = fault | jnp.where(not_finite(obs), FAULT_OBS, 0).astype(jnp.uint8)

@@ -33,6 +33,8 @@ pub fn hello(cfg: &JaxConfig, max_obs: usize) -> serde_json::Value {
     serde_json::json!({
         "protocol": PROTOCOL,
         "source": cfg.kind.source(),
+        "package": cfg.kind.family().package,
+        "action_mask": cfg.action_mask,
         "env": cfg.id,
         "kwargs": cfg.kwargs,
         "max_episode_steps": cfg.max_episode_steps,
@@ -137,9 +139,24 @@ pub fn decode_outcome(payload: &[u8], m: usize) -> Result<Outcome, JaxError> {
     })
 }
 
+/// One leaf of a structured observation: its name (its path in the
+/// pytree), shape and dtype.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize, serde::Serialize)]
+pub struct Leaf {
+    /// `grid`, `agent.position`, `['state']`; `obs` for a bare array.
+    pub name: String,
+    /// Its shape (`[]` for a scalar).
+    pub shape: Vec<u64>,
+    /// Its dtype as JAX names it (`float32`, `uint8`, `bool`).
+    pub dtype: String,
+}
+
 /// What the worker says in its ready message.
 #[derive(Debug, Clone, Deserialize)]
 pub struct Ready {
+    observation_leaves: Vec<Leaf>,
+    action_mask: String,
+    settings: BTreeMap<String, String>,
     obs_dim: usize,
     obs_low: Vec<serde_json::Value>,
     obs_high: Vec<serde_json::Value>,
@@ -195,6 +212,9 @@ pub fn parse_ready(cfg: &JaxConfig, r: Ready) -> Result<JaxInfo, JaxError> {
         observation_space: r.observation_space,
         action_space: r.action_space,
         versions: r.versions,
+        observation_leaves: r.observation_leaves,
+        action_mask: r.action_mask,
+        settings: r.settings,
         device: r.device,
         device_kind: r.device_kind,
         platform: r.platform,
@@ -246,6 +266,8 @@ mod tests {
     fn ready_becomes_the_spec() {
         let cfg = JaxConfig::new(JaxKind::Brax, "inverted_pendulum");
         let r: Ready = serde_json::from_value(serde_json::json!({
+            "observation_leaves": [{"name": "obs", "shape": [4], "dtype": "float32"}],
+            "action_mask": "none", "settings": {},
             "obs_shape": [4], "obs_dim": 4, "obs_low": ["-inf", "-inf", "-inf", "-inf"],
             "obs_high": ["inf", "inf", "inf", "inf"],
             "action": {"box": {"low": [-1.0], "high": [1.0], "shape": [1]}},

@@ -392,6 +392,9 @@ impl Cell {
                 platform: j.info().platform.clone(),
                 precision: j.info().precision.name().to_string(),
                 networks_per_call: j.networks_per_call(),
+                observation_leaves: j.info().observation_leaves.clone(),
+                action_mask: Some(j.info().action_mask.clone()),
+                settings: j.info().settings.clone(),
             }),
             _ => record,
         }

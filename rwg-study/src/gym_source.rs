@@ -94,8 +94,9 @@ pub fn check_not_gym_fields(m: &Manifest, i: usize) -> Result<(), ManifestError>
             at,
             format!(
                 "envs[{i}]: `kwargs` and `python` apply to Gymnasium and JAX environments \
-                 only (write the id as gymnasium:{}, or gymnax:, brax:, jax:module:callable)",
-                e.id
+                 only (write the id as gymnasium:{}, or as a JAX id: {})",
+                e.id,
+                rwg_jax::id_forms()
             ),
         )),
         None => Ok(()),

@@ -36,10 +36,11 @@
 //! python = ".venv/bin/python"        # optional: default RWG_PYTHON, then python3
 //!
 //! [[envs]]
-//! id = "gymnax:CartPole-v1"          # a JAX env (also brax:NAME, jax:module:callable), rwg-jax
+//! id = "gymnax:CartPole-v1"          # a JAX env (also brax:, playground:, jumanji:, ...), rwg-jax
 //! precision = "float64"              # optional: float32 (default) or float64; part of the study
 //! device = "gpu:1"                   # optional: the JAX device (default: JAX's first)
 //! networks_per_call = 1024           # optional: networks in one compiled call (a multiple of 32)
+//! action_mask = false                # optional: plain argmax where the family gives legal actions
 //! non_finite = "end"                 # optional, any env: an episode meeting a NaN or infinite
 //!                                    # value ends there, flagged (default "stop": the study stops)
 //! ```
@@ -163,6 +164,12 @@ pub struct EnvEntry {
     /// default for the device's platform). Part of the study.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub networks_per_call: Option<u32>,
+    /// Whether a JAX env's discrete action is the argmax over the legal
+    /// actions where its family gives them: `Some(true)` unless the manifest
+    /// says `action_mask = false`; `None` for every other env. Part of the
+    /// study.
+    #[serde(skip_serializing_if = "jax_keys::mask_is_default")]
+    pub action_mask: Option<bool>,
     /// What an episode that meets a value that is not finite does: stop
     /// the study (the default, not written out) or end the episode there,
     /// flagged. Part of the study.
@@ -353,7 +360,7 @@ impl Manifest {
     /// back).
     pub fn isolate_all(&mut self) {
         for e in &mut self.envs {
-            e.isolate = !crate::jax_source::is_jax(&e.id);
+            e.isolate = rwg_jax::jax_id(&e.id).is_none();
         }
     }
 

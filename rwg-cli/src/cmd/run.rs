@@ -42,7 +42,8 @@ kills rwg, though every committed block is kept and a rerun resumes). With
 --isolate (or `isolate = true` in an [[envs]] entry) they run in worker
 processes: a crash or hang is reported by rwg and the results are the same.
 
-JAX envs (gymnax:ID, brax:NAME, jax:module:callable) run in Python worker
+JAX envs (gymnax:ID, brax:NAME, playground:NAME, jumanji:ID, craftax:NAME,
+navix:ID, xminigrid:ID, pgx:ID, jax:module:callable) run in Python worker
 processes, the episodes of networks_per_call networks in one compiled call:
 --threads workers on the CPU (one XLA thread each), one worker on a GPU or
 TPU. The results are the same for any --threads, shards or resume.
@@ -68,7 +69,7 @@ pub struct Args {
     #[arg(long)]
     seed: Option<u64>,
     /// Worker threads (overrides the manifest; default: all cores). A JAX
-    /// env (gymnax:, brax:, jax:) on the CPU runs this many worker processes,
+    /// env (gymnax:, playground:, ...) on the CPU runs this many worker processes,
     /// each XLA on one thread; on a GPU or TPU one worker, whatever this says.
     #[arg(long)]
     threads: Option<usize>,

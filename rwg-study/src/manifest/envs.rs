@@ -61,6 +61,7 @@ fn env(
         precision: jax.precision,
         device: jax.device,
         networks_per_call: jax.networks_per_call,
+        action_mask: jax.action_mask,
         non_finite,
         device_span: e.device.as_ref().map(|d| d.span()),
         kwargs_span: e.kwargs.as_ref().map(|k| k.span()),
@@ -96,7 +97,7 @@ fn check_id_unique(
     if !earlier.iter().any(|x| x.id == *id) {
         return Ok(());
     }
-    let hint = if crate::gym_source::is_gym(id) {
+    let hint = if rwg_gym::gym_id(id).is_some() {
         " (one entry per id, as the id enters the seeds and the cell names: for \
          another configuration of the env use a registered id of its own, e.g. \
          gymnasium:LunarLanderContinuous-v3 beside gymnasium:LunarLander-v3, or a \
