@@ -207,6 +207,12 @@ fn cell_numbers(s: &CellSummary) -> String {
         ));
     }
     parts.push(format!("mean episode length {:.1}", s.mean_episode_length));
+    if let Some(n) = s.non_finite_episodes {
+        parts.push(format!(
+            "{n} of {} episodes ended at a non-finite value",
+            s.samples * u64::from(s.episodes)
+        ));
+    }
     format!("<p>{}</p>\n", html_escape(&parts.join(" · ")))
 }
 

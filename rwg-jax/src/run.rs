@@ -9,7 +9,9 @@ use crate::warm_up::WarmUp;
 use crate::worker::JaxWorker;
 use crate::{JaxError, JaxSource};
 use rwg_core::policy::NetShape;
-use rwg_core::sampler::{draw_block_weights, reset_seed, BlockResult, CellPlan, SampleError};
+use rwg_core::sampler::{
+    draw_block_weights, reset_seed, BlockResult, CellPlan, NonFinite, SampleError,
+};
 use rwg_env::EnvError;
 use std::ops::Range;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
@@ -41,6 +43,7 @@ where
         networks: src.networks_per_call(),
         episodes: plan.episodes,
         n_weights: shape.n_weights(),
+        non_finite_ends: plan.non_finite == NonFinite::End,
     };
     let all = chunks(blocks, cell.networks as usize);
     let mut assembly = Assembly::new(blocks, plan.episodes);
@@ -89,7 +92,7 @@ where
             .recv()
             .unwrap_or_else(|_| unreachable!("a worker thread ended before its chunk {c}"));
         let outcome = outcome.map_err(|e| chunk_error(plan, chunk, e))?;
-        let (ok, failure) = results(&plan.env_id, chunk, plan.episodes, &outcome);
+        let (ok, failure) = results(plan, chunk, &outcome);
         assembly.add(&ok, on_block)?;
         if let Some(f) = failure {
             return Err(f.into());

@@ -24,6 +24,7 @@ fn meta(episodes: u32, dist: &str, archs: &[&str]) -> RunMeta {
         cells: archs
             .iter()
             .map(|a| CellMeta {
+                non_finite_episodes: None,
                 id: CellId::new("E", a, &[], false),
                 n_weights: 1,
                 obs_dim: 1,

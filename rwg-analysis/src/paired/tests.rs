@@ -19,6 +19,7 @@ fn side(run: &str, env: &str, seed: u64, solved: Option<f64>, scores: &[f64]) ->
         wall_s: 0.0,
         env_steps: 0,
         steps_per_s: 0.0,
+        non_finite_episodes: None,
     };
     let cells = vec![cell("0HL", &[]), cell("1HL-4", &[4])];
     let meta = RunMeta {

@@ -175,7 +175,7 @@ fn sample_cell<'scope, 'a: 'scope>(
     let mut cell_steps = 0u64;
     // Blocks are committed by I/O threads while the workers compute
     // the next ones; the cell's end waits for the last commits.
-    let (committer, io_threads) = Committer::start(fin, dir, m.episodes, opts.commit_linger);
+    let (committer, io_threads) = Committer::start(fin, dir, cell.rows(m), opts.commit_linger);
     let t_sampling = Instant::now();
     let warm_before = cell.source.warm_up_time();
     let stop = [opts.stop, s.abort];
