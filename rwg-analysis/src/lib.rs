@@ -99,6 +99,8 @@
 //! in a fixed order, so the bytes do not depend on the thread count.
 
 pub mod compare;
+#[cfg(test)]
+mod fixtures;
 pub mod fmt;
 pub mod jax_cells;
 pub mod paired;

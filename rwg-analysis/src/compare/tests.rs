@@ -2,46 +2,14 @@
 
 use super::*;
 use rwg_study::rundir::data::CellData;
-use rwg_study::rundir::meta::{CellId, CellMeta, RunMeta, WeightsMeta};
+use rwg_study::rundir::meta::RunMeta;
 
 fn meta(episodes: u32, dist: &str, archs: &[&str]) -> RunMeta {
-    RunMeta {
-        format: 1,
-        rwg_version: "t".into(),
-        seed: 0,
-        samples: 10,
-        episodes,
-        weights: WeightsMeta {
-            distribution: dist.into(),
-            scale: 1.0,
-        },
-        threads: 1,
-        start_time: String::new(),
-        end_time: None,
-        wall_s: 0.0,
-        env_steps: 0,
-        steps_per_s: 0.0,
-        cells: archs
-            .iter()
-            .map(|a| CellMeta {
-                non_finite_episodes: None,
-                id: CellId::new("E", a, &[], false),
-                n_weights: 1,
-                obs_dim: 1,
-                max_episode_steps: 1,
-                solved: None,
-                solved_source: None,
-                samples: 10,
-                episodes,
-                wall_s: 0.0,
-                env_steps: 0,
-                steps_per_s: 0.0,
-            })
-            .collect(),
-        block_samples: 10,
-        shard: None,
-        study: None,
-    }
+    let cells = archs
+        .iter()
+        .map(|a| crate::fixtures::cell("E", a, &[], 10, episodes, None))
+        .collect();
+    crate::fixtures::run(0, dist, cells)
 }
 
 #[test]

@@ -2,47 +2,16 @@
 
 use super::*;
 use rwg_study::rundir::data::CellData;
-use rwg_study::rundir::meta::{CellId, CellMeta, RunMeta, WeightsMeta};
 
 /// A run of one env with a cell per `(arch, hidden)`, each holding one
 /// episode per network with the scores `scores`.
 fn side(run: &str, env: &str, seed: u64, solved: Option<f64>, scores: &[f64]) -> PairSide {
-    let cell = |arch: &str, hidden: &[usize]| CellMeta {
-        id: CellId::new(env, arch, hidden, false),
-        n_weights: 10,
-        obs_dim: 4,
-        max_episode_steps: 500,
-        solved,
-        solved_source: None,
-        samples: scores.len() as u64,
-        episodes: 1,
-        wall_s: 0.0,
-        env_steps: 0,
-        steps_per_s: 0.0,
-        non_finite_episodes: None,
-    };
-    let cells = vec![cell("0HL", &[]), cell("1HL-4", &[4])];
-    let meta = RunMeta {
-        format: 2,
-        rwg_version: "t".into(),
-        seed,
-        samples: scores.len() as u64,
-        episodes: 1,
-        weights: WeightsMeta {
-            distribution: "normal".into(),
-            scale: 1.0,
-        },
-        threads: 1,
-        start_time: String::new(),
-        end_time: None,
-        wall_s: 0.0,
-        env_steps: 0,
-        steps_per_s: 0.0,
-        cells: cells.clone(),
-        block_samples: 32,
-        shard: None,
-        study: None,
-    };
+    let n = scores.len() as u64;
+    let cells = vec![
+        crate::fixtures::cell(env, "0HL", &[], n, 1, solved),
+        crate::fixtures::cell(env, "1HL-4", &[4], n, 1, solved),
+    ];
+    let meta = crate::fixtures::run(seed, "normal", cells.clone());
     PairSide {
         run: run.into(),
         meta,
