@@ -56,7 +56,11 @@ fn compare_side_by_side() {
     let mut sorted = ranks.clone();
     sorted.sort();
     assert_eq!(sorted, (1..=16).collect::<Vec<u64>>());
-    assert!(csv.lines().next().unwrap().ends_with(",difficulty_rank"));
+    assert!(csv
+        .lines()
+        .next()
+        .unwrap()
+        .ends_with(",difficulty_rank,non_finite_episodes"));
 
     let dir = temp_dir("compare-fig");
     let (fig, rank_fig, page) = (

@@ -43,17 +43,25 @@ fn csv_keeps_its_header_and_quotes_only_what_must_be() {
         difficulty_rank: 1,
     };
     let csv = compare_csv(&[row("plain"), row("a,\"b\""), row("two\nlines")]);
+    // a cell with non_finite = "end" gives its count; others leave it empty
+    let mut counted = row("counted");
+    counted.summary.non_finite_episodes = Some(3);
+    assert!(compare_csv(&[counted])
+        .lines()
+        .nth(1)
+        .unwrap()
+        .ends_with(",1,3"));
     assert!(csv.ends_with('\n') && !csv.contains('\r'), "{csv:?}");
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(
         lines[0],
         "run,env,arch,bias,samples,episodes,solved,p_solved,p_solved_lo,p_solved_hi,\
          expected_guesses,expected_guesses_lo,best_mean,p99.9_mean,median_mean,\
-         normalised_best,normalised_p99.9,difficulty_rank"
+         normalised_best,normalised_p99.9,difficulty_rank,non_finite_episodes"
     );
     assert!(lines[1].starts_with("plain,E,0HL,false,"), "{csv}");
-    assert!(lines[1].ends_with(",,0.5,1"), "{csv}");
-    assert_eq!(lines[1].split(',').count(), 18, "{csv}");
+    assert!(lines[1].ends_with(",,0.5,1,"), "{csv}");
+    assert_eq!(lines[1].split(',').count(), 19, "{csv}");
     assert_eq!(lines[2], lines[1].replacen("plain", "\"a,\"\"b\"\"\"", 1));
     assert_eq!(
         format!("{}\n{}", lines[3], lines[4]),
