@@ -95,6 +95,9 @@ pub struct JaxConfig {
     /// Networks per compiled call; `None`: [`JaxSource::networks_per_call`]'s
     /// default, from the lanes and the device's memory.
     pub networks_per_call: Option<u32>,
+    /// Whether a discrete action is the argmax over the legal actions where
+    /// the family gives them (`true`), or over all actions.
+    pub action_mask: bool,
     /// How long a start, a compile or a call may take.
     pub timeout: Duration,
     /// The folder of JAX's persistent compilation cache (`None`: none).
@@ -117,6 +120,7 @@ impl JaxConfig {
             matmul_precision: MatmulPrecision::Highest,
             device: None,
             networks_per_call: None,
+            action_mask: true,
             timeout: default_timeout(),
             compile_cache: cache_setting().ok().flatten(),
         }

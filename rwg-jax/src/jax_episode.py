@@ -17,7 +17,7 @@ precision, device kind, versions) fixes the program.
 """
 
 from rwg_pipe import fail
-from rwg_jax_worker_common import FAULT_OBS, FAULT_REWARD
+from rwg_jax_worker_common import FAULT_OBS, FAULT_RETURN, FAULT_REWARD, MAX_RETURN
 from rwg_jax_worker_policy import policy_fn
 
 import struct
@@ -26,7 +26,8 @@ import struct
 def lane_fns(jax, env, policy, dt):
     """(reset, step) of one lane: reset(key data) -> (obs, state, step key
     data, fault); step(W, obs, state, step key data, t) -> (obs, state,
-    reward, done, fault bits)."""
+    reward, done, fault bits). The policy sees the env's legal actions where
+    the env has them."""
     jnp = jax.numpy
 
     def not_finite(x):
@@ -42,7 +43,7 @@ def lane_fns(jax, env, policy, dt):
         return obs, state, jax.random.key_data(k_steps), bit(not_finite(obs), FAULT_OBS)
 
     def step(Ws, obs, state, k_steps, t):
-        a = policy(Ws, obs)
+        a = policy(Ws, obs, env.legal(state) if env.legal else None)
         key = jax.random.fold_in(jax.random.wrap_key_data(k_steps, impl="threefry2x32"), t)
         obs, state, r, d = env.step(key, state, a)
         r = jnp.asarray(r).astype(dt)
@@ -52,9 +53,12 @@ def lane_fns(jax, env, policy, dt):
     return reset, step
 
 
-def chunk_program(jax, env, policy, dt, N, E, L):
+def chunk_program(jax, env, policy, dt, N, E, L, end=False):
     """The chunk's program: (weights per layer (N, out, in), keys (N, E, 2),
-    n networks, refill) -> (returns, lengths, faults) (N, E), loop trips."""
+    n networks, refill) -> (returns, lengths, faults) (N, E), loop trips.
+    With `end` (non_finite = "end"), an episode ends at its first value that
+    is not finite (or a return beyond MAX_RETURN), that step counted, its
+    reward left out; a reset's non-finite observation ends it at step 0."""
     jnp, lax = jax.numpy, jax.lax
     T = env.max_steps
     M = N * E
@@ -101,7 +105,10 @@ def chunk_program(jax, env, policy, dt, N, E, L):
         ret = jnp.where(done, jnp.zeros((), dt), ret)
         fault = jnp.where(take, f0, jnp.where(done, 0, fault).astype(jnp.uint8))
         nxt = jnp.minimum(nxt + jnp.sum(done, dtype=jnp.int32), total)
-        return (new, obs, state, ks, t, ret, fault, done & ~take, WL, nxt, out)
+        done = done & ~take
+        if end:
+            done = done | (take & (f0 != 0))
+        return (new, obs, state, ks, t, ret, fault, done, WL, nxt, out)
 
     def program(Ws, keys, n, refill_at):
         total = n * E
@@ -123,9 +130,18 @@ def chunk_program(jax, env, policy, dt, N, E, L):
             (item, obs, state, ks, t, ret, fault, done, WL, nxt, out) = c
             obs, state, r, d, f = vstep(WL, obs, state, ks, t)
             run = ~done
-            ret = jnp.where(run, ret + r, ret)
+            total_r = ret + r
             t = jnp.where(run, t + 1, t)
-            fault = jnp.where(run, fault | f, fault)
+            f = fault | f
+            if end:
+                ok = jnp.isfinite(total_r) & (jnp.abs(total_r) <= jnp.asarray(MAX_RETURN, dt))
+                bad_r = ~jnp.isfinite(r)
+                f = f | jnp.where(ok | bad_r, 0, FAULT_RETURN).astype(jnp.uint8)
+                cut = f != 0
+                total_r = jnp.where(cut, ret, total_r)
+                d = d | cut
+            ret = jnp.where(run, total_r, ret)
+            fault = jnp.where(run, f, fault)
             done = done | (d | (t >= T))
             c = (item, obs, state, ks, t, ret, fault, done, WL, nxt, out)
             waiting = jnp.sum(done & (item < total), dtype=jnp.int32)
@@ -167,7 +183,8 @@ def compile_cell(jax, env, devs, dt, space, obs_dim, cell):
     layers, nw = cell_layers(space, obs_dim, cell)
     N, E, L = int(cell["networks"]), int(cell["episodes"]), int(cell["lanes"])
     policy = policy_fn(jnp, layers, bool(cell["bias"]), dt, space)
-    program = jax.jit(chunk_program(jax, env, policy, dt, N, E, L))
+    end = cell.get("non_finite") == "end"
+    program = jax.jit(chunk_program(jax, env, policy, dt, N, E, L, end))
     calls = []
     with jax.default_matmul_precision(cell["matmul_precision"]):
         for dev in devs:

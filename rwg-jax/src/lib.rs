@@ -1,6 +1,7 @@
-//! # rwg-jax: JAX environments (gymnax, Brax, a user's own) at JAX's speed
+//! # rwg-jax: JAX environments (gymnax, Brax, MuJoCo Playground, Jumanji, Craftax, Navix, XLand-MiniGrid, Pgx, a user's own) at JAX's speed
 //!
-//! An environment id `gymnax:ID`, `brax:NAME` or `jax:module:callable` runs
+//! An environment id of a JAX family ([`FAMILIES`]: `gymnax:ID`,
+//! `brax:NAME`, `playground:NAME`, ..., `jax:module:callable`) runs
 //! in Python worker processes that compile rwg's policy and the env's
 //! episode into one call over a chunk of networks. Only weights and reset
 //! seeds go to Python; only per-episode returns, lengths and fault bits come
@@ -39,6 +40,7 @@
 //!
 //! # Modules
 //!
+//! - [`family`]: the JAX env sources, one row each (prefix, adapter, package).
 //! - [`protocol`]: the messages (hello, cell, chunk, ready, outcome).
 //! - The worker's Python: [`WORKER_PY`] and its [`MODULES`].
 //! - `worker`: one worker process, its handshake, compiles and chunks.
@@ -46,12 +48,16 @@
 //! - `source`: [`JaxSource`], its workers, a cell's program shape.
 //! - [`chunks`]: blocks cut into chunks, outcomes put back into blocks in order.
 //! - `run`: the chunks handed to the workers, pipelined.
+//! - [`warm_up`]: a cell's workers starting and compiling, told to a
+//!   progress display and timed.
 
 pub mod chunks;
 mod config;
+pub mod family;
 pub mod protocol;
 mod run;
 mod source;
+pub mod warm_up;
 mod worker;
 
 pub use config::{
@@ -59,6 +65,8 @@ pub use config::{
     Precision,
 };
 pub use source::{JaxSource, StartingSource};
+
+pub use family::{id_forms, jax_id, Family, JaxKind, FAMILIES};
 
 use rwg_env::EnvSpec;
 use rwg_worker::protocol::WorkerError;
@@ -78,26 +86,33 @@ pub const COMMON_PY: &str = include_str!("jax_common.py");
 /// the interface the episode loop drives.
 pub const ENVS_PY: &str = include_str!("jax_envs.py");
 
+/// Structured observations: a pytree flattened in one documented order and
+/// described leaf by leaf.
+pub const OBS_PY: &str = include_str!("jax_obs.py");
+
+/// The families' adapters (Playground, Jumanji, Craftax, Navix,
+/// XLand-MiniGrid, Pgx) and the table of every source's maker.
+pub const FAMILIES_PY: &str = include_str!("jax_families.py");
+
 /// The env's spaces as rwg takes them, and rwg's policy in JAX.
 pub const POLICY_PY: &str = include_str!("jax_policy.py");
 
-/// The compiled program of a cell: the episode loop, vmapped over episodes
-/// and networks, and a chunk of networks run through it.
+/// The compiled program of a cell: lanes that never idle, each taking a
+/// chunk's next (network, episode) inside the compiled loop.
 pub const EPISODE_PY: &str = include_str!("jax_episode.py");
 
 /// The modules [`WORKER_PY`] imports from rwg (name, source), in the order
 /// they are loaded: the pipe to rwg first, each module after those it
 /// imports.
-pub const MODULES: [(&str, &str); 5] = [
+pub const MODULES: [(&str, &str); 7] = [
     (rwg_worker::python::PIPE_MODULE, rwg_worker::python::PIPE_PY),
     ("rwg_jax_worker_common", COMMON_PY),
     ("rwg_jax_worker_envs", ENVS_PY),
+    ("rwg_jax_worker_obs", OBS_PY),
+    ("rwg_jax_worker_families", FAMILIES_PY),
     ("rwg_jax_worker_policy", POLICY_PY),
     ("rwg_jax_worker_episode", EPISODE_PY),
 ];
-
-/// The prefixes of JAX env ids, in [`JaxKind`] order.
-pub const PREFIXES: [&str; 3] = ["gymnax:", "brax:", "jax:"];
 
 /// The environment variable overriding [`DEFAULT_TIMEOUT_S`] (seconds).
 pub const TIMEOUT_VAR: &str = "RWG_JAX_TIMEOUT";
@@ -138,42 +153,6 @@ pub const MAX_OBS: usize = 4096;
 /// The environment variable naming the default Python interpreter.
 pub const PYTHON_VAR: &str = "RWG_PYTHON";
 
-/// Which library an env comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum JaxKind {
-    /// `gymnax:ID`: `gymnax.make(ID)`.
-    Gymnax,
-    /// `brax:NAME`: `brax.envs.get_environment(NAME)`.
-    Brax,
-    /// `jax:module:callable`: a user's function returning `(env, params)`.
-    Custom,
-}
-
-impl JaxKind {
-    /// The id prefix (`gymnax:`).
-    pub fn prefix(self) -> &'static str {
-        PREFIXES[self as usize]
-    }
-
-    /// The source's name in the worker protocol (`gymnax`, `brax`, `jax`).
-    pub fn source(self) -> &'static str {
-        match self {
-            JaxKind::Gymnax => "gymnax",
-            JaxKind::Brax => "brax",
-            JaxKind::Custom => "jax",
-        }
-    }
-}
-
-/// The kind and seed id of a JAX env id (`gymnax:CartPole-v1` ->
-/// `(Gymnax, "CartPole-v1")`), or `None` for any other id.
-pub fn jax_id(id: &str) -> Option<(JaxKind, &str)> {
-    const KINDS: [JaxKind; 3] = [JaxKind::Gymnax, JaxKind::Brax, JaxKind::Custom];
-    KINDS
-        .into_iter()
-        .find_map(|k| id.strip_prefix(k.prefix()).map(|rest| (k, rest)))
-}
-
 /// The environment as the worker described it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct JaxInfo {
@@ -183,8 +162,18 @@ pub struct JaxInfo {
     pub observation_space: String,
     /// The library's text of the action space.
     pub action_space: String,
-    /// Versions: `python`, `jax`, `jaxlib`, and `gymnax`, `brax` or `module`.
+    /// Versions: `python`, `jax`, `jaxlib`, and the env's library (its
+    /// package's name: `gymnax`, `playground`, ...) or `module`.
     pub versions: BTreeMap<String, String>,
+    /// The observation's leaves, in the order they are flattened.
+    pub observation_leaves: Vec<protocol::Leaf>,
+    /// How a discrete action is chosen: `legal` (argmax over the legal
+    /// actions), `off` (the family gives them, the manifest turned them
+    /// off), `none` (the family gives none, or the actions are a box).
+    pub action_mask: String,
+    /// Choices made when the env was made (Playground's physics `impl`,
+    /// Craftax's `auto_reset`, ...), recorded with the cell.
+    pub settings: BTreeMap<String, String>,
     /// The devices used (`cpu:0`, `cuda:0, cuda:1`).
     pub device: String,
     /// How many devices a worker runs (all of one kind).

@@ -45,15 +45,17 @@ where
         .compile_cache
         .is_some()
         .then(|| Barrier::new(workers));
+    let warm = src.warm_ups.begin(workers);
     std::thread::scope(|scope| {
         let mut outcomes = vec![];
         let mut handles = vec![];
         for t in 0..workers {
             let (tx, rx) = sync_channel(AHEAD_PER_WORKER);
             outcomes.push(rx);
-            let (cell, all, compiled) = (&cell, &all, compiled.as_ref());
+            let (cell, all, compiled, warm) = (&cell, &all, compiled.as_ref(), &warm);
             handles.push(scope.spawn(move || {
                 let w = ready_worker(src, cell, t, compiled);
+                warm.ready();
                 serve(src, plan, cell, all, (t, workers), w, tx)
             }));
         }
@@ -87,7 +89,7 @@ where
             .recv()
             .unwrap_or_else(|_| unreachable!("a worker thread ended before its chunk {c}"));
         let outcome = outcome.map_err(|e| chunk_error(plan, chunk, e))?;
-        let (ok, failure) = results(&plan.env_id, chunk, plan.episodes, &outcome);
+        let (ok, failure) = results(plan, chunk, &outcome);
         assembly.add(&ok, on_block)?;
         if let Some(f) = failure {
             return Err(f.into());

@@ -5,11 +5,11 @@
 use crate::protocol::CellShape;
 use crate::worker::{JaxWorker, Starting};
 use crate::{
-    run, JaxConfig, JaxError, JaxInfo, CACHE_VAR, DEFAULT_LANES_ACCELERATOR, DEFAULT_LANES_CPU,
-    EPISODES_PER_LANE, MAX_DEFAULT_NETWORKS, MEMORY_SHARE, NETWORKS_MULTIPLE,
+    run, warm_up, JaxConfig, JaxError, JaxInfo, CACHE_VAR, DEFAULT_LANES_ACCELERATOR,
+    DEFAULT_LANES_CPU, EPISODES_PER_LANE, MAX_DEFAULT_NETWORKS, MEMORY_SHARE, NETWORKS_MULTIPLE,
 };
 use rwg_core::policy::NetShape;
-use rwg_core::sampler::{BlockResult, CellPlan, SampleError};
+use rwg_core::sampler::{BlockResult, CellPlan, NonFinite, SampleError};
 use std::ops::Range;
 
 /// One JAX environment of a study: its config, its description, and the
@@ -18,6 +18,7 @@ pub struct JaxSource {
     pub(crate) config: JaxConfig,
     pub(crate) info: JaxInfo,
     pool: std::sync::Mutex<Vec<JaxWorker>>,
+    pub(crate) warm_ups: warm_up::WarmUps,
 }
 
 impl std::fmt::Debug for JaxSource {
@@ -44,6 +45,7 @@ impl StartingSource {
             config: self.config,
             info,
             pool: std::sync::Mutex::new(vec![first]),
+            warm_ups: warm_up::WarmUps::default(),
         })
     }
 }
@@ -64,7 +66,8 @@ impl JaxSource {
 
     /// What a cell message names for `plan`: its layers, the call's
     /// networks and episodes, the lanes, when ended lanes refill (an eighth
-    /// of them), the matmul precision.
+    /// of them), the matmul precision, whether a value that is not finite
+    /// ends an episode.
     pub fn cell_shape(&self, plan: &CellPlan) -> CellShape {
         let spec = &self.info.spec;
         let shape = NetShape::new(
@@ -82,7 +85,21 @@ impl JaxSource {
             lanes,
             refill: (lanes / 8).max(1),
             matmul_precision: self.config.matmul_precision,
+            non_finite_ends: plan.non_finite == NonFinite::End,
         }
+    }
+
+    /// Tells `observer` when the workers of each cell run from now on warm
+    /// up (start, compile) and when they are ready.
+    pub fn observe(&self, observer: std::sync::Arc<dyn warm_up::WarmUpObserver>) {
+        self.warm_ups.observe(observer);
+    }
+
+    /// The wall time of every cell's warm-up so far, added up: from the
+    /// start of [`JaxSource::run_blocks`] until its last worker has started
+    /// (if it was not idle) and compiled the cell.
+    pub fn warm_up_time(&self) -> std::time::Duration {
+        self.warm_ups.total()
     }
 
     /// The environment as the worker described it.

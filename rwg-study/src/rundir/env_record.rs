@@ -68,6 +68,21 @@ pub struct JaxRecord {
     /// Ended lanes that wait to refill together (shown, not compared: it
     /// changes the speed, not the results).
     pub refill: u32,
+    /// The observation's leaves (name, shape, dtype) in the order they are
+    /// flattened into the networks' inputs (empty in records written before
+    /// rwg recorded them).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub observation_leaves: Vec<rwg_jax::protocol::Leaf>,
+    /// How a discrete action is chosen: `legal` (argmax over the legal
+    /// actions the family gives, an extension of the paper's policy), `off`
+    /// (plain argmax, the manifest's choice), `none` (the family gives no
+    /// legal actions, or the actions are a box); absent in older records.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub action_mask: Option<String>,
+    /// Choices made when the env was made (Playground's physics `impl`,
+    /// Craftax's `auto_reset`, Pgx's game version).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub settings: BTreeMap<String, String>,
 }
 
 /// The version key shown in a record but not compared.
@@ -105,6 +120,21 @@ impl JaxRecord {
             &now.matmul_precision,
         );
         differ("lanes", &self.lanes.to_string(), &now.lanes.to_string());
+        // (what an older record lacks is not compared)
+        if !self.observation_leaves.is_empty() {
+            let text = |r: &JaxRecord| format!("{:?}", r.observation_leaves);
+            differ("observation leaves", &text(self), &text(now));
+        }
+        if let (Some(then), Some(n)) = (&self.action_mask, &now.action_mask) {
+            differ("action mask", then, n);
+        }
+        let mut keys: Vec<&String> = self.settings.keys().chain(now.settings.keys()).collect();
+        keys.sort();
+        keys.dedup();
+        for k in keys {
+            let get = |v: &BTreeMap<String, String>| v.get(k).cloned().unwrap_or("none".into());
+            differ(k, &get(&self.settings), &get(&now.settings));
+        }
         out
     }
 
@@ -383,6 +413,13 @@ mod tests {
             matmul_precision: "highest".into(),
             lanes: 1024,
             refill: 128,
+            observation_leaves: vec![rwg_jax::protocol::Leaf {
+                name: "grid".into(),
+                shape: vec![5, 5, 3],
+                dtype: "uint8".into(),
+            }],
+            action_mask: Some("legal".into()),
+            settings: [("impl".to_string(), "jax".to_string())].into(),
         }
     }
 
@@ -406,6 +443,9 @@ mod tests {
         now.precision = "float64".into();
         now.matmul_precision = "default".into();
         now.lanes = 65536;
+        now.action_mask = Some("off".into());
+        now.settings.insert("impl".into(), "warp".into());
+        now.observation_leaves[0].dtype = "float32".into();
         let now = EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(now);
         let err = check_record(&dir, &now, "do this").unwrap_err().to_string();
         for s in [
@@ -415,6 +455,9 @@ mod tests {
             "precision: float32 then, float64 now",
             "matmul precision: highest then, default now",
             "lanes: 1024 then, 65536 now",
+            "action mask: legal then, off now",
+            "impl: jax then, warp now",
+            "observation leaves: ",
             "(gymnax 1.0.1, jax 0.10.2, jaxlib 0.10.2, Python 3.11.7)",
         ] {
             assert!(err.contains(s), "{s:?} missing in {err}");
