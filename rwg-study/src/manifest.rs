@@ -154,14 +154,14 @@ pub struct EnvEntry {
     /// the study.
     #[serde(
         skip_serializing_if = "Option::is_none",
-        serialize_with = "jax_keys::serialize_precision"
+        serialize_with = "jax_keys::serialize_name"
     )]
     pub precision: Option<rwg_jax::Precision>,
     /// The precision of a JAX env's matrix products (the manifest's, else
     /// `highest`); `None` for every other env. Part of the study.
     #[serde(
         skip_serializing_if = "Option::is_none",
-        serialize_with = "jax_keys::serialize_matmul_precision"
+        serialize_with = "jax_keys::serialize_name"
     )]
     pub matmul_precision: Option<rwg_jax::MatmulPrecision>,
     /// The JAX device a JAX env runs on (`cpu`, `gpu:1`; `None`: JAX's

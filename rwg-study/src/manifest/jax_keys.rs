@@ -193,20 +193,28 @@ pub(super) fn mask_is_default(m: &Option<bool>) -> bool {
     *m != Some(false)
 }
 
-/// Writes an env's matmul precision as the manifest spells it (`"highest"`).
-pub(super) fn serialize_matmul_precision<S: serde::Serializer>(
-    p: &Option<MatmulPrecision>,
-    s: S,
-) -> Result<S::Ok, S::Error> {
-    match p {
-        Some(p) => s.serialize_str(p.name()),
-        None => s.serialize_none(),
+/// A JAX key's value with a name in the manifest.
+pub(super) trait Named: Copy {
+    /// The manifest's name of the value.
+    fn name(self) -> &'static str;
+}
+
+impl Named for Precision {
+    fn name(self) -> &'static str {
+        Precision::name(self)
     }
 }
 
-/// Writes an env's precision as the manifest spells it (`"float32"`).
-pub(super) fn serialize_precision<S: serde::Serializer>(
-    p: &Option<Precision>,
+impl Named for MatmulPrecision {
+    fn name(self) -> &'static str {
+        MatmulPrecision::name(self)
+    }
+}
+
+/// Writes an env's precision (`"float32"`) or matmul precision
+/// (`"highest"`) as the manifest spells it.
+pub(super) fn serialize_name<T: Named, S: serde::Serializer>(
+    p: &Option<T>,
     s: S,
 ) -> Result<S::Ok, S::Error> {
     match p {
