@@ -49,7 +49,17 @@ pub fn merge_shards(
     out: &Path,
     mut on_cell: impl FnMut(Option<&SummaryLine>),
 ) -> Result<MergeReport, StudyError> {
-    let dirs = load_shards(shards)?;
+    // Resolved before plugin code runs (planning the cells creates each env
+    // once), which may change the working directory.
+    let absolute = |p: &Path| {
+        std::path::absolute(p).map_err(StudyError::io(format!("cannot resolve {}", p.display())))
+    };
+    let shards: Vec<PathBuf> = shards
+        .iter()
+        .map(|d| absolute(d))
+        .collect::<Result<_, _>>()?;
+    let out = &absolute(out)?;
+    let dirs = load_shards(&shards)?;
     let (m, count) = one_study(&dirs)?;
     let owner = shard_owners(&dirs, count)?;
     // The shards' manifests name their plugin files already: nothing to fill in.

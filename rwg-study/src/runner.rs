@@ -21,7 +21,7 @@ use crate::rundir::meta::{write_run_meta, RunMeta, ShardMeta};
 use crate::timing::RunTiming;
 use crate::StudyError;
 use cell_loop::{run_cells, Sampled, Session};
-use setup::{open_dir, thread_count, worker_pool, Opened, Work};
+use setup::{open_dir, own_manifest, thread_count, worker_pool, Opened, Work};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant, SystemTime};
@@ -113,12 +113,15 @@ pub fn run_study(
 ) -> Result<RunOutcome, StudyError> {
     let t_setup = Instant::now();
     let mut timing = RunTiming::default();
+    let absolute = absolute_options(opts)?;
+    let opts = &absolute;
     let out = &opts.out;
+    let own_manifest = own_manifest(opts);
     let cells = plan_cells(m)?;
     progress.planned(&cells);
     let m = &*m;
     let threads = thread_count(m);
-    let (lock, previous) = match open_dir(m, opts)? {
+    let (lock, previous) = match open_dir(m, opts, own_manifest)? {
         Opened::Complete(lock) => return Ok(RunOutcome::AlreadyComplete(lock)),
         Opened::Ready { lock, previous } => (lock, previous),
     };
@@ -171,6 +174,19 @@ pub fn run_study(
         episodes,
         lock,
     })))
+}
+
+/// `opts` with its paths made absolute against the working directory now,
+/// before plugin code runs: a plugin that changes the working directory
+/// (in `create`, say) moves nothing rwg writes or reads.
+fn absolute_options<'a>(opts: &RunOptions<'a>) -> Result<RunOptions<'a>, StudyError> {
+    let absolute = |p: &Path| {
+        std::path::absolute(p).map_err(StudyError::io(format!("cannot resolve {}", p.display())))
+    };
+    Ok(RunOptions {
+        out: absolute(&opts.out)?,
+        ..opts.clone()
+    })
 }
 
 /// The finished run's `run.json`, written: its wall time and speed since

@@ -19,27 +19,41 @@ pub mod verify;
 
 use rwg_study::rundir::data::Run;
 use rwg_study::rundir::lock::RunLock;
+use rwg_study::rundir::outputs::{check_output, Output};
 use std::path::Path;
 
-/// Takes the lock of `run_dir` if `out` (a file or folder about to be
-/// written) lies inside it: writing there makes the command a writer of the run.
-pub fn lock_if_inside(run_dir: &Path, out: &Path) -> anyhow::Result<Option<RunLock>> {
-    let abs = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_path_buf());
-    let (dir, out) = (abs(run_dir), abs(out));
-    let inside = out
-        .ancestors()
-        .any(|a| a == dir || (a.exists() && dir.exists() && same_file(a, &dir)));
-    if inside && dir.is_dir() {
-        return Ok(Some(RunLock::acquire(run_dir)?));
-    }
-    Ok(None)
+/// Checks `out`, a path this command is about to write, against the run
+/// directories around it ([`check_output`]: nothing is written over a run's
+/// own files), and takes the lock of the run it lies in, if any: writing
+/// there makes the command a writer of that run, refused while another rwg
+/// writes it. Hold the lock until the file is written.
+pub fn claim_output(out: Output<'_>) -> anyhow::Result<Option<RunLock>> {
+    use anyhow::Context;
+    let Some(run) = check_output(&out)? else {
+        return Ok(None);
+    };
+    let lock = RunLock::acquire(&run).with_context(|| {
+        format!(
+            "writing {} into the run directory {} takes that run's writers' lock; name a \
+             path outside it to write it now",
+            out.path.display(),
+            run.display()
+        )
+    })?;
+    Ok(Some(lock))
 }
 
-fn same_file(a: &Path, b: &Path) -> bool {
-    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
-        (Ok(x), Ok(y)) => x == y,
-        _ => false,
-    }
+/// `path` made absolute against the working directory now: what a command
+/// that runs plugin code resolves its paths with first (a plugin may change
+/// the working directory, and nothing rwg reads or writes may follow it).
+pub fn absolute(path: &Path) -> anyhow::Result<std::path::PathBuf> {
+    use anyhow::Context;
+    std::path::absolute(path).with_context(|| {
+        format!(
+            "cannot resolve {} (the working directory is gone?)",
+            path.display()
+        )
+    })
 }
 
 /// Warns (stderr) when a run predates checksums and is read unverified.

@@ -13,6 +13,7 @@ use rwg_study::rundir;
 use rwg_study::rundir::data::Run;
 use rwg_study::rundir::env_record::check_record;
 use rwg_study::rundir::export::csv_writer;
+use rwg_study::rundir::outputs::{Output, OutputKind};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -199,6 +200,22 @@ fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Ex
 /// Runs `rwg replay`.
 pub fn run(args: Args) -> Result<()> {
     rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
+    // The export's place checked (and its run's lock taken) first; every
+    // path made absolute before plugin code runs, which may change the
+    // working directory.
+    let _lock = match &args.export_weights {
+        Some(path) => crate::cmd::claim_output(Output::new(path, OutputKind::File))?,
+        None => None,
+    };
+    let args = Args {
+        run_dir: crate::cmd::absolute(&args.run_dir)?,
+        export_weights: args
+            .export_weights
+            .as_deref()
+            .map(crate::cmd::absolute)
+            .transpose()?,
+        ..args
+    };
     let mut m = Manifest::load(&args.run_dir.join(rundir::MANIFEST))
         .with_context(|| format!("{} is not an rwg run directory", args.run_dir.display()))?;
     let cells = plan_cells(&mut m)?;
@@ -269,7 +286,6 @@ pub fn run(args: Args) -> Result<()> {
 /// With --export-weights: writes the network's export.
 fn write_export(args: &Args, cell: &Cell, policy: &Policy, episodes: u32) -> Result<()> {
     if let Some(path) = &args.export_weights {
-        let _lock = crate::cmd::lock_if_inside(&args.run_dir, path)?;
         let e = export(cell, policy, args.sample, episodes);
         crate::cmd::write_named_file(path, serde_json::to_string_pretty(&e)?.as_bytes())?;
         crate::errln!("wrote {}", path.display());

@@ -10,6 +10,7 @@ use rwg_study::env_source::EnvSource;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::data::KeptEpisodes;
 use rwg_study::rundir::meta::ShardMeta;
+use rwg_study::rundir::outputs::{Output, OutputKind};
 use rwg_study::rundir::REPORT_HTML;
 use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome, RunReport};
 use rwg_study::shell::sh_path;
@@ -167,6 +168,7 @@ pub fn run(args: Args) -> Result<i32> {
     let mut m = Manifest::load(&args.manifest)?;
     apply_overrides(&mut m, &args)?;
     let out = run_dir(&args, &m)?;
+    let manifest = crate::cmd::absolute(&args.manifest)?;
     // Until the run directory holds the study, the command as given
     // resumes it; from then on, the directory's own manifest.
     let (resume, resume_stopped) = guard_texts(&out, &resume_command(&args, &out, false));
@@ -177,7 +179,7 @@ pub fn run(args: Args) -> Result<i32> {
     });
     let opts = RunOptions {
         out: out.clone(),
-        manifest_file: Some(&args.manifest),
+        manifest_file: Some(&manifest),
         shard: args.shard,
         force_new: args.force_new,
         stop: fault_guard::interrupt_flag(),
@@ -215,8 +217,9 @@ pub(crate) fn default_out(out: Option<&PathBuf>, m: &Manifest, manifest: &Path) 
     }
 }
 
-/// The run directory ([`default_out`]); refused if it exists and is not a
-/// directory.
+/// The run directory ([`default_out`]), made absolute (before any plugin
+/// code runs: a plugin may change the working directory); refused if it
+/// exists and is not a directory, or lies in another run's own files.
 fn run_dir(args: &Args, m: &Manifest) -> Result<PathBuf> {
     let out = default_out(args.out.as_ref(), m, &args.manifest);
     if out.exists() && !out.is_dir() {
@@ -226,7 +229,8 @@ fn run_dir(args: &Args, m: &Manifest) -> Result<PathBuf> {
             out.display()
         );
     }
-    Ok(out)
+    crate::cmd::claim_output(Output::new(&out, OutputKind::RunDir))?;
+    crate::cmd::absolute(&out)
 }
 
 /// Runs the study with the progress display `args` choose, then prints the

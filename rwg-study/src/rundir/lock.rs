@@ -1,7 +1,8 @@
 //! The run directory's writer lock.
 //!
 //! Every command that writes into a run directory (`run`, `merge`, `stats`,
-//! `report`, `plot` into the run, `replay --export-weights` into the run)
+//! `report`, and `plot`, `compare` or `replay --export-weights` writing a
+//! file into the run: see [`crate::rundir::outputs`])
 //! first takes an exclusive `flock(2)` on `RUN/rwg.lock`. The kernel releases
 //! it when the holder exits or is killed, so a SIGKILL leaves no stale lock.
 //! A second writer fails at once with [`LockError::Held`], which names the

@@ -31,6 +31,8 @@
 //! - [`data`]: reading a finished run for analysis, writing its statistics.
 //! - [`status`]: how far a run or a shard has got (read-only, safe while it runs).
 //! - [`study`]: the study a run directory holds, and edits of its manifest.
+//! - [`outputs`]: where a command may write (no path a user names lands on
+//!   a run's own files).
 
 pub mod block_check;
 pub mod blocks;
@@ -43,6 +45,7 @@ pub mod finalize;
 pub mod lock;
 pub mod meta;
 pub mod names;
+pub mod outputs;
 pub mod rows;
 pub mod status;
 pub mod study;

@@ -40,19 +40,29 @@ pub(super) enum Opened {
     },
 }
 
+/// Whether the manifest the study was read from is the run directory's
+/// own `manifest.toml`: then it is the study, never rewritten. (Asked
+/// before plugin code runs, which may change the working directory a
+/// relative manifest path is resolved against.)
+pub(super) fn own_manifest(opts: &RunOptions<'_>) -> bool {
+    opts.manifest_file
+        .is_some_and(|f| crate::rundir::export::same_file(f, &opts.out.join(MANIFEST)))
+}
+
 /// Creates and locks the run directory `opts.out`, prepares it for the study
 /// `m` ([`prepare_dir`]), says whether it is complete already, and writes
-/// the study's `manifest.toml` (unless it was read from there).
-pub(super) fn open_dir(m: &Manifest, opts: &RunOptions<'_>) -> Result<Opened, StudyError> {
+/// the study's `manifest.toml` (unless it was read from there:
+/// `own_manifest`, see [`own_manifest`]).
+pub(super) fn open_dir(
+    m: &Manifest,
+    opts: &RunOptions<'_>,
+    own_manifest: bool,
+) -> Result<Opened, StudyError> {
     let out = &opts.out;
     crate::rundir::export::create_dir_all(out)
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
     let lock = RunLock::acquire(out)?;
     let manifest_path = out.join(MANIFEST);
-    // The manifest given is the directory's own: it is the study, never rewritten.
-    let own_manifest = opts
-        .manifest_file
-        .is_some_and(|f| crate::rundir::export::same_file(f, &manifest_path));
     let previous = prepare_dir(out, m, opts.shard, opts.force_new, own_manifest)?;
     if previous.as_ref().is_some_and(|p| p.end_time.is_some()) {
         // Complete only if everything in it still verifies. Blocks that do

@@ -1,0 +1,182 @@
+//! Where rwg writes, end to end: no path a user names (`--out`, `--html`,
+//! `--figure`, `--export-weights`) lands on a run's own files or in a run
+//! another rwg is writing; a plugin that changes the working directory
+//! moves nothing rwg writes.
+
+mod common;
+use common::*;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const SMALL: &str = SMALL_STUDY;
+
+fn s(p: &Path) -> &str {
+    path_str(p)
+}
+
+/// Every file under `dir` (but the writers' lock, whose holder record any
+/// writer updates) with its bytes.
+fn snapshot(dir: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut todo = vec![dir.to_path_buf()];
+    while let Some(d) = todo.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                todo.push(p);
+            } else if p.file_name().unwrap() != "rwg.lock" {
+                out.insert(p.clone(), std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    out
+}
+
+/// The first cell directory of a run.
+fn first_cell(run: &Path) -> PathBuf {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(run.join("cells"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    v.sort();
+    v.remove(0)
+}
+
+#[test]
+fn no_output_path_a_user_names_is_written_over_a_runs_own_files() {
+    let dir = temp_dir("out-over-run");
+    let (r1, r2) = (
+        finished_run(&dir, "r1", SMALL),
+        finished_run(&dir, "r2", SMALL),
+    );
+    rwg_ok(&["report", s(&r1)]);
+    let before = snapshot(&r1);
+    let samples = first_cell(&r1).join("samples.csv");
+    let link = dir.join("page.html");
+    std::os::unix::fs::symlink(r1.join("run.json"), &link).unwrap();
+    let in1 = |rel: &str| s(&r1).to_string() + "/" + rel;
+    let (r1s, r2s) = (s(&r1).to_string(), s(&r2).to_string());
+    let replay = format!("replay {r1s} --env CartPole-v1 --arch 0HL --sample 3 --export-weights");
+    let cases: Vec<Vec<String>> = [
+        format!("report {r1s} --out {}", s(&samples)),
+        format!("report {r2s} --out {}", in1("report.html")),
+        format!("compare {r2s} --html {}", in1("run.json")),
+        format!("compare {r2s} --figure {}", in1("manifest.toml")),
+        format!("compare {r2s} --ranking-figure {}", in1("stats.csv")),
+        format!("compare {r2s} --html {}", s(&link)),
+        format!("{replay} {}", in1("manifest.toml")),
+        format!("plot {r1s} --out {}", in1("cells")),
+        format!("plot {r2s} --out {}", in1("figures")),
+        format!("plot {r2s} --out {r1s}"),
+        format!("run {r2s}/manifest.toml --out {}", in1("cells/x")),
+    ]
+    .iter()
+    .map(|c| c.split(' ').map(String::from).collect())
+    .collect();
+    for args in &cases {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let err = rwg_fails(&args);
+        assert!(
+            err.contains(&format!("of the run directory {}", r1.display()))
+                || err.contains(&format!("it is the run directory {}", r1.display())),
+            "{args:?}:\n{err}"
+        );
+        assert!(err.contains("refused"), "{args:?}:\n{err}");
+        assert_eq!(snapshot(&r1), before, "{args:?} changed {}", r1.display());
+    }
+    rwg_ok(&["verify", s(&r1)]);
+    // A new name beside a run's files is fine, and its own report too.
+    rwg_ok(&["compare", s(&r2), "--html", s(&r1.join("r2-page.html"))]);
+    rwg_ok(&["report", s(&r1), "--out", s(&r1.join("report.html"))]);
+    rwg_ok(&["verify", s(&r1)]);
+    // Two outputs of one command naming one file.
+    let page = dir.join("p.html");
+    let err = rwg_fails(&["compare", s(&r2), "--html", s(&page), "--figure", s(&page)]);
+    assert!(
+        err.contains("--html and --figure name the same file"),
+        "{err}"
+    );
+}
+
+#[test]
+fn an_output_into_a_run_another_rwg_writes_is_refused_before_anything_is_written() {
+    let dir = temp_dir("out-locked-run");
+    let (r1, r2) = (
+        finished_run(&dir, "r1", SMALL),
+        finished_run(&dir, "r2", SMALL),
+    );
+    let mut holder = Command::new("flock")
+        .args([s(&r1.join("rwg.lock")), "sleep", "30"])
+        .spawn();
+    let Ok(holder) = holder.as_mut() else {
+        return skip(
+            "an_output_into_a_run_another_rwg_writes_is_refused_before_anything_is_written",
+            "no flock(1)",
+        );
+    };
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let page = r1.join("cmp.html");
+    let err = rwg_fails(&["compare", s(&r2), "--html", s(&page)]);
+    holder.kill().unwrap();
+    let _ = holder.wait();
+    assert!(
+        err.contains("is being written by another rwg process"),
+        "{err}"
+    );
+    assert!(err.contains("takes that run's writers' lock"), "{err}");
+    assert!(!page.exists());
+}
+
+/// The handshake plugin, compiled to change the working directory to
+/// `to` in every `create`.
+fn chdir_plugin(to: &Path) -> PathBuf {
+    compile_c(
+        "chdir",
+        "plugins/testing/c/handshake.c",
+        "chdir",
+        &[&format!("CHDIR_IN_CREATE=\"{}\"", to.display())],
+    )
+}
+
+#[test]
+fn a_plugin_that_changes_the_working_directory_moves_nothing_rwg_writes() {
+    let dir = temp_dir("out-chdir");
+    let elsewhere = dir.join("elsewhere");
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    let lib = chdir_plugin(&elsewhere);
+    let body = format!(
+        "samples = 40\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
+         [[envs]]\nid = \"handshake/Ok-v0\"\nplugin = \"{}\"\n",
+        lib.display()
+    );
+    write_manifest(&dir, "m.toml", &body);
+    let rwg_in_dir = |args: &[&str]| {
+        let out = Command::new(rwg_bin())
+            .current_dir(&dir)
+            .args(args)
+            .env("RWG_COMMIT_LINGER", "0")
+            .output()
+            .unwrap();
+        let text = output_text(&out);
+        assert!(out.status.success(), "{args:?}:\n{text}");
+        text
+    };
+    rwg_in_dir(&["run", "m.toml", "--out", "r"]);
+    for f in ["run.json", "report.html", "stats.csv"] {
+        assert!(dir.join("r").join(f).is_file(), "r/{f}");
+    }
+    rwg_in_dir(&["run", "m.toml", "--out", "s0", "--shard", "0/2"]);
+    rwg_in_dir(&["run", "m.toml", "--out", "s1", "--shard", "1/2"]);
+    rwg_in_dir(&["merge", "s0", "s1", "--out", "merged", "--no-report"]);
+    let (env, arch) = ("handshake/Ok-v0", "0HL");
+    let export = ["--sample", "1", "--export-weights", "w.json"];
+    rwg_in_dir(&[&["replay", "r", "--env", env, "--arch", arch][..], &export].concat());
+    rwg_in_dir(&["verify", "merged"]);
+    assert!(dir.join("w.json").is_file());
+    let strays: Vec<_> = std::fs::read_dir(&elsewhere).unwrap().collect();
+    assert!(
+        strays.is_empty(),
+        "written where the plugin moved: {strays:?}"
+    );
+}
