@@ -1,7 +1,8 @@
-//! Where rwg writes, end to end: no path a user names (`--out`, `--html`,
-//! `--figure`, `--export-weights`) lands on a run's own files or in a run
-//! another rwg is writing; a plugin that changes the working directory
-//! moves nothing rwg writes.
+//! Where rwg writes and what it removes, end to end: no path a user names
+//! (`--out`, `--html`, `--figure`, `--export-weights`) lands on a run's own
+//! files or in a run another rwg is writing; a plugin that changes the
+//! working directory moves nothing rwg writes; `--force-new` removes what
+//! the old run wrote, its statistics and report included, and nothing else.
 
 mod common;
 use common::*;
@@ -178,5 +179,109 @@ fn a_plugin_that_changes_the_working_directory_moves_nothing_rwg_writes() {
     assert!(
         strays.is_empty(),
         "written where the plugin moved: {strays:?}"
+    );
+}
+
+/// The `samples` column of a run's `stats.csv`, one value per cell.
+fn stats_samples(run: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(run.join("stats.csv")).unwrap();
+    let mut lines = text.lines();
+    let col = lines
+        .next()
+        .unwrap()
+        .split(',')
+        .position(|c| c == "samples")
+        .unwrap();
+    lines
+        .map(|l| l.split(',').nth(col).unwrap().to_string())
+        .collect()
+}
+
+#[test]
+fn force_new_removes_the_old_runs_statistics_and_report_too() {
+    let dir = temp_dir("force-new-derived");
+    let m = write_manifest(&dir, "m.toml", SMALL);
+    let run = dir.join("r");
+    rwg_ok(&["run", s(&m), "--out", s(&run), "-q"]);
+    assert_eq!(stats_samples(&run), ["70", "70"]);
+    rwg_ok(&[
+        "run",
+        s(&m),
+        "--out",
+        s(&run),
+        "-q",
+        "--force-new",
+        "--no-report",
+        "--samples",
+        "40",
+    ]);
+    for f in ["stats.json", "stats.csv", "report.html", "figures"] {
+        assert!(!run.join(f).exists(), "{f} of the old study is left");
+    }
+    rwg_ok(&["verify", s(&run)]);
+    // The report is missing, so running the same study again writes it.
+    let again = rwg_ok(&["run", s(&m), "--out", s(&run), "--samples", "40"]);
+    assert!(again.contains("nothing to do"), "{again}");
+    assert_eq!(stats_samples(&run), ["40", "40"]);
+    let status = rwg_ok(&["status", s(&run)]);
+    assert!(status.contains("40"), "{status}");
+}
+
+#[test]
+fn force_new_deletes_nothing_rwg_did_not_write() {
+    let dir = temp_dir("force-new-foreign");
+    let m = write_manifest(&dir, "m.toml", SMALL);
+    // A folder that is no run, with a cells/ folder and a stats.csv of the user's.
+    let mine = dir.join("mine");
+    std::fs::create_dir_all(mine.join("cells/x")).unwrap();
+    std::fs::write(mine.join("cells/x/data.csv"), "1,2\n").unwrap();
+    std::fs::write(mine.join("stats.csv"), "a,b\n").unwrap();
+    for force in [true, false] {
+        let mut args = vec!["run", s(&m), "--out", s(&mine), "-q"];
+        if force {
+            args.push("--force-new");
+        }
+        let err = rwg_fails(&args);
+        assert!(err.contains("holds no run"), "{err}");
+        assert!(err.contains(&format!("{}/cells", mine.display())), "{err}");
+        assert!(
+            err.contains(&format!("{}/stats.csv", mine.display())),
+            "{err}"
+        );
+        assert!(mine.join("cells/x/data.csv").is_file() && mine.join("stats.csv").is_file());
+        assert!(!mine.join("run.json").exists());
+    }
+    // Nor does a merge start there.
+    let (s0, s1) = (dir.join("s0"), dir.join("s1"));
+    rwg_ok(&["run", s(&m), "--out", s(&s0), "--shard", "0/2", "-q"]);
+    rwg_ok(&["run", s(&m), "--out", s(&s1), "--shard", "1/2", "-q"]);
+    let err = rwg_fails(&["merge", s(&s0), s(&s1), "--out", s(&mine)]);
+    assert!(err.contains("holds no run"), "{err}");
+    assert!(mine.join("cells/x/data.csv").is_file() && !mine.join("run.json").exists());
+    // In a run, --force-new removes the old run's files and keeps the user's,
+    // named, until they are moved.
+    let run = finished_run(&dir, "r", SMALL);
+    std::fs::write(run.join("notes.txt"), "mine").unwrap();
+    let cell = first_cell(&run);
+    std::fs::write(cell.join("plot.py"), "mine").unwrap();
+    let err = rwg_fails(&["run", s(&m), "--out", s(&run), "-q", "--force-new"]);
+    assert!(
+        err.contains(&format!(
+            "kept {} (not written by rwg",
+            cell.join("plot.py").display()
+        )),
+        "{err}"
+    );
+    assert!(!run.join("run.json").exists() && !cell.join("scores.csv").exists());
+    assert_eq!(
+        std::fs::read_to_string(cell.join("plot.py")).unwrap(),
+        "mine"
+    );
+    std::fs::rename(cell.join("plot.py"), dir.join("plot.py")).unwrap();
+    rwg_ok(&["run", s(&m), "--out", s(&run), "-q", "--force-new"]);
+    rwg_ok(&["verify", s(&run)]);
+    assert_eq!(
+        std::fs::read_to_string(run.join("notes.txt")).unwrap(),
+        "mine"
     );
 }

@@ -379,6 +379,11 @@ const MERGE_REFUSED: &str = "a merged cell's blocks must all be computed under t
 /// Checks that `out` is empty or holds a merge of study `m`; returns that
 /// merge's metadata, if it got as far as writing `run.json`.
 fn check_out(out: &Path, m: &Manifest) -> Result<Option<RunMeta>, StudyError> {
+    if !crate::rundir::clear::holds_run(out) {
+        if let Some(why) = crate::rundir::clear::foreign_message(out, false) {
+            return refuse(why);
+        }
+    }
     let manifest_path = out.join(MANIFEST);
     if !manifest_path.exists() {
         if out.join(RUN_JSON).exists() {

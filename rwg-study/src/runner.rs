@@ -33,7 +33,8 @@ pub struct RunOptions<'a> {
     pub out: PathBuf,
     /// Compute only this shard (every N-th block across all cells).
     pub shard: Option<ShardMeta>,
-    /// Delete what the run directory holds and start over.
+    /// Delete the run the directory holds (every file it wrote, nothing
+    /// else: [`crate::rundir::clear`]) and start over.
     pub force_new: bool,
     /// Set to stop after the blocks in flight (e.g. by a Ctrl-C handler);
     /// the run then ends with [`StudyError::Interrupted`], resumable.

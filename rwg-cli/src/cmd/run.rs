@@ -77,8 +77,9 @@ pub struct Args {
     /// across all cells, into its own directory; combine shards with `rwg merge`.
     #[arg(long, value_name = "K/N")]
     shard: Option<ShardMeta>,
-    /// Delete what the run directory holds and start over (needed when it holds
-    /// a different study).
+    /// Delete the run the directory holds and start over (needed when it holds
+    /// a different study): every file the old run wrote, its statistics,
+    /// figures and report too; nothing rwg did not write.
     #[arg(long)]
     force_new: bool,
     /// Seconds one call into a plugin env (create, reset or step) may take

@@ -19,6 +19,7 @@
 //! - [`names`]: the cell directory names (injective, portable).
 //! - [`lock`]: the exclusive lock every writer takes.
 //! - [`checksum`]: the `SHA256SUMS` index of committed files.
+//! - [`clear`]: what `--force-new` removes (what rwg wrote, nothing else).
 //! - [`verify`]: checking a whole run against it (`rwg verify`).
 //! - [`meta`]: `run.json` / `cell.json` contents and cell directory names.
 //! - [`env_record`]: a cell's `env.json`, checked by resumes and merges.
@@ -37,6 +38,7 @@
 pub mod block_check;
 pub mod blocks;
 pub mod checksum;
+pub mod clear;
 pub mod data;
 pub mod env_record;
 pub mod error;

@@ -7,6 +7,7 @@ use crate::cells::Cell;
 use crate::manifest::Manifest;
 use crate::rundir::blocks::{block_samples, cell_complete, n_blocks, BlockIndex};
 use crate::rundir::checksum::SUMS;
+use crate::rundir::clear::{clear_run, foreign_message, holds_run};
 use crate::rundir::env_record::{check_record, write_record};
 use crate::rundir::export::write_atomic;
 use crate::rundir::lock::RunLock;
@@ -241,8 +242,12 @@ fn prepare_dir(
             crate::shell::sh_path(out)
         )));
     }
-    if force_new {
-        clear_dir(out)?;
+    if !holds_run(out) {
+        if let Some(why) = foreign_message(out, own_manifest) {
+            return Err(StudyError::Refused(why));
+        }
+    } else if force_new {
+        clear_old_run(out)?;
     }
     let mut previous = None;
     if manifest_path.exists() {
@@ -307,21 +312,26 @@ fn prepare_dir(
     Ok(previous)
 }
 
-/// Deletes what `--force-new` starts over from: the cells, `run.json` and
-/// `manifest.toml` of the run directory `out`.
-fn clear_dir(out: &Path) -> Result<(), StudyError> {
-    for p in [CELLS, RUN_JSON, MANIFEST] {
-        let p = out.join(p);
-        let removed = if p.is_dir() {
-            std::fs::remove_dir_all(&p)
-        } else if p.exists() {
-            std::fs::remove_file(&p)
-        } else {
-            Ok(())
-        };
-        removed.map_err(StudyError::io(format!("cannot remove {}", p.display())))?;
+/// Deletes what `--force-new` starts over from: every file the old run in
+/// `out` wrote (see [`clear_run`]), its statistics, figures and report
+/// included. What rwg did not write is kept, and named: the run stops
+/// until it is moved out of `cells/` and `figures/`.
+fn clear_old_run(out: &Path) -> Result<(), StudyError> {
+    let kept = clear_run(out).map_err(StudyError::io(format!(
+        "--force-new cannot clear {}",
+        out.display()
+    )))?;
+    if kept.is_empty() {
+        return Ok(());
     }
-    Ok(())
+    let list: Vec<String> = kept.iter().map(|p| p.display().to_string()).collect();
+    Err(StudyError::Refused(format!(
+        "--force-new removed the old run's files from {} but kept {} (not written by rwg, \
+         so not deleted); move {} out of the run directory and run again",
+        out.display(),
+        list.join(", "),
+        if kept.len() == 1 { "it" } else { "them" },
+    )))
 }
 
 /// The `run.json` of the run directory `out`, which holds this study, if a
