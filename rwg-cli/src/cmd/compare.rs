@@ -104,10 +104,9 @@ fn claim_outputs(args: &Args) -> Result<Vec<RunLock>> {
             );
         }
         seen.push((flag, key));
-        locks.extend(crate::cmd::claim_output(Output::new(
-            path,
-            OutputKind::File,
-        ))?);
+        let elsewhere = format!("{flag} FILE outside the run writes it now");
+        let output = Output::new(path, OutputKind::File);
+        locks.extend(crate::cmd::claim_output(output, &elsewhere)?);
     }
     Ok(locks)
 }

@@ -38,7 +38,7 @@ pub fn run(args: Args) -> Result<()> {
     for d in &args.shards {
         rwg_study::rundir::data::require_run_dir(d)?;
     }
-    crate::cmd::claim_output(Output::new(&args.out, OutputKind::RunDir))?;
+    crate::cmd::claim_output(Output::new(&args.out, OutputKind::RunDir), "")?;
     let out = &crate::cmd::absolute(&args.out)?;
     let report = merge_shards(&args.shards, out, |cell| match cell {
         None => crate::outln!("{}", crate::summary::header()),

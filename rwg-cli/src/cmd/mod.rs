@@ -26,16 +26,16 @@ use std::path::Path;
 /// directories around it ([`check_output`]: nothing is written over a run's
 /// own files), and takes the lock of the run it lies in, if any: writing
 /// there makes the command a writer of that run, refused while another rwg
-/// writes it. Hold the lock until the file is written.
-pub fn claim_output(out: Output<'_>) -> anyhow::Result<Option<RunLock>> {
+/// writes it (`elsewhere` says how to write it outside the run instead).
+/// Hold the lock until the file is written.
+pub fn claim_output(out: Output<'_>, elsewhere: &str) -> anyhow::Result<Option<RunLock>> {
     use anyhow::Context;
     let Some(run) = check_output(&out)? else {
         return Ok(None);
     };
     let lock = RunLock::acquire(&run).with_context(|| {
         format!(
-            "writing {} into the run directory {} takes that run's writers' lock; name a \
-             path outside it to write it now",
+            "writing {} into the run directory {} takes that run's writers' lock; {elsewhere}",
             out.path.display(),
             run.display()
         )

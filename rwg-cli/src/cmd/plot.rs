@@ -23,12 +23,8 @@ pub struct Args {
 /// Runs `rwg plot`.
 pub fn run(args: Args) -> Result<()> {
     let out = args.out.unwrap_or_else(|| args.run_dir.join(FIGURES));
-    let _lock = crate::cmd::claim_output(Output::derived(
-        &out,
-        OutputKind::Folder,
-        &args.run_dir,
-        FIGURES,
-    ))?;
+    let figures = Output::derived(&out, OutputKind::Folder, &args.run_dir, FIGURES);
+    let _lock = crate::cmd::claim_output(figures, "--out DIR writes the figures elsewhere")?;
     let run = Run::open(&args.run_dir)?;
     crate::cmd::warn_unverified(&run);
     let cells = rwg_analysis::load_cells(&run)?;

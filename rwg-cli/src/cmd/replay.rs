@@ -204,7 +204,10 @@ pub fn run(args: Args) -> Result<()> {
     // path made absolute before plugin code runs, which may change the
     // working directory.
     let _lock = match &args.export_weights {
-        Some(path) => crate::cmd::claim_output(Output::new(path, OutputKind::File))?,
+        Some(path) => crate::cmd::claim_output(
+            Output::new(path, OutputKind::File),
+            "--export-weights FILE outside the run writes it now",
+        )?,
         None => None,
     };
     let args = Args {

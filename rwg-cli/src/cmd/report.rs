@@ -26,12 +26,8 @@ pub struct Args {
 /// Runs `rwg report`.
 pub fn run(args: Args) -> Result<()> {
     let out = args.out.unwrap_or_else(|| args.run_dir.join(REPORT_HTML));
-    let _lock = crate::cmd::claim_output(Output::derived(
-        &out,
-        OutputKind::File,
-        &args.run_dir,
-        REPORT_HTML,
-    ))?;
+    let page = Output::derived(&out, OutputKind::File, &args.run_dir, REPORT_HTML);
+    let _lock = crate::cmd::claim_output(page, "--out FILE writes the report elsewhere")?;
     let run = Run::open(&args.run_dir)?;
     run.require_finished()?;
     crate::cmd::warn_unverified(&run);

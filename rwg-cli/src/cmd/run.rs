@@ -230,7 +230,7 @@ fn run_dir(args: &Args, m: &Manifest) -> Result<PathBuf> {
             out.display()
         );
     }
-    crate::cmd::claim_output(Output::new(&out, OutputKind::RunDir))?;
+    crate::cmd::claim_output(Output::new(&out, OutputKind::RunDir), "")?;
     crate::cmd::absolute(&out)
 }
 

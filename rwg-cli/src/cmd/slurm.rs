@@ -98,7 +98,7 @@ pub fn run(args: Args) -> Result<()> {
     // Paths resolved before plugin code runs (checking the envs creates
     // each once), which may change the working directory.
     let out = crate::cmd::run::default_out(args.out.as_ref(), &m, &args.manifest);
-    crate::cmd::claim_output(Output::new(&out, OutputKind::RunDir))?;
+    crate::cmd::claim_output(Output::new(&out, OutputKind::RunDir), "")?;
     let out = crate::cmd::absolute(&out)?;
     let args = Args {
         manifest: crate::cmd::absolute(&args.manifest)?,

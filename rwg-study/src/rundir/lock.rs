@@ -194,9 +194,11 @@ fn lock_file(path: &Path, dir: &Path) -> Result<File, LockError> {
         });
     }
     let record = format!("pid {}: {}\n", std::process::id(), command_line());
-    file.set_len(0).map_err(io)?;
+    // Written over the old record, then cut to length: a reader
+    // (live_holder) sees one whole first line, never an empty file.
     file.rewind().map_err(io)?;
     file.write_all(record.as_bytes()).map_err(io)?;
+    file.set_len(record.len() as u64).map_err(io)?;
     Ok(file)
 }
 

@@ -330,10 +330,11 @@ pub fn run(args: PeersArgs) -> Result<()> {
         args.create_venv.then_some(&args.venv),
     ];
     for dir in folders.into_iter().flatten() {
-        _locks.extend(crate::cmd::claim_output(Output::new(
-            dir,
-            OutputKind::Folder,
-        ))?);
+        let output = Output::new(dir, OutputKind::Folder);
+        _locks.extend(crate::cmd::claim_output(
+            output,
+            "a folder outside the run works now",
+        )?);
     }
     let peers_dir = peers_dir(&args)?;
     let python = peer_python(&args)?;

@@ -1,8 +1,9 @@
-//! Where rwg writes and what it removes, end to end: no path a user names
+//! rwg at the file system's edges, end to end: no path a user names
 //! (`--out`, `--html`, `--figure`, `--export-weights`) lands on a run's own
 //! files or in a run another rwg is writing; a plugin that changes the
 //! working directory moves nothing rwg writes; `--force-new` removes what
-//! the old run wrote, its statistics and report included, and nothing else.
+//! the old run wrote, its statistics and report included, and nothing else;
+//! `rwg verify` beside a run that commits reads each cell as one snapshot.
 
 mod common;
 use common::*;
@@ -126,6 +127,10 @@ fn an_output_into_a_run_another_rwg_writes_is_refused_before_anything_is_written
         "{err}"
     );
     assert!(err.contains("takes that run's writers' lock"), "{err}");
+    assert!(
+        err.contains("--html FILE outside the run writes it now"),
+        "{err}"
+    );
     assert!(!page.exists());
 }
 
@@ -284,4 +289,104 @@ fn force_new_deletes_nothing_rwg_did_not_write() {
         std::fs::read_to_string(run.join("notes.txt")).unwrap(),
         "mine"
     );
+}
+
+#[test]
+fn verify_beside_a_run_that_finalises_a_cell_reads_one_snapshot() {
+    const TEST: &str = "verify_beside_a_run_that_finalises_a_cell_reads_one_snapshot";
+    let dir = temp_dir("verify-snapshot");
+    let body = SMALL.replace("samples = 70", "samples = 1500");
+    let m = write_manifest(&dir, "m.toml", &body);
+    let run = dir.join("r");
+    let mut cmd = Command::new(rwg_bin());
+    cmd.args([
+        "run",
+        s(&m),
+        "--out",
+        s(&run),
+        "--no-report",
+        "--threads",
+        "1",
+    ])
+    .env("RWG_COMMIT_LINGER", "0");
+    ctrl_c_after_first_block(cmd, &run.join("cells/CartPole-v1__0HL__nobias/blocks"));
+    // verify, paused just after it opened the block index of the unfinished
+    // cell, while the run is resumed to its end (the cell finalised, its
+    // blocks removed); then verify goes on.
+    let shim = compile_c("pause", "tests/data/pause_at_open.c", "pause_at_open", &[]);
+    let (paused, go) = (dir.join("paused"), dir.join("go"));
+    let verify = Command::new(rwg_bin())
+        .args(["verify", s(&run)])
+        .env("LD_PRELOAD", &shim)
+        .env("RWG_TEST_PAUSE_AT", "blocks/SHA256SUMS")
+        .env("RWG_TEST_PAUSED", &paused)
+        .env("RWG_TEST_GO", &go)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while !paused.exists() && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    if !paused.exists() {
+        let out = verify.wait_with_output().unwrap();
+        return skip(
+            TEST,
+            &format!(
+                "the LD_PRELOAD shim did not pause rwg: {}",
+                output_text(&out)
+            ),
+        );
+    }
+    rwg_ok(&["run", s(&m), "--out", s(&run), "--no-report", "-q"]);
+    std::fs::write(&go, "").unwrap();
+    let out = verify.wait_with_output().unwrap();
+    let text = output_text(&out);
+    assert!(out.status.success(), "{text}");
+    assert!(text.contains("all match their checksums"), "{text}");
+}
+
+#[test]
+fn verify_of_a_run_being_set_up_checks_what_it_has_committed() {
+    const TEST: &str = "verify_of_a_run_being_set_up_checks_what_it_has_committed";
+    let dir = temp_dir("verify-set-up");
+    let m = write_manifest(&dir, "m.toml", SMALL);
+    let run = dir.join("r");
+    // rwg run, paused as it records its first cell's env: it has its lock,
+    // manifest.toml and cells/, and no run.json yet.
+    let shim = compile_c("pause", "tests/data/pause_at_open.c", "pause_at_open", &[]);
+    let (paused, go) = (dir.join("paused"), dir.join("go"));
+    let writer = Command::new(rwg_bin())
+        .args(["run", s(&m), "--out", s(&run), "--no-report", "-q"])
+        .env("LD_PRELOAD", &shim)
+        .env("RWG_TEST_PAUSE_AT", "nobias/env.json.tmp")
+        .env("RWG_TEST_PAUSED", &paused)
+        .env("RWG_TEST_GO", &go)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while !paused.exists() && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    if !paused.exists() {
+        let out = writer.wait_with_output().unwrap();
+        return skip(
+            TEST,
+            &format!("the shim did not pause rwg: {}", output_text(&out)),
+        );
+    }
+    let res = rwg(&["verify", s(&run)]);
+    std::fs::write(&go, "").unwrap();
+    let text = output_text(&res);
+    assert!(res.status.success(), "{text}");
+    assert!(
+        text.contains("being set up, without run.json yet"),
+        "{text}"
+    );
+    let out = writer.wait_with_output().unwrap();
+    assert!(out.status.success(), "{}", output_text(&out));
+    rwg_ok(&["verify", s(&run)]);
 }
