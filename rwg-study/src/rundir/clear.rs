@@ -179,11 +179,9 @@ pub fn foreign_entries(dir: &Path, own_manifest: bool) -> Vec<PathBuf> {
     for d in [CELLS, FIGURES] {
         let p = dir.join(d);
         let mut limit = 10_000;
-        let holds = match p.is_dir() {
-            true => some_file(&p, &mut limit).is_some(),
-            false => p.symlink_metadata().is_ok(), // a file under a folder's name
-        };
-        if holds {
+        // (a file under a folder's name stops the run where it creates the
+        // folder, with its own message)
+        if p.is_dir() && some_file(&p, &mut limit).is_some() {
             found.push(p);
         }
     }
