@@ -390,3 +390,108 @@ fn verify_of_a_run_being_set_up_checks_what_it_has_committed() {
     assert!(out.status.success(), "{}", output_text(&out));
     rwg_ok(&["verify", s(&run)]);
 }
+
+/// Runs `rwg` with `args` under the file-system fault shim
+/// (`tests/data/fs_faults.c`) set up by `vars`.
+fn rwg_faulty_fs(args: &[&str], vars: &[(&str, &str)]) -> std::process::Output {
+    let shim = compile_c("fs-faults", "tests/data/fs_faults.c", "fs_faults", &[]);
+    let mut cmd = Command::new(rwg_bin());
+    cmd.args(args)
+        .env("LD_PRELOAD", &shim)
+        .env("RWG_COMMIT_LINGER", "0");
+    for (k, v) in vars {
+        cmd.env(k, v);
+    }
+    cmd.output().unwrap()
+}
+
+#[test]
+fn a_file_system_that_cannot_sync_folders_runs_and_one_whose_rename_fails_resumes() {
+    let dir = temp_dir("fs-faults");
+    let m = write_manifest(&dir, "m.toml", SMALL);
+    let reference = finished_run(&dir, "reference", SMALL);
+    // fsync of a folder refused with EINVAL, as on some FUSE and CIFS mounts.
+    let run = dir.join("no-dir-sync");
+    let args = ["run", s(&m), "--out", s(&run), "--no-report", "-q"];
+    let out = rwg_faulty_fs(&args, &[("RWG_TEST_DIR_FSYNC", "EINVAL")]);
+    assert!(out.status.success(), "{}", output_text(&out));
+    rwg_ok(&["verify", s(&run)]);
+    // A block's rename fails (EXDEV, as across mounts): an error naming the
+    // block, the committed blocks kept, and a resume gives the same bytes.
+    let run = dir.join("no-rename");
+    let args = ["run", s(&m), "--out", s(&run), "--no-report", "-q"];
+    let out = rwg_faulty_fs(&args, &[("RWG_TEST_RENAME_TO", "b0000001.csv")]);
+    let text = output_text(&out);
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(
+        text.contains("b0000001.csv: Invalid cross-device link"),
+        "{text}"
+    );
+    assert!(text.contains("resume with: rwg run"), "{text}");
+    rwg_ok(&["run", s(&m), "--out", s(&run), "--no-report", "-q"]);
+    for c in ["CartPole-v1__0HL__nobias", "CartPole-v1__1HL__nobias"] {
+        let p = format!("cells/{c}/scores.csv");
+        assert_eq!(
+            std::fs::read(run.join(&p)).unwrap(),
+            std::fs::read(reference.join(&p)).unwrap()
+        );
+    }
+}
+
+#[test]
+fn a_run_directory_moved_while_the_run_writes_it_is_said_so_and_resumes_where_it_went() {
+    let dir = temp_dir("moved-run");
+    let body = SMALL.replace("samples = 70", "samples = 1500");
+    let m = write_manifest(&dir, "m.toml", &body);
+    let (run, moved) = (dir.join("r"), dir.join("moved"));
+    let writer = Command::new(rwg_bin())
+        .args([
+            "run",
+            s(&m),
+            "--out",
+            s(&run),
+            "--no-report",
+            "-q",
+            "--threads",
+            "1",
+        ])
+        .env("RWG_COMMIT_LINGER", "0")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let block = run.join("cells/CartPole-v1__0HL__nobias/blocks/b0000001.csv");
+    let t0 = std::time::Instant::now();
+    while !block.exists() && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    std::fs::rename(&run, &moved).unwrap();
+    let out = writer.wait_with_output().unwrap();
+    let text = output_text(&out);
+    assert_eq!(out.status.code(), Some(1), "{text}");
+    assert!(
+        text.contains(&format!(
+            "{} was moved while this run was writing it: it is now {}",
+            run.display(),
+            moved.display()
+        )),
+        "{text}"
+    );
+    assert!(!run.exists(), "the run went on writing at its old path");
+    rwg_ok(&[
+        "run",
+        s(&moved.join("manifest.toml")),
+        "--out",
+        s(&moved),
+        "-q",
+    ]);
+    let reference = dir.join("reference");
+    rwg_ok(&["run", s(&m), "--out", s(&reference), "--no-report", "-q"]);
+    for c in ["CartPole-v1__0HL__nobias", "CartPole-v1__1HL__nobias"] {
+        let p = format!("cells/{c}/scores.csv");
+        assert_eq!(
+            std::fs::read(moved.join(&p)).unwrap(),
+            std::fs::read(reference.join(&p)).unwrap()
+        );
+    }
+}

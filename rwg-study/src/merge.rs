@@ -70,46 +70,51 @@ pub fn merge_shards(
     crate::rundir::export::create_dir_all(out)
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
     let lock = RunLock::acquire(out)?;
-    if let Some(previous) = check_out(out, m)? {
-        if previous.end_time.is_some() {
-            check_complete_merge(out)?;
-            return Ok(MergeReport {
-                shards: count,
-                meta: previous,
-                cells_kept: cells.len(),
-                already_complete: true,
-                lock,
-            });
+    // A directory moved or deleted while the merge writes it is said so.
+    let held = lock.clone();
+    let merge = || -> Result<MergeReport, StudyError> {
+        if let Some(previous) = check_out(out, m)? {
+            if previous.end_time.is_some() {
+                check_complete_merge(out)?;
+                return Ok(MergeReport {
+                    shards: count,
+                    meta: previous,
+                    cells_kept: cells.len(),
+                    already_complete: true,
+                    lock,
+                });
+            }
         }
-    }
-    let mut meta = start_out(out, m, &dirs)?;
-    on_cell(None);
-    let mut cells_kept = 0;
-    for (ci, cell) in cells.iter().enumerate() {
-        let dest = cell_dir(out, &cell.id.dir);
-        // A cell finalised by an interrupted merge is kept as it is.
-        if cell_complete(&dest) {
-            let cm = kept_cell(cell, &dest)?;
+        let mut meta = start_out(out, m, &dirs)?;
+        on_cell(None);
+        let mut cells_kept = 0;
+        for (ci, cell) in cells.iter().enumerate() {
+            let dest = cell_dir(out, &cell.id.dir);
+            // A cell finalised by an interrupted merge is kept as it is.
+            if cell_complete(&dest) {
+                let cm = kept_cell(cell, &dest)?;
+                meta.env_steps += cm.env_steps;
+                meta.cells.push(cm);
+                cells_kept += 1;
+                continue;
+            }
+            copy_cell_blocks(cell, &dest, &indexes[ci], ci, nb)?;
+            let (cm, totals) = cell.finalize(m, out, 0.0, false, &[])?;
+            on_cell(Some(&cell.summary_line(&totals.means, None)));
             meta.env_steps += cm.env_steps;
             meta.cells.push(cm);
-            cells_kept += 1;
-            continue;
+            write_run_meta(out, &meta)?;
         }
-        copy_cell_blocks(cell, &dest, &indexes[ci], ci, nb)?;
-        let (cm, totals) = cell.finalize(m, out, 0.0, false, &[])?;
-        on_cell(Some(&cell.summary_line(&totals.means, None)));
-        meta.env_steps += cm.env_steps;
-        meta.cells.push(cm);
-        write_run_meta(out, &meta)?;
-    }
-    finish_meta(out, &mut meta)?;
-    Ok(MergeReport {
-        shards: count,
-        meta,
-        cells_kept,
-        already_complete: false,
-        lock,
-    })
+        finish_meta(out, &mut meta)?;
+        Ok(MergeReport {
+            shards: count,
+            meta,
+            cells_kept,
+            already_complete: false,
+            lock,
+        })
+    };
+    merge().map_err(|e| crate::runner::moved_away(&held, out, e))
 }
 
 /// A shard directory given to the merge: its path, manifest and `run.json`.

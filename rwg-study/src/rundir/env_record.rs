@@ -258,7 +258,7 @@ pub fn read_record(dir: &Path) -> Result<Option<EnvRecord>, StudyError> {
 /// Writes `record` into cell directory `dir` (created if needed), atomically.
 pub fn write_record(dir: &Path, record: &EnvRecord) -> Result<(), StudyError> {
     let p = dir.join(ENV_JSON);
-    std::fs::create_dir_all(dir)
+    crate::rundir::export::create_dir_in(dir)
         .map_err(StudyError::io(format!("cannot create {}", dir.display())))?;
     let json = serde_json::to_string_pretty(record).expect("serialisable") + "\n";
     write_atomic(&p, json.as_bytes())

@@ -63,13 +63,13 @@ fn read_only_hint(e: &std::io::Error) -> &'static str {
 }
 
 struct Inner {
-    _file: File,
+    file: File,
 }
 
 /// A held lock on a run directory; released when the last handle is dropped.
 #[derive(Clone)]
 pub struct RunLock {
-    _inner: Arc<Inner>,
+    inner: Arc<Inner>,
 }
 
 impl std::fmt::Debug for RunLock {
@@ -96,12 +96,42 @@ impl RunLock {
         let key = std::fs::canonicalize(dir).map_err(io)?;
         let mut map = held().lock().unwrap_or_else(|e| e.into_inner());
         if let Some(inner) = map.get(&key).and_then(Weak::upgrade) {
-            return Ok(RunLock { _inner: inner });
+            return Ok(RunLock { inner });
         }
         let file = lock_file(&path, dir)?;
-        let inner = Arc::new(Inner { _file: file });
+        let inner = Arc::new(Inner { file });
         map.insert(key, Arc::downgrade(&inner));
-        Ok(RunLock { _inner: inner })
+        Ok(RunLock { inner })
+    }
+}
+
+impl RunLock {
+    /// Whether the run directory this lock was taken in is still at `dir`:
+    /// `None` if it is; else where it is now, as far as the system says
+    /// (`Some(None)`: deleted, or not known). A run directory moved or
+    /// deleted while a writer holds it is what this tells.
+    pub fn moved_from(&self, dir: &Path) -> Option<Option<PathBuf>> {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            use std::os::unix::io::AsRawFd;
+            let held = self.inner.file.metadata().ok()?;
+            let there = std::fs::symlink_metadata(dir.join(LOCK_FILE)).ok();
+            if there.is_some_and(|m| (m.dev(), m.ino()) == (held.dev(), held.ino())) {
+                return None;
+            }
+            let fd = self.inner.file.as_raw_fd();
+            let now = std::fs::read_link(format!("/proc/self/fd/{fd}"))
+                .ok()
+                .filter(|p| held.nlink() > 0 && !p.to_string_lossy().ends_with(" (deleted)"))
+                .and_then(|p| p.parent().map(Path::to_path_buf));
+            Some(now)
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = dir;
+            None
+        }
     }
 }
 
