@@ -79,6 +79,14 @@ fn clear_folder(
             kept.push(path);
         }
     }
+    // (a folder that is a symbolic link, the user's way to put the data on
+    // another disk, is kept: emptied of rwg's files)
+    if dir
+        .symlink_metadata()
+        .is_ok_and(|m| m.file_type().is_symlink())
+    {
+        return Ok(());
+    }
     match std::fs::remove_dir(dir) {
         Err(e) if e.kind() != io::ErrorKind::DirectoryNotEmpty => Err(at(dir)(e)),
         _ => Ok(()),
@@ -133,7 +141,10 @@ pub fn clear_run(dir: &Path) -> io::Result<Vec<PathBuf>> {
             clear_cell(&c, &mut inner)?;
             kept.extend(inner);
         }
-        if kept.iter().all(|k| !k.starts_with(&cells)) {
+        let link = cells
+            .symlink_metadata()
+            .is_ok_and(|m| m.file_type().is_symlink());
+        if !link && kept.iter().all(|k| !k.starts_with(&cells)) {
             std::fs::remove_dir(&cells).map_err(at(&cells))?;
         }
     }
@@ -286,6 +297,27 @@ mod tests {
         std::fs::remove_file(d.join("figures/README")).unwrap();
         assert_eq!(clear_run(&d).unwrap(), Vec::<PathBuf>::new());
         assert!(!d.join("cells").exists() && !d.join("figures").exists());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_cells_folder_that_is_a_link_is_emptied_of_rwgs_files_and_kept() {
+        let d = fresh("link");
+        let data = d.join("data");
+        touch(&data.join("c/scores.csv"));
+        touch(&data.join("c/blocks/b0000000.csv"));
+        let run = d.join("run");
+        std::fs::create_dir_all(&run).unwrap();
+        std::os::unix::fs::symlink(&data, run.join("cells")).unwrap();
+        touch(&run.join("run.json"));
+        assert_eq!(clear_run(&run).unwrap(), Vec::<PathBuf>::new());
+        assert!(run
+            .join("cells")
+            .symlink_metadata()
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert!(data.is_dir() && !data.join("c").exists());
     }
 
     #[test]

@@ -51,16 +51,26 @@ pub enum LockError {
 }
 
 /// What to say when the lock cannot be taken because the run directory is
-/// on a read-only file system (empty otherwise).
+/// on a read-only file system, or the lock file is a symbolic link (empty
+/// otherwise).
 fn read_only_hint(e: &std::io::Error) -> &'static str {
     if e.kind() == std::io::ErrorKind::ReadOnlyFilesystem {
         ": the run directory is on a read-only file system, and this command writes into it \
          (so it takes the writers' lock first); the readers work there: rwg verify, rwg \
          status, rwg top, rwg stats --no-write"
+    } else if e.raw_os_error() == Some(ELOOP) {
+        ": it is a symbolic link, which rwg never follows there (whatever it points to would \
+         be written); remove the link, and rwg makes the lock file again"
     } else {
         ""
     }
 }
+
+/// The errno of opening a symbolic link with `O_NOFOLLOW`.
+#[cfg(unix)]
+const ELOOP: i32 = libc::ELOOP;
+#[cfg(not(unix))]
+const ELOOP: i32 = -1;
 
 struct Inner {
     file: File,
@@ -271,5 +281,28 @@ mod tests {
         drop(b);
         assert!(try_lock(), "released with the last handle");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_lock_file_that_is_a_link_is_refused_saying_so_and_a_moved_directory_is_told() {
+        let base = std::env::temp_dir().join(format!("rwg-lock-moved-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&base);
+        let (dir, moved) = (base.join("run"), base.join("moved"));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::os::unix::fs::symlink(base.join("elsewhere"), dir.join(LOCK_FILE)).unwrap();
+        let err = RunLock::acquire(&dir).unwrap_err().to_string();
+        assert!(
+            err.contains("it is a symbolic link, which rwg never follows"),
+            "{err}"
+        );
+        assert!(!base.join("elsewhere").exists());
+        std::fs::remove_file(dir.join(LOCK_FILE)).unwrap();
+        let lock = RunLock::acquire(&dir).unwrap();
+        assert_eq!(lock.moved_from(&dir), None);
+        std::fs::rename(&dir, &moved).unwrap();
+        assert_eq!(lock.moved_from(&dir), Some(Some(moved.clone())));
+        std::fs::remove_dir_all(&moved).unwrap();
+        assert_eq!(lock.moved_from(&moved), Some(None));
+        std::fs::remove_dir_all(&base).unwrap();
     }
 }
