@@ -92,6 +92,17 @@ fn no_output_path_a_user_names_is_written_over_a_runs_own_files() {
     rwg_ok(&["compare", s(&r2), "--html", s(&r1.join("r2-page.html"))]);
     rwg_ok(&["report", s(&r1), "--out", s(&r1.join("report.html"))]);
     rwg_ok(&["verify", s(&r1)]);
+    // A folder where one file goes.
+    for out in [
+        dir.clone(),
+        PathBuf::from(format!("{}/new/", dir.display())),
+    ] {
+        let err = rwg_fails(&["report", s(&r1), "--out", s(&out)]);
+        assert!(
+            err.contains("it names a folder, and this writes one file"),
+            "{err}"
+        );
+    }
     // Two outputs of one command naming one file.
     let page = dir.join("p.html");
     let err = rwg_fails(&["compare", s(&r2), "--html", s(&page), "--figure", s(&page)]);
@@ -151,9 +162,15 @@ fn a_plugin_that_changes_the_working_directory_moves_nothing_rwg_writes() {
     let elsewhere = dir.join("elsewhere");
     std::fs::create_dir_all(&elsewhere).unwrap();
     let lib = chdir_plugin(&elsewhere);
+    // A second plugin found on a relative RWG_PLUGIN_PATH, after the first
+    // one's create moved the working directory.
+    std::fs::create_dir_all(dir.join("plugins")).unwrap();
+    let cc = classic_control_plugin();
+    std::fs::copy(&cc, dir.join("plugins").join(cc.file_name().unwrap())).unwrap();
     let body = format!(
         "samples = 40\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden = []\n\
-         [[envs]]\nid = \"handshake/Ok-v0\"\nplugin = \"{}\"\n",
+         [[envs]]\nid = \"handshake/Ok-v0\"\nplugin = \"{}\"\n\
+         [[envs]]\nid = \"classic_control/CartPole-v1\"\n",
         lib.display()
     );
     write_manifest(&dir, "m.toml", &body);
@@ -161,6 +178,7 @@ fn a_plugin_that_changes_the_working_directory_moves_nothing_rwg_writes() {
         let out = Command::new(rwg_bin())
             .current_dir(&dir)
             .args(args)
+            .env("RWG_PLUGIN_PATH", "plugins")
             .env("RWG_COMMIT_LINGER", "0")
             .output()
             .unwrap();

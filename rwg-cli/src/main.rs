@@ -137,6 +137,7 @@ fn main() -> ExitCode {
         Ok(cli) => cli,
         Err(e) => return exit_code(clap_status(e)),
     };
+    cmd::pin_env_paths();
     // From here on, what a plugin prints goes to stderr, never into rwg's output.
     stdio::protect();
     if let Err(e) = env_vars::check_all() {

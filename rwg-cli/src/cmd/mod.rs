@@ -56,6 +56,37 @@ pub fn absolute(path: &Path) -> anyhow::Result<std::path::PathBuf> {
     })
 }
 
+/// Makes the relative paths in the environment variables rwg reads them
+/// from absolute, against the working directory rwg started in: run first,
+/// before any thread starts or plugin code runs (a plugin may change the
+/// working directory, and a plugin folder on `RWG_PLUGIN_PATH` must be the
+/// one the user meant). `RWG_PLUGIN_PATH`: every entry; `RWG_PYTHON`: a
+/// value with a `/` (a bare name is looked up on `PATH`). Child processes
+/// inherit the absolute values.
+pub fn pin_env_paths() {
+    let Ok(cwd) = std::env::current_dir() else {
+        return; // (no working directory: relative paths resolve nowhere)
+    };
+    let var = rwg_plugin_host::PLUGIN_PATH_VAR;
+    if let Some(value) = std::env::var_os(var) {
+        let entries: Vec<std::path::PathBuf> = std::env::split_paths(&value)
+            .map(|p| match p.as_os_str().is_empty() || p.is_absolute() {
+                true => p,
+                false => cwd.join(p),
+            })
+            .collect();
+        if let Ok(joined) = std::env::join_paths(entries) {
+            std::env::set_var(var, joined);
+        }
+    }
+    if let Some(value) = std::env::var_os(rwg_gym::PYTHON_VAR) {
+        let p = Path::new(&value);
+        if !p.is_absolute() && p.as_os_str().as_encoded_bytes().contains(&b'/') {
+            std::env::set_var(rwg_gym::PYTHON_VAR, cwd.join(p));
+        }
+    }
+}
+
 /// Warns (stderr) when a run predates checksums and is read unverified.
 pub fn warn_unverified(run: &Run) {
     if !run.verified {
@@ -77,6 +108,14 @@ pub fn write_named_file(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     use anyhow::Context;
     use std::io::Write;
     let target = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    // A folder (or a name ending in a slash, which names one) is no file.
+    if target.is_dir() || path.as_os_str().as_encoded_bytes().ends_with(b"/") {
+        anyhow::bail!(
+            "cannot write {}: it names a folder, and this writes one file; name a file (in \
+             that folder, if you like)",
+            path.display()
+        );
+    }
     // A missing folder is named, not the temporary file that could not be made in it.
     if let Some(parent) = target.parent().filter(|p| !p.as_os_str().is_empty()) {
         if !parent.exists() {
