@@ -3,6 +3,7 @@
 //! files or in a run another rwg is writing; a plugin that changes the
 //! working directory moves nothing rwg writes; `--force-new` removes what
 //! the old run wrote, its statistics and report included, and nothing else;
+//! statistics files of another run are named by `rwg verify`;
 //! `rwg verify` beside a run that commits reads each cell as one snapshot.
 
 mod common;
@@ -248,6 +249,26 @@ fn force_new_removes_the_old_runs_statistics_and_report_too() {
     assert_eq!(stats_samples(&run), ["40", "40"]);
     let status = rwg_ok(&["status", s(&run)]);
     assert!(status.contains("40"), "{status}");
+}
+
+#[test]
+fn statistics_files_of_another_run_are_named_by_verify() {
+    let dir = temp_dir("stats-of-another");
+    let m = write_manifest(&dir, "m.toml", SMALL);
+    let (run, other) = (dir.join("r"), dir.join("o"));
+    rwg_ok(&["run", s(&m), "--out", s(&run), "-q"]);
+    rwg_ok(&["run", s(&m), "--out", s(&other), "-q", "--samples", "40"]);
+    for f in ["stats.json", "stats.csv"] {
+        std::fs::copy(other.join(f), run.join(f)).unwrap();
+    }
+    let text = rwg_fails(&["verify", s(&run)]);
+    for f in ["stats.json", "stats.csv"] {
+        let line = format!("{}: written for another run", s(&run.join(f)));
+        assert!(text.contains(&line), "{f} not named:\n{text}");
+    }
+    rwg_ok(&["stats", s(&run)]);
+    rwg_ok(&["verify", s(&run)]);
+    assert_eq!(stats_samples(&run), ["70", "70"]);
 }
 
 #[test]

@@ -29,7 +29,8 @@
 //! - [`error`]: [`RunDirError`](error::RunDirError), why a cell's files could not be used.
 //! - [`export`]: the CSV writers and atomic file replacement.
 //! - [`rows`]: the fast path for rwg's own plain numeric CSV rows.
-//! - [`data`]: reading a finished run for analysis, writing its statistics.
+//! - [`data`]: reading a finished run for analysis, writing its statistics;
+//!   [`derived`]: whether the statistics files are this run's.
 //! - [`status`]: how far a run or a shard has got (read-only, safe while it runs).
 //! - [`study`]: the study a run directory holds, and edits of its manifest.
 //! - [`outputs`]: where a command may write (no path a user names lands on
@@ -40,6 +41,7 @@ pub mod blocks;
 pub mod checksum;
 pub mod clear;
 pub mod data;
+pub mod derived;
 pub mod env_record;
 pub mod error;
 pub mod export;

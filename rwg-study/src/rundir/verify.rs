@@ -66,6 +66,10 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
         return r;
     }
     let study = check_study(dir, &meta, &mut r);
+    if meta.shard.is_none() {
+        let stale = crate::rundir::derived::check_stats_files(dir, &meta);
+        r.problems.extend(stale);
+    }
     let cells_dir = dir.join(CELLS);
     let names = match cell_names(&cells_dir) {
         Ok(n) => n,
