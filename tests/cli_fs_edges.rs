@@ -272,6 +272,45 @@ fn statistics_files_of_another_run_are_named_by_verify() {
 }
 
 #[test]
+fn a_command_printed_for_a_path_that_is_not_utf8_runs_as_printed() {
+    use std::os::unix::ffi::OsStrExt;
+    let dir = temp_dir("not-utf8");
+    let m = write_manifest(&dir, "m.toml", SMALL);
+    let run = dir.join(std::ffi::OsStr::from_bytes(b"r \xff'x"));
+    let out = Command::new(rwg_bin())
+        .arg("run")
+        .arg(&m)
+        .arg("--out")
+        .arg(&run)
+        .arg("-q")
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", output_text(&out));
+    std::fs::write(run.join("stats.csv"), "x\n").unwrap();
+    let out = Command::new(rwg_bin())
+        .arg("verify")
+        .arg(&run)
+        .output()
+        .unwrap();
+    let text = output_text(&out);
+    assert!(!out.status.success(), "{text}");
+    // The hint names the folder byte for byte, as a shell reads it.
+    let cmd = text
+        .split('`')
+        .find(|w| w.starts_with("rwg stats "))
+        .unwrap_or_else(|| panic!("no command in: {text}"));
+    let cmd = cmd.replacen("rwg", s(&rwg_bin()), 1);
+    let sh = Command::new("sh").args(["-c", &cmd]).output().unwrap();
+    assert!(sh.status.success(), "{cmd}: {}", output_text(&sh));
+    let out = Command::new(rwg_bin())
+        .arg("verify")
+        .arg(&run)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", output_text(&out));
+}
+
+#[test]
 fn force_new_deletes_nothing_rwg_did_not_write() {
     let dir = temp_dir("force-new-foreign");
     let m = write_manifest(&dir, "m.toml", SMALL);
