@@ -3,7 +3,8 @@
 //! files or in a run another rwg is writing; a plugin that changes the
 //! working directory moves nothing rwg writes; `--force-new` removes what
 //! the old run wrote, its statistics and report included, and nothing else;
-//! statistics files of another run are named by `rwg verify`;
+//! statistics files of another run are named by `rwg verify`; a command
+//! printed for a path that is not UTF-8 runs as printed;
 //! `rwg verify` beside a run that commits reads each cell as one snapshot.
 
 mod common;
@@ -369,6 +370,41 @@ fn force_new_deletes_nothing_rwg_did_not_write() {
     );
 }
 
+/// `rwg args`, started under the shim `tests/data/pause_at_open.c`, which
+/// pauses it just after it opens a file whose path ends in `pause_at`: the
+/// paused process and the file that lets it go on, or (when the shim did
+/// not pause it) its output.
+fn spawn_paused(
+    dir: &Path,
+    args: &[&str],
+    pause_at: &str,
+) -> Result<(std::process::Child, PathBuf), String> {
+    let shim = compile_c("pause", "tests/data/pause_at_open.c", "pause_at_open", &[]);
+    let (paused, go) = (dir.join("paused"), dir.join("go"));
+    let child = Command::new(rwg_bin())
+        .args(args)
+        .env("LD_PRELOAD", &shim)
+        .env("RWG_TEST_PAUSE_AT", pause_at)
+        .env("RWG_TEST_PAUSED", &paused)
+        .env("RWG_TEST_GO", &go)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = std::time::Instant::now();
+    while !paused.exists() && t0.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    if !paused.exists() {
+        let out = child.wait_with_output().unwrap();
+        return Err(format!(
+            "the LD_PRELOAD shim did not pause rwg: {}",
+            output_text(&out)
+        ));
+    }
+    Ok((child, go))
+}
+
 #[test]
 fn verify_beside_a_run_that_finalises_a_cell_reads_one_snapshot() {
     const TEST: &str = "verify_beside_a_run_that_finalises_a_cell_reads_one_snapshot";
@@ -391,32 +427,10 @@ fn verify_beside_a_run_that_finalises_a_cell_reads_one_snapshot() {
     // verify, paused just after it opened the block index of the unfinished
     // cell, while the run is resumed to its end (the cell finalised, its
     // blocks removed); then verify goes on.
-    let shim = compile_c("pause", "tests/data/pause_at_open.c", "pause_at_open", &[]);
-    let (paused, go) = (dir.join("paused"), dir.join("go"));
-    let verify = Command::new(rwg_bin())
-        .args(["verify", s(&run)])
-        .env("LD_PRELOAD", &shim)
-        .env("RWG_TEST_PAUSE_AT", "blocks/SHA256SUMS")
-        .env("RWG_TEST_PAUSED", &paused)
-        .env("RWG_TEST_GO", &go)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t0 = std::time::Instant::now();
-    while !paused.exists() && t0.elapsed().as_secs() < 60 {
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    if !paused.exists() {
-        let out = verify.wait_with_output().unwrap();
-        return skip(
-            TEST,
-            &format!(
-                "the LD_PRELOAD shim did not pause rwg: {}",
-                output_text(&out)
-            ),
-        );
-    }
+    let (verify, go) = match spawn_paused(&dir, &["verify", s(&run)], "blocks/SHA256SUMS") {
+        Ok(p) => p,
+        Err(why) => return skip(TEST, &why),
+    };
     rwg_ok(&["run", s(&m), "--out", s(&run), "--no-report", "-q"]);
     std::fs::write(&go, "").unwrap();
     let out = verify.wait_with_output().unwrap();
@@ -433,29 +447,11 @@ fn verify_of_a_run_being_set_up_checks_what_it_has_committed() {
     let run = dir.join("r");
     // rwg run, paused as it records its first cell's env: it has its lock,
     // manifest.toml and cells/, and no run.json yet.
-    let shim = compile_c("pause", "tests/data/pause_at_open.c", "pause_at_open", &[]);
-    let (paused, go) = (dir.join("paused"), dir.join("go"));
-    let writer = Command::new(rwg_bin())
-        .args(["run", s(&m), "--out", s(&run), "--no-report", "-q"])
-        .env("LD_PRELOAD", &shim)
-        .env("RWG_TEST_PAUSE_AT", "nobias/env.json.tmp")
-        .env("RWG_TEST_PAUSED", &paused)
-        .env("RWG_TEST_GO", &go)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let t0 = std::time::Instant::now();
-    while !paused.exists() && t0.elapsed().as_secs() < 60 {
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    if !paused.exists() {
-        let out = writer.wait_with_output().unwrap();
-        return skip(
-            TEST,
-            &format!("the shim did not pause rwg: {}", output_text(&out)),
-        );
-    }
+    let args = ["run", s(&m), "--out", s(&run), "--no-report", "-q"];
+    let (writer, go) = match spawn_paused(&dir, &args, "nobias/env.json.tmp") {
+        Ok(p) => p,
+        Err(why) => return skip(TEST, &why),
+    };
     let res = rwg(&["verify", s(&run)]);
     std::fs::write(&go, "").unwrap();
     let text = output_text(&res);
