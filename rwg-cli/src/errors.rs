@@ -41,6 +41,30 @@ fn file_not_directory(e: &anyhow::Error, args: &[String]) -> Option<String> {
     (!hints.is_empty()).then(|| hints.join("\n"))
 }
 
+/// For a write past the largest file this process may write: the limit,
+/// and what to do.
+fn file_size_limit() -> String {
+    #[cfg(unix)]
+    {
+        let mut lim = libc::rlimit {
+            rlim_cur: 0,
+            rlim_max: 0,
+        };
+        // SAFETY: getrlimit fills a valid struct.
+        if unsafe { libc::getrlimit(libc::RLIMIT_FSIZE, &mut lim) } == 0
+            && lim.rlim_cur != libc::RLIM_INFINITY
+        {
+            return format!(
+                "files are limited to {} bytes in this shell (`ulimit -f` shows the limit in \
+                 blocks of 1024 bytes): raise it (`ulimit -f unlimited`) and run the same \
+                 command again; what was committed is kept",
+                lim.rlim_cur
+            );
+        }
+    }
+    "the file system or a quota refuses a file this large".into()
+}
+
 /// The existing entry of `missing`'s folder whose name is nearest to
 /// `missing`'s, if one is close enough to be a typo.
 pub fn nearby(missing: &Path) -> Option<PathBuf> {
@@ -78,6 +102,9 @@ pub fn nearby(missing: &Path) -> Option<PathBuf> {
 pub fn hint(e: &anyhow::Error, args: &[String]) -> Option<String> {
     if let Some(h) = file_not_directory(e, args) {
         return Some(h);
+    }
+    if io_kind(e, std::io::ErrorKind::FileTooLarge) {
+        return Some(file_size_limit());
     }
     if !not_found(e) {
         return None;

@@ -146,9 +146,13 @@ pub fn write_line(line: &str) {
 
 /// Writes `text` to stderr, unless an earlier write to it failed; a failure
 /// is recorded for [`exit_status`], never a panic (a closed stderr leaves
-/// nowhere to report it).
+/// nowhere to report it). Control characters other than newline and tab are
+/// written escaped: what rwg prints on stderr quotes text from plugins,
+/// workers and file names, whose terminal escape sequences must not reach
+/// the terminal.
 pub fn write_err(text: &str) {
     if STDERR_STATE.load(Ordering::SeqCst) == OK {
+        let text = rwg_env::text::escape_controls(text);
         if let Err(e) = io::stderr().lock().write_all(text.as_bytes()) {
             record(&STDERR_STATE, &e, None);
         }

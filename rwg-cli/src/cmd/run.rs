@@ -185,10 +185,23 @@ pub fn run(args: Args) -> Result<i32> {
         commit_linger: crate::env_vars::commit_linger()?,
     };
     let outcome = run_with_progress(&mut m, &opts, &args, &out);
+    // What a crash while rwg exits (a plugin's exit handler) leaves.
+    let complete = format!(
+        "The run in {} is complete: every file was written and indexed before (`rwg verify {}` \
+         checks them).",
+        out.display(),
+        sh_path(&out)
+    );
     let mut report = match finished(outcome, &args, &out)? {
         Finished::Report(report) => report,
-        Finished::AlreadyComplete => return Ok(0),
-        Finished::Stopped(status) => return Ok(status),
+        Finished::AlreadyComplete => {
+            fault_guard::finished(complete);
+            return Ok(0);
+        }
+        Finished::Stopped(status) => {
+            fault_guard::finished(fault_guard::resume_stopped_text());
+            return Ok(status);
+        }
     };
     print_summary(&report, &m, &args);
     let report_time = finish_output(&mut report, &args, &out)?;
@@ -198,6 +211,7 @@ pub fn run(args: Args) -> Result<i32> {
             report_time,
         ));
     }
+    fault_guard::finished(complete);
     Ok(0)
 }
 
@@ -361,7 +375,12 @@ fn finish_output(report: &mut RunReport, args: &Args, out: &Path) -> Result<Opti
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(report.threads)
                     .build()
-                    .context("cannot start the report's threads")?
+                    .with_context(|| {
+                        format!(
+                            "cannot start the report's threads ({})",
+                            rwg_env::text::THREAD_LIMIT_ADVICE
+                        )
+                    })?
                     .install(|| write_report(out, episodes))?;
                 report_time = Some(t.elapsed());
             }
