@@ -77,6 +77,7 @@ fn signal_text(sig: i32) -> String {
 /// committed, with how to resume. Nothing for SIGINT outside a run (the
 /// shell shows `^C`; a run's Ctrl-C has its own handler).
 pub fn report_signal(sig: i32) {
+    REPORTING.with(|r| r.set(true));
     #[cfg(unix)]
     if sig == libc::SIGINT && !crate::fault_guard::armed() {
         return;
@@ -89,6 +90,28 @@ pub fn report_signal(sig: i32) {
     }
     text.push('\n');
     crate::stdio::write_err(&text);
+}
+
+thread_local! {
+    /// Set on the thread that reports the signal rwg ends by.
+    static REPORTING: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Whether what this thread would print is to be dropped: rwg is ending by
+/// a signal, whose report is the one message (what other threads see — a
+/// worker killed by the family's end, a run cut short — is its consequence).
+pub fn quiet_while_ending() -> bool {
+    rwg_worker::family::ending_by().is_some() && !REPORTING.with(|r| r.get())
+}
+
+/// Waits for the end by a signal that the family's thread has taken up
+/// (the exit status is the signal's), if it has.
+pub fn wait_if_ending() {
+    if rwg_worker::family::ending_by().is_some() {
+        loop {
+            std::thread::sleep(Duration::from_secs(1));
+        }
+    }
 }
 
 /// Puts back rwg's own handling of SIGINT, SIGTERM and SIGHUP where code in

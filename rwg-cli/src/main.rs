@@ -152,7 +152,11 @@ fn main() -> ExitCode {
         errln!("error: {e}");
         return exit_code(1);
     }
-    let status = status_of(run_command(cli.command));
+    let result = run_command(cli.command);
+    // A command cut short by a signal rwg ends by: that signal's report is
+    // the message, and its status the exit status.
+    ending::wait_if_ending();
+    let status = status_of(result);
     fault_guard::finished_unless_said(format!(
         "rwg's work was done (exit status {status}): its output and files are complete."
     ));

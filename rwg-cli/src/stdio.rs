@@ -151,6 +151,9 @@ pub fn write_line(line: &str) {
 /// workers and file names, whose terminal escape sequences must not reach
 /// the terminal.
 pub fn write_err(text: &str) {
+    if crate::ending::quiet_while_ending() {
+        return;
+    }
     if STDERR_STATE.load(Ordering::SeqCst) == OK {
         let text = rwg_env::text::escape_controls(text);
         if let Err(e) = io::stderr().lock().write_all(text.as_bytes()) {

@@ -69,6 +69,17 @@ pub fn on_ending_signal(report: fn(i32)) {
     let _ = report;
 }
 
+/// The signal rwg is ending by, once its family's thread has taken it up:
+/// from then on what other threads see (a worker killed by the family's
+/// end, a run cut short) is a consequence of that signal, not news, and
+/// rwg's exit status is the signal's.
+pub fn ending_by() -> Option<i32> {
+    #[cfg(target_os = "linux")]
+    return signals::ending_by();
+    #[cfg(not(target_os = "linux"))]
+    None
+}
+
 /// A signal whose disposition something other than rwg changed, found and
 /// undone by [`restore_dispositions`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -12,6 +12,9 @@ pub(super) const MAX_WORKERS: usize = 1024;
 /// How long the family's end may take: a process that will not die (stuck
 /// in the kernel) does not keep rwg from ending.
 const LIMIT: Duration = Duration::from_secs(2);
+/// How long rwg waits for its killed workers to be gone: a worker holding
+/// a GPU may take seconds to release it, and rwg does not end before.
+const WORKER_LIMIT: Duration = Duration::from_secs(10);
 
 /// One [`end_all`] at a time: it owns the static buffers.
 static BUSY: AtomicBool = AtomicBool::new(false);
@@ -32,7 +35,7 @@ pub(super) fn end_all(workers: &[i32]) {
     }
     // Only once a worker is gone are the processes it started that left its
     // group re-parented to rwg, where the scan finds them.
-    wait_ended(workers, LIMIT);
+    wait_ended(workers, WORKER_LIMIT);
     // SAFETY: BUSY gives this call the buffers alone.
     let bufs = unsafe { &mut *std::ptr::addr_of_mut!(BUFS) };
     let t0 = now();

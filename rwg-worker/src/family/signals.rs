@@ -30,6 +30,8 @@ const KEPT: [libc::c_int; 3] = [libc::SIGINT, libc::SIGTERM, libc::SIGHUP];
 
 /// The write end of the pipe the signal handler writes to.
 static PIPE_W: AtomicI32 = AtomicI32::new(-1);
+/// The signal rwg is ending by (0: none yet).
+static ENDING_BY: AtomicI32 = AtomicI32::new(0);
 /// The report run before the family ends (a `fn(i32)`; 0: none).
 static REPORT: AtomicUsize = AtomicUsize::new(0);
 /// rwg's own handling of [`KEPT`]'s signals, as last kept.
@@ -100,6 +102,7 @@ pub(super) fn set_up() {
 /// default action (rwg's exit status names it), or `_exit(128 + sig)` where
 /// something keeps the signal from ending rwg.
 fn end_by(sig: libc::c_int) -> ! {
+    ENDING_BY.store(sig, Ordering::SeqCst);
     let report = REPORT.load(Ordering::SeqCst);
     if report != 0 {
         // SAFETY: stored from a `fn(i32)` by `set_report`.
@@ -117,6 +120,13 @@ fn end_by(sig: libc::c_int) -> ! {
         libc::pthread_sigmask(libc::SIG_UNBLOCK, &set, std::ptr::null_mut());
         libc::raise(sig);
         libc::_exit(128 + sig)
+    }
+}
+
+pub(super) fn ending_by() -> Option<i32> {
+    match ENDING_BY.load(Ordering::SeqCst) {
+        0 => None,
+        sig => Some(sig),
     }
 }
 
