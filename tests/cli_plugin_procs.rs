@@ -186,6 +186,51 @@ fn a_plugins_daemons_end_with_rwg() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// rwg's children that are zombies.
+fn zombies(rwg: u32) -> Vec<u32> {
+    children(rwg)
+        .into_iter()
+        .filter(|&c| {
+            std::fs::read_to_string(format!("/proc/{c}/stat"))
+                .is_ok_and(|s| s[s.rfind(')').unwrap() + 2..].starts_with('Z'))
+        })
+        .collect()
+}
+
+/// A plugin whose daemons exit (50 double forks, one per reset) leaves rwg,
+/// their subreaper, with no zombies to hold process ids: rwg reaps them
+/// while the run goes on.
+#[test]
+fn orphans_that_end_are_reaped_during_the_run() {
+    let dir = temp_dir("procs-orphans");
+    let lib = hostile("orphans", &["ORPHAN_PER_RESET", "SLEEP_IN_STEP_MS=2"]);
+    let m = study(&dir, &lib, 100_000);
+    let pids = fresh(&dir, "pids");
+    let out = dir.join("run");
+    let args = ["run", &m, "--out", path_str(&out), "--no-report", "-q"];
+    let mut child = rwg_cmd(&args, &pids)
+        .args(["--threads", "1"])
+        .spawn()
+        .unwrap();
+    // 50 resets of 20 steps of 2 ms take about 2 s; then 4 s more
+    let t0 = Instant::now();
+    let mut most = 0;
+    let mut left = vec![];
+    while t0.elapsed() < Duration::from_secs(7) {
+        left = zombies(child.id());
+        most = most.max(left.len());
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    // SAFETY: killing the test's own child's process group.
+    unsafe {
+        libc::kill(-(child.id() as i32), libc::SIGKILL);
+    }
+    let _ = child.wait();
+    assert!(most > 0, "the plugin left no orphan to reap");
+    assert!(left.is_empty(), "zombies {left:?} still held after 7 s");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// Starts a long run of a plugin built with `defines` (each step sleeps
 /// 1 ms), waits for its first committed block, sends `signal` to rwg alone
 /// (`to_group`: to its whole process group, as a terminal's Ctrl-C does) and

@@ -512,6 +512,7 @@ fn watchdog() {
     loop {
         std::thread::sleep(TICK);
         crate::ending::restore_signal_handling();
+        rwg_worker::family::reap_orphans();
         if !ARMED.load(SeqCst) {
             seen.clear();
             continue;

@@ -15,6 +15,10 @@
  *   ESCAPES_IN_ERROR   reset fails with an error text holding terminal
  *                      escape sequences (colour, window title, bell)
  *   CLOSE_STDERR       create closes file descriptors 1 and 2
+ *   ORPHAN_PER_RESET   the first 50 resets of the process each double-fork
+ *                      a process that exits at once (an orphan,
+ *                      re-parented, that dies: a zombie until someone
+ *                      reaps it)
  *   SLEEP_IN_STEP_MS=N every step sleeps N ms (a run that lasts)
  *
  * The tests in tests/cli_plugin_procs.rs compile each variant with cc.
@@ -73,6 +77,23 @@ static void spawn_daemons(void) {
 }
 #endif
 
+#ifdef ORPHAN_PER_RESET
+#include <sys/types.h>
+#include <sys/wait.h>
+
+static int orphans = 0;
+
+static void orphan(void) {
+    if (orphans++ >= 50) return;
+    pid_t middle = fork();
+    if (middle == 0) {
+        if (fork() == 0) _exit(0);
+        _exit(0);
+    }
+    if (middle > 0) waitpid(middle, NULL, 0);
+}
+#endif
+
 #if defined(IGNORE_SIGNALS) || defined(IGNORE_IN_STEP)
 static void ignore_signals(void) {
     signal(SIGINT, SIG_IGN);
@@ -117,6 +138,9 @@ static rwg_status_t reset(rwg_env_t *env, uint8_t has_seed, uint64_t seed, doubl
     (void)obs;
     return RWG_ERR_INTERNAL;
 #else
+#ifdef ORPHAN_PER_RESET
+    orphan();
+#endif
     env->started = 1;
     env->t = 0;
     obs[0] = 0.0;

@@ -179,6 +179,20 @@ pub(crate) fn sweep(mark: &str) {
     let _ = mark;
 }
 
+/// Reaps the orphans rwg adopted as their subreaper once they end (a
+/// plugin's daemon that exits), which no one else waits for: call it now
+/// and then (rwg run's watchdog does; it looks once a second). A child
+/// that is a zombie for a second and is not a listed worker counts as such
+/// an orphan (a plugin that waits for its own child later than that gets
+/// `ECHILD`).
+pub fn reap_orphans() {
+    #[cfg(target_os = "linux")]
+    {
+        let workers: Vec<i32> = live().iter().map(|(p, _)| *p).collect();
+        reap::reap_orphans(&workers);
+    }
+}
+
 /// Kills every worker's process group and every process of the family that
 /// rwg can reach — every child rwg has, and those orphaned by their deaths —
 /// and reaps them: for rwg's own ends (`exit`, `_exit` after a second

@@ -100,6 +100,63 @@ pub(super) fn wait_ended(pids: &[i32], limit: Duration) {
     }
 }
 
+/// How often [`reap_orphans`] looks (and so how long a zombie that no one
+/// waits for stays at least): longer than any wait of rwg's own takes to
+/// reap its child, and than a plugin's wait right after its child ends.
+const ORPHAN_AGE: Duration = Duration::from_secs(1);
+
+/// When [`reap_orphans`] last looked, and the zombies it saw then.
+static ZOMBIES: std::sync::Mutex<(Option<Instant>, Vec<i32>)> =
+    std::sync::Mutex::new((None, Vec::new()));
+
+/// Reaps rwg's zombie children that no one waits for: not a listed worker
+/// (`live`), and a zombie already when it last looked, [`ORPHAN_AGE`]
+/// before (a wait in progress reaps its child at once). As a subreaper rwg
+/// adopts the orphans of what it and its plugins start; each one that ends
+/// (a plugin's daemon that exits) would otherwise hold a process id until
+/// rwg ends. One `waitid` when there is none; a scan of `/proc` otherwise.
+pub(super) fn reap_orphans(live: &[i32]) {
+    let mut state = ZOMBIES.lock().unwrap_or_else(|p| p.into_inner());
+    let now = Instant::now();
+    if state.0.is_some_and(|t| now - t < ORPHAN_AGE) {
+        return;
+    }
+    state.0 = Some(now);
+    // SAFETY: a zeroed siginfo_t for waitid to fill.
+    let mut info: libc::siginfo_t = unsafe { std::mem::zeroed() };
+    // SAFETY: waitid on any child; WNOWAIT leaves it unreaped.
+    let r = unsafe {
+        libc::waitid(
+            libc::P_ALL,
+            0,
+            &mut info,
+            libc::WEXITED | libc::WNOHANG | libc::WNOWAIT,
+        )
+    };
+    // SAFETY: filled by waitid (zero: no zombie).
+    if r != 0 || unsafe { info.si_pid() } == 0 {
+        state.1.clear();
+        return;
+    }
+    let mut zombies = Vec::new();
+    for_each_child(&mut ScanBufs::new(), |pid, zombie| {
+        if zombie && !live.contains(&pid) {
+            zombies.push(pid);
+        }
+    });
+    let before = std::mem::take(&mut state.1);
+    for pid in zombies {
+        if before.contains(&pid) {
+            // SAFETY: reaping our own zombie child, which no one waits for.
+            unsafe {
+                libc::waitpid(pid, std::ptr::null_mut(), libc::WNOHANG);
+            }
+        } else {
+            state.1.push(pid);
+        }
+    }
+}
+
 /// Whether process `pid`'s environment has the entry `entry`.
 fn bears(pid: i32, entry: &[u8]) -> bool {
     std::fs::read(format!("/proc/{pid}/environ"))
