@@ -12,9 +12,10 @@ def refuse_composite(space, what):
                       f"give the env a flat one")
 
 
-def describe_spaces(env, max_obs):
+def describe_spaces(env, max_obs, leaves):
     """The R message's space fields, and (discrete n, box low, box high,
-    action shape) for the policy."""
+    action shape) for the policy. `leaves`: the observation's (name, shape,
+    dtype), named when it is too large."""
     import numpy as np
 
     obs, act = env.obs_space, env.act_space
@@ -30,7 +31,13 @@ def describe_spaces(env, max_obs):
         fail("space", f"observation space {obs!r} has neither .low/.high/.shape nor .n")
     dim = int(np.prod(shape, dtype=np.int64))
     if dim == 0 or dim > max_obs:
-        fail("space", f"observation space {obs!r} has {dim} values; rwg takes 1 to {max_obs}")
+        from rwg_jax_worker_obs import largest_leaf
+
+        fail("space", f"the observation has {dim} values (largest leaf: {largest_leaf(leaves)}); "
+                      f"rwg's networks take 1 to {max_obs} inputs (a [4,4] network on {max_obs} "
+                      f"inputs already has {4 * max_obs + 20} weights, drawn and sent for every "
+                      f"network); give the env a smaller observation (a symbolic rather than a "
+                      f"pixel one)")
     fields = {"obs_shape": list(shape), "obs_dim": dim, "obs_low": floats(low),
               "obs_high": floats(high), "observation_space": repr(obs), "action_space": repr(act)}
     if hasattr(act, "n") and not hasattr(act, "low"):
@@ -49,19 +56,24 @@ def describe_spaces(env, max_obs):
 
 
 def policy_fn(jnp, layers, bias, dt, space):
-    """rwg's policy: x = tanh(W @ [x, 1]) per layer; argmax or the box map."""
+    """rwg's policy: x = tanh(W @ [x, 1]) per layer; argmax or the box map.
+    `legal` (a bool per action, or None): the argmax is over the legal
+    actions only; where none is legal, over all (plain argmax)."""
     n, low, high, ashape = space
     if n is None:
         symmetric = bool((low == -high).all())
         lo, hi = jnp.asarray(low, dt), jnp.asarray(high, dt)
 
-    def policy(Ws, obs):
+    def policy(Ws, obs, legal=None):
         x = jnp.ravel(obs).astype(dt)
         for W in Ws:
             if bias:
                 x = jnp.concatenate([x, jnp.ones((1,), dt)])
             x = jnp.tanh(W @ x)
         if n is not None:
+            if legal is not None:
+                legal = jnp.asarray(legal, bool)
+                x = jnp.where(legal | ~jnp.any(legal), x, -jnp.inf)
             return jnp.argmax(x).astype(jnp.int32)
         a = hi * x if symmetric else lo + (x + 1) / 2 * (hi - lo)
         return a.reshape(ashape)
