@@ -3,7 +3,8 @@
 //! check`, whose checks no longer wait on the daemons' pipes); rwg stops on
 //! Ctrl-C and SIGTERM whatever the plugin set their handling to; a plugin's
 //! `alarm()`, an exit handler that aborts after a complete run and an error
-//! text full of terminal escape sequences each get a message.
+//! text full of terminal escape sequences each get a message; a plugin
+//! that silences fd 2 does not silence rwg.
 
 #![cfg(target_os = "linux")]
 
@@ -294,6 +295,57 @@ fn rwg_stops_whatever_a_plugin_does_to_its_signals() {
     );
     assert!(err.contains("Every committed block is kept in "), "{err}");
     assert!(err.contains("resume with: rwg run "), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A plugin that points fd 2 at /dev/null, or closes fds 1 and 2, silences
+/// itself, not rwg: rwg's messages (here SIGTERM's) still reach its stderr.
+#[test]
+fn rwg_speaks_whatever_a_plugin_does_to_its_stderr() {
+    for (name, define) in [
+        ("null-stderr", "NULL_STDERR"),
+        ("close-stderr", "CLOSE_STDERR"),
+    ] {
+        let (res, dir) = signalled(name, &[define], libc::SIGTERM, false);
+        let err = &res.stderr;
+        assert_eq!(res.status.signal(), Some(libc::SIGTERM), "{name}: {err}");
+        assert!(
+            err.contains("error: rwg received SIGTERM (a request to end"),
+            "{name}: {err:?}"
+        );
+        assert!(err.contains("resume with: rwg run "), "{name}: {err}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
+
+/// Every file under `dir` (recursively) whose bytes contain `needle`.
+fn files_containing(dir: &Path, needle: &[u8]) -> Vec<PathBuf> {
+    let mut found = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() {
+            found.extend(files_containing(&p, needle));
+        } else if let Ok(b) = std::fs::read(&p) {
+            if b.windows(needle.len()).any(|w| w == needle) {
+                found.push(p);
+            }
+        }
+    }
+    found
+}
+
+/// A plugin that closes fds 1 and 2 and then prints in every step: the
+/// files rwg opens next never take those descriptors (the plugin's prints
+/// never land in, and its closes never close, rwg's results), and the run
+/// completes and verifies.
+#[test]
+fn a_plugin_that_closes_its_stdio_cannot_reach_rwgs_files() {
+    let (res, dir, _, out) = run_to_end("closed-stdio", &["CLOSE_STDERR"], 200);
+    assert_eq!(res.status.code(), Some(0), "{}", res.stderr);
+    let dirty = files_containing(&out, b"hostile: a line");
+    assert!(dirty.is_empty(), "the plugin's prints landed in {dirty:?}");
+    let verify = rwg(&["verify", path_str(&out)]);
+    assert!(verify.status.success(), "{}", text(&verify.stdout));
     let _ = std::fs::remove_dir_all(&dir);
 }
 

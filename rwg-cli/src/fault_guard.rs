@@ -337,7 +337,10 @@ impl Msg {
             let mut off = 0;
             while off < self.len {
                 // SAFETY: a live buffer; write is async-signal-safe.
-                let n = unsafe { libc::write(2, self.buf[off..].as_ptr().cast(), self.len - off) };
+                let n = unsafe {
+                    let fd = crate::stdio::stderr_fd();
+                    libc::write(fd, self.buf[off..].as_ptr().cast(), self.len - off)
+                };
                 if n <= 0 {
                     break;
                 }
@@ -513,6 +516,7 @@ fn watchdog() {
         std::thread::sleep(TICK);
         crate::ending::restore_signal_handling();
         rwg_worker::family::reap_orphans();
+        rwg_plugin_host::loader::refill_std_fds();
         if !ARMED.load(SeqCst) {
             seen.clear();
             continue;

@@ -14,12 +14,22 @@
  *   ABORT_AT_EXIT      init registers an exit handler that calls abort()
  *   ESCAPES_IN_ERROR   reset fails with an error text holding terminal
  *                      escape sequences (colour, window title, bell)
- *   CLOSE_STDERR       create closes file descriptors 1 and 2
+ *   CLOSE_STDERR       the first create of each process closes file
+ *                      descriptors 1 and 2, and every step then writes a
+ *                      line to fd 1 (wherever it points by then)
  *   ORPHAN_PER_RESET   the first 50 resets of the process each double-fork
  *                      a process that exits at once (an orphan,
  *                      re-parented, that dies: a zombie until someone
  *                      reaps it)
+ *   FORK_HELPER        the first create of each process forks a helper that
+ *                      stays in rwg's process group and sleeps (it gets the
+ *                      terminal's Ctrl-C too)
+ *   NULL_STDERR        create points file descriptors 1 and 2 at /dev/null
+ *   IGNORE_SIGCHLD     init sets SIGCHLD to SIG_IGN (children reaped by the
+ *                      kernel: no one can wait for them)
+ *   THREAD_EXIT        init starts a thread that calls exit(3) a second later
  *   SLEEP_IN_STEP_MS=N every step sleeps N ms (a run that lasts)
+ *   BUSY_IN_STEP_MS=N  every step computes for N ms of CPU time
  *
  * The tests in tests/cli_plugin_procs.rs compile each variant with cc.
  */
@@ -106,6 +116,28 @@ static void ignore_signals(void) {
 static void abort_at_exit(void) { abort(); }
 #endif
 
+#ifdef FORK_HELPER
+static int helped = 0;
+#endif
+
+#ifdef CLOSE_STDERR
+static int closed_std = 0;
+#endif
+
+#ifdef NULL_STDERR
+#include <fcntl.h>
+#endif
+
+#ifdef THREAD_EXIT
+#include <pthread.h>
+static void *exit_later(void *arg) {
+    (void)arg;
+    struct timespec ts = {1, 0};
+    nanosleep(&ts, NULL);
+    exit(3);
+}
+#endif
+
 static rwg_status_t create(uint32_t i, const char *config, rwg_env_t **out, char *err,
                            size_t err_len) {
     (void)i;
@@ -119,8 +151,24 @@ static rwg_status_t create(uint32_t i, const char *config, rwg_env_t **out, char
     alarm(1);
 #endif
 #ifdef CLOSE_STDERR
-    close(1);
-    close(2);
+    if (!closed_std) {
+        closed_std = 1;
+        close(1);
+        close(2);
+    }
+#endif
+#ifdef NULL_STDERR
+    int null = open("/dev/null", O_WRONLY);
+    dup2(null, 1);
+    dup2(null, 2);
+    close(null);
+#endif
+#ifdef FORK_HELPER
+    if (!helped) {
+        helped = 1;
+        if (fork() == 0)
+            for (;;) pause();
+    }
 #endif
     *out = calloc(1, sizeof **out);
     return *out ? RWG_OK : RWG_ERR_INTERNAL;
@@ -155,6 +203,16 @@ static rwg_status_t step(rwg_env_t *env, const double *action, size_t action_len
     if (obs_len != 1) return RWG_ERR_BUFFER_SIZE;
 #ifdef IGNORE_IN_STEP
     ignore_signals();
+#endif
+#ifdef CLOSE_STDERR
+    static const char line[] = "hostile: a line written to fd 1\n";
+    if (write(1, line, sizeof line - 1) < 0) {
+    }
+#endif
+#ifdef BUSY_IN_STEP_MS
+    clock_t until = clock() + (clock_t)BUSY_IN_STEP_MS * CLOCKS_PER_SEC / 1000;
+    while (clock() < until) {
+    }
 #endif
 #ifdef SLEEP_IN_STEP_MS
     struct timespec ts = {SLEEP_IN_STEP_MS / 1000, (SLEEP_IN_STEP_MS % 1000) * 1000000L};
@@ -216,6 +274,13 @@ static rwg_status_t init(const rwg_host_t *host, char *err_buf, size_t err_len) 
 #endif
 #ifdef ABORT_AT_EXIT
     atexit(abort_at_exit);
+#endif
+#ifdef IGNORE_SIGCHLD
+    signal(SIGCHLD, SIG_IGN);
+#endif
+#ifdef THREAD_EXIT
+    pthread_t t;
+    pthread_create(&t, NULL, exit_later, NULL);
 #endif
     return RWG_OK;
 }

@@ -14,7 +14,6 @@ use rwg_study::rundir::REPORT_HTML;
 use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome, RunReport};
 use rwg_study::shell::sh_path;
 use rwg_study::StudyError;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -265,7 +264,7 @@ fn run_with_progress(
     );
     let display: &mut dyn Progress = if args.quiet {
         &mut silent
-    } else if std::io::stderr().is_terminal() {
+    } else if crate::stdio::stderr_is_terminal() {
         &mut bar
     } else {
         &mut lines

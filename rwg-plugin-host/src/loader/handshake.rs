@@ -78,7 +78,9 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
     // SAFETY: see above.
     let fns = unsafe { read_identity(&e) }.map_err(err)?;
     // SAFETY: see above.
-    unsafe { run_init(e.init) }.map_err(err)?;
+    let init = unsafe { run_init(e.init) };
+    super::std_fds::refill();
+    init.map_err(err)?;
     let info = Arc::new(PluginInfo {
         path: origin.to_path_buf(),
         id: fns.plugin_id.clone(),

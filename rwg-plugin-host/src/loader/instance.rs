@@ -55,6 +55,7 @@ impl PluginEnvType {
                 buf.len(),
             )
         };
+        super::std_fds::refill();
         if status != RWG_OK {
             return Err(EnvError::Other(format!(
                 "{}: create failed with {} ({status}): {}",

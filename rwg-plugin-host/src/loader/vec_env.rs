@@ -106,6 +106,7 @@ impl PluginEnvType {
                 buf.len(),
             )
         };
+        super::std_fds::refill();
         if status != RWG_OK || out.is_null() {
             // SAFETY: the plugin NUL-terminates within the buffer; the last
             // byte is never written by anyone else.
