@@ -644,7 +644,8 @@ fn processes_an_env_starts_end_with_rwg_on_any_catchable_signal() {
 
 /// A worker killed from outside while it waits for rwg's next exchange (no
 /// reset or step in flight) is reported as such, with the episodes in
-/// progress, not blamed on one of them as if it had failed there.
+/// progress, not blamed on one of them as if it had failed there; SIGKILL's
+/// name says where to look for an out-of-memory kill.
 #[cfg(target_os = "linux")]
 #[test]
 fn a_worker_killed_between_calls_is_not_blamed_on_an_episode() {
@@ -693,7 +694,9 @@ fn a_worker_killed_between_calls_is_not_blamed_on_an_episode() {
     assert!(!out.status.success(), "{err}");
     assert!(
         err.contains(
-            "the Python worker was killed by signal 9 (SIGKILL); no reset or step was in flight"
+            "the Python worker was killed by signal 9 (SIGKILL: sent by another process, or by \
+             the kernel when memory ran out: `dmesg` or `journalctl -k` shows an \
+             out-of-memory kill); no reset or step was in flight"
         ),
         "{err}"
     );

@@ -377,7 +377,9 @@ impl Drop for Worker {
 }
 
 /// How a child process ended, to follow its name: "was killed by signal 11
-/// (SIGSEGV)", "exited with status 3".
+/// (SIGSEGV)", "exited with status 3". SIGKILL's says where to see whether
+/// the kernel's out-of-memory killer sent it (the usual sender for a worker
+/// holding a large model or batch).
 pub fn describe_status(s: std::process::ExitStatus) -> String {
     #[cfg(unix)]
     {
@@ -389,7 +391,10 @@ pub fn describe_status(s: std::process::ExitStatus) -> String {
                 6 => " (SIGABRT)",
                 7 => " (SIGBUS)",
                 8 => " (SIGFPE)",
-                9 => " (SIGKILL)",
+                9 => {
+                    " (SIGKILL: sent by another process, or by the kernel when memory ran out: \
+                     `dmesg` or `journalctl -k` shows an out-of-memory kill)"
+                }
                 11 => " (SIGSEGV)",
                 15 => " (SIGTERM)",
                 _ => "",
