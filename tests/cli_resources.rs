@@ -2,7 +2,8 @@
 //! naming the file, status 1, and the run resumes once the limit is raised;
 //! an address-space limit (`ulimit -v`) that leaves no room to start a thread
 //! or to allocate is a resource error naming it, status 1 — never a silent
-//! SIGXFSZ, "internal error (a bug in rwg)" or an abort.
+//! SIGXFSZ, "internal error (a bug in rwg)" or an abort; an open-file limit
+//! (`ulimit -n`) that refuses a worker's pipes is named with what to do.
 
 #![cfg(target_os = "linux")]
 
@@ -115,5 +116,44 @@ fn an_address_space_limit_is_a_resource_error() {
     }
     assert!(thread_errors > 0, "no limit kept a thread from starting");
     assert!(finished > 0, "no limit let the run finish");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An isolated plugin whose worker's pipes the open-file limit refuses: the
+/// error says so, gives the limit and what to do (status 1).
+#[test]
+fn an_open_file_limit_is_named_with_what_to_do() {
+    let dir = temp_dir("resources-nofile");
+    let lib = compile_c(
+        "resources-nofile",
+        "plugins/testing/c/hostile.c",
+        "hostile",
+        &[],
+    );
+    let m = write_manifest(
+        &dir,
+        "m.toml",
+        &format!(
+            "samples = 8\nepisodes = 2\n[[architectures]]\nname = \"0HL\"\nhidden =              []\n[[envs]]\nid = \"hostile/Counter-v0\"\nplugin = {:?}\n",
+            path_str(&lib)
+        ),
+    );
+    let out = dir.join("run");
+    let args = [
+        "run",
+        path_str(&m),
+        "--out",
+        path_str(&out),
+        "--isolate",
+        "-q",
+    ];
+    let res = limited(&args, libc::RLIMIT_NOFILE, 12);
+    let err = output_text(&res);
+    assert_eq!(res.status.code(), Some(1), "{err}");
+    assert!(err.contains("Too many open files (os error 24)"), "{err}");
+    assert!(
+        err.contains("hint: a process may have 12 files open at once here (`ulimit -n`;"),
+        "{err}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
