@@ -152,6 +152,7 @@ mod tests {
             },
             episodes: 3,
             dist: WeightDist::Normal { std: 1.0 },
+            policy: crate::policy::PolicyKind::Network,
         }
     }
 

@@ -8,7 +8,7 @@
 //! is here is why their results are the same.
 
 use crate::block::{non_finite_output, record_failure, BlockRun, Episode};
-use crate::plan::{CellPlan, EpisodeResult, SampleError};
+use crate::plan::{action_rng, CellPlan, EpisodeResult, SampleError};
 use crate::policy::PolicyLanes;
 use rwg_env::EnvError;
 use std::ops::Range;
@@ -130,7 +130,7 @@ impl<'a> Deal<'a> {
     }
 
     /// Deals the next episode to lane `i` (its network's weights loaded into
-    /// `policy`, its `item` set), unless all have been dealt or one failed;
+    /// `policy`, or a random policy's lane seeded for the episode; its `item` set), unless all have been dealt or one failed;
     /// the caller resets its env with the episode's seed.
     #[inline]
     pub fn next<const K: usize, S: Status>(
@@ -143,7 +143,11 @@ impl<'a> Deal<'a> {
             return None;
         }
         let ep = self.run.next_episode()?;
-        if lane.weights_of != ep.k {
+        if policy.is_random() {
+            let plan = self.run.plan;
+            let sample = self.run.samples.start + ep.k as u64;
+            policy.seed_lane(i, action_rng(plan.seed, &plan.env_id, sample, ep.episode));
+        } else if lane.weights_of != ep.k {
             let nw = self.nw;
             policy.set_weights(i, &self.weights[ep.k * nw..(ep.k + 1) * nw]);
             lane.weights_of = ep.k;

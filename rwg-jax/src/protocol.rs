@@ -52,8 +52,10 @@ pub struct CellShape {
     pub networks: u32,
     /// Episodes per network.
     pub episodes: u32,
-    /// Weights per network.
+    /// Weights per network (0 for random actions).
     pub n_weights: usize,
+    /// Uniformly random actions instead of networks (the random baseline).
+    pub random: bool,
 }
 
 impl CellShape {
@@ -65,6 +67,7 @@ impl CellShape {
             "networks": self.networks,
             "episodes": self.episodes,
             "n_weights": self.n_weights,
+            "policy": if self.random { "random" } else { "network" },
         })
     }
 }

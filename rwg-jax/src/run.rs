@@ -7,7 +7,7 @@ use crate::chunks::{chunk_len, chunks, results, Assembly, Chunk};
 use crate::protocol::{CellShape, Outcome};
 use crate::worker::JaxWorker;
 use crate::{JaxError, JaxSource};
-use rwg_core::policy::NetShape;
+use rwg_core::policy::PolicyKind;
 use rwg_core::sampler::{draw_block_weights, reset_seed, BlockResult, CellPlan, SampleError};
 use rwg_env::EnvError;
 use std::ops::Range;
@@ -28,18 +28,14 @@ where
     G: FnMut(BlockResult) -> Result<(), X>,
     X: From<SampleError> + Send,
 {
-    let spec = &src.info.spec;
-    let shape = NetShape::new(
-        spec.obs_dim(),
-        &plan.arch,
-        NetShape::outputs_for(&spec.action_space),
-    );
+    let shape = plan.net_shape(&src.info.spec);
     let cell = CellShape {
         hidden: plan.arch.hidden.clone(),
         bias: plan.arch.bias,
         networks: src.networks_per_call(),
         episodes: plan.episodes,
         n_weights: shape.n_weights(),
+        random: plan.policy == PolicyKind::Random,
     };
     let all = chunks(blocks, cell.networks as usize);
     let mut assembly = Assembly::new(blocks, plan.episodes);

@@ -1,5 +1,6 @@
 use super::*;
 use crate::policy::Architecture;
+use crate::policy::PolicyKind;
 use crate::sampler::{LaneWorker, WeightDist};
 use crate::test_envs::Toy;
 use rwg_env::Environment;
@@ -86,7 +87,11 @@ impl RemoteEnv for Hosted {
 #[test]
 fn remote_lanes_give_the_lane_workers_results_and_first_error() {
     let (mut oks, mut errs) = (0, 0);
-    for continuous in [false, true] {
+    let kinds = [PolicyKind::Network, PolicyKind::Random];
+    for (continuous, policy) in [false, true]
+        .into_iter()
+        .flat_map(|c| kinds.map(|k| (c, k)))
+    {
         for episodes in [1, 3] {
             let plan = CellPlan {
                 seed: 5,
@@ -97,6 +102,7 @@ fn remote_lanes_give_the_lane_workers_results_and_first_error() {
                 },
                 episodes,
                 dist: WeightDist::Normal { std: 1.0 },
+                policy,
             };
             for fail_every in [1 << 40, 3, 13, 41] {
                 for samples in [0..1, 0..9, 20..40] {
@@ -149,6 +155,7 @@ fn pool_reuses_and_drops_failed_envs() {
         },
         episodes: 2,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: crate::policy::PolicyKind::Network,
     };
     let pool = RemotePool::default();
     let made = std::sync::atomic::AtomicUsize::new(0);
@@ -233,6 +240,7 @@ fn a_failure_between_calls_blames_no_episode() {
         },
         episodes: 2,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: crate::policy::PolicyKind::Network,
     };
     let env = DiesBetweenCalls {
         hosted: Hosted::new(Toy::new(1 << 40, false), 1),
