@@ -472,19 +472,31 @@ fn every_column_the_binary_writes_is_documented() {
     rwg_ok(&["stats", a_s, "--at-n", "4"]);
     let cell = a.join("cells/CartPole-v0__0HL__nobias");
     let b_s = b.to_str().unwrap();
-    let compare = rwg_ok(&["compare", a_s, b_s, "--format", "csv"]);
-    let compare_cols: Vec<String> = compare
-        .lines()
-        .next()
-        .unwrap()
-        .split(',')
-        .map(String::from)
-        .collect();
+    // the first line of a CSV text, split
+    let columns = |csv: String| -> Vec<String> {
+        let first = csv.lines().next().unwrap_or_default().to_string();
+        first.split(',').map(String::from).collect()
+    };
+    let compare_cols = columns(rwg_ok(&["compare", a_s, b_s, "--format", "csv"]));
     let json_of = |text: &str| {
         let mut keys = BTreeSet::new();
         json_keys(&serde_json::from_str(text).unwrap(), &mut keys);
         keys.into_iter().collect::<Vec<String>>()
     };
+    let paired = |format: &str| {
+        rwg_ok(&[
+            "compare",
+            a_s,
+            b_s,
+            "--paired",
+            "CartPole-v0",
+            "CartPole-v0",
+            "--format",
+            format,
+        ])
+    };
+    let paired_cols = columns(paired("csv"));
+    let paired_keys = json_of(&paired("json"));
     let stats_keys = json_of(&std::fs::read_to_string(a.join("stats.json")).unwrap());
     let compare_keys = json_of(&rwg_ok(&["compare", a_s, b_s, "--format", "json"]));
     let (guide, both) = (
@@ -502,6 +514,16 @@ fn every_column_the_binary_writes_is_documented() {
         ),
         ("stats.json", stats_keys, both),
         ("rwg compare --format json", compare_keys, both),
+        (
+            "rwg compare --paired --format csv",
+            paired_cols,
+            &["docs/reference.md"][..],
+        ),
+        (
+            "rwg compare --paired --format json",
+            paired_keys,
+            &["docs/reference.md"][..],
+        ),
     ];
     let mut bad = Vec::new();
     for (what, columns, pages) in written {

@@ -548,7 +548,10 @@ fn check_shape(e: &Example, ran: &str, dir: &Path, stdout: &str) {
         want(stdout.trim().ends_with("report.html"), "names no report");
         want(dir.join(stdout.trim()).is_file(), "writes no report");
     }
-    if has("rwg compare") {
+    if has("rwg compare") && has("--paired") {
+        // the table's verdict line, or the CSV's verdict column
+        want(stdout.contains("verdict"), "prints no verdict");
+    } else if has("rwg compare") {
         want(stdout.contains("Difficulty ranking"), "prints no ranking");
         if let Some(f) = c.split("--html ").nth(1) {
             let f = f.split_whitespace().next().unwrap();

@@ -64,6 +64,7 @@
 //!     episodes: 3,
 //!     dist: WeightDist::Normal { std: 1.0 },
 //!     policy: PolicyKind::Network,
+//!     non_finite: Default::default(),
 //! };
 //! let mut blocks = vec![];
 //! run_cell(&plan, 0..8, 4, 2, walk, |block| {

@@ -20,6 +20,7 @@ fn plan(env: &str, hidden: &[usize], bias: bool, episodes: u32) -> CellPlan {
         episodes,
         dist: WeightDist::Normal { std: 1.0 },
         policy: rwg_core::policy::PolicyKind::Network,
+        non_finite: Default::default(),
     }
 }
 
@@ -28,7 +29,8 @@ fn unwritten(n: usize) -> Vec<EpisodeResult> {
     vec![
         EpisodeResult {
             score: f64::NAN,
-            steps: u32::MAX
+            steps: u32::MAX,
+            non_finite: false,
         };
         n
     ]
@@ -42,7 +44,8 @@ fn sequential(plan: &CellPlan, samples: std::ops::Range<u64>) -> Vec<EpisodeResu
     let mut out = vec![
         EpisodeResult {
             score: 0.0,
-            steps: 0
+            steps: 0,
+            non_finite: false,
         };
         (samples.end - samples.start) as usize * e
     ];

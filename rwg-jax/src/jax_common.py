@@ -8,6 +8,8 @@ import traceback
 
 FAULT_OBS = 1
 FAULT_REWARD = 2
+FAULT_RETURN = 4  # with non_finite = "end": the return left +-MAX_RETURN
+MAX_RETURN = 1e100  # rwg_core's bound on an episode's return
 
 
 def fail_exc(kind, what, e):

@@ -44,11 +44,14 @@
 //! - `worker`: one worker process, its handshake, compiles and chunks.
 //! - [`chunks`]: blocks cut into chunks, outcomes put back into blocks in order.
 //! - `run`: the chunks handed to the workers, one in flight each.
+//! - [`warm_up`]: a cell's workers starting and compiling, told to a
+//!   progress display and timed.
 
 pub mod chunks;
 pub mod family;
 pub mod protocol;
 mod run;
+pub mod warm_up;
 mod worker;
 
 use worker::JaxWorker;
@@ -344,6 +347,7 @@ pub struct JaxSource {
     config: JaxConfig,
     info: JaxInfo,
     pool: std::sync::Mutex<Vec<JaxWorker>>,
+    warm_ups: warm_up::WarmUps,
 }
 
 impl std::fmt::Debug for JaxSource {
@@ -363,7 +367,21 @@ impl JaxSource {
             config,
             info,
             pool: std::sync::Mutex::new(vec![first]),
+            warm_ups: warm_up::WarmUps::default(),
         })
+    }
+
+    /// Tells `observer` when the workers of each cell run from now on warm
+    /// up (start, compile) and when they are ready.
+    pub fn observe(&self, observer: std::sync::Arc<dyn warm_up::WarmUpObserver>) {
+        self.warm_ups.observe(observer);
+    }
+
+    /// The wall time of every cell's warm-up so far, added up: from the
+    /// start of [`JaxSource::run_blocks`] until its last worker has started
+    /// (if it was not idle) and compiled the cell.
+    pub fn warm_up_time(&self) -> Duration {
+        self.warm_ups.total()
     }
 
     /// The environment as the worker described it.

@@ -24,6 +24,9 @@ pub const TAG_CHUNK: u8 = b'B';
 pub const FAULT_OBS: u8 = 1;
 /// Fault bit: a non-finite reward.
 pub const FAULT_REWARD: u8 = 2;
+/// Fault bit (with `non_finite = "end"` only): finite rewards took the
+/// return beyond ±1e100 (or, in float32, to infinity).
+pub const FAULT_RETURN: u8 = 4;
 
 /// The hello message's JSON for `cfg`.
 pub fn hello(cfg: &JaxConfig, max_obs: usize) -> serde_json::Value {
@@ -56,19 +59,28 @@ pub struct CellShape {
     pub n_weights: usize,
     /// Uniformly random actions instead of networks (the random baseline).
     pub random: bool,
+    /// The manifest's `non_finite = "end"`: an episode ends at its first
+    /// value that is not finite (observation, reward, or a return beyond
+    /// ±1e100), its return that of the steps before, its fault bits set.
+    pub non_finite_ends: bool,
 }
 
 impl CellShape {
-    /// The cell message's JSON.
+    /// The cell message's JSON (`"non_finite": "end"` only with
+    /// [`CellShape::non_finite_ends`]).
     pub fn json(&self) -> serde_json::Value {
-        serde_json::json!({
+        let mut j = serde_json::json!({
             "hidden": self.hidden,
             "bias": self.bias,
             "networks": self.networks,
             "episodes": self.episodes,
             "n_weights": self.n_weights,
             "policy": if self.random { "random" } else { "network" },
-        })
+        });
+        if self.non_finite_ends {
+            j["non_finite"] = "end".into();
+        }
+        j
     }
 }
 

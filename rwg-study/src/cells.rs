@@ -245,6 +245,7 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
                     episodes: m.episodes,
                     dist: m.weights,
                     policy: a.policy,
+                    non_finite: e.non_finite,
                 };
                 check_cell(m, i, j, &plan, &spec)?;
                 cells.push(Cell {
@@ -426,7 +427,17 @@ impl Cell {
         }
     }
 
-    /// The cell's metadata for `run.json` / `cell.json`.
+    /// The rows of the cell's score files: `m`'s episodes per network, and
+    /// the `non_finite` flag when its env has `non_finite = "end"`.
+    pub fn rows(&self, m: &Manifest) -> crate::rundir::rows::CellRows {
+        crate::rundir::rows::CellRows {
+            episodes: m.episodes,
+            flagged: self.plan.non_finite == rwg_core::sampler::NonFinite::End,
+        }
+    }
+
+    /// The cell's metadata for `run.json` / `cell.json` (its
+    /// `non_finite_episodes` left for the finalisation to count).
     pub fn meta(&self, m: &Manifest, env_steps: u64, wall_s: f64) -> CellMeta {
         CellMeta {
             id: self.id.clone(),
@@ -444,6 +455,7 @@ impl Cell {
             } else {
                 0.0
             },
+            non_finite_episodes: None,
         }
     }
 
@@ -462,8 +474,9 @@ impl Cell {
         let mut meta = None;
         // (Cells without a time limit are refused when planned.)
         let limit = self.spec.max_episode_steps.unwrap_or(u32::MAX);
-        let totals = finalize_cell(&dir, m.samples, m.episodes, limit, keep, pending, |t| {
-            let cm = self.meta(m, t.env_steps, wall_s);
+        let totals = finalize_cell(&dir, m.samples, self.rows(m), limit, keep, pending, |t| {
+            let mut cm = self.meta(m, t.env_steps, wall_s);
+            cm.non_finite_episodes = t.non_finite;
             let json = serde_json::to_string_pretty(&cm).expect("serialisable");
             meta = Some(cm);
             Some(json)

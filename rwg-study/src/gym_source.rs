@@ -23,6 +23,7 @@ pub fn config_of(e: &EnvEntry) -> GymConfig {
     }
     cfg.max_episode_steps = e.max_episode_steps;
     cfg.action_dtype = e.action_dtype;
+    cfg.non_finite_ends = e.non_finite == rwg_core::sampler::NonFinite::End;
     cfg
 }
 

@@ -45,6 +45,8 @@
 //! device = "gpu:1"                   # optional: the JAX device (default: JAX's first)
 //! networks_per_call = 1024           # optional: networks in one compiled call (a multiple of 32)
 //! action_mask = false                # optional: plain argmax where the family gives legal actions
+//! non_finite = "end"                 # optional, any env: an episode meeting a NaN or infinite
+//!                                    # value ends there, flagged (default "stop": the study stops)
 //! ```
 //!
 //! Unknown keys and bad values are errors that name the file, line, column
@@ -61,7 +63,7 @@ use crate::manifest_text;
 use checker::{locate, Checker};
 use raw::Raw;
 use rwg_core::policy::PolicyKind;
-use rwg_core::sampler::WeightDist;
+use rwg_core::sampler::{NonFinite, WeightDist};
 use rwg_env::env::ActionDtype;
 use serde::Serialize;
 use std::ops::Range;
@@ -181,6 +183,14 @@ pub struct EnvEntry {
     /// study.
     #[serde(skip_serializing_if = "jax_keys::mask_is_default")]
     pub action_mask: Option<bool>,
+    /// What an episode that meets a value that is not finite does: stop
+    /// the study (the default, not written out) or end the episode there,
+    /// flagged. Part of the study.
+    #[serde(
+        skip_serializing_if = "is_stop",
+        serialize_with = "serialize_non_finite"
+    )]
+    pub non_finite: NonFinite,
     /// Where the `device` value stands, if given.
     #[serde(skip)]
     pub device_span: Option<Range<usize>>,
@@ -199,6 +209,15 @@ pub struct EnvEntry {
     /// Where the `config` value stands, if given.
     #[serde(skip)]
     pub config_span: Option<Range<usize>>,
+}
+
+fn is_stop(n: &NonFinite) -> bool {
+    *n == NonFinite::Stop
+}
+
+/// Writes `non_finite` as the manifest spells it (`"end"`).
+fn serialize_non_finite<S: serde::Serializer>(n: &NonFinite, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(n.name())
 }
 
 /// A validated manifest.

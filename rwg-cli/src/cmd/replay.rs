@@ -263,8 +263,14 @@ pub fn run(args: Args) -> Result<()> {
     let stored = stored_scores(&args.run_dir, &cell.id.dir, args.sample)?;
     compare_episodes(&mut out, cell, args.sample, m.episodes, &stored, |e, r| {
         cell.plan.begin_episode(&mut policy, args.sample, e);
-        run_episode(&mut env, &mut policy, &mut obs, r)
-            .map_err(|(step, err)| anyhow::anyhow!("episode {e}, step {step}: {err}"))
+        run_episode(
+            &mut env,
+            &mut policy,
+            &mut obs,
+            r,
+            (cell.plan.non_finite, cell.plan.dist.scale()),
+        )
+        .map_err(|(step, err)| anyhow::anyhow!("episode {e}, step {step}: {err}"))
     })
 }
 

@@ -7,6 +7,7 @@ use super::checker::Checker;
 use super::raw::RawEnv;
 use super::{jax_keys, EnvEntry, ManifestError};
 use crate::limits;
+use rwg_core::sampler::NonFinite;
 use rwg_env::env::ActionDtype;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
@@ -42,6 +43,7 @@ fn env(
     let solved = solved(at, key, e)?;
     let max_episode_steps = max_episode_steps(at, key, e)?;
     let action_dtype = action_dtype(at, key, e)?;
+    let non_finite = non_finite(at, key, e)?;
     let id = e.id.get_ref();
     let jax = jax_keys::check(key, id, e).map_err(|l| at.located(l))?;
     let plugin = plugin_path(e, base);
@@ -60,6 +62,7 @@ fn env(
         device: jax.device,
         networks_per_call: jax.networks_per_call,
         action_mask: jax.action_mask,
+        non_finite,
         device_span: e.device.as_ref().map(|d| d.span()),
         kwargs_span: e.kwargs.as_ref().map(|k| k.span()),
         python_span: e.python.as_ref().map(|p| p.span()),
@@ -137,6 +140,17 @@ fn action_dtype(at: &Checker, key: &str, e: &RawEnv) -> Result<ActionDtype, Mani
             .get_ref()
             .parse()
             .map_err(|m: String| at.err(d.span(), format!("{key}.action_dtype: {m}"))),
+    }
+}
+
+/// `non_finite`: stop (the default) or end.
+fn non_finite(at: &Checker, key: &str, e: &RawEnv) -> Result<NonFinite, ManifestError> {
+    match &e.non_finite {
+        None => Ok(NonFinite::Stop),
+        Some(d) => d
+            .get_ref()
+            .parse()
+            .map_err(|m: String| at.err(d.span(), format!("{key}.non_finite: {m}"))),
     }
 }
 

@@ -556,19 +556,19 @@ fn random_architectures_are_checked_where_they_stand() {
     );
     let e = error_of(&with("name = \"r\"\npolicy = \"uniform\""));
     assert!(
-        e.starts_with("m.toml:18:10: architectures[1].policy: \"network\" (tanh networks"),
+        e.starts_with("m.toml:17:10: architectures[1].policy: \"network\" (tanh networks"),
         "{e}"
     );
     assert!(e.ends_with("got \"uniform\""), "{e}");
     let e = error_of(&with("name = \"r\""));
     assert!(
-        e.starts_with("m.toml:17:8: architectures[1]: missing key `hidden`")
+        e.starts_with("m.toml:16:8: architectures[1]: missing key `hidden`")
             && e.contains("policy = \"random\""),
         "{e}"
     );
     let e = error_of(&with("name = \"r\"\npolicy = 1"));
     assert!(
-        e.starts_with("m.toml:18:10: architectures[1].policy:"),
+        e.starts_with("m.toml:17:10: architectures[1].policy:"),
         "{e}"
     );
 }

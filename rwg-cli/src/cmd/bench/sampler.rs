@@ -174,6 +174,7 @@ pub(super) fn run(args: SamplerArgs) -> Result<()> {
             episodes: args.episodes,
             dist: WeightDist::Normal { std: 1.0 },
             policy: rwg_core::policy::PolicyKind::Network,
+            non_finite: Default::default(),
         };
         let bench = SamplerBench {
             plan,
