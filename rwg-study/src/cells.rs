@@ -228,12 +228,7 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
         };
         let seed_id = seed_id(&e.id).to_string();
         for (j, a) in m.architectures.iter().enumerate() {
-            // random actions have no network, hence no bias: one cell
-            let biases: &[bool] = match a.policy {
-                PolicyKind::Network => &m.bias,
-                PolicyKind::Random => &[false],
-            };
-            for &bias in biases {
+            for &bias in a.biases(&m.bias) {
                 owners.push((i, j));
                 let plan = CellPlan {
                     seed: m.seed,

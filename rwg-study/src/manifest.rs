@@ -120,6 +120,18 @@ pub struct ArchEntry {
     pub name_span: Range<usize>,
 }
 
+impl ArchEntry {
+    /// The bias settings this entry has cells for, of the manifest's `bias`:
+    /// all of them for networks; one (no bias) for random actions, which
+    /// have no network.
+    pub fn biases<'a>(&self, bias: &'a [bool]) -> &'a [bool] {
+        match self.policy {
+            PolicyKind::Network => bias,
+            PolicyKind::Random => &[false],
+        }
+    }
+}
+
 impl PartialEq for ArchEntry {
     /// Equal names, layers and policies (where they stand in the text does
     /// not count).
