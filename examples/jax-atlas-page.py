@@ -66,7 +66,6 @@ def load():
     cells = []
     for c in meta["cells"]:
         row = dict(stats[c["dir"]])
-        row["wall_s"] = c["wall_s"]
         row["env_steps"] = c["env_steps"]
         row["solved_source"] = c.get("solved_source")
         cells.append(row)
@@ -134,8 +133,8 @@ def env_table(cells, meta):
 
 def cell_table(cells, meta):
     out = ["| env | arch | best M | p99.9 M | mean M | p(solved) [95% Wilson] | 1/p [95%] "
-           "| mean length | wall s |",
-           "| :--- | :--- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"]
+           "| mean length |",
+           "| :--- | :--- | ---: | ---: | ---: | ---: | ---: | ---: |"]
     for c in cells:
         if c["solved"]:
             p = f"{num(c['p_solved'])} [{num(c['p_solved_lo'])}, {num(c['p_solved_hi'])}]"
@@ -148,7 +147,7 @@ def cell_table(cells, meta):
             p = g = "no solved score"
         out.append(f"| {c['env']} | {c['arch']} | {num(c['best_mean'])} | "
                    f"{num(c['p99.9_mean'])} | {num(c['mean_of_means'])} | {p} | {g} | "
-                   f"{num(c['mean_episode_length'])} | {c['wall_s']:.1f} |")
+                   f"{num(c['mean_episode_length'])} |")
     return "\n".join(out)
 
 
