@@ -20,6 +20,7 @@ import json
 import math
 import shutil
 import sys
+import tomllib
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -104,13 +105,29 @@ def non_finite(c):
     return int(c.get("non_finite_episodes") or 0)
 
 
+def missing(cells):
+    """The envs of manifest.toml's study with a cell the run files lack."""
+    path = FILES / "manifest.toml"
+    if not path.exists():
+        return []
+    m = tomllib.loads(path.read_text())
+    have = {(c["env"], c["arch"]) for c in cells}
+    return [e["id"] for e in m["envs"]
+            if any((e["id"], a["name"]) not in have for a in m["architectures"])]
+
+
 def counts(cells, meta):
     n_envs = len(envs_of(cells))
     libraries = {e.split(":")[0] for e in envs_of(cells)}
-    return (f"Each cell holds **{meta['samples']} networks × {meta['episodes']} episodes**: "
+    text = (f"Each cell holds **{meta['samples']} networks × {meta['episodes']} episodes**: "
             f"{len(cells)} cells, {n_envs} env{'s' * (n_envs != 1)} of {len(libraries)} "
             f"librar{'ies' if len(libraries) != 1 else 'y'} "
             f"(`run.json` counts {meta['env_steps']:,} env steps).")
+    lacking = missing(cells)
+    if lacking:
+        text += (f" The run files lack cells of {len(lacking)} envs of the study, which "
+                 f"this page leaves out: {', '.join(lacking)}.")
+    return text
 
 
 def env_table(cells, meta):
