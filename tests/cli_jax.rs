@@ -409,11 +409,13 @@ fn a_jax_env_of_ones_own_runs_and_a_nan_observation_stops_it() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// SIGTERM to rwg alone while its JAX workers run: rwg ends and no worker
-/// outlives it.
+/// SIGTERM or SIGHUP to rwg alone while its JAX workers start or run a
+/// chunk: rwg ends by that signal, says so (not that a worker it killed
+/// itself "was killed while starting"), and no worker outlives it.
 #[cfg(target_os = "linux")]
 #[test]
-fn jax_workers_end_with_rwg_on_sigterm() {
+fn jax_workers_end_with_rwg_on_sigterm_and_sighup() {
+    use std::os::unix::process::ExitStatusExt;
     use std::time::{Duration, Instant};
     let Some(py) = python() else { return };
     let dir = temp_dir("jax-sigterm");
@@ -429,56 +431,79 @@ fn jax_workers_end_with_rwg_on_sigterm() {
             true,
         ),
     );
-    let mut child = rwg_cmd(&[
-        "run",
-        &m,
-        "--out",
-        s(&dir.join("r")),
-        "--threads",
-        "2",
-        "-q",
-    ])
-    .stdout(std::process::Stdio::null())
-    .stderr(std::process::Stdio::null())
-    .spawn()
-    .unwrap();
-    let t0 = Instant::now();
-    let workers = loop {
-        let w = children(child.id());
-        if w.len() >= 2 {
-            break w;
-        }
-        assert!(
-            t0.elapsed() < Duration::from_secs(120),
-            "no workers started"
-        );
-        assert!(child.try_wait().unwrap().is_none(), "rwg ended");
-        std::thread::sleep(Duration::from_millis(100));
-    };
-    std::thread::sleep(Duration::from_secs(2));
-    let kill = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
+    // (signal, workers to wait for, then seconds): one worker still
+    // starting, then both computing chunks
+    for (name, sig, workers, wait) in [
+        ("TERM", libc::SIGTERM, 1, 0.0),
+        ("HUP", libc::SIGHUP, 2, 2.0),
+    ] {
+        let err_file = dir.join(format!("stderr-{name}"));
+        let mut child = rwg_cmd(&[
+            "run",
+            &m,
+            "--out",
+            s(&dir.join(format!("r{name}"))),
+            "--threads",
+            "2",
+            "-q",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::fs::File::create(&err_file).unwrap())
+        .spawn()
         .unwrap();
-    assert!(kill.success());
-    let t0 = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if t0.elapsed() > Duration::from_secs(40) {
-            let _ = child.kill();
-            panic!("rwg did not end");
+        let t0 = Instant::now();
+        let started = loop {
+            let w = children(child.id());
+            if w.len() >= workers {
+                break w;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(120),
+                "{name}: no workers started"
+            );
+            assert!(child.try_wait().unwrap().is_none(), "{name}: rwg ended");
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        std::thread::sleep(Duration::from_secs_f64(wait));
+        let started = [started, children(child.id())].concat();
+        // SAFETY: signalling the test's own child.
+        unsafe {
+            libc::kill(child.id() as i32, sig);
         }
-        std::thread::sleep(Duration::from_millis(50));
+        let t0 = Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break s;
+            }
+            if t0.elapsed() > Duration::from_secs(40) {
+                let _ = child.kill();
+                panic!("{name}: rwg did not end");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        let ended = Instant::now();
+        while started.iter().any(|&w| alive(w)) && ended.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let late = ended.elapsed();
+        let left: Vec<u32> = started.iter().copied().filter(|&w| alive(w)).collect();
+        for &w in &left {
+            let _ = Command::new("kill")
+                .args(["-KILL", &w.to_string()])
+                .status();
+        }
+        let err = std::fs::read_to_string(&err_file).unwrap();
+        assert!(left.is_empty(), "{name}: workers {left:?} outlived rwg");
+        assert!(
+            late < Duration::from_millis(500),
+            "{name}: workers outlived rwg by {late:?}"
+        );
+        assert_eq!(status.signal(), Some(sig), "{name}: {status:?}: {err}");
+        assert!(
+            err.contains(&format!("error: rwg received SIG{name} (")),
+            "{name}: {err}"
+        );
+        assert!(!err.contains("was killed by signal 9"), "{name}: {err}");
     }
-    let t0 = Instant::now();
-    while workers.iter().any(|&w| alive(w)) && t0.elapsed() < Duration::from_secs(10) {
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    let left: Vec<u32> = workers.iter().copied().filter(|&w| alive(w)).collect();
-    for &w in &left {
-        let _ = Command::new("kill")
-            .args(["-KILL", &w.to_string()])
-            .status();
-    }
-    assert!(left.is_empty(), "workers {left:?} outlived rwg");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -14,7 +14,6 @@ use rwg_study::rundir::REPORT_HTML;
 use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome, RunReport};
 use rwg_study::shell::sh_path;
 use rwg_study::StudyError;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -190,10 +189,23 @@ pub fn run(args: Args) -> Result<i32> {
         commit_linger: crate::env_vars::commit_linger()?,
     };
     let outcome = run_with_progress(&mut m, &opts, &args, &out);
+    // What a crash while rwg exits (a plugin's exit handler) leaves.
+    let complete = format!(
+        "The run in {} is complete: every file was written and indexed before (`rwg verify {}` \
+         checks them).",
+        out.display(),
+        sh_path(&out)
+    );
     let mut report = match finished(outcome, &args, &out)? {
         Finished::Report(report) => report,
-        Finished::AlreadyComplete => return Ok(0),
-        Finished::Stopped(status) => return Ok(status),
+        Finished::AlreadyComplete => {
+            fault_guard::finished(complete);
+            return Ok(0);
+        }
+        Finished::Stopped(status) => {
+            fault_guard::finished(fault_guard::resume_stopped_text());
+            return Ok(status);
+        }
     };
     print_summary(&report, &m, &args);
     let report_time = finish_output(&mut report, &args, &out)?;
@@ -203,6 +215,7 @@ pub fn run(args: Args) -> Result<i32> {
             report_time,
         ));
     }
+    fault_guard::finished(complete);
     Ok(0)
 }
 
@@ -251,7 +264,7 @@ fn run_with_progress(
     );
     let display: &mut dyn Progress = if args.quiet {
         &mut silent
-    } else if std::io::stderr().is_terminal() {
+    } else if crate::stdio::stderr_is_terminal() {
         &mut bar
     } else {
         &mut lines
@@ -373,7 +386,12 @@ fn finish_output(report: &mut RunReport, args: &Args, out: &Path) -> Result<Opti
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(report.threads)
                     .build()
-                    .context("cannot start the report's threads")?
+                    .with_context(|| {
+                        format!(
+                            "cannot start the report's threads ({})",
+                            rwg_env::text::THREAD_LIMIT_ADVICE
+                        )
+                    })?
                     .install(|| write_report(out, episodes))?;
                 report_time = Some(t.elapsed());
             }

@@ -86,7 +86,12 @@ pub(super) fn worker_pool(threads: usize) -> Result<rayon::ThreadPool, StudyErro
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .map_err(|e| StudyError::Refused(format!("cannot start {threads} worker threads: {e}")))
+        .map_err(|e| {
+            StudyError::Refused(format!(
+                "cannot start {threads} worker threads: {e}; {}",
+                rwg_env::text::THREAD_LIMIT_ADVICE
+            ))
+        })
 }
 
 /// The blocks a run owes: which it owns (all, or a shard's) and which each
