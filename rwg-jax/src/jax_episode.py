@@ -4,7 +4,7 @@ chunk of networks run through it."""
 
 from rwg_pipe import fail
 from rwg_jax_worker_common import FAULT_OBS, FAULT_RETURN, FAULT_REWARD, MAX_RETURN
-from rwg_jax_worker_policy import policy_fn
+from rwg_jax_worker_policy import action_key, policy_fn, random_policy_fn
 
 import struct
 
@@ -31,7 +31,8 @@ def episode_fn(jax, env, policy, dt, end=False):
 
         def body(c):
             obs, state, t, ret, fault, _ = c
-            a = policy(Ws, obs, env.legal(state) if env.legal else None)
+            akey = action_key(jax, k_steps, t, T) if policy.needs_key else None
+            a = policy(Ws, obs, env.legal(state) if env.legal else None, akey)
             obs, state, r, d = env.step(jax.random.fold_in(k_steps, t), state, a)
             r = jnp.asarray(r).astype(dt)
             fault = fault | jnp.where(not_finite(obs), FAULT_OBS, 0).astype(jnp.uint8)
@@ -61,15 +62,18 @@ def compile_cell(jax, env, dev, dt, space, obs_dim, cell):
     jnp = jax.numpy
     hidden, bias = [int(h) for h in cell["hidden"]], bool(cell["bias"])
     N, E = int(cell["networks"]), int(cell["episodes"])
+    random = cell.get("policy", "network") == "random"
     n_out = space[0] if space[0] is not None else len(space[1])
-    sizes = [obs_dim] + hidden + [n_out]
+    sizes = [] if random else [obs_dim] + hidden + [n_out]
     layers = [(sizes[i + 1], sizes[i] + int(bias)) for i in range(len(sizes) - 1)]
     nw = sum(o * i for o, i in layers)
     if nw != int(cell["n_weights"]):
         fail("protocol", f"rwg counts {cell['n_weights']} weights, the worker {nw} "
                          f"(layers {layers})")
+    policy = random_policy_fn(jax, dt, space) if random else policy_fn(jnp, layers, bias, dt,
+                                                                         space)
     end = cell.get("non_finite") == "end"
-    episode = episode_fn(jax, env, policy_fn(jnp, layers, bias, dt, space), dt, end)
+    episode = episode_fn(jax, env, policy, dt, end)
     call = jax.jit(jax.vmap(jax.vmap(episode, in_axes=(None, 0)), in_axes=(0, 0)))
     sharding = jax.sharding.SingleDeviceSharding(dev)
     specs = ([jax.ShapeDtypeStruct((N, o, i), dt, sharding=sharding) for o, i in layers],

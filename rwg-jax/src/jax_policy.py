@@ -1,6 +1,7 @@
 """rwg's policy in JAX: the env's spaces checked and described for rwg (the
-ready message's fields), and the network x = tanh(W @ [x, 1]) per layer with
-its action map (argmax, or the box's bounds)."""
+ready message's fields), the network x = tanh(W @ [x, 1]) per layer with its
+action map (argmax, or the box's bounds), and the uniformly random actions of
+a random cell with the key of each step's draw."""
 
 from rwg_pipe import fail, floats
 
@@ -64,7 +65,7 @@ def policy_fn(jnp, layers, bias, dt, space):
         symmetric = bool((low == -high).all())
         lo, hi = jnp.asarray(low, dt), jnp.asarray(high, dt)
 
-    def policy(Ws, obs, legal=None):
+    def policy(Ws, obs, legal=None, key=None):
         x = jnp.ravel(obs).astype(dt)
         for W in Ws:
             if bias:
@@ -78,4 +79,39 @@ def policy_fn(jnp, layers, bias, dt, space):
         a = hi * x if symmetric else lo + (x + 1) / 2 * (hi - lo)
         return a.reshape(ashape)
 
+    policy.needs_key = False
     return policy
+
+
+def random_policy_fn(jax, dt, space):
+    """Uniformly random actions, one draw u = uniform(key) in [0, 1) per
+    value: a discrete action is the floor(u * k)-th of the k legal ones (of
+    all n where the family gives no legal actions or none is legal); a box
+    action is low + (high - low) * u per value. No weights (`Ws` is empty)."""
+    jnp = jax.numpy
+    n, low, high, ashape = space
+    if n is None:
+        lo, hi = jnp.asarray(low, dt), jnp.asarray(high, dt)
+
+    def policy(Ws, obs, legal, key):
+        if n is None:
+            u = jax.random.uniform(key, lo.shape, dt)
+            return (lo + (hi - lo) * u).reshape(ashape)
+        u = jax.random.uniform(key, (), dt)
+        if legal is None:
+            return jnp.minimum((u * n).astype(jnp.int32), n - 1)
+        legal = jnp.asarray(legal, bool)
+        legal = legal | ~jnp.any(legal)
+        k = jnp.sum(legal, dtype=jnp.int32)
+        i = jnp.minimum((u * k).astype(jnp.int32), k - 1)
+        return jnp.argmax(jnp.cumsum(legal, dtype=jnp.int32) > i).astype(jnp.int32)
+
+    policy.needs_key = True
+    return policy
+
+
+def action_key(jax, k_steps, t, T):
+    """The key of step `t`'s random action: `k_steps`'s child T + t (the
+    env's own step keys are its children 0 to T - 1; T < 2**31)."""
+    jnp = jax.numpy
+    return jax.random.fold_in(k_steps, jnp.uint32(T) + jnp.asarray(t).astype(jnp.uint32))

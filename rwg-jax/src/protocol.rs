@@ -55,8 +55,10 @@ pub struct CellShape {
     pub networks: u32,
     /// Episodes per network.
     pub episodes: u32,
-    /// Weights per network.
+    /// Weights per network (0 for random actions).
     pub n_weights: usize,
+    /// Uniformly random actions instead of networks (the random baseline).
+    pub random: bool,
     /// The manifest's `non_finite = "end"`: an episode ends at its first
     /// value that is not finite (observation, reward, or a return beyond
     /// ±1e100), its return that of the steps before, its fault bits set.
@@ -73,6 +75,7 @@ impl CellShape {
             "networks": self.networks,
             "episodes": self.episodes,
             "n_weights": self.n_weights,
+            "policy": if self.random { "random" } else { "network" },
         });
         if self.non_finite_ends {
             j["non_finite"] = "end".into();

@@ -8,7 +8,7 @@ use crate::protocol::{CellShape, Outcome};
 use crate::warm_up::WarmUp;
 use crate::worker::JaxWorker;
 use crate::{JaxError, JaxSource};
-use rwg_core::policy::NetShape;
+use rwg_core::policy::PolicyKind;
 use rwg_core::sampler::{
     draw_block_weights, reset_seed, BlockResult, CellPlan, NonFinite, SampleError,
 };
@@ -31,18 +31,14 @@ where
     G: FnMut(BlockResult) -> Result<(), X>,
     X: From<SampleError> + Send,
 {
-    let spec = &src.info.spec;
-    let shape = NetShape::new(
-        spec.obs_dim(),
-        &plan.arch,
-        NetShape::outputs_for(&spec.action_space),
-    );
+    let shape = plan.net_shape(&src.info.spec);
     let cell = CellShape {
         hidden: plan.arch.hidden.clone(),
         bias: plan.arch.bias,
         networks: src.networks_per_call(),
         episodes: plan.episodes,
         n_weights: shape.n_weights(),
+        random: plan.policy == PolicyKind::Random,
         non_finite_ends: plan.non_finite == NonFinite::End,
     };
     let all = chunks(blocks, cell.networks as usize);

@@ -16,6 +16,10 @@
 //! name = "0HL"
 //! hidden = []
 //!
+//! [[architectures]]        # optional: the random baseline, one cell per env
+//! name = "random"
+//! policy = "random"        # uniformly random actions instead of networks
+//!
 //! [[envs]]
 //! id = "CartPole-v0"
 //! solved = 195             # optional, overrides the env's reward threshold
@@ -58,6 +62,7 @@ use crate::limits;
 use crate::manifest_text;
 use checker::{locate, Checker};
 use raw::Raw;
+use rwg_core::policy::PolicyKind;
 use rwg_core::sampler::{NonFinite, WeightDist};
 use rwg_env::env::ActionDtype;
 use serde::Serialize;
@@ -101,17 +106,37 @@ pub enum ManifestLoadError {
 pub struct ArchEntry {
     /// Name used in output (cell directories, tables).
     pub name: String,
-    /// Hidden layer sizes.
+    /// Hidden layer sizes (none for random actions).
     pub hidden: Vec<usize>,
+    /// Networks (the default, not written), or `policy = "random"`:
+    /// uniformly random actions, one cell per env whatever `bias` says.
+    #[serde(
+        skip_serializing_if = "architectures::is_network",
+        serialize_with = "architectures::serialize_policy"
+    )]
+    pub policy: PolicyKind,
     /// Where the name stands in the manifest (byte range), for error messages.
     #[serde(skip)]
     pub name_span: Range<usize>,
 }
 
+impl ArchEntry {
+    /// The bias settings this entry has cells for, of the manifest's `bias`:
+    /// all of them for networks; one (no bias) for random actions, which
+    /// have no network.
+    pub fn biases<'a>(&self, bias: &'a [bool]) -> &'a [bool] {
+        match self.policy {
+            PolicyKind::Network => bias,
+            PolicyKind::Random => &[false],
+        }
+    }
+}
+
 impl PartialEq for ArchEntry {
-    /// Equal names and layers (where they stand in the text does not count).
+    /// Equal names, layers and policies (where they stand in the text does
+    /// not count).
     fn eq(&self, other: &Self) -> bool {
-        self.name == other.name && self.hidden == other.hidden
+        self.name == other.name && self.hidden == other.hidden && self.policy == other.policy
     }
 }
 

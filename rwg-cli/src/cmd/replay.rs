@@ -2,7 +2,7 @@
 
 use crate::step_lines::StepLines;
 use anyhow::{bail, Context, Result};
-use rwg_core::policy::Policy;
+use rwg_core::policy::{Policy, PolicyKind};
 use rwg_core::sampler::{reset_seed, run_episode, BlockResult, EpisodeResult, SampleError};
 use rwg_env::float::fmt_f64;
 use rwg_env::{Environment, Space};
@@ -252,6 +252,7 @@ pub fn run(args: Args) -> Result<()> {
             reset_seed(cell.plan.seed, &cell.plan.env_id, args.sample, ep),
             &mut obs,
         )?;
+        cell.plan.begin_episode(&mut policy, args.sample, ep);
         lines.header(&mut out)?;
         lines.reset(&mut out, &obs)?;
         let mut t = 0;
@@ -281,6 +282,7 @@ pub fn run(args: Args) -> Result<()> {
 
     let stored = stored_scores(&args.run_dir, &cell.id.dir, args.sample)?;
     compare_episodes(&mut out, cell, args.sample, m.episodes, &stored, |e, r| {
+        cell.plan.begin_episode(&mut policy, args.sample, e);
         run_episode(
             &mut env,
             &mut policy,
@@ -295,6 +297,13 @@ pub fn run(args: Args) -> Result<()> {
 /// With --export-weights: writes the network's export.
 fn write_export(args: &Args, cell: &Cell, policy: &Policy, episodes: u32) -> Result<()> {
     if let Some(path) = &args.export_weights {
+        if cell.plan.policy == PolicyKind::Random {
+            bail!(
+                "--export-weights: cell {} runs uniformly random actions (policy = \"random\"), \
+                 not a network: it has no weights to export",
+                cell.id.dir
+            );
+        }
         let e = export(cell, policy, args.sample, episodes);
         crate::cmd::write_named_file(path, serde_json::to_string_pretty(&e)?.as_bytes())?;
         crate::errln!("wrote {}", path.display());
