@@ -157,6 +157,10 @@ def test_a_wrong_rwg_bin_is_rwg_not_found(tmp_path, monkeypatch):
     monkeypatch.setenv("RWG_BIN", str(text))
     with pytest.raises(rwg.RwgNotFoundError, match=r"RWG_BIN=.*not-executable: not an executable"):
         rwg.run(TINY, out=tmp_path / "x")
+    # set to the empty string: not taken as unset
+    monkeypatch.setenv("RWG_BIN", "")
+    with pytest.raises(rwg.RwgNotFoundError, match=r"RWG_BIN is set to the empty string: unset it"):
+        rwg.run(TINY, out=tmp_path / "x")
     garbage = tmp_path / "garbage"
     garbage.write_bytes(b"\x00\x01 not a program")
     garbage.chmod(0o755)

@@ -233,7 +233,7 @@ impl JaxConfig {
 
 /// `RWG_PYTHON` if set, else `python3` (as for `gymnasium:` envs).
 pub fn default_python() -> String {
-    rwg_env::vars::text(PYTHON_VAR)
+    rwg_env::vars::text(PYTHON_VAR, "a Python interpreter")
         .ok()
         .flatten()
         .unwrap_or_else(|| "python3".into())
