@@ -23,6 +23,13 @@ def path(value: Any, name: str, where: str, what: str = "the run directory's pat
         if p == "":
             raise ArgumentError(f"{where}: {name} is empty; give {what}")
         if p is not None and "\0" not in p:
+            try:
+                os.fsencode(p)
+            except UnicodeEncodeError as e:
+                raise ArgumentError(
+                    f"{where}: {name} {ascii(p)} holds a lone surrogate ({ascii(p[e.start])} at "
+                    f"index {e.start}), which no file name holds; give {what}"
+                ) from None
             return p
     raise ArgumentError(f"{where}: {name} takes {what}, not {value!r}")
 

@@ -125,6 +125,28 @@ def test_bad_overrides_are_refused_naming_them(tmp_path):
     assert not out.exists()
 
 
+def test_text_that_utf_8_cannot_hold_is_an_argument_error_naming_where(tmp_path):
+    out = tmp_path / "x"
+    cases = [
+        (dict(TINY, envs=[{"id": "CartPole-v1\ud800"}]), r"manifest key envs.id: the string"),
+        (dict(TINY, **{"note\udcff": 1}), r"manifest key \(top level\): the key"),
+        (dict(TINY, architectures=[{"name": "a\udfff", "hidden": []}]), r"manifest key architectures.name"),
+        (dict(TINY, envs=[{"id": "CartPole-v1", "kwargs": {"k": ["\ud800"]}}]), r"envs.kwargs.k"),
+    ]
+    for manifest, where in cases:
+        with pytest.raises(rwg.ArgumentError, match=where + r".*lone surrogate"):
+            rwg.run(manifest, out=out)
+    with pytest.raises(rwg.ArgumentError, match=r"out= .*lone surrogate"):
+        rwg.run(TINY, out=str(out) + "\ud800")
+    with pytest.raises(rwg.ArgumentError, match=r"manifest= .*lone surrogate"):
+        rwg.run(str(tmp_path / "m\ud800.toml"))
+    with pytest.raises(rwg.ArgumentError, match=r"run_dir= .*lone surrogate"):
+        rwg.load(str(tmp_path / "r\ud800"))
+    assert not out.exists()
+    # a file name's undecodable bytes (surrogate escapes) are a path still
+    assert rwg.run(TINY, out=os.fsencode(str(out)) + b"\xff").path.endswith("x\udcff")
+
+
 def test_load_s_bad_arguments_and_a_file_say_what_they_are(tmp_path, small_run):
     f = tmp_path / "a-file.txt"
     f.write_text("x")
