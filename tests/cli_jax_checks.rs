@@ -1,7 +1,9 @@
 //! JAX envs refused or described, end to end with the real `rwg` binary:
 //! bad JAX entries are refused at their manifest line, `rwg envs` describes
-//! a JAX env, `rwg rollout` and `rwg check` refuse one saying what works, and
-//! `rwg slurm` checks one without the device its shards will have.
+//! a JAX env, `rwg rollout` and `rwg check` refuse one saying what works,
+//! `rwg slurm` checks one without the device its shards will have, an env
+//! that computes other sizes than its spaces declare is named with both, and
+//! a compiled call that fails as a whole names its networks, not an episode.
 //!
 //! Needs `RWG_PEER_PYTHON` (see `cli_jax.rs`) except for the refusals that
 //! start no Python.
@@ -70,6 +72,60 @@ fn bad_jax_entries_are_refused_at_their_line() {
             assert!(e.contains(w), "{id} {entry}: {w:?} missing in {e}");
         }
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// An env whose observations or rewards have other sizes than it declares
+/// is refused before anything runs, naming both sizes (not XLA's
+/// "dot_general requires contracting dimensions"); a worker that dies in a
+/// call is named by the call's networks, with no episode or step of it
+/// blamed.
+#[test]
+fn wrong_sizes_and_failed_calls_are_told_as_they_are() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-sizes");
+    for (kwargs, says) in [
+        (
+            "declared = 3",
+            "the env's reset returns an observation of 2 values (shape (2,)) where its \
+             observation space declares 3 (shape (3,))",
+        ),
+        (
+            "reward_values = 4",
+            "the env's step returns a reward of 4 values (shape (4,)) where rwg takes one \
+             number",
+        ),
+    ] {
+        let entry = format!("kwargs = {{ {kwargs} }}");
+        let body = manifest(
+            &py,
+            "jax:rwg_jax_envs:make_wrong_size",
+            &entry,
+            32,
+            1,
+            false,
+        );
+        let m = write(&dir, "m.toml", &body);
+        let run = dir.join("r");
+        let e = err(&["run", &m, "--out", s(&run), "--no-report"]);
+        assert!(e.contains(says), "{kwargs}: {e}");
+        assert!(e.contains("m.toml:8:"), "{kwargs}: {e}");
+        assert!(!e.contains("dot_general"), "{kwargs}: {e}");
+        assert!(!run.exists(), "{kwargs}: nothing may be created");
+    }
+    let entry = "networks_per_call = 32";
+    let body = manifest(&py, "jax:rwg_jax_envs:make_dying", entry, 64, 1, false);
+    let m = write(&dir, "m.toml", &body);
+    let d = dir.join("d");
+    let e = err(&["run", &m, "--out", s(&d), "--threads", "1", "--no-report"]);
+    assert!(
+        e.contains(
+            "rwg_jax_envs:make_dying: the compiled call of networks 0 to 31 (32 \
+                    networks, every episode) failed: the JAX worker exited with status 3"
+        ),
+        "{e}"
+    );
+    assert!(!e.contains("episode 0, step 0"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

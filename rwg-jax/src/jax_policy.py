@@ -3,6 +3,7 @@ ready message's fields), and the network x = tanh(W @ [x, 1]) per layer with
 its action map (argmax, or the box's bounds)."""
 
 from rwg_pipe import fail, floats
+from rwg_jax_worker_common import fail_exc
 
 
 def refuse_composite(space, what):
@@ -46,6 +47,40 @@ def describe_spaces(env, max_obs):
                       f"tanh outputs onto the bounds, so every dimension needs finite ones")
     fields["action"] = {"box": {"low": floats(alow), "high": floats(ahigh), "shape": list(ashape)}}
     return fields, (None, alow, ahigh, ashape)
+
+
+def check_sizes(jax, env, dt, space, obs_shape, obs_dim):
+    """Traces (does not run) a reset and a step with the action rwg's
+    policy gives: observations of `obs_dim` values and a reward of one, or a
+    `space` failure naming both sizes (not XLA's message about the layer
+    they meet)."""
+    import numpy as np
+
+    jnp = jax.numpy
+    n, _, _, ashape = space
+    action = jnp.int32(0) if n is not None else jnp.zeros(ashape, dt)
+
+    def first_step(key_data):
+        key = jax.random.wrap_key_data(key_data, impl="threefry2x32")
+        k_reset, k_steps = jax.random.split(key)
+        obs, state = env.reset(k_reset)
+        out = env.step(jax.random.fold_in(k_steps, 0), state, action)
+        return obs, out[0], out[2]
+
+    try:
+        shapes = jax.eval_shape(first_step, jax.ShapeDtypeStruct((2,), jnp.uint32))
+    except BaseException as e:  # noqa: BLE001 -- the env's own code, traced
+        fail_exc("make", "tracing the env's reset and a first step", e)
+    declared = f"its observation space declares {obs_dim} (shape {tuple(obs_shape)})"
+    for what, x, want, size_ok in (
+            ("reset returns an observation", shapes[0], declared, obs_dim),
+            ("step returns an observation", shapes[1], declared, obs_dim),
+            ("step returns a reward", shapes[2], "rwg takes one number", 1)):
+        shape = tuple(int(d) for d in x.shape)
+        size = int(np.prod(shape, dtype=np.int64))
+        if size != size_ok:
+            fail("space", f"the env's {what} of {size} values (shape {shape}) where {want}; fix "
+                          f"the env's spaces or what it computes")
 
 
 def policy_fn(jnp, layers, bias, dt, space):

@@ -21,7 +21,7 @@ from rwg_pipe import (  # the pipe first: it redirects fd 0/1
 )
 from rwg_jax_worker_common import fail_exc, version_of
 from rwg_jax_worker_envs import MAKERS
-from rwg_jax_worker_policy import describe_spaces
+from rwg_jax_worker_policy import check_sizes, describe_spaces
 from rwg_jax_worker_episode import compile_cell, run_chunk
 
 import json
@@ -85,6 +85,8 @@ def start(hello):
     if env.max_steps < 1 or env.max_steps >= 2**31:
         fail("make", f"time limit {env.max_steps}: rwg takes 1 to {2**31 - 1} steps")
     fields, space = describe_spaces(env, int(hello.get("max_obs", 4096)))
+    with jax.default_device(dev):
+        check_sizes(jax, env, dt, space, fields["obs_shape"], fields["obs_dim"])
     import jaxlib
 
     versions = {"python": sys.version.split()[0], "jax": jax.__version__,
