@@ -162,6 +162,34 @@ fn rollout_and_check_refuse_jax_envs_naming_what_works() {
     }
 }
 
+/// `action_dtype` on a JAX env is refused at its line whatever its value
+/// (float64, the default elsewhere, too: the page says it is refused), and
+/// no Python is started to say so.
+#[test]
+fn action_dtype_is_refused_on_jax_envs_even_the_default() {
+    let dir = temp_dir("jax-action-dtype");
+    for dtype in ["float64", "float32"] {
+        let body = manifest(
+            "/nonexistent/python3",
+            "gymnax:CartPole-v1",
+            &format!("action_dtype = \"{dtype}\""),
+            32,
+            1,
+            false,
+        );
+        let m = write(&dir, "m.toml", &body);
+        let e = err(&["run", &m, "--out", s(&dir.join("r")), "--no-report"]);
+        assert!(
+            e.starts_with(&format!(
+                "error: {m}:10:16: envs[0].action_dtype: 'gymnax:CartPole-v1' is a JAX \
+                 environment, which takes no `action_dtype`"
+            )),
+            "{dtype}: {e}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `rwg slurm` on a machine without the device a JAX env names (a login
 /// node without GPUs) checks the env on JAX's default device and keeps the
 /// manifest's device for the shards.
@@ -213,6 +241,8 @@ fn isolate_leaves_jax_envs_alone() {
     let own = run.join("manifest.toml");
     let resolved = std::fs::read_to_string(&own).unwrap();
     assert!(!resolved.contains("isolate"), "{resolved}");
+    // nor an action_dtype, which a JAX env refuses
+    assert!(!resolved.contains("action_dtype"), "{resolved}");
     ok(&["run", s(&own), "--out", s(&run), "--no-report"]);
     let study = dir.join("study");
     ok(&[

@@ -123,8 +123,10 @@ pub struct EnvEntry {
     /// Time limit override.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_episode_steps: Option<u32>,
-    /// dtype of continuous actions.
-    pub action_dtype: ActionDtype,
+    /// dtype of continuous actions; `None` for a JAX env, which takes none
+    /// (its actions are of its `precision`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub action_dtype: Option<ActionDtype>,
     /// Plugin library providing the env (resolved against the manifest's
     /// folder; absolute when the manifest was read with [`Manifest::load`]).
     #[serde(skip_serializing_if = "Option::is_none")]
