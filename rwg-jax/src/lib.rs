@@ -12,7 +12,8 @@
 //! is padded), so a network's results are the same bits whatever the
 //! chunking of blocks, the threads, shards or a resume. The weights are
 //! rwg's draw ([`rwg_core::sampler::draw_block_weights`]); the episode's key
-//! is `PRNGKey(r)` of rwg's reset seed `r`.
+//! is the threefry key of data `[r >> 32, r & 0xFFFFFFFF]` of rwg's reset
+//! seed `r`.
 //!
 //! # Example
 //!
