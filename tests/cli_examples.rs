@@ -36,8 +36,11 @@
 //!   cluster here (tests/cli_slurm.rs submits to a real one).
 //! - `python3 -m pip install "gymnasium[...]"`: not run; the Python of
 //!   `RWG_TEST_PYTHON` (the CI virtualenv, which holds those packages) is
-//!   handed to rwg as `RWG_PYTHON`. Without it the Gymnasium examples are
-//!   skipped, visibly, and under `CI=true` the test fails.
+//!   handed to rwg as `RWG_PYTHON`. Without it the examples that need it are
+//!   skipped, visibly, and under `CI=true` the test fails: those that name a
+//!   `gymnasium:` env or `rwg bench gym`, run a manifest with a
+//!   `gymnasium:` env, or a Python script that imports numpy, pandas or
+//!   Gymnasium (what a command needs is read from what it runs, [`needs`]).
 //! - JAX (`python3 -m pip install jax gymnax`): not run; a command that
 //!   names JAX, gymnax or Brax (docs/jax.md, the `gymnax:` envs) runs with
 //!   the Python of `RWG_PEER_PYTHON` (jax, gymnax, brax) as `RWG_PYTHON` and
@@ -452,6 +455,56 @@ fn needs_jax(cmd: &str) -> bool {
     ["jax", "gymnax", "brax"].iter().any(|w| cmd.contains(w))
 }
 
+/// The Pythons a command needs, from what it runs: the ids it names, the
+/// env ids of the manifests it names (read in `dir`, as the reader's rwg
+/// reads them) and the modules its Python scripts import (a script file it
+/// names, or a here-document).
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct Needs {
+    /// A Python with Gymnasium, Box2D, MuJoCo and numpy (`RWG_TEST_PYTHON`).
+    gymnasium: bool,
+    /// A Python with JAX, gymnax and Brax (`RWG_PEER_PYTHON`).
+    jax: bool,
+}
+
+fn needs(ran: &str, dir: &Path) -> Needs {
+    let mut n = Needs {
+        gymnasium: ["gymnasium:", "gymnasium[", "rwg bench gym"]
+            .iter()
+            .any(|w| ran.contains(w)),
+        jax: needs_jax(ran),
+    };
+    let words = ran.split(|c: char| c.is_whitespace() || c == ';' || c == '=');
+    for word in words {
+        let path = dir.join(word);
+        if word.ends_with(".toml") && path.is_file() {
+            if let Ok(m) = rwg_study::manifest::Manifest::load(&path) {
+                for e in &m.envs {
+                    n.gymnasium |= e.id.starts_with("gymnasium:");
+                    n.jax |= rwg_study::jax_source::is_jax(&e.id);
+                }
+            }
+        }
+        if word.ends_with(".py") && path.is_file() {
+            n.gymnasium |= imports_numeric(&std::fs::read_to_string(&path).unwrap_or_default());
+        }
+    }
+    if ran.contains("python3 -") {
+        n.gymnasium |= imports_numeric(ran);
+    }
+    n
+}
+
+/// Whether Python source imports a package the test Python provides and a
+/// bare Python lacks (numpy, pandas, Gymnasium).
+fn imports_numeric(source: &str) -> bool {
+    source.lines().map(str::trim_start).any(|l| {
+        ["numpy", "pandas", "gymnasium"]
+            .iter()
+            .any(|m| l.starts_with(&format!("import {m}")) || l.starts_with(&format!("from {m}")))
+    })
+}
+
 /// The output shape an example must have, by what it runs.
 fn check_shape(e: &Example, ran: &str, dir: &Path, stdout: &str) {
     let c = ran;
@@ -641,7 +694,8 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
         if ran != e.command {
             notes.push(format!("{}: `{}` ran as `{ran}`", e.source, e.command));
         }
-        if ran.contains("gymnasium") && python.is_none() {
+        let need = needs(&ran, dir);
+        if need.gymnasium && python.is_none() {
             skip(
                 TEST,
                 &format!(
@@ -651,7 +705,7 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
             );
             continue;
         }
-        if needs_jax(&ran) && jax_python.is_none() {
+        if need.jax && jax_python.is_none() {
             skip(
                 TEST,
                 &format!(
@@ -661,11 +715,7 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
             );
             continue;
         }
-        let python = if needs_jax(&ran) {
-            &jax_python
-        } else {
-            &python
-        };
+        let python = if need.jax { &jax_python } else { &python };
         let t = Instant::now();
         let (ok, stdout, stderr) = sh(&ran, dir, &bin, python.as_deref(), Duration::from_secs(300));
         assert!(
@@ -733,6 +783,47 @@ fn every_page_and_help_example_runs_as_printed() {
         help.len(),
         started.elapsed().as_secs_f64()
     );
+}
+
+/// The skip rule reads what a command runs, not its words: a manifest of
+/// Gymnasium envs whose name says nothing of them (docs/atlas.md's), a
+/// script that imports numpy, and commands that need nothing but rwg.
+#[test]
+fn the_skip_rule_reads_what_each_command_runs() {
+    let dir = temp_dir("examples-needs").join("rwg");
+    std::fs::create_dir_all(&dir).unwrap();
+    prepare(&dir);
+    let gymnasium = Needs {
+        gymnasium: true,
+        jax: false,
+    };
+    let jax = Needs {
+        gymnasium: false,
+        jax: true,
+    };
+    for (cmd, want) in [
+        ("rwg run examples/atlas.toml", gymnasium),
+        ("rwg run examples/gymnasium.toml", gymnasium),
+        (
+            "target/release/rwg bench gym --peer benches/peers/ref_numpy.py",
+            gymnasium,
+        ),
+        ("PYTHONPATH=examples/jax-env rwg run examples/jax.toml", jax),
+        ("rwg run examples/quick.toml", Needs::default()),
+        ("rwg run examples/paper.toml --out runs/p", Needs::default()),
+        (
+            "python3 examples/paper-tables.py runs/a runs/b",
+            Needs::default(),
+        ),
+        (
+            "python3 - <<'EOF'\nimport csv, json\nprint(1)\nEOF",
+            Needs::default(),
+        ),
+        ("python3 - <<'EOF'\nimport numpy as np\nEOF", gymnasium),
+    ] {
+        assert_eq!(needs(cmd, &dir), want, "{cmd}");
+    }
+    let _ = std::fs::remove_dir_all(dir.parent().unwrap());
 }
 
 /// The pages stay readable: the README at most 300 lines, ARCHITECTURE.md at
