@@ -61,7 +61,8 @@ fn entries(x: &[Value]) -> String {
         .iter()
         .map(|e| label(e).trim_matches([' ', '(', ')']).to_string())
         .collect();
-    format!("{} entries ({})", x.len(), names.join(", "))
+    let s = if x.len() == 1 { "y" } else { "ies" };
+    format!("{} entr{s} ({})", x.len(), names.join(", "))
 }
 
 /// A value as TOML writes it; `(absent)` for none.
@@ -100,7 +101,7 @@ mod tests {
         let c = table("seed = 1\nbias = [true]\n[[envs]]\nid = \"A\"\n");
         assert_eq!(
             differences(&a, &c),
-            ["envs: 2 entries (A, B) vs 1 entries (A)"]
+            ["envs: 2 entries (A, B) vs 1 entry (A)"]
         );
         // -0.0 and 0.0 are written apart, so they differ
         assert_eq!(
