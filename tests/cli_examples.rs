@@ -495,6 +495,35 @@ fn needs(ran: &str, dir: &Path) -> Needs {
     n
 }
 
+/// What a command makes that later commands may use: the run directory of
+/// an `rwg run` (its `--out`, else its manifest's `out`, else
+/// `runs/NAME`), and the file or folder after `--out`, `--export-weights`,
+/// `--html`, `--figure` or a `>`.
+fn outputs(ran: &str, dir: &Path) -> Vec<String> {
+    let words: Vec<&str> = ran.split_whitespace().collect();
+    let mut out = vec![];
+    for (i, w) in words.iter().enumerate() {
+        let next = words.get(i + 1).map(|n| n.to_string());
+        if ["--out", "--export-weights", "--html", "--figure", ">"].contains(w) {
+            out.extend(next);
+        } else if *w == "run" && i > 0 && words[i - 1].ends_with("rwg") && !words.contains(&"--out")
+        {
+            if let Some(m) = next.filter(|m| m.ends_with(".toml")) {
+                let given = rwg_study::manifest::Manifest::load(&dir.join(&m))
+                    .ok()
+                    .and_then(|m| m.out)
+                    .map(|o| o.to_string_lossy().into_owned());
+                let stem = Path::new(&m)
+                    .file_stem()
+                    .unwrap_or_default()
+                    .to_string_lossy();
+                out.push(given.unwrap_or_else(|| format!("runs/{stem}")));
+            }
+        }
+    }
+    out
+}
+
 /// Whether Python source imports a package the test Python provides and a
 /// bare Python lacks (numpy, pandas, Gymnasium).
 fn imports_numeric(source: &str) -> bool {
@@ -683,6 +712,9 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
     let bin = prepare(dir);
     let python = std::env::var_os("RWG_TEST_PYTHON");
     let jax_python = std::env::var_os("RWG_PEER_PYTHON").filter(|p| !p.is_empty());
+    // what the commands skipped would have made: a later command that uses
+    // it is skipped too (it would fail for want of it, not for its own sake)
+    let mut missing: Vec<String> = vec![];
     for e in examples {
         let ran = match plan(e) {
             Plan::NotRun(why) => {
@@ -695,24 +727,19 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
             notes.push(format!("{}: `{}` ran as `{ran}`", e.source, e.command));
         }
         let need = needs(&ran, dir);
-        if need.gymnasium && python.is_none() {
-            skip(
-                TEST,
-                &format!(
-                    "{}: `{}` needs RWG_TEST_PYTHON, a Python with gymnasium[box2d,mujoco]",
-                    e.source, e.command
-                ),
-            );
-            continue;
-        }
-        if need.jax && jax_python.is_none() {
-            skip(
-                TEST,
-                &format!(
-                    "{}: `{}` needs RWG_PEER_PYTHON, a Python with jax, gymnax and brax",
-                    e.source, e.command
-                ),
-            );
+        let why = if need.gymnasium && python.is_none() {
+            Some("RWG_TEST_PYTHON, a Python with gymnasium[box2d,mujoco]".to_string())
+        } else if need.jax && jax_python.is_none() {
+            Some("RWG_PEER_PYTHON, a Python with jax, gymnax and brax".to_string())
+        } else {
+            missing
+                .iter()
+                .find(|m| ran.contains(m.as_str()))
+                .map(|m| format!("{m}, which a command skipped before it makes"))
+        };
+        if let Some(why) = why {
+            skip(TEST, &format!("{}: `{}` needs {why}", e.source, e.command));
+            missing.extend(outputs(&ran, dir));
             continue;
         }
         let python = if need.jax { &jax_python } else { &python };
@@ -823,6 +850,16 @@ fn the_skip_rule_reads_what_each_command_runs() {
     ] {
         assert_eq!(needs(cmd, &dir), want, "{cmd}");
     }
+    // what a skipped command would have made, which later ones then lack
+    assert_eq!(outputs("rwg run examples/atlas.toml", &dir), ["runs/atlas"]);
+    assert_eq!(
+        outputs("rwg run examples/quick.toml --out runs/q", &dir),
+        ["runs/q"]
+    );
+    assert_eq!(
+        outputs("rwg replay r --sample 0 --export-weights net.json", &dir),
+        ["net.json"]
+    );
     let _ = std::fs::remove_dir_all(dir.parent().unwrap());
 }
 
