@@ -273,9 +273,10 @@ fn start_up_honours_the_timeouts_and_names_the_right_variable() {
         assert!(t0.elapsed() < Duration::from_secs(60), "{where_}: {err}");
         assert!(err.contains(says), "{where_}: {err}");
         assert!(err.contains(&format!("set {var}")), "{where_}: {err}");
-        // faulthandler's traceback names where it hung
+        // faulthandler's traceback names where it hung (in the file the
+        // one error line names)
         assert!(
-            err.contains("rwg_family_envs/__init__.py"),
+            with_details(&err).contains("rwg_family_envs/__init__.py"),
             "{where_}: {err}"
         );
     }

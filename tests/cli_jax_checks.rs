@@ -77,8 +77,9 @@ fn bad_jax_entries_are_refused_at_their_line() {
 
 /// An env whose observations or rewards have other sizes than it declares
 /// is refused before anything runs, naming both sizes (not XLA's
-/// "dot_general requires contracting dimensions"); a worker that dies in a
-/// call is named by the call's networks, with no episode or step of it
+/// "dot_general requires contracting dimensions"); one that raises is one
+/// error line naming the file its traceback is kept in; a worker that dies
+/// in a call is named by the call's networks, with no episode or step of it
 /// blamed.
 #[test]
 fn wrong_sizes_and_failed_calls_are_told_as_they_are() {
@@ -113,6 +114,21 @@ fn wrong_sizes_and_failed_calls_are_told_as_they_are() {
         assert!(!e.contains("dot_general"), "{kwargs}: {e}");
         assert!(!run.exists(), "{kwargs}: nothing may be created");
     }
+    // an env that raises: one error line; the traceback in the file it names
+    let body = manifest(&py, "jax:rwg_jax_envs:make_raising", "", 32, 1, false);
+    let m = write(&dir, "m.toml", &body);
+    let e = err(&["run", &m, "--out", s(&dir.join("r")), "--no-report"]);
+    assert!(
+        e.contains(
+            "tracing the env's reset and a first step raised RuntimeError: a deliberate \
+                    failure in step"
+        ),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(e.contains("; the Python traceback is in "), "{e}");
+    let all = with_details(&e);
+    assert!(all.contains("Traceback (most recent call last)"), "{all}");
     let entry = "networks_per_call = 32";
     let body = manifest(&py, "jax:rwg_jax_envs:make_dying", entry, 64, 1, false);
     let m = write(&dir, "m.toml", &body);

@@ -139,3 +139,15 @@ class Dying(Slider):
 def make_dying():
     """The dying slider and its params."""
     return Dying(None), Params()
+
+
+class Raising(Slider):
+    """A slider whose step raises when traced."""
+
+    def step(self, key, state, action, params):
+        raise RuntimeError("a deliberate failure in step")
+
+
+def make_raising():
+    """The raising slider and its params."""
+    return Raising(None), Params()

@@ -305,7 +305,8 @@ fn finished(outcome: Result<RunOutcome, StudyError>, args: &Args, out: &Path) ->
         }
         Err(e @ StudyError::Cell { .. }) => {
             // (an isolated plugin's crash or hang, a Gymnasium worker's, an env error)
-            crate::errln!("error: {}", crate::error_text(&e.into()));
+            let text = crate::error_text(&e.into());
+            crate::errln!("error: {}", crate::details::one_line(&text, Some(out)));
             crate::errln!(
                 "Every committed block is kept; once the cause is fixed, resume with: {}",
                 resume_command(args, out, true)
