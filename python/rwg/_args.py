@@ -14,10 +14,11 @@ from .errors import ArgumentError
 
 def path(value: Any, name: str, where: str, what: str = "the run directory's path") -> str:
     """``value`` (``str``, ``bytes`` or ``os.PathLike``) as a ``str`` path
-    (bytes decoded as the file system does)."""
+    (bytes decoded as the file system does; a leading ``~`` or ``~user``
+    expanded, as pandas does, never a folder named ``~`` made)."""
     if isinstance(value, (str, bytes, os.PathLike)):
         try:
-            p = os.fsdecode(value)
+            p = os.path.expanduser(os.fsdecode(value))
         except TypeError:  # an os.PathLike whose __fspath__ gives neither
             p = None
         if p == "":

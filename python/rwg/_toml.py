@@ -24,7 +24,13 @@ def dumps(doc: Mapping[str, Any]) -> str:
     if not isinstance(doc, Mapping):
         raise ArgumentError(f"a manifest must be a dict, not {type(doc).__name__}")
     lines: List[str] = []
-    _table(doc, [], lines)
+    try:
+        _table(doc, [], lines)
+    except RecursionError:
+        raise ArgumentError(
+            "a manifest given as a dict: its dicts and lists nest too deep to write as TOML "
+            "(past Python's recursion limit); rwg reads values nested under 80 levels deep"
+        ) from None
     return "\n".join(lines).lstrip("\n") + "\n"
 
 

@@ -147,6 +147,22 @@ def test_text_that_utf_8_cannot_hold_is_an_argument_error_naming_where(tmp_path)
     assert rwg.run(TINY, out=os.fsencode(str(out)) + b"\xff").path.endswith("x\udcff")
 
 
+def test_deep_dicts_and_home_paths(tmp_path, monkeypatch):
+    deep = cur = {}
+    for _ in range(5000):
+        cur["k"] = {}
+        cur = cur["k"]
+    with pytest.raises(rwg.ArgumentError, match=r"nest too deep to write as TOML"):
+        rwg.run(dict(TINY, envs=[{"id": "CartPole-v1", "kwargs": deep}]), out=tmp_path / "d")
+    # `~` is the home folder, as in pandas, not a folder named ~ in the current one
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.chdir(tmp_path)
+    run = rwg.run(TINY, out="~/runs/tiny")
+    assert run.path == str(tmp_path / "home" / "runs" / "tiny")
+    assert not (tmp_path / "~").exists()
+    assert rwg.load("~/runs/tiny").path == run.path
+
+
 def test_load_s_bad_arguments_and_a_file_say_what_they_are(tmp_path, small_run):
     f = tmp_path / "a-file.txt"
     f.write_text("x")
