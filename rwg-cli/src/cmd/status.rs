@@ -55,7 +55,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     if !manifest_path.is_file() {
         if !dir.is_dir() {
-            bail!("{}: no such directory", dir.display());
+            // a file, or nothing: said as every command that reads a run says it
+            rwg_study::rundir::data::require_run_dir(dir)?;
         }
         if let Some(holder) = rwg_study::rundir::lock::live_writer(dir) {
             bail!(
@@ -71,8 +72,14 @@ pub fn run(args: Args) -> Result<()> {
                 dir.display()
             );
         }
+        let inside = rwg_study::rundir::data::run_above(dir).map_or(String::new(), |r| {
+            format!(
+                "; it is inside the run directory {}: give that",
+                r.display()
+            )
+        });
         bail!(
-            "{} is not an rwg run directory: it has no manifest.toml (nor slurm/plan.json)",
+            "{} is not an rwg run directory: it has no manifest.toml (nor slurm/plan.json){inside}",
             dir.display()
         );
     }
