@@ -145,6 +145,75 @@ fn wrong_sizes_and_failed_calls_are_told_as_they_are() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Action spaces rwg cannot drive and gymnax kwargs of the wrong type are
+/// refused in one line saying what is wrong: a space at the id's line, a
+/// kwarg at the kwargs line (not a bare TypeError, a protocol error, or a
+/// kwarg silently cast).
+#[test]
+fn odd_action_spaces_and_kwargs_of_the_wrong_type_say_what_is_wrong() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-odd-spaces");
+    let custom = "jax:rwg_jax_envs:make_actions";
+    let cases: [(&str, &str, &str, &[&str]); 7] = [
+        (
+            custom,
+            "multi",
+            ":8:",
+            &["2 discrete choices", "MultiDiscrete"],
+        ),
+        (custom, "none", ":8:", &["n = 0", "a whole n of 1 or more"]),
+        (
+            custom,
+            "half",
+            ":8:",
+            &["n = 2.5", "a whole n of 1 or more"],
+        ),
+        (
+            custom,
+            "misfit",
+            ":8:",
+            &["bounds of shape (2,)", "shape (3,)"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "gravity = \"heavy\"",
+            ":10:",
+            &["gravity = 'heavy' is a str", "a number (its default: 9.8"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "gravity = true",
+            ":10:",
+            &["gravity = True is a bool", "a number"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "max_steps_in_episode = 2.5",
+            ":10:",
+            &[
+                "max_steps_in_episode = 2.5",
+                "a whole number (its default: 500",
+            ],
+        ),
+    ];
+    for (id, arg, line, says) in cases {
+        let kwargs = if id == custom {
+            format!("kind = \"{arg}\"")
+        } else {
+            arg.to_string()
+        };
+        let entry = format!("kwargs = {{ {kwargs} }}");
+        let m = write(&dir, "m.toml", &manifest(&py, id, &entry, 32, 1, false));
+        let e = err(&["run", &m, "--out", s(&dir.join("r")), "--no-report"]);
+        assert!(e.contains(&format!("m.toml{line}")), "{arg}: {e}");
+        for w in says {
+            assert!(e.contains(w), "{arg}: {w:?} missing in {e}");
+        }
+        assert_eq!(e.lines().count(), 1, "{arg}: {e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `rwg envs gymnax:CartPole-v1` describes the env: spaces, time limit,
 /// versions, device.
 #[test]

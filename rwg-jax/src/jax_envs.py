@@ -49,10 +49,43 @@ def replace_params(params, kwargs, where):
         if unknown:
             fail("make", f"{where} has no field {', '.join(unknown)}; its fields are: "
                          f"{', '.join(fields)}")
+    for k, v in kwargs.items():
+        wrong = wrong_type(v, getattr(params, k, None))
+        if wrong:
+            fail("make", f"{where}: {k} = {v!r} is a {type(v).__name__}, where the field takes "
+                         f"{wrong}")
     try:
         return params.replace(**kwargs)
     except BaseException as e:  # noqa: BLE001
         fail_exc("make", f"{where}.replace(**{kwargs!r})", e)
+
+
+def wrong_type(value, default):
+    """What a params field of `default` takes, if `value` is not of it
+    (gymnax casts nothing: a string fails deep in tracing, a bool or 2.5
+    for a whole number is taken as a number); None if it is."""
+    import numpy as np
+
+    if default is None or isinstance(default, (str, bytes)):
+        return None
+    d = np.asarray(default)
+    is_bool = isinstance(value, (bool, np.bool_))
+    number = isinstance(value, (int, float, np.number)) and not is_bool
+    shown = default if d.ndim == 0 else d.tolist()
+    if d.dtype == np.bool_:
+        ok, want = is_bool, "true or false"
+    elif np.issubdtype(d.dtype, np.integer):
+        ok, want = number and isinstance(value, (int, np.integer)), "a whole number"
+    elif np.issubdtype(d.dtype, np.floating):
+        ok, want = number, "a number"
+    else:
+        return None
+    if d.ndim > 0:
+        ok = np.shape(value) == d.shape and all(
+            isinstance(x, (int, float, np.number)) and not isinstance(x, (bool, np.bool_))
+            for x in np.ravel(np.asarray(value, dtype=object)))
+        want = f"a list of shape {d.shape} of numbers"
+    return None if ok else f"{want} (its default: {shown!r})"
 
 
 def limit_of(params, max_steps, what):

@@ -151,3 +151,29 @@ class Raising(Slider):
 def make_raising():
     """The raising slider and its params."""
     return Raising(None), Params()
+
+
+class Choices(NamedTuple):
+    """A discrete space as the interface reads one: `.n` (here any value)."""
+
+    n: object
+
+
+class Actions(Slider):
+    """A slider whose action space is `kind`: `multi` (a MultiDiscrete-like
+    space, `.n` an array), `none` (Discrete(0)), `half` (n = 2.5) or
+    `misfit` (a Box whose bounds do not fit its shape)."""
+
+    def __init__(self, kind):
+        super().__init__(None)
+        self.kind = kind
+
+    def action_space(self, params):
+        if self.kind == "misfit":
+            return Box(jnp.array([-1.0, -1.0]), jnp.array([1.0, 1.0]), (3,))
+        return Choices({"multi": jnp.array([3, 4]), "none": 0, "half": 2.5}[self.kind])
+
+
+def make_actions(kind):
+    """A slider with the odd action space `kind` (see Actions)."""
+    return Actions(kind), Params()
