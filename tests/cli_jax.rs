@@ -366,6 +366,73 @@ fn a_jax_env_of_ones_own_runs_and_a_nan_observation_stops_it() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A `jax:module:callable` env edited between a failed run and its resume
+/// is noticed: env.json records a digest of the module's source, and the
+/// resume is refused naming the module (no cell mixing networks of two
+/// versions); the commands rwg prints (the resume, `rwg top`'s replay,
+/// `rwg status`'s) set the PYTHONPATH the module is found through.
+#[test]
+fn an_edited_jax_module_is_not_resumed_and_printed_commands_find_it() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-edited");
+    let envs = dir.join("envs");
+    std::fs::create_dir_all(&envs).unwrap();
+    let module = envs.join("my_slider.py");
+    let source = "from rwg_jax_envs import make_slider as make\n";
+    std::fs::write(&module, source).unwrap();
+    let nan_file = dir.join("nan-seed");
+    let seed = rwg_core::sampler::reset_seed(5, "my_slider:make", 40, 0);
+    std::fs::write(&nan_file, seed.to_string()).unwrap();
+    let entry = format!(
+        "kwargs = {{ nan_file = {:?} }}\nnetworks_per_call = 32",
+        s(&nan_file)
+    );
+    let m = write(
+        &dir,
+        "m.toml",
+        &manifest(&py, "jax:my_slider:make", &entry, 64, 1, false),
+    );
+    let run = dir.join("run");
+    let data = std::fs::canonicalize(data_dir()).unwrap();
+    let pythonpath = format!("{}:{}", s(&envs), s(&data));
+    let rwg = |args: &[&str]| {
+        let mut c = rwg_cmd(args);
+        c.env("PYTHONPATH", &pythonpath)
+            .env("RWG_COMMIT_LINGER", "0");
+        c.output().unwrap()
+    };
+    let args = ["run", &m, "--out", s(&run), "--threads", "1", "--no-report"];
+    let first = rwg(&args);
+    let e = String::from_utf8_lossy(&first.stderr);
+    assert!(!first.status.success() && e.contains("sample 40"), "{e}");
+    assert!(
+        e.contains(&format!("resume with: PYTHONPATH={pythonpath} rwg run ")),
+        "{e}"
+    );
+    // the module edited, the cause removed: the resume is refused
+    std::fs::write(&module, format!("{source}# edited\n")).unwrap();
+    std::fs::remove_file(&nan_file).unwrap();
+    let second = rwg(&args);
+    let e = String::from_utf8_lossy(&second.stderr);
+    assert!(!second.status.success(), "{e}");
+    assert!(e.contains("the source of module my_slider"), "{e}");
+    // as it was: the resume finishes
+    std::fs::write(&module, source).unwrap();
+    let third = rwg(&args);
+    assert!(
+        third.status.success(),
+        "{}",
+        String::from_utf8_lossy(&third.stderr)
+    );
+    // printed in another shell (no PYTHONPATH), from what env.json records
+    let top = ok(&["top", s(&run), "-n", "1"]);
+    assert!(
+        top.contains(&format!("PYTHONPATH={pythonpath} rwg replay ")),
+        "{top}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// SIGTERM to rwg alone while its JAX workers run: rwg ends and no worker
 /// outlives it.
 #[cfg(target_os = "linux")]

@@ -185,10 +185,57 @@ def make_custom(target, kwargs, max_steps):
         env, params = fn(**kwargs)
     except BaseException as e:  # noqa: BLE001
         fail_exc("make", f"{target}(**{kwargs!r})", e)
-    return Adapted(lambda k: env.reset(k, params), gymnax_step(env, params),
-                   env.observation_space(params), env.action_space(params),
-                   limit_of(params, max_steps, f"jax:{target}"),
-                   {"module": version_of(module.split(".")[0])})
+    adapted = Adapted(lambda k: env.reset(k, params), gymnax_step(env, params),
+                      env.observation_space(params), env.action_space(params),
+                      limit_of(params, max_steps, f"jax:{target}"),
+                      {"module": version_of(module.split(".")[0])})
+    adapted.source = module_source(module.split(".")[0])
+    return adapted
+
+
+# The most source files of a module's package digested, and bytes read.
+MAX_SOURCE_FILES, MAX_SOURCE_BYTES = 4096, 64 << 20
+
+
+def module_source(top):
+    """What the code of a `jax:` env's top module is: the SHA-256 of its
+    package's `.py` files (relative path and bytes, in path order; a lone
+    module's file), how many, and, when it was found through PYTHONPATH or
+    the current directory (not installed), the PYTHONPATH a command run
+    elsewhere needs (absolute; None for an installed one)."""
+    import hashlib
+    import os
+
+    mod = sys.modules.get(top)
+    paths = list(getattr(mod, "__path__", None) or [])
+    files = []
+    if paths:
+        for base in paths:
+            for folder, dirs, names in os.walk(base):
+                dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+                files += [os.path.join(folder, n) for n in sorted(names) if n.endswith(".py")]
+        root = os.path.dirname(os.path.abspath(paths[0]))
+    elif getattr(mod, "__file__", None):
+        files = [mod.__file__]
+        root = os.path.dirname(os.path.abspath(mod.__file__))
+    else:
+        return None
+    h, read = hashlib.sha256(), 0
+    for f in files[:MAX_SOURCE_FILES]:
+        try:
+            with open(f, "rb") as fh:
+                data = fh.read(MAX_SOURCE_BYTES - read + 1)
+        except OSError:
+            continue
+        read += len(data)
+        h.update(os.path.relpath(f, root).encode() + b"\0" + data + b"\0")
+        if read > MAX_SOURCE_BYTES:
+            break
+    on_path = [os.path.abspath(p) for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    if root == os.getcwd() and root not in on_path:
+        on_path.append(root)
+    return {"module": top, "sha256": h.hexdigest(), "files": len(files),
+            "pythonpath": os.pathsep.join(on_path) if root in on_path else None}
 
 
 # The hello message's `source` -> make(name, kwargs, max_steps) -> Adapted.

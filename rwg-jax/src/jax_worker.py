@@ -92,6 +92,8 @@ def start(hello):
     versions = {"python": sys.version.split()[0], "jax": jax.__version__,
                 "jaxlib": getattr(jaxlib, "__version__", None) or version_of("jaxlib")}
     versions.update(env.versions)
+    if getattr(env, "source", None):
+        fields["source"] = env.source
     fields.update({"max_episode_steps": env.max_steps, "precision": precision,
                    "versions": {k: v for k, v in versions.items() if v is not None},
                    "device": f"{dev.platform}:{dev.id}", "device_kind": dev.device_kind,

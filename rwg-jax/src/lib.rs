@@ -277,6 +277,8 @@ pub struct JaxInfo {
     pub platform: String,
     /// The precision the worker ran.
     pub precision: Precision,
+    /// For a `jax:module:callable` env: what its code is.
+    pub source: Option<protocol::ModuleSource>,
 }
 
 /// What can go wrong with a JAX environment.

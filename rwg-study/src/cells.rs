@@ -391,6 +391,7 @@ impl Cell {
                 platform: j.info().platform.clone(),
                 precision: j.info().precision.name().to_string(),
                 networks_per_call: j.networks_per_call(),
+                source: j.info().source.clone(),
             }),
             _ => record,
         }

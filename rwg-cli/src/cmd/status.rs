@@ -131,7 +131,10 @@ pub fn run(args: Args) -> Result<()> {
     print_cells(&cells, shard.is_some());
     let ended = meta.as_ref().is_some_and(|m| m.end_time.is_some());
     print_totals(&t, if shard.is_some() { "shard" } else { "run" }, ended);
-    let finish = finish_command(dir, shard);
+    let finish = rwg_study::shell::with_pythonpath(
+        rwg_study::rundir::env_record::recorded_pythonpath(dir).as_deref(),
+        finish_command(dir, shard),
+    );
     if !t.complete() || !ended {
         crate::outln!("Finish it with:\n  {finish}");
     } else if shard.is_some() {
