@@ -22,9 +22,42 @@ pub fn one_line(text: &str, run_dir: Option<&Path>) -> String {
         Some(d) => d.join(RUN_FILE),
         None => std::env::temp_dir().join(format!("rwg-error-{}.txt", std::process::id())),
     };
-    match keep(&path, text) {
+    match keep(&path, &format!("error: {text}")) {
         Ok(()) => format!("{head}; {what} is in {}", path.display()),
         Err(_) => text.to_string(),
+    }
+}
+
+/// The long parts of several messages (the checks of `rwg check`) kept in
+/// one file of the temporary folder, which each shortened message names.
+pub struct KeptFile {
+    path: PathBuf,
+    texts: String,
+}
+
+impl KeptFile {
+    /// A file named for `what` (`rwg-check-PID.txt`), written when a
+    /// message has a long part.
+    pub fn new(what: &str) -> KeptFile {
+        KeptFile {
+            path: std::env::temp_dir().join(format!("rwg-{what}-{}.txt", std::process::id())),
+            texts: String::new(),
+        }
+    }
+
+    /// `text` with its long part named instead, the whole text added to the
+    /// file; the whole text if it has no long part or the file cannot be
+    /// written.
+    pub fn one_line(&mut self, text: &str) -> String {
+        let Some((head, what, _)) = rwg_worker::split_details(text) else {
+            return text.to_string();
+        };
+        self.texts.push_str(text);
+        self.texts.push_str("\n\n");
+        match keep(&self.path, self.texts.trim_end()) {
+            Ok(()) => format!("{head}; {what} is in {}", self.path.display()),
+            Err(_) => text.to_string(),
+        }
     }
 }
 
@@ -42,7 +75,7 @@ fn keep(path: &PathBuf, text: &str) -> std::io::Result<()> {
         .collect();
     writeln!(
         f,
-        "rwg {} ({}):\nerror: {text}",
+        "{} (rwg {}):\n{text}",
         args.join(" "),
         env!("CARGO_PKG_VERSION")
     )?;
