@@ -321,23 +321,34 @@ fn a_brax_env_runs_a_study() {
 /// A `jax:module:callable` env of the user's runs; one whose observation
 /// turns NaN stops the run naming the network and episode, keeps the blocks
 /// committed before it, and the run resumes once the env is fixed.
-#[test]
-fn a_jax_env_of_ones_own_runs_and_a_nan_observation_stops_it() {
-    let Some(py) = python() else { return };
-    let dir = temp_dir("jax-custom");
+/// `dir/m.toml`, a study of `jax:ID` (a slider of `rwg_jax_envs`, seed 5,
+/// `samples` x `episodes`, calls of 32 networks) whose episode `episode` of
+/// network `sample` observes NaN while `dir/nan-seed` (returned too) holds
+/// its reset seed.
+fn nan_study(
+    py: &str,
+    dir: &Path,
+    id: &str,
+    (sample, episode): (u64, u32),
+    (samples, episodes): (u32, u32),
+) -> (String, PathBuf) {
     let nan_file = dir.join("nan-seed");
-    // network 70's episode 1: in the third call of 32 networks
-    let seed = rwg_core::sampler::reset_seed(5, "rwg_jax_envs:make_slider", 70, 1);
+    let seed = rwg_core::sampler::reset_seed(5, id, sample, episode);
     std::fs::write(&nan_file, seed.to_string()).unwrap();
     let entry = format!(
         "kwargs = {{ nan_file = {:?} }}\nnetworks_per_call = 32",
         s(&nan_file)
     );
-    let m = write(
-        &dir,
-        "m.toml",
-        &manifest(&py, "jax:rwg_jax_envs:make_slider", &entry, 128, 2, false),
-    );
+    let body = manifest(py, &format!("jax:{id}"), &entry, samples, episodes, false);
+    (write(dir, "m.toml", &body), nan_file)
+}
+
+#[test]
+fn a_jax_env_of_ones_own_runs_and_a_nan_observation_stops_it() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-custom");
+    // network 70's episode 1: in the third call of 32 networks
+    let (m, nan_file) = nan_study(&py, &dir, "rwg_jax_envs:make_slider", (70, 1), (128, 2));
     let run = dir.join("run");
     let mut cmd = rwg_cmd(&["run", &m, "--out", s(&run), "--threads", "1", "--no-report"]);
     let out = cmd.env("RWG_COMMIT_LINGER", "0").output().unwrap();
@@ -380,18 +391,7 @@ fn an_edited_jax_module_is_not_resumed_and_printed_commands_find_it() {
     let module = envs.join("my_slider.py");
     let source = "from rwg_jax_envs import make_slider as make\n";
     std::fs::write(&module, source).unwrap();
-    let nan_file = dir.join("nan-seed");
-    let seed = rwg_core::sampler::reset_seed(5, "my_slider:make", 40, 0);
-    std::fs::write(&nan_file, seed.to_string()).unwrap();
-    let entry = format!(
-        "kwargs = {{ nan_file = {:?} }}\nnetworks_per_call = 32",
-        s(&nan_file)
-    );
-    let m = write(
-        &dir,
-        "m.toml",
-        &manifest(&py, "jax:my_slider:make", &entry, 64, 1, false),
-    );
+    let (m, nan_file) = nan_study(&py, &dir, "my_slider:make", (40, 0), (64, 1));
     let run = dir.join("run");
     let data = std::fs::canonicalize(data_dir()).unwrap();
     let pythonpath = format!("{}:{}", s(&envs), s(&data));
