@@ -15,9 +15,12 @@ use std::path::{Path, PathBuf};
 /// the temporary folder, and named instead. If no file can be written, the
 /// whole text, so that nothing is lost.
 pub fn one_line(text: &str, run_dir: Option<&Path>) -> String {
-    let Some((head, what, _)) = rwg_worker::split_details(text) else {
+    let Some((head, what, long)) = rwg_worker::split_details(text) else {
         return text.to_string();
     };
+    if let Some(line) = short(head, what, long) {
+        return line;
+    }
     let path = match run_dir.filter(|d| d.is_dir()) {
         Some(d) => d.join(RUN_FILE),
         None => std::env::temp_dir().join(format!("rwg-error-{}.txt", std::process::id())),
@@ -49,9 +52,12 @@ impl KeptFile {
     /// file; the whole text if it has no long part or the file cannot be
     /// written.
     pub fn one_line(&mut self, text: &str) -> String {
-        let Some((head, what, _)) = rwg_worker::split_details(text) else {
+        let Some((head, what, long)) = rwg_worker::split_details(text) else {
             return text.to_string();
         };
+        if let Some(line) = short(head, what, long) {
+            return line;
+        }
         self.texts.push_str(text);
         self.texts.push_str("\n\n");
         match keep(&self.path, self.texts.trim_end()) {
@@ -59,6 +65,20 @@ impl KeptFile {
             Err(_) => text.to_string(),
         }
     }
+}
+
+/// The longest long part printed on the message's line: one line of a
+/// worker's stderr (`rwg: the interpreter ... is a shell`) says more where
+/// it is read than in a file.
+const SHORT: usize = 300;
+
+/// `head; what: LINE` when the long part (its label, then its text) is one
+/// line of at most [`SHORT`] characters.
+fn short(head: &str, what: &str, long: &str) -> Option<String> {
+    let (_, rest) = long.split_once('\n')?;
+    let rest = rest.trim();
+    (!rest.is_empty() && !rest.contains('\n') && rest.chars().count() <= SHORT)
+        .then(|| format!("{head}; {what}: {rest}"))
 }
 
 /// Writes the command line and `text` to `path` (replacing it; readable
@@ -103,6 +123,12 @@ mod tests {
         let kept = std::fs::read_to_string(&file).unwrap();
         assert!(kept.ends_with(&format!("error: {text}\n")), "{kept}");
         assert_eq!(one_line("short", Some(&dir)), "short");
+        // a long part of one short line stays on the line
+        let one = "the worker exited with status 97; the end of its stderr:\nrwg: a shell\n";
+        assert_eq!(
+            one_line(one, Some(&dir)),
+            "the worker exited with status 97; the end of the worker's stderr: rwg: a shell"
+        );
         // no run directory: the temporary folder
         let line = one_line(text, Some(&dir.join("missing")));
         assert!(
