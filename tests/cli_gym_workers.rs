@@ -483,7 +483,11 @@ fn gymnasium_workers_die_with_rwg_on_any_signal() {
             assert_eq!(code, Some(130), "{err}");
             assert!(err.contains("did not finish within"), "{err}");
             assert!(!err.contains("plugin"), "{err}");
-            assert!(err.contains("resume with: rwg run"), "{err}");
+            // the resume command sets the PYTHONPATH the env's module was
+            // found through, as the run had it
+            let pp = python_dir();
+            let resume = format!("resume with: PYTHONPATH={} rwg run ", pp.display());
+            assert!(err.contains(&resume), "{err}");
         }
     }
     let _ = std::fs::remove_dir_all(&dir);
