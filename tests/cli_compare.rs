@@ -56,7 +56,11 @@ fn compare_side_by_side() {
     let mut sorted = ranks.clone();
     sorted.sort();
     assert_eq!(sorted, (1..=16).collect::<Vec<u64>>());
-    assert!(csv.lines().next().unwrap().ends_with(",difficulty_rank"));
+    assert!(csv
+        .lines()
+        .next()
+        .unwrap()
+        .ends_with(",difficulty_rank,non_finite_episodes"));
 
     let dir = temp_dir("compare-fig");
     let (fig, rank_fig, page) = (
@@ -236,4 +240,183 @@ fn outputs_that_fill_the_disk_leave_nothing_half_written() {
         .map(|e| e.unwrap().file_name())
         .collect();
     assert!(left.is_empty(), "left behind: {left:?}");
+}
+
+/// A study of CartPole-v1 and CartPole-v0, both solved at 195, with `extra`
+/// added to CartPole-v1's entry.
+fn paired_study(episodes: u32, extra: &str) -> String {
+    format!(
+        "seed = 0\nsamples = 256\nepisodes = {episodes}\nbias = [false]\n\
+         [[architectures]]\nname = \"0HL\"\nhidden = []\n\
+         [[architectures]]\nname = \"1HL-4\"\nhidden = [4]\n\
+         [[envs]]\nid = \"CartPole-v1\"\nsolved = 195\n{extra}\n\
+         [[envs]]\nid = \"CartPole-v0\"\nsolved = 195\n"
+    )
+}
+
+#[test]
+fn compare_paired_two_implementations() {
+    let dir = temp_dir("compare-paired");
+    let a = finished_run(&dir, "a", &paired_study(3, ""));
+    let same = finished_run(&dir, "same", &paired_study(3, ""));
+    // the same networks, their episodes cut at 150 steps: none reaches 195
+    let cut = finished_run(&dir, "cut", &paired_study(3, "max_episode_steps = 150"));
+    let (a, same, cut) = (path_str(&a), path_str(&same), path_str(&cut));
+
+    // one implementation twice: the same numbers, one benchmark
+    let out = rwg_ok(&["compare", a, same, "--paired", "CartPole-v1", "CartPole-v1"]);
+    assert!(
+        out.starts_with(
+            "Paired comparison of CartPole-v1 in a and in same, 3 episodes per network"
+        ),
+        "{out}"
+    );
+    let row0 = out.lines().find(|l| l.starts_with("0HL")).unwrap();
+    assert!(
+        row0.contains("1.000") && row0.contains("0 (p = 1.0)"),
+        "{out}"
+    );
+    assert!(row0.ends_with("one benchmark"), "{out}");
+    assert!(
+        out.contains("verdict: a and same are one benchmark: no test tells them apart"),
+        "{out}"
+    );
+
+    // the same networks under a shorter time limit: p(solved) differs
+    let csv = rwg_ok(&[
+        "compare",
+        a,
+        cut,
+        "--paired",
+        "CartPole-v1",
+        "CartPole-v1",
+        "--format",
+        "csv",
+    ]);
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines.len(), 3, "{csv}");
+    assert!(lines[0].starts_with("run_a,env_a,run_b,env_b,arch,bias,networks,episodes,paired,"));
+    let field = |line: &str, name: &str| -> String {
+        let i = lines[0].split(',').position(|h| h == name).unwrap();
+        line.split(',').nth(i).unwrap().to_string()
+    };
+    for l in &lines[1..] {
+        assert_eq!(field(l, "paired"), "true", "{csv}");
+        assert_eq!(field(l, "solved_only_b"), "0", "{csv}");
+        assert_eq!(field(l, "solved_both"), "0", "{csv}");
+        let only_a: u64 = field(l, "solved_only_a").parse().unwrap();
+        assert!(only_a >= 8, "{csv}");
+        // McNemar's exact p of k discordant pairs all one way: 2 / 2^k
+        let p: f64 = field(l, "solved_p").parse().unwrap();
+        assert!(
+            (p - 2.0 * 0.5f64.powi(only_a as i32)).abs() < 1e-12,
+            "{csv}"
+        );
+        assert_eq!(field(l, "verdict"), "different", "{csv}");
+    }
+
+    // two envs of one run: other seed ids, so other networks
+    let json = rwg_ok(&[
+        "compare",
+        a,
+        "--paired",
+        "CartPole-v1",
+        "CartPole-v0",
+        "--format",
+        "json",
+    ]);
+    let v: Value = serde_json::from_str(&json).unwrap();
+    let r0 = &v["rows"][0];
+    assert_eq!(r0["paired"], false);
+    assert_eq!(
+        r0["unpaired_reason"],
+        "the seed ids differ (CartPole-v1 and CartPole-v0)"
+    );
+    assert_eq!(r0["solved_test"], "fisher");
+    assert!(r0["spearman"].is_null());
+    assert!(["different", "one_benchmark"].contains(&v["verdict"].as_str().unwrap()));
+
+    // the figure: per architecture each network's two means and the CDFs
+    let fig = dir.join("paired.svg");
+    rwg_ok(&[
+        "compare",
+        a,
+        cut,
+        "--paired",
+        "CartPole-v1",
+        "CartPole-v1",
+        "--figure",
+        path_str(&fig),
+    ]);
+    let svg = std::fs::read_to_string(&fig).unwrap();
+    for want in [
+        "Paired comparison of CartPole-v1 in a and in cut",
+        "0HL · no bias: each network (Spearman ρ",
+        "1HL-4 · no bias",
+        "CDF of the means: KS D",
+        "solved in one",
+        "verdict: a and cut are different benchmarks",
+    ] {
+        assert!(svg.contains(want), "paired figure lacks {want:?}");
+    }
+}
+
+#[test]
+fn compare_paired_refuses_what_it_cannot_pair() {
+    let dir = temp_dir("compare-paired-refusals");
+    let a = finished_run(&dir, "a", &paired_study(3, ""));
+    let b = finished_run(&dir, "b", &paired_study(2, ""));
+    let (a, b) = (path_str(&a), path_str(&b));
+    let err = rwg_err(&["compare", a, "--paired", "CartPole-v1", "Acrobot-v1"]);
+    assert!(
+        err.contains("a has no finished cell of Acrobot-v1; its envs: CartPole-v1, CartPole-v0"),
+        "{err}"
+    );
+    let err = rwg_err(&["compare", a, "--paired", "CartPole-v1", "CartPole-v1"]);
+    assert!(
+        err.contains("compares CartPole-v1 of a with itself"),
+        "{err}"
+    );
+    let third = synthetic_run("compare-paired-third", 10, 3);
+    let err = rwg_err(&[
+        "compare",
+        a,
+        b,
+        path_str(&third),
+        "--paired",
+        "CartPole-v1",
+        "CartPole-v1",
+    ]);
+    assert!(
+        err.contains("--paired compares two envs: give one run"),
+        "{err}"
+    );
+    let err = rwg_err(&[
+        "compare",
+        a,
+        "--paired",
+        "CartPole-v1",
+        "CartPole-v0",
+        "--html",
+        "x.html",
+    ]);
+    assert!(
+        err.contains("--html belongs to the comparison of whole runs"),
+        "{err}"
+    );
+    // other episode counts: means that spread differently
+    let err = rwg_err(&["compare", a, b, "--paired", "CartPole-v1", "CartPole-v1"]);
+    assert!(
+        err.contains("0HL: episodes per network differ (3 and 2)") && err.contains("--force"),
+        "{err}"
+    );
+    rwg_ok(&[
+        "compare",
+        a,
+        b,
+        "--paired",
+        "CartPole-v1",
+        "CartPole-v1",
+        "--force",
+    ]);
 }

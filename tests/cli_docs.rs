@@ -6,7 +6,8 @@
 //! `docs/guide.md` and every row names one the code reads; every column the
 //! binary writes (`scores.csv`, `samples.csv`, `stats.csv`, `rwg compare`'s
 //! CSV, and every key of `stats.json` and of `rwg compare`'s JSON) is named
-//! on the page that documents it; and no paragraph runs past
+//! on the page that documents it; every JAX env source of rwg-jax's table
+//! has its id and install line in the JAX pages; and no paragraph runs past
 //! 150 words.
 
 mod common;
@@ -471,19 +472,31 @@ fn every_column_the_binary_writes_is_documented() {
     rwg_ok(&["stats", a_s, "--at-n", "4"]);
     let cell = a.join("cells/CartPole-v0__0HL__nobias");
     let b_s = b.to_str().unwrap();
-    let compare = rwg_ok(&["compare", a_s, b_s, "--format", "csv"]);
-    let compare_cols: Vec<String> = compare
-        .lines()
-        .next()
-        .unwrap()
-        .split(',')
-        .map(String::from)
-        .collect();
+    // the first line of a CSV text, split
+    let columns = |csv: String| -> Vec<String> {
+        let first = csv.lines().next().unwrap_or_default().to_string();
+        first.split(',').map(String::from).collect()
+    };
+    let compare_cols = columns(rwg_ok(&["compare", a_s, b_s, "--format", "csv"]));
     let json_of = |text: &str| {
         let mut keys = BTreeSet::new();
         json_keys(&serde_json::from_str(text).unwrap(), &mut keys);
         keys.into_iter().collect::<Vec<String>>()
     };
+    let paired = |format: &str| {
+        rwg_ok(&[
+            "compare",
+            a_s,
+            b_s,
+            "--paired",
+            "CartPole-v0",
+            "CartPole-v0",
+            "--format",
+            format,
+        ])
+    };
+    let paired_cols = columns(paired("csv"));
+    let paired_keys = json_of(&paired("json"));
     let stats_keys = json_of(&std::fs::read_to_string(a.join("stats.json")).unwrap());
     let compare_keys = json_of(&rwg_ok(&["compare", a_s, b_s, "--format", "json"]));
     let (guide, both) = (
@@ -501,6 +514,16 @@ fn every_column_the_binary_writes_is_documented() {
         ),
         ("stats.json", stats_keys, both),
         ("rwg compare --format json", compare_keys, both),
+        (
+            "rwg compare --paired --format csv",
+            paired_cols,
+            &["docs/reference.md"][..],
+        ),
+        (
+            "rwg compare --paired --format json",
+            paired_keys,
+            &["docs/reference.md"][..],
+        ),
     ];
     let mut bad = Vec::new();
     for (what, columns, pages) in written {
@@ -570,4 +593,38 @@ fn the_paragraph_check_counts_prose_and_list_items_apart() {
     let long = "word ".repeat(151);
     let text = format!("# T\n\n{long}\n\n- short\n- {long}\n\n| {long} |\n\n```sh\n{long}\n```\n");
     assert_eq!(long_paragraphs(&text, 150), [(3, 151), (6, 152)]);
+}
+
+/// Every JAX env source of rwg-jax's table ([`rwg_jax::FAMILIES`]) is on
+/// the JAX pages: its id form, and for a library a tested `pip install`
+/// line pinning its package; the six families each have a section of
+/// `docs/jax-families.md` named for the library.
+#[test]
+fn every_jax_source_of_the_table_is_documented() {
+    let pages = format!("{}{}", read("docs/jax.md"), read("docs/jax-families.md"));
+    let families = read("docs/jax-families.md");
+    let mut bad = vec![];
+    for f in rwg_jax::FAMILIES.iter() {
+        let id = |quote: char| pages.contains(&format!("{quote}{}", f.prefix));
+        if !id('`') && !id('"') {
+            bad.push(format!("{}: no id `{}...`", f.library, f.prefix));
+        }
+        let pinned = format!(" {}==", f.package);
+        if !f.package.is_empty()
+            && !families
+                .lines()
+                .any(|l| l.starts_with("python3 -m pip install") && l.contains(&pinned))
+        {
+            bad.push(format!("{}: no install line with{pinned}", f.library));
+        }
+        let base = ["gymnax", "brax", "jax"].contains(&f.source);
+        if !base && !families.contains(&format!("\n## {}\n", f.library)) {
+            bad.push(format!("{}: no section `## {}`", f.library, f.library));
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "JAX sources missing from the docs:\n{}",
+        bad.join("\n")
+    );
 }

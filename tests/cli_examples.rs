@@ -41,8 +41,9 @@
 //!   `gymnasium:` env or `rwg bench gym`, run a manifest with a
 //!   `gymnasium:` env, or a Python script that imports numpy, pandas or
 //!   Gymnasium (what a command needs is read from what it runs, [`needs`]).
-//! - JAX (`python3 -m pip install jax gymnax`): not run; a command that
-//!   names JAX, gymnax or Brax (docs/jax.md, the `gymnax:` envs) runs with
+//! - JAX (`python3 -m pip install jax gymnax`, a family's line): not run; a
+//!   command that names JAX, gymnax, Brax or a JAX family (docs/jax.md,
+//!   docs/jax-families.md, the `gymnax:` envs) runs with
 //!   the Python of `RWG_PEER_PYTHON` (jax, gymnax, brax) as `RWG_PYTHON` and
 //!   its folder on PATH after rwg's (`python3` is that Python); without it
 //!   such a command is skipped, visibly, and under `CI=true` the test fails.
@@ -449,10 +450,15 @@ fn plan(e: &Example) -> Plan {
     Plan::Run(parts.join("; "))
 }
 
-/// Whether a command needs a Python with JAX: it names JAX, gymnax or Brax
-/// (an id, a manifest or a script of docs/jax.md).
+/// Whether a command needs a Python with JAX: it names JAX, gymnax, Brax or
+/// a JAX family (an id, a manifest or a script of docs/jax.md or
+/// docs/jax-families.md).
 fn needs_jax(cmd: &str) -> bool {
-    ["jax", "gymnax", "brax"].iter().any(|w| cmd.contains(w))
+    rwg_jax::FAMILIES
+        .iter()
+        .map(|f| f.source)
+        .chain(["jax", "gymnax", "brax"])
+        .any(|w| cmd.contains(w))
 }
 
 /// The Pythons a command needs, from what it runs: the ids it names, the
@@ -624,7 +630,10 @@ fn check_shape(e: &Example, ran: &str, dir: &Path, stdout: &str) {
         want(stdout.trim().ends_with("report.html"), "names no report");
         want(dir.join(stdout.trim()).is_file(), "writes no report");
     }
-    if has("rwg compare") {
+    if has("rwg compare") && has("--paired") {
+        // the table's verdict line, or the CSV's verdict column
+        want(stdout.contains("verdict"), "prints no verdict");
+    } else if has("rwg compare") {
         want(stdout.contains("Difficulty ranking"), "prints no ranking");
         if let Some(f) = c.split("--html ").nth(1) {
             let f = f.split_whitespace().next().unwrap();

@@ -20,46 +20,6 @@ use jax_common::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The bytes that must not depend on how a study was run: each cell's
-/// `scores.csv` and `samples.csv`, and the run's `stats.csv`.
-fn results(run: &Path) -> Vec<(String, Vec<u8>)> {
-    let mut cells: Vec<PathBuf> = std::fs::read_dir(run.join("cells"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .collect();
-    cells.sort();
-    let mut out = vec![];
-    for c in cells {
-        let name = c.file_name().unwrap().to_string_lossy().into_owned();
-        for f in ["scores.csv", "samples.csv"] {
-            let p = c.join(f);
-            out.push((
-                format!("{name}/{f}"),
-                std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display())),
-            ));
-        }
-    }
-    out.push((
-        "stats.csv".into(),
-        std::fs::read(run.join("stats.csv")).unwrap(),
-    ));
-    out
-}
-
-fn assert_same(a: &Path, b: &Path) {
-    let (ra, rb) = (results(a), results(b));
-    assert_eq!(ra.len(), rb.len());
-    for ((na, fa), (nb, fb)) in ra.iter().zip(&rb) {
-        assert_eq!(na, nb);
-        assert!(
-            fa == fb,
-            "{na} differs between {} and {}",
-            a.display(),
-            b.display()
-        );
-    }
-}
-
 const CARTPOLE: &str = "gymnax=CartPole-v1";
 
 /// The `layers` of `rwg replay --export-weights` for network `sample`.
@@ -119,7 +79,51 @@ fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
         &manifest(&py, "gymnax:CartPole-v1", "", 64, 3, true),
     );
     let run = dir.join("run");
-    ok(&["run", &m, "--out", s(&run), "--threads", "2"]);
+    let out = rwg_cmd(&["run", &m, "--out", s(&run), "--threads", "2", "--timing"])
+        .env("RWG_PROGRESS_INTERVAL", "0.5")
+        .output()
+        .unwrap();
+    let text = output_text(&out);
+    assert!(out.status.success(), "{text}");
+    // while the workers compile, the progress says so, with no rate or ETA
+    let compiling: Vec<&str> = text
+        .lines()
+        .filter(|l| l.contains("compiling for"))
+        .collect();
+    assert!(!compiling.is_empty(), "{text}");
+    assert!(
+        compiling
+            .iter()
+            .all(|l| !l.contains("networks/s") && !l.contains("ETA")),
+        "{text}"
+    );
+    // --timing: each cell's sampling split into compile and run
+    let mut timing = text
+        .lines()
+        .skip_while(|l| !l.starts_with("phase (wall ms)"));
+    let header = timing
+        .next()
+        .unwrap_or_else(|| panic!("no timing table: {text}"));
+    assert!(header.contains(" sampling   compile        run "), "{text}");
+    let rows: Vec<&str> = timing.collect();
+    for arch in ["0HL", "1HL"] {
+        let row = rows
+            .iter()
+            .find(|l| l.starts_with(&format!("{CARTPOLE}__{arch}__nobias")))
+            .unwrap_or_else(|| panic!("no timing row of {arch}: {text}"));
+        let ms: Vec<f64> = row
+            .split_whitespace()
+            .skip(1)
+            .take(3)
+            .map(|x| x.parse().unwrap())
+            .collect();
+        // sampling = compile + run, to the rounding of each to 0.1 ms
+        assert!(
+            (ms[0] - ms[1] - ms[2]).abs() <= 0.11 && ms[1] > 0.0,
+            "{row}"
+        );
+    }
+    assert!(text.contains("(JAX compile "), "{text}");
     for f in [
         "manifest.toml",
         "run.json",
@@ -153,6 +157,24 @@ fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
     }
     let stats = std::fs::read_to_string(run.join("stats.csv")).unwrap();
     assert!(stats.contains("gymnax:CartPole-v1"), "{stats}");
+    // how the JAX cells computed: in rwg status, rwg stats and report.html
+    let setting = "cpu, float32, 256 networks per call; jax 0.10.2, jaxlib 0.10.2, gymnax 1.0.1";
+    let status = ok(&["status", s(&run)]);
+    assert!(
+        status.contains(&format!("gymnax:CartPole-v1 (2 cells): {setting}")),
+        "{status}"
+    );
+    let table = ok(&["stats", s(&run), "--no-write"]);
+    assert!(table.contains("How the JAX envs computed"), "{table}");
+    let report = std::fs::read_to_string(run.join("report.html")).unwrap();
+    assert!(
+        report.contains("How the JAX envs computed"),
+        "report lacks the JAX table"
+    );
+    assert!(
+        report.contains("JAX: cpu, float32, 256 networks per call; jax 0.10.2"),
+        "report lacks the cells' JAX line"
+    );
 
     // network n's weights are the built-in CartPole-v1's network n
     let builtin = write(
@@ -168,6 +190,27 @@ fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
         let b = exported_layers(&brun, "CartPole-v1", arch, n, &dir.join("b.json"));
         assert!(a.as_array().is_some_and(|l| !l.is_empty()), "{a}");
         assert_eq!(a, b, "{arch} network {n}");
+    }
+
+    // the paired view of the two implementations: the same networks
+    let paired = ok(&[
+        "compare",
+        s(&brun),
+        s(&run),
+        "--paired",
+        "CartPole-v1",
+        "gymnax:CartPole-v1",
+        "--format",
+        "csv",
+    ]);
+    let rows: Vec<&str> = paired.lines().skip(1).collect();
+    assert_eq!(rows.len(), 2, "{paired}");
+    for r in rows {
+        assert!(
+            r.starts_with("builtin,CartPole-v1,run,gymnax:CartPole-v1,")
+                && r.contains(",64,3,true,"),
+            "{paired}"
+        );
     }
 
     // replay runs network 17's episodes through a worker: scores.csv's returns

@@ -93,8 +93,7 @@ fn wrong_sizes_and_failed_calls_are_told_as_they_are() {
         ),
         (
             "reward_values = 4",
-            "the env's step returns a reward of 4 values (shape (4,)) where rwg takes one \
-             number",
+            "the env's reward has shape (4,): rwg sums one reward (a scalar) per step",
         ),
     ] {
         let entry = format!("kwargs = {{ {kwargs} }}");
@@ -342,5 +341,86 @@ fn isolate_leaves_jax_envs_alone() {
     ]);
     let shards = std::fs::read_to_string(study.join("slurm/manifest.toml")).unwrap();
     assert!(!shards.contains("isolate"), "{shards}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `non_finite = "end"` on a JAX env: an episode ends at its first value
+/// that is not finite (a NaN observation from step 1 of one episode; physics
+/// that blow up in float32 and float64), flagged in scores.csv and counted,
+/// with the same bytes whatever the threads.
+#[test]
+fn with_end_a_jax_episode_ends_at_its_first_value_not_finite() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-non-finite");
+    let nan_file = dir.join("nan-seed");
+    let seed = rwg_core::sampler::reset_seed(5, "rwg_jax_envs:make_slider", 40, 1);
+    std::fs::write(&nan_file, seed.to_string()).unwrap();
+    let entry = format!(
+        "kwargs = {{ nan_file = {:?} }}\nnetworks_per_call = 32\nnon_finite = \"end\"",
+        s(&nan_file)
+    );
+    let m = write(
+        &dir,
+        "nan.toml",
+        &manifest(&py, "jax:rwg_jax_envs:make_slider", &entry, 64, 2, false),
+    );
+    let run = dir.join("nan");
+    ok(&["run", &m, "--out", s(&run), "--no-report"]);
+    let cell = run.join("cells/jax=rwg_jax_envs=make_slider__0HL__nobias");
+    let scores = std::fs::read_to_string(cell.join("scores.csv")).unwrap();
+    let flagged: Vec<&str> = scores.lines().filter(|l| l.ends_with(",1")).collect();
+    // network 40's episode 1 observes NaN at step 1: it ends there, its
+    // reward left out
+    assert_eq!(flagged, ["40,1,0.0,1,1"], "{scores}");
+    let json = std::fs::read_to_string(cell.join("cell.json")).unwrap();
+    assert!(json.contains("\"non_finite_episodes\": 1"), "{json}");
+    // physics that blow up: float32 overflows, float64 leaves ±1e100 (the
+    // threads compared in float32)
+    for (precision, threads) in [("float32", &["1", "2"][..]), ("float64", &["2"])] {
+        let runs: Vec<_> = threads
+            .iter()
+            .map(|threads| {
+                let entry = format!(
+                    "kwargs = {{ blowup = 10.0 }}\nprecision = \"{precision}\"\n\
+                     networks_per_call = 32\nnon_finite = \"end\""
+                );
+                let name = format!("{precision}-{threads}");
+                let m = write(
+                    &dir,
+                    &format!("{name}.toml"),
+                    &manifest(&py, "jax:rwg_jax_envs:make_slider", &entry, 64, 2, false),
+                );
+                let out = dir.join(&name);
+                ok(&[
+                    "run",
+                    &m,
+                    "--out",
+                    s(&out),
+                    "--threads",
+                    threads,
+                    "--no-report",
+                ]);
+                let cell = out.join("cells/jax=rwg_jax_envs=make_slider__0HL__nobias");
+                std::fs::read_to_string(cell.join("scores.csv")).unwrap()
+            })
+            .collect();
+        let rows: Vec<&str> = runs[0].lines().skip(1).collect();
+        assert!(
+            rows.iter().all(|l| l.ends_with(",1")),
+            "{precision}: {}",
+            runs[0]
+        );
+        assert!(
+            rows.iter().all(|l| !l.ends_with(",60,1")),
+            "{precision}: {}",
+            runs[0]
+        );
+        assert_eq!(
+            runs[0],
+            runs[runs.len() - 1],
+            "{precision}: the threads change it"
+        );
+    }
+    ok(&["verify", s(&run)]);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -54,6 +54,7 @@ fn builtin_cell(dir: &Path, seed_id: &str, builtin: &str, f32_actions: bool, bia
         },
         episodes: 2,
         dist: WeightDist::Normal { std: 1.0 },
+        non_finite: Default::default(),
     };
     let opts = EnvOptions {
         action_dtype: if f32_actions {

@@ -251,10 +251,12 @@ fn timing_shows_every_cell_and_its_serial_share_and_records_every_cell_in_order(
             .lines()
             .find(|l| l.starts_with(c))
             .unwrap_or_else(|| panic!("no timing line for {c}:\n{err}"));
-        // sampling, serial, serial share | commit I/O, commit end, finalise, run.json
+        // sampling, compile, run (a JAX cell's only), serial, serial share |
+        // commit I/O, commit end, finalise, run.json
         let cols: Vec<_> = line.split_whitespace().collect();
-        assert_eq!(cols.len(), 9, "{line}");
-        assert!(cols[3].ends_with('%') && cols[4] == "|", "{line}");
+        assert_eq!(cols.len(), 11, "{line}");
+        assert_eq!((cols[2], cols[3]), ("-", "-"), "{line}");
+        assert!(cols[5].ends_with('%') && cols[6] == "|", "{line}");
     }
     assert!(err.contains("last cells' ends"), "{err}");
     assert!(err.contains("whole run:"), "{err}");

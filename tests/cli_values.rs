@@ -1,6 +1,6 @@
 //! Values are checked where they enter rwg, end to end with the real `rwg`
-//! binary: an episode's total reward that overflows (built-in, plugin through
-//! every path, Gymnasium), Gymnasium observations that are complex, strings or
+//! binary: an episode's total reward beyond ±1e100 (plugin through every
+//! path, Gymnasium), Gymnasium observations that are complex, strings or
 //! of no values, the pre-0.26 Gym API, registered reward thresholds that are
 //! not finite, and manifest `kwargs` with nan/inf or a datetime. What can be
 //! refused before the run is refused before the run directory is created.
@@ -39,7 +39,7 @@ fn refused_before_run(py: &str, m: &str, dir: &Path, out: &str) -> String {
 }
 
 #[test]
-fn an_overflowing_total_reward_fails_the_episode_on_every_plugin_path() {
+fn a_return_beyond_the_bound_fails_the_episode_at_its_step_on_every_plugin_path() {
     let dir = temp_dir("values-plugin-sum");
     let m = write(
         &dir,
@@ -64,13 +64,13 @@ fn an_overflowing_total_reward_fails_the_episode_on_every_plugin_path() {
         );
         let err = text(&res.stderr);
         assert!(!res.status.success(), "{path}: {err}");
-        // 1e308 per step: the 20-step episode's sum is inf, found where it ends
+        // 1e308 per step: the return leaves ±1e100 at step 1, found there
         assert!(
-            err.contains("broken/HugeReward-v0: sample 0, episode 0, step 20: "),
+            err.contains("broken/HugeReward-v0: sample 0, episode 0, step 1: "),
             "{path}: {err}"
         );
         assert!(
-            err.contains("the episode's total reward is inf"),
+            err.contains("the episode's total reward is 1e308, beyond ±1e100"),
             "{path}: {err}"
         );
         assert!(err.contains("scale the rewards"), "{path}: {err}");
@@ -89,13 +89,46 @@ fn an_overflowing_total_reward_fails_the_episode_on_every_plugin_path() {
     let out = dir.join("isolated");
     let err = rwg_err(&["run", &iso, "--out", out.to_str().unwrap(), "--no-report"]);
     assert!(
-        err.contains("sample 0, episode 0, step 20: the episode's total reward is inf"),
+        err.contains("sample 0, episode 0, step 1: the episode's total reward is 1e308, beyond"),
         "{err}"
     );
 }
 
+/// Finite episode totals too large for the statistics (1e308: two of them
+/// overflow a mean, one squared a variance) are refused where they enter,
+/// naming the env, network, episode and value, on every plugin path; before,
+/// the run exited 0 with infinite means and `rwg top` refused its own
+/// `samples.csv`.
 #[test]
-fn gymnasium_an_overflowing_total_reward_fails_the_episode() {
+fn a_finite_total_beyond_what_the_statistics_hold_is_refused_where_it_enters() {
+    let dir = temp_dir("values-plugin-huge-total");
+    let env = format!(
+        "{HEAD}[[envs]]\nid = \"broken/HugeReward-v0\"\nplugin = \"{}\"\nmax_episode_steps = 1\n",
+        broken_plugin().display()
+    );
+    for (path, isolate) in [("in-process", ""), ("isolated", "isolate = true\n")] {
+        let m = write(&dir, &format!("{path}.toml"), &format!("{env}{isolate}"));
+        let out = dir.join(path);
+        let err = rwg_err(&["run", &m, "--out", out.to_str().unwrap(), "--no-report"]);
+        assert!(
+            err.contains(
+                "broken/HugeReward-v0: sample 0, episode 0, step 1: the episode's total \
+                 reward is 1e308, beyond"
+            ),
+            "{path}: {err}"
+        );
+        assert!(err.contains("1e100"), "{path}: {err}");
+        assert!(err.contains("scale the rewards"), "{path}: {err}");
+        let cell = out.join("cells/broken+HugeReward-v0__0HL__nobias");
+        assert!(
+            !cell.join("samples.csv").exists(),
+            "{path}: samples.csv written"
+        );
+    }
+}
+
+#[test]
+fn gymnasium_a_return_beyond_the_bound_fails_the_episode_at_its_step() {
     let Some(py) = python() else { return };
     let dir = temp_dir("values-gym-sum");
     let m = gym_manifest(
@@ -111,13 +144,40 @@ fn gymnasium_an_overflowing_total_reward_fails_the_episode() {
     );
     assert!(
         err.contains(
-            "rwg_test_envs:Odd-v0: sample 0, episode 0, step 5: the episode's total reward is inf"
+            "rwg_test_envs:Odd-v0: sample 0, episode 0, step 1: the episode's total reward is 1e308, \
+             beyond ±1e100"
         ),
         "{err}"
     );
     assert!(!out
         .join("cells/gymnasium=rwg_test_envs=Odd-v0__0HL__nobias/scores.csv")
         .exists());
+}
+
+/// With `non_finite = "end"`, a Gymnasium env's infinite reward (step 3 of
+/// every episode) is taken by the start-up probe, and ends each episode
+/// there, flagged, with the rewards of steps 1 and 2.
+#[test]
+fn gymnasium_with_end_an_infinite_reward_ends_the_episode_flagged() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("values-gym-end");
+    let m = gym_manifest(
+        &dir,
+        "m.toml",
+        "id = \"gymnasium:rwg_test_envs:Odd-v0\"\nkwargs = { mode = \"inf_reward\" }\n\
+         non_finite = \"end\"\n",
+    );
+    let out = dir.join("run");
+    run_ok(
+        &py,
+        &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
+    );
+    let cell = out.join("cells/gymnasium=rwg_test_envs=Odd-v0__0HL__nobias");
+    let scores = text(&read(cell.join("scores.csv")));
+    let mut lines = scores.lines();
+    assert_eq!(lines.next(), Some("sample,episode,score,steps,non_finite"));
+    assert!(lines.all(|l| l.ends_with(",2.0,3,1")), "{scores}");
+    assert!(text(&read(cell.join("cell.json"))).contains("\"non_finite_episodes\": 80"));
 }
 
 #[test]

@@ -5,7 +5,7 @@
 #![allow(dead_code, reason = "each test file uses part of these helpers")]
 
 use crate::common::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 /// The JAX Python (`RWG_PEER_PYTHON`), or `None` after a visible skip.
@@ -92,4 +92,45 @@ pub fn write(dir: &Path, name: &str, body: &str) -> String {
 /// A path as text.
 pub fn s(p: &Path) -> &str {
     p.to_str().unwrap()
+}
+
+/// The bytes that must not depend on how a study was run: each cell's
+/// `scores.csv` and `samples.csv`, and the run's `stats.csv`.
+pub fn results(run: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut cells: Vec<PathBuf> = std::fs::read_dir(run.join("cells"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    cells.sort();
+    let mut out = vec![];
+    for c in cells {
+        let name = c.file_name().unwrap().to_string_lossy().into_owned();
+        for f in ["scores.csv", "samples.csv"] {
+            let p = c.join(f);
+            out.push((
+                format!("{name}/{f}"),
+                std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display())),
+            ));
+        }
+    }
+    out.push((
+        "stats.csv".into(),
+        std::fs::read(run.join("stats.csv")).unwrap(),
+    ));
+    out
+}
+
+/// Requires the same [`results`] bytes in runs `a` and `b`.
+pub fn assert_same(a: &Path, b: &Path) {
+    let (ra, rb) = (results(a), results(b));
+    assert_eq!(ra.len(), rb.len());
+    for ((na, fa), (nb, fb)) in ra.iter().zip(&rb) {
+        assert_eq!(na, nb);
+        assert!(
+            fa == fb,
+            "{na} differs between {} and {}",
+            a.display(),
+            b.display()
+        );
+    }
 }

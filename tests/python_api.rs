@@ -98,3 +98,8 @@ fn every_bad_argument_is_an_argument_error_and_odd_good_ones_work() {
 fn run_stops_on_any_sigint_prints_a_working_resume_command_and_never_blocks() {
     pytest("python_interrupts", "test_interrupts.py");
 }
+
+#[test]
+fn tidy_gives_every_episode_of_several_runs_as_one_frame() {
+    pytest("python_tidy", "test_tidy.py");
+}

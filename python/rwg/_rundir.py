@@ -33,6 +33,9 @@ else:  # pragma: no cover - exercised on Python < 3.11 only
 RUN_FORMAT = 2
 SCORES_HEADER = ["sample", "episode", "score", "steps"]
 SAMPLES_HEADER = ["sample", "mean", "variance", "std", "min", "max", "rank"]
+# A cell whose env has non_finite = "end" (cell.json's non_finite_episodes):
+# its files end with a non_finite column.
+NON_FINITE = "non_finite"
 _TEXT_COLUMNS = ["dir", "env", "arch", "hidden", "bias"]
 # Every float as rwg wrote it (shortest round-trip form): pandas 3 parses
 # exactly by default (and deprecates the option); earlier versions need it.
@@ -325,39 +328,57 @@ class Run:
         every call. Raises :class:`RunError` if rwg wrote another run into
         the directory since it was loaded, :class:`NotARunError` if the
         directory was moved or deleted."""
+        return self._episodes(env, arch, bias)["score"].astype(np.float64)
+
+    def non_finite(self, env: str, arch: str, bias: bool = False) -> np.ndarray:
+        """Which of the cell's episodes a value that was not finite ended
+        (its env's ``non_finite = "end"``: ``scores.csv``'s ``non_finite``
+        column), as a bool array shaped as :meth:`scores`. A cell with the
+        default (``"stop"``) stops the study at such a value instead, so a
+        finished one has none: all False."""
+        columns = self._episodes(env, arch, bias)
+        if NON_FINITE not in columns:
+            return np.zeros(columns["score"].shape, dtype=bool)
+        return columns[NON_FINITE].astype(bool)
+
+    def _episodes(self, env: str, arch: str, bias: bool) -> Dict[str, np.ndarray]:
+        """The cell's ``scores.csv`` columns, each shaped (networks, episodes)."""
         c = self.cell(env, arch, bias)
         path, data = self._cell_file(c, "scores.csv")
-        df = _read_csv(data, path, SCORES_HEADER, {"sample": np.int64, "episode": np.int64, "score": np.float64, "steps": np.int64})
+        header = SCORES_HEADER + ([NON_FINITE] if _flagged(c) else [])
+        df = read_scores_csv(data, path, flagged=_flagged(c))
+        check_score_rows(df, c, path)
         n, e = int(c["samples"]), int(c["episodes"])
-        want_sample = np.repeat(np.arange(n, dtype=np.int64), e)
-        want_episode = np.tile(np.arange(e, dtype=np.int64), n)
-        if len(df) != n * e or not (
-            np.array_equal(df["sample"].to_numpy(), want_sample)
-            and np.array_equal(df["episode"].to_numpy(), want_episode)
-        ):
-            msg = (
-                f"{path}: {len(df)} rows, not the {n} networks x {e} episodes in order that "
-                "run.json records for the cell"
-            )
+        if _flagged(c) and not df[NON_FINITE].isin([0, 1]).all():
+            msg = f"{path}: a non_finite value other than 0 or 1"
             raise RunDamagedError(msg, [msg])
         # copy=True: a writeable array whatever pandas version (pandas 3
         # hands out read-only views of its columns).
-        return df["score"].to_numpy(dtype=np.float64, copy=True).reshape(n, e)
+        return {k: df[k].to_numpy(copy=True).reshape(n, e) for k in header[2:]}
 
     def samples(self, env: str, arch: str, bias: bool = False) -> pd.DataFrame:
         """The cell's per-network statistics (``samples.csv``): a DataFrame
         indexed by ``sample`` with columns ``mean``, ``variance``, ``std``,
-        ``min``, ``max`` and ``rank`` (0 = the worst mean)."""
+        ``min``, ``max`` and ``rank`` (0 = the worst mean), and for a cell
+        with ``non_finite = "end"`` ``non_finite`` (the network's episodes a
+        value that was not finite ended)."""
         c = self.cell(env, arch, bias)
         path, data = self._cell_file(c, "samples.csv")
-        types = {k: np.float64 for k in SAMPLES_HEADER}
-        types.update(sample=np.int64, rank=np.int64)
-        df = _read_csv(data, path, SAMPLES_HEADER, types)
+        header = SAMPLES_HEADER + ([NON_FINITE] if _flagged(c) else [])
+        types = {k: np.float64 for k in header}
+        types.update(sample=np.int64, rank=np.int64, **{NON_FINITE: np.int64})
+        df = _read_csv(data, path, header, {k: types[k] for k in header})
         n = int(c["samples"])
         if len(df) != n or not np.array_equal(df["sample"].to_numpy(), np.arange(n)):
             msg = f"{path}: {len(df)} rows, not networks 0 to {n - 1} in order as run.json records"
             raise RunDamagedError(msg, [msg])
         return df.set_index("sample")
+
+    def tidy(self) -> pd.DataFrame:
+        """Every episode of every cell as one tidy DataFrame: ``rwg.tidy(run)``."""
+        from ._tidy import tidy
+
+        return tidy(self)
 
     def __repr__(self) -> str:
         return (
@@ -366,10 +387,51 @@ class Run:
         )
 
 
-def _read_csv(data: bytes, path: str, header: List[str], types: Dict[str, Any]) -> pd.DataFrame:
+_SCORE_TYPES = {"sample": np.int64, "episode": np.int64, "score": np.float64, "steps": np.int64}
+
+
+def read_scores_csv(
+    data: bytes, path: str, exact_header: bool = True, flagged: bool = False
+) -> pd.DataFrame:
+    """A cell's ``scores.csv``: its header must be :data:`SCORES_HEADER`
+    (with ``non_finite`` for a ``flagged`` cell), or (``exact_header=False``)
+    start with it, further columns read as pandas reads them."""
+    header = SCORES_HEADER + ([NON_FINITE] if flagged else [])
+    types = dict(_SCORE_TYPES, **({NON_FINITE: np.int64} if flagged else {}))
+    return _read_csv(data, path, header, types, exact_header)
+
+
+def check_score_rows(df: pd.DataFrame, cell: Dict[str, Any], path: str) -> None:
+    """Raises :class:`RunDamagedError` unless ``df`` holds the cell's
+    networks x episodes, in order, as ``run.json`` records them."""
+    n, e = int(cell["samples"]), int(cell["episodes"])
+    want_sample = np.repeat(np.arange(n, dtype=np.int64), e)
+    want_episode = np.tile(np.arange(e, dtype=np.int64), n)
+    if len(df) != n * e or not (
+        np.array_equal(df["sample"].to_numpy(), want_sample)
+        and np.array_equal(df["episode"].to_numpy(), want_episode)
+    ):
+        msg = (
+            f"{path}: {len(df)} rows, not the {n} networks x {e} episodes in order that "
+            "run.json records for the cell"
+        )
+        raise RunDamagedError(msg, [msg])
+
+
+def _flagged(cell: Dict[str, Any]) -> bool:
+    """Whether the cell's files carry the non_finite column (its env has
+    non_finite = "end": cell.json counts such episodes)."""
+    return cell.get("non_finite_episodes") is not None
+
+
+def _read_csv(
+    data: bytes, path: str, header: List[str], types: Dict[str, Any], exact: bool = True
+) -> pd.DataFrame:
     first = data.split(b"\n", 1)[0].decode("utf-8", "replace").strip()
-    if first.split(",") != header:
-        msg = f"{path}:1: header {first!r}, expected {','.join(header)!r}"
+    got = first.split(",")
+    if (got != header) if exact else (got[: len(header)] != header):
+        expected = ",".join(header) + ("" if exact else ",...")
+        msg = f"{path}:1: header {first!r}, expected {expected!r}"
         raise RunDamagedError(msg, [msg])
     try:
         return pd.read_csv(io.BytesIO(data), dtype=types, **_EXACT)

@@ -75,6 +75,7 @@ def test_a_finished_run_loads_with_the_values_of_its_files(small_run):
         assert scores.shape == (40, 3) and scores.dtype == np.float64
         for r in rows(cdir / "scores.csv"):
             assert scores[int(r["sample"]), int(r["episode"])] == float(r["score"])
+        assert not run.non_finite(c["env"], c["arch"], c["bias"]).any()
         samples = run.samples(c["env"], c["arch"], c["bias"])
         assert list(samples.columns) == ["mean", "variance", "std", "min", "max", "rank"]
         assert samples.index.name == "sample"
@@ -86,6 +87,43 @@ def test_a_finished_run_loads_with_the_values_of_its_files(small_run):
         # the statistics the files share agree
         assert np.array_equal(samples["mean"].to_numpy(), scores.mean(axis=1))
     assert "8 cells" in repr(run)
+
+
+NON_FINITE = """\
+seed = 3
+samples = 64
+episodes = 2
+bias = [true]
+[weights]
+scale = 1e307
+[[architectures]]
+name = "1HL"
+hidden = [64]
+[[envs]]
+id = "CartPole-v1"
+non_finite = "end"
+"""
+
+
+def test_a_cell_with_non_finite_end_gives_its_flags_and_counts(tmp_path):
+    # weights of scale 1e307 into 64 units: some network outputs overflow,
+    # which ends those episodes (flagged) with non_finite = "end"
+    (tmp_path / "m.toml").write_text(NON_FINITE)
+    rwg_cli("run", tmp_path / "m.toml", "--out", tmp_path / "run", "-q", "--no-report")
+    run = rwg.load(tmp_path / "run")
+    cdir = tmp_path / "run" / "cells" / run.cells[0]["dir"]
+    flags = run.non_finite("CartPole-v1", "1HL", bias=True)
+    scores = run.scores("CartPole-v1", "1HL", bias=True)
+    assert flags.shape == scores.shape == (64, 2) and flags.dtype == bool
+    for r in rows(cdir / "scores.csv"):
+        n, e = int(r["sample"]), int(r["episode"])
+        assert flags[n, e] == (r["non_finite"] == "1")
+        assert scores[n, e] == float(r["score"])
+    assert 0 < flags.sum() < flags.size
+    assert flags.sum() == run.cells[0]["non_finite_episodes"]
+    samples = run.samples("CartPole-v1", "1HL", bias=True)
+    assert samples["non_finite"].tolist() == flags.sum(axis=1).tolist()
+    assert run.stats["non_finite_episodes"].tolist() == [flags.sum()]
 
 
 def test_an_unknown_cell_names_the_run_s_cells(small_run):

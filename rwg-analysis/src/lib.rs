@@ -87,15 +87,23 @@
 //!   text-column layout); [`fmt`]: how numbers are written in them.
 //! - [`plot`]: the paper's figures and the comparison figures.
 //! - [`report`] writes `report.html`.
+//! - [`jax_cells`]: how a run's JAX cells computed (device, precision,
+//!   networks per call, versions), from their `env.json`.
 //! - [`compare`]: `rwg compare`: its rows, difficulty ranking
 //!   ([`compare::ranking`]), table, CSV, figures and HTML page
 //!   ([`compare::page`]).
+//! - [`paired`]: `rwg compare --paired`: two implementations of one
+//!   benchmark, network by network, with its tests and verdict.
 //!
 //! Cells are read and summarised and figures drawn on the caller's rayon pool,
 //! in a fixed order, so the bytes do not depend on the thread count.
 
 pub mod compare;
+#[cfg(test)]
+mod fixtures;
 pub mod fmt;
+pub mod jax_cells;
+pub mod paired;
 pub mod plot;
 pub mod report;
 pub mod run_tables;

@@ -8,6 +8,7 @@
 //! marks each `<figure>` with `data-rendered="ok"` (or `"failed"`) and shows
 //! the count at the top of the page.
 
+use crate::jax_cells::{device_text, jax_settings, jax_table, versions_text};
 use crate::plot::{cell_label, Figure, ImageFormat};
 use crate::run_tables::run_tables;
 use crate::table_render::{html_escape, TableFormat};
@@ -206,6 +207,12 @@ fn cell_numbers(s: &CellSummary) -> String {
         ));
     }
     parts.push(format!("mean episode length {:.1}", s.mean_episode_length));
+    if let Some(n) = s.non_finite_episodes {
+        parts.push(format!(
+            "{n} of {} episodes ended at a non-finite value",
+            s.samples * u64::from(s.episodes)
+        ));
+    }
     format!("<p>{}</p>\n", html_escape(&parts.join(" · ")))
 }
 
@@ -236,6 +243,10 @@ pub fn report_html(run: &Run, stats: &RunStats, figures: &[Figure]) -> String {
 
     h.push_str("<section id=\"run\">\n<h2>Run</h2>\n");
     h.push_str(&meta_table(run));
+    let jax = jax_settings(&run.dir, stats.cells.iter().map(|c| c.id.dir.as_str()));
+    if !jax.is_empty() {
+        h.push_str(&table_html(&jax_table(&jax)));
+    }
     h.push_str("</section>\n");
 
     h.push_str("<section id=\"tables\">\n<h2>Tables</h2>\n");
@@ -268,6 +279,15 @@ pub fn report_html(run: &Run, stats: &RunStats, figures: &[Figure]) -> String {
             html_escape(&cell_label(c))
         ));
         h.push_str(&cell_numbers(c));
+        if let Some(s) = jax.iter().find(|s| s.cells.contains(&c.id.dir)) {
+            h.push_str(&format!(
+                "<p class=\"note\">JAX: {}, {}, {} networks per call; {}</p>\n",
+                html_escape(&device_text(&s.record)),
+                html_escape(&s.record.precision),
+                s.record.networks_per_call,
+                html_escape(&versions_text(&s.record))
+            ));
+        }
         h.push_str("<div class=\"row\">\n");
         let prefix = format!("{}.", c.id.dir);
         for f in figures.iter().filter(|f| f.name.starts_with(&prefix)) {

@@ -345,10 +345,52 @@ pub fn detail_table(cells: &[CellSummary]) -> Table {
     }
 }
 
+/// Where episodes ended at a value that was not finite: one row per cell
+/// with `non_finite = "end"`, its count and share of the cell's episodes;
+/// `None` when no cell has the choice.
+pub fn non_finite_table(cells: &[CellSummary]) -> Option<Table> {
+    let rows: Vec<Vec<Cell>> = cells
+        .iter()
+        .filter_map(|c| {
+            let n = c.non_finite_episodes?;
+            let total = c.samples * u64::from(c.episodes);
+            let share = 100.0 * n as f64 / total.max(1) as f64;
+            Some(vec![
+                Cell::plain(c.id.env.clone()),
+                Cell::plain(c.id.arch.clone()),
+                Cell::plain(if c.id.bias { "yes" } else { "no" }),
+                Cell::plain(n.to_string()),
+                Cell::plain(total.to_string()),
+                Cell::plain(format!("{share:.2}%")),
+            ])
+        })
+        .collect();
+    if rows.is_empty() {
+        return None;
+    }
+    let header = ["env", "arch", "bias", "ended", "episodes", "share"]
+        .into_iter()
+        .map(Cell::from)
+        .collect();
+    Some(Table {
+        title: "Episodes ended at a value not finite (cells with non_finite = \"end\")".into(),
+        header,
+        rows,
+        notes: vec![
+            "An episode that met a NaN or infinite observation or reward, a network output \
+             that was not finite, or a return beyond ±1e100 ended there, its return that of \
+             the steps before; scores.csv flags it (non_finite = 1), samples.csv counts each \
+             network's."
+                .into(),
+        ],
+    })
+}
+
 /// Every table of a run, in order: Table 3 per bias setting, (when the
 /// cells have a spread at a study size) the best mean's and the 99.9th
 /// percentile's spread per bias setting, p(solved) per bias setting,
-/// expected guesses per bias setting, the detail table.
+/// expected guesses per bias setting, the detail table, and (when a cell
+/// has `non_finite = "end"`) where episodes ended at a value not finite.
 pub fn run_tables(stats: &RunStats) -> Vec<Table> {
     let cells = &stats.cells;
     let biases = bias_settings(cells);
@@ -371,6 +413,7 @@ pub fn run_tables(stats: &RunStats) -> Vec<Table> {
         }
     }
     out.push(detail_table(cells));
+    out.extend(non_finite_table(cells));
     out
 }
 

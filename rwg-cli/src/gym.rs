@@ -1,6 +1,6 @@
 //! The command-line options of `gymnasium:` envs (`--kwargs`, `--python`),
 //! shared by `rwg envs`, `rollout` and `check`; `rwg envs` gives them to
-//! JAX envs (`gymnax:`, `brax:`, `jax:`) too.
+//! JAX envs (`gymnax:`, `brax:`, `playground:`, ..., `jax:`) too.
 
 use rwg_gym::GymConfig;
 
@@ -41,7 +41,7 @@ impl GymArgs {
         config_from_args(id, self.kwargs.as_deref(), self.python.as_deref())
     }
 
-    /// The config of `id` (a `gymnax:`, `brax:` or `jax:` id) with these
+    /// The config of `id` (a JAX id: `gymnax:`, `playground:`, ...) with these
     /// options (the kwargs are the env's: see the manifest's `kwargs`).
     pub fn jax_config(&self, id: &str) -> anyhow::Result<rwg_jax::JaxConfig> {
         let (kind, rest) =

@@ -5,10 +5,65 @@
 //!
 //! The interval is 5 s; `RWG_PROGRESS_INTERVAL` (seconds, may be fractional,
 //! 0 for a line per block) overrides it.
+//!
+//! While a JAX cell's workers start and compile ([`Compiling`]), both say
+//! "compiling" with the time it has taken so far, and the rates and the
+//! time left count only the time outside such warm-ups: a compile of a
+//! minute does not make a cell of seconds look slow.
 
+mod bar;
+
+pub use bar::Bar;
+use rwg_jax::warm_up::WarmUpObserver;
 use rwg_study::runner::Progress;
 use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
+
+/// JAX warm-ups as a progress display sees them: the one going on (since
+/// when) and the time the finished ones took. Every JAX env's source tells
+/// it ([`rwg_jax::JaxSource::observe`]).
+#[derive(Debug, Default)]
+pub struct Compiling {
+    state: Mutex<WarmUps>,
+}
+
+#[derive(Debug, Default)]
+struct WarmUps {
+    since: Option<Instant>,
+    done: Duration,
+}
+
+impl Compiling {
+    fn lock(&self) -> std::sync::MutexGuard<'_, WarmUps> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// When the warm-up going on began, if one is.
+    pub fn since(&self) -> Option<Instant> {
+        self.lock().since
+    }
+
+    /// Of `elapsed` (since the display started), the time outside
+    /// warm-ups: what the rates and the time left are computed over.
+    pub fn active(&self, elapsed: Duration) -> Duration {
+        let w = self.lock();
+        let going_on = w.since.map_or(Duration::ZERO, |s| s.elapsed());
+        elapsed.saturating_sub(w.done + going_on)
+    }
+}
+
+impl WarmUpObserver for Compiling {
+    fn warming_up(&self) {
+        self.lock().since = Some(Instant::now());
+    }
+
+    fn warmed_up(&self, _elapsed: Duration) {
+        let mut w = self.lock();
+        if let Some(s) = w.since.take() {
+            w.done += s.elapsed();
+        }
+    }
+}
 
 // the default seconds between two progress lines
 use crate::env_vars::DEFAULT_PROGRESS_INTERVAL_S as DEFAULT_INTERVAL_S;
@@ -45,13 +100,30 @@ struct State {
     steps: u64,
     label: String,
     finished: bool,
+    compiling: Arc<Compiling>,
 }
 
 impl State {
     /// The current line: elapsed time, cell, networks done of total,
-    /// networks/s, env steps/s and the estimated time left.
+    /// networks/s, env steps/s and the estimated time left; while a JAX
+    /// cell compiles, "compiling" and for how long instead of the rates.
     fn line(&self) -> String {
-        let secs = self.t0.elapsed().as_secs_f64().max(1e-9);
+        let elapsed = self.t0.elapsed();
+        let head = format!(
+            "[{}] {}: {}/{} networks ({:.1}%)",
+            hms(elapsed.as_secs_f64()),
+            self.label,
+            self.done,
+            self.total,
+            100.0 * self.done as f64 / self.total.max(1) as f64,
+        );
+        if let Some(since) = self.compiling.since() {
+            return format!(
+                "{head}, compiling for {} (JAX workers starting and compiling the cell)",
+                hms(since.elapsed().as_secs_f64())
+            );
+        }
+        let secs = self.compiling.active(elapsed).as_secs_f64().max(1e-9);
         let nets = self.done as f64 / secs;
         let eta = if self.done == 0 {
             "unknown".into()
@@ -59,12 +131,7 @@ impl State {
             hms(self.total.saturating_sub(self.done) as f64 / nets)
         };
         format!(
-            "[{}] {}: {}/{} networks ({:.1}%), {:.0} networks/s, {:.3e} env steps/s, ETA {}",
-            hms(secs),
-            self.label,
-            self.done,
-            self.total,
-            100.0 * self.done as f64 / self.total.max(1) as f64,
+            "{head}, {:.0} networks/s, {:.3e} env steps/s, ETA {}",
             nets,
             self.steps as f64 / secs,
             eta
@@ -86,8 +153,9 @@ fn emit(s: &str) {
 }
 
 impl Lines {
-    /// Lines every [`DEFAULT_INTERVAL_S`] seconds, or `RWG_PROGRESS_INTERVAL`.
-    pub fn new() -> Self {
+    /// Lines every [`DEFAULT_INTERVAL_S`] seconds, or `RWG_PROGRESS_INTERVAL`,
+    /// showing the warm-ups `compiling` is told of.
+    pub fn new(compiling: Arc<Compiling>) -> Self {
         // checked before the command ran (`env_vars::check_all`)
         let interval = crate::env_vars::progress_interval()
             .unwrap_or(Duration::from_secs_f64(DEFAULT_INTERVAL_S));
@@ -101,6 +169,7 @@ impl Lines {
             steps: 0,
             label: String::new(),
             finished: false,
+            compiling,
         };
         Lines {
             shared: Arc::new(Shared {
@@ -139,12 +208,6 @@ fn tick(shared: Arc<Shared>) {
         if !st.finished {
             st.emit_if_due();
         }
-    }
-}
-
-impl Default for Lines {
-    fn default() -> Self {
-        Self::new()
     }
 }
 
@@ -222,7 +285,8 @@ mod tests {
         assert_eq!(hms(0.0), "0:00:00");
         assert_eq!(hms(3725.4), "1:02:05");
         assert_eq!(hms(f64::INFINITY), "0:00:00");
-        let mut l = Lines::new();
+        let compiling = Arc::new(Compiling::default());
+        let mut l = Lines::new(Arc::clone(&compiling));
         l.start(100);
         l.cell("cell 1/2 (0 done): A");
         assert!(
@@ -238,5 +302,24 @@ mod tests {
             .line()
             .contains("cell 1/2 (0 done): A: 25/100 networks (25.0%)"));
         assert!(!l.state().line().contains("ETA unknown"));
+
+        // a compile going on: said, with its time so far, and no rate
+        compiling.warming_up();
+        let line = l.state().line();
+        assert!(
+            line.ends_with(
+                "25/100 networks (25.0%), compiling for 0:00:00 (JAX workers starting and \
+                 compiling the cell)"
+            ),
+            "{line}"
+        );
+        std::thread::sleep(Duration::from_millis(30));
+        compiling.warmed_up(Duration::ZERO);
+        assert!(compiling.since().is_none());
+        // the rates count the time outside it
+        let elapsed = Duration::from_millis(1000);
+        let active = compiling.active(elapsed);
+        assert!(active <= elapsed - Duration::from_millis(30), "{active:?}");
+        assert!(l.state().line().contains("networks/s"));
     }
 }

@@ -37,11 +37,12 @@ pub fn line(l: &SummaryLine) -> String {
 }
 
 /// A summary number: `-` where unknown or not finite (never NaN), `prec`
-/// decimals (in scientific notation if `exp`), and a negative value that
-/// rounds to zero without its sign (as the tables print it: never `-0.00`).
+/// decimals (in scientific notation if `exp`, or if it has 8 digits or more
+/// before the point: the column's width), and a negative value that rounds
+/// to zero without its sign (as the tables print it: never `-0.00`).
 fn num(x: Option<f64>, prec: usize, exp: bool) -> String {
     let s = match x {
-        Some(x) if x.is_finite() && exp => format!("{x:.prec$e}"),
+        Some(x) if x.is_finite() && (exp || x.abs() >= 1e7) => format!("{x:.prec$e}"),
         Some(x) if x.is_finite() => format!("{x:.prec$}"),
         _ => return "-".into(),
     };
@@ -61,5 +62,8 @@ mod tests {
         assert_eq!(super::num(Some(f64::NAN), 2, false), "-");
         assert_eq!(super::num(None, 3, true), "-");
         assert_eq!(super::num(Some(12346.0), 3, true), "1.235e4");
+        // returns up to ±1e100 fit the column
+        assert_eq!(super::num(Some(9999999.0), 2, false), "9999999.00");
+        assert_eq!(super::num(Some(-2.38e99), 2, false), "-2.38e99");
     }
 }

@@ -101,14 +101,15 @@ impl<'a> BlockRun<'a> {
     }
 }
 
-/// The error of a network whose output is `v` (not finite).
-pub(crate) fn non_finite_output(plan: &CellPlan, v: f64) -> EnvError {
+/// The error of a network whose output is `v` (not finite), its weights
+/// drawn at `scale`.
+pub(crate) fn non_finite_output(scale: f64, v: f64) -> EnvError {
     EnvError::Other(format!(
-        "the network's output is {v}: its weights (drawn with [weights] scale = {:e}) times the \
-         observation overflow a 64-bit float, so its actions mean nothing; lower the scale \
-         in [weights], or scale the observations down (they are given to the network as \
-         they are)",
-        plan.dist.scale()
+        "the network's output is {v}: its weights (drawn with [weights] scale = {scale:e}) \
+         times the observation overflow a 64-bit float, so its actions mean nothing; lower \
+         the scale in [weights], or scale the observations down (they are given to the \
+         network as they are), or set non_finite = \"end\" on the env's [[envs]] entry to \
+         end such an episode there"
     ))
 }
 
@@ -152,6 +153,7 @@ mod tests {
             },
             episodes: 3,
             dist: WeightDist::Normal { std: 1.0 },
+            non_finite: Default::default(),
         }
     }
 

@@ -8,7 +8,9 @@
 //! is here is why their results are the same.
 
 use crate::block::{non_finite_output, record_failure, BlockRun, Episode};
-use crate::plan::{CellPlan, EpisodeResult, SampleError};
+use crate::plan::{
+    return_refused, return_within_bound, stopping, CellPlan, EpisodeResult, NonFinite, SampleError,
+};
 use crate::policy::PolicyLanes;
 use rwg_env::EnvError;
 use std::ops::Range;
@@ -154,8 +156,10 @@ impl<'a> Deal<'a> {
 
     /// Counts a successful step of `lane` (its `reward`, whether its episode
     /// `ended`); an ended episode stops the lane and has its return written
-    /// to `out` (or fails, if the return overflows). True when the lane is
-    /// free for the next episode.
+    /// to `out`. A reward that is not finite, or that takes the return
+    /// beyond [`MAX_RETURN`](crate::plan::MAX_RETURN), fails the episode or (with
+    /// [`NonFinite::End`]) ends it, flagged, with the return before it.
+    /// True when the lane is free for the next episode.
     #[inline(always)]
     pub fn stepped<S: Status>(
         &mut self,
@@ -164,26 +168,56 @@ impl<'a> Deal<'a> {
         ended: bool,
         out: &mut [EpisodeResult],
     ) -> bool {
-        lane.score += reward;
+        let score = lane.score + reward;
         lane.steps += 1;
+        if !return_within_bound(score) {
+            lane.stop();
+            let err = return_refused(reward, score);
+            return self.env_failed_cold(lane, lane.steps, err, out);
+        }
+        lane.score = score;
         if !ended {
             return false;
         }
         lane.stop();
-        match EpisodeResult::finished(lane.score, lane.steps) {
-            Ok(r) => {
-                out[lane.item] = r;
-                true
-            }
-            Err(err) => self.fail_cold(lane.item, lane.steps, err),
-        }
+        out[lane.item] = EpisodeResult::new(score, lane.steps);
+        true
     }
 
-    /// [`Deal::fail`] off the hot path of a loop's stepping; false.
+    /// [`Deal::env_failed`] off the hot path of a loop's stepping.
     #[cold]
     #[inline(never)]
-    pub fn fail_cold(&mut self, item: usize, step: u32, err: EnvError) -> bool {
-        self.fail(item, step, err);
+    pub fn env_failed_cold<S: Status>(
+        &mut self,
+        lane: &Lane<S>,
+        step: u32,
+        err: EnvError,
+        out: &mut [EpisodeResult],
+    ) -> bool {
+        self.env_failed(lane, step, err, out)
+    }
+
+    /// The env failed `lane`'s episode at `step` (0: its reset) with `err`
+    /// (the caller stops the lane). An [`EnvError::NonFinite`] of a step,
+    /// with [`NonFinite::End`], ends the episode instead, flagged, with the
+    /// return before the step; then true: the lane is free for the next.
+    #[inline]
+    pub fn env_failed<S: Status>(
+        &mut self,
+        lane: &Lane<S>,
+        step: u32,
+        err: EnvError,
+        out: &mut [EpisodeResult],
+    ) -> bool {
+        let err = match err {
+            EnvError::NonFinite(_) if self.run.plan.non_finite == NonFinite::End && step > 0 => {
+                out[lane.item] = EpisodeResult::cut(lane.score, step);
+                return true;
+            }
+            e if step > 0 => stopping(e),
+            e => e,
+        };
+        self.fail(lane.item, step, err);
         false
     }
 
@@ -207,18 +241,22 @@ impl<'a> Deal<'a> {
 
     /// After `policy`'s forward pass: every running lane whose network
     /// outputs are not finite fails its episode (at its next step) and
-    /// stops. True if any did.
+    /// stops, or (with [`NonFinite::End`]) ends it, flagged, before that
+    /// step, its return and length those of the steps before. True if any
+    /// did; the ended lanes are in the second mask (bit `l`: lane `l`) to
+    /// be dealt their next episode.
     #[inline]
     pub fn stop_non_finite<const K: usize, S: Status>(
         &mut self,
         policy: &PolicyLanes<K>,
         lanes: &mut [Lane<S>; K],
-    ) -> bool {
+        out: &mut [EpisodeResult],
+    ) -> (bool, u64) {
         let bad = policy.non_finite_outputs();
         if bad == 0 {
-            return false;
+            return (false, 0);
         }
-        self.fail_non_finite(policy, bad, lanes)
+        self.fail_non_finite(policy, bad, lanes, out)
     }
 
     /// [`Deal::stop_non_finite`] for the lanes of `mask` (not all finite).
@@ -228,8 +266,10 @@ impl<'a> Deal<'a> {
         policy: &PolicyLanes<K>,
         mask: u64,
         lanes: &mut [Lane<S>; K],
-    ) -> bool {
+        out: &mut [EpisodeResult],
+    ) -> (bool, u64) {
         let mut any = false;
+        let mut ended = 0u64;
         for (l, lane) in lanes.iter_mut().enumerate() {
             if mask >> l & 1 == 0 || !lane.running() {
                 continue;
@@ -237,12 +277,17 @@ impl<'a> Deal<'a> {
             let Some(v) = policy.non_finite_output(l) else {
                 continue;
             };
-            let err = non_finite_output(self.run.plan, v);
-            self.fail(lane.item, lane.steps + 1, err);
             lane.stop();
             any = true;
+            if self.run.plan.non_finite == NonFinite::End {
+                out[lane.item] = EpisodeResult::cut(lane.score, lane.steps);
+                ended |= 1 << l;
+            } else {
+                let err = non_finite_output(self.run.plan.dist.scale(), v);
+                self.fail(lane.item, lane.steps + 1, err);
+            }
         }
-        any
+        (any, ended)
     }
 
     /// The block's result (`Ok`, or the earliest failure with where it

@@ -63,6 +63,7 @@
 //!     arch: Architecture { hidden: vec![], bias: false },
 //!     episodes: 3,
 //!     dist: WeightDist::Normal { std: 1.0 },
+//!     non_finite: Default::default(),
 //! };
 //! let mut blocks = vec![];
 //! run_cell(&plan, 0..8, 4, 2, walk, |block| {

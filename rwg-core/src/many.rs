@@ -82,11 +82,15 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
         self.reset_pending(&mut deal, &mut lanes);
         while lanes.iter().any(|l| l.running()) {
             self.policy.forward(&self.obs);
-            deal.stop_non_finite(&self.policy, &mut lanes);
-            if !lanes.iter().any(|l| l.running()) {
+            let (_, ended) = deal.stop_non_finite(&self.policy, &mut lanes, out);
+            if lanes.iter().any(|l| l.running()) {
+                self.step_lanes(&mut deal, &mut lanes, out);
+            } else if ended == 0 {
                 break;
             }
-            self.step_lanes(&mut deal, &mut lanes, out);
+            if ended != 0 {
+                self.start_ended(&mut deal, &mut lanes, ended);
+            }
             self.reset_pending(&mut deal, &mut lanes);
             deal.cut_off(&mut lanes);
         }
@@ -105,7 +109,8 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
             *m = u8::from(lane.running());
         }
         self.policy.actions_into(&self.step_mask, &mut self.actions);
-        let mut failed = [false; LANES];
+        // per lane: 0 stepped, 1 failed, 2 ended by a value not finite
+        let mut failed = [0u8; LANES];
         self.env.step_many(
             &self.step_mask,
             &self.actions,
@@ -114,16 +119,19 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
             &mut self.terminated,
             &mut self.truncated,
             &mut |i, err| {
-                failed[i] = true;
-                deal.fail(lanes[i].item, lanes[i].steps + 1, err);
+                let ended = deal.env_failed(&lanes[i], lanes[i].steps + 1, err, out);
+                failed[i] = 1 + u8::from(ended);
             },
         );
         for (i, lane) in lanes.iter_mut().enumerate() {
             if !lane.running() {
                 continue;
             }
-            if failed[i] {
+            if failed[i] != 0 {
                 lane.stop();
+                if failed[i] == 2 {
+                    self.start_next(deal, i, lane);
+                }
                 continue;
             }
             let ended = self.terminated[i] == 1 || self.truncated[i] == 1;
@@ -140,6 +148,17 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
         if let Some(ep) = deal.next(&mut self.policy, i, lane) {
             self.seeds[i] = ep.seed;
             self.reset_mask[i] = 1;
+        }
+    }
+
+    /// Deals the next episodes to the lanes of `ended` (bit `l`: lane `l`),
+    /// whose episodes a network output that was not finite ended.
+    #[cold]
+    fn start_ended(&mut self, deal: &mut Deal<'_>, lanes: &mut [Lane<bool>; LANES], ended: u64) {
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            if ended >> i & 1 == 1 {
+                self.start_next(deal, i, lane);
+            }
         }
     }
 

@@ -136,6 +136,49 @@ pub fn draw_weights(rng: &mut Pcg64, dist: WeightDist, weights: &mut [f64]) {
     }
 }
 
+/// What an episode that meets a value that is not finite does: an
+/// observation or reward a step returns that is NaN or infinite (as the
+/// physics of a body driven by a random controller can give), a network
+/// output that is not finite, or a return that leaves ±[`MAX_RETURN`]. A
+/// manifest's `non_finite` key; part of the study.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum NonFinite {
+    /// The episode fails, naming the network, episode, step and value: the
+    /// cell, and the study, stop (the default).
+    #[default]
+    Stop,
+    /// The episode ends there, flagged ([`EpisodeResult::non_finite`]): its
+    /// length counts the step that gave the value, its return is the sum of
+    /// the rewards before that step. A network output that is not finite
+    /// ends it before the step it would choose. A reset's observation that
+    /// is not finite still fails (an env that cannot start an episode).
+    End,
+}
+
+impl NonFinite {
+    /// The manifest's name: `stop` or `end`.
+    pub fn name(self) -> &'static str {
+        match self {
+            NonFinite::Stop => "stop",
+            NonFinite::End => "end",
+        }
+    }
+}
+
+impl std::str::FromStr for NonFinite {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "stop" => Ok(NonFinite::Stop),
+            "end" => Ok(NonFinite::End),
+            _ => Err(format!(
+                "'{s}' is not a choice: \"stop\" (the default: the study stops, naming the \
+                 episode) or \"end\" (the episode ends there, flagged in scores.csv)"
+            )),
+        }
+    }
+}
+
 /// What one cell of the study runs: an environment with one architecture.
 #[derive(Debug, Clone)]
 pub struct CellPlan {
@@ -149,6 +192,8 @@ pub struct CellPlan {
     pub episodes: u32,
     /// Weight distribution.
     pub dist: WeightDist,
+    /// What an episode that meets a value that is not finite does.
+    pub non_finite: NonFinite,
 }
 
 impl CellPlan {
@@ -174,25 +219,109 @@ pub struct EpisodeResult {
     pub score: f64,
     /// Number of steps.
     pub steps: u32,
+    /// The episode ended at a value that was not finite ([`NonFinite::End`]):
+    /// `score` is the return of the steps before it.
+    pub non_finite: bool,
+}
+
+/// The largest magnitude of an episode's return rwg takes: a larger one is
+/// refused where it enters. The statistics of a cell square returns and sum
+/// them over its episodes and networks (a variance is `sum((x - mean)^2) / n`,
+/// computed as numpy does), so returns up to this bound keep every statistic
+/// finite for the largest study rwg runs (10^7 networks x 10^4 episodes:
+/// `4 * 10^11 * MAX_RETURN^2` is far below `f64::MAX`, about 1.8e308).
+pub const MAX_RETURN: f64 = 1e100;
+
+/// Whether a return `total` is one rwg takes: within ±[`MAX_RETURN`]
+/// (false for NaN).
+#[inline(always)]
+pub fn return_within_bound(total: f64) -> bool {
+    total.abs() <= MAX_RETURN
 }
 
 impl EpisodeResult {
-    /// The result of an episode that ended after `steps` steps with the
-    /// total reward `score`, or the error of a total that is not finite
-    /// (finite rewards whose sum overflows an `f64`). The sampler loops call
-    /// it once per episode, where it ends, so stepping costs nothing more.
+    /// A result not filled in yet (the slots a loop writes into).
+    pub const EMPTY: EpisodeResult = EpisodeResult {
+        score: 0.0,
+        steps: 0,
+        non_finite: false,
+    };
+
+    /// An episode that ended after `steps` steps with the return `score`.
     #[inline]
-    pub fn finished(score: f64, steps: u32) -> Result<EpisodeResult, EnvError> {
-        if score.is_finite() {
-            Ok(EpisodeResult { score, steps })
-        } else {
-            Err(EnvError::Other(format!(
-                "the episode's total reward is {score}: its rewards are finite but their sum \
-                 overflows a 64-bit float; scale the rewards down (e.g. divide them by a \
-                 constant) so that an episode's total stays finite"
-            )))
+    pub fn new(score: f64, steps: u32) -> EpisodeResult {
+        EpisodeResult {
+            score,
+            steps,
+            non_finite: false,
         }
     }
+
+    /// An episode cut after `steps` steps by a value that was not finite
+    /// ([`NonFinite::End`]), with the return `score` of the steps before it.
+    #[inline]
+    pub fn cut(score: f64, steps: u32) -> EpisodeResult {
+        EpisodeResult {
+            score,
+            steps,
+            non_finite: true,
+        }
+    }
+
+    /// The result of an episode that ended after `steps` steps with the
+    /// total reward `score`, or the error of a total that is not finite
+    /// (finite rewards whose sum overflows an `f64`) or beyond
+    /// [`MAX_RETURN`] (for the sources that only know an episode's total).
+    #[inline]
+    pub fn finished(score: f64, steps: u32) -> Result<EpisodeResult, EnvError> {
+        if return_within_bound(score) {
+            Ok(EpisodeResult::new(score, steps))
+        } else {
+            Err(return_refused(score, score))
+        }
+    }
+}
+
+/// The error of a step whose `reward` is not finite or takes the episode's
+/// return to `total`, not finite or beyond [`MAX_RETURN`].
+#[cold]
+pub(crate) fn return_refused(reward: f64, total: f64) -> EnvError {
+    if !reward.is_finite() {
+        return EnvError::NonFinite(format!(
+            "the step's reward is {reward}, not a finite number"
+        ));
+    }
+    let why = if total.is_finite() {
+        format!(
+            ", beyond ±{MAX_RETURN:e}, the largest return rwg takes: the statistics square the \
+             returns and sum them over networks and episodes, which would overflow a 64-bit float"
+        )
+    } else {
+        ": its rewards are finite but their sum overflows a 64-bit float".to_string()
+    };
+    EnvError::NonFinite(format!(
+        "the episode's total reward is {total:e}{why}; scale the rewards down (e.g. divide \
+         them by a constant) so that an episode's total stays within ±{MAX_RETURN:e}"
+    ))
+}
+
+/// The error `err` of a step that stops the study: a value that was not
+/// finite ([`EnvError::NonFinite`]) gets the way to go on instead.
+pub(crate) fn stopping(err: EnvError) -> EnvError {
+    match err {
+        EnvError::NonFinite(m) => EnvError::NonFinite(with_end_hint(&m)),
+        e => e,
+    }
+}
+
+/// `message` (a value that was not finite stopped the study) with the way
+/// to go on instead.
+pub fn with_end_hint(message: &str) -> String {
+    format!(
+        "{message}; to count such an episode as ended there (its return that of the steps \
+         before, flagged in scores.csv) instead of stopping, set non_finite = \"end\" on the \
+         env's [[envs]] entry"
+    )
 }
 
 /// An environment failure while sampling, with where it happened. The

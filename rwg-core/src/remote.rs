@@ -279,7 +279,7 @@ impl<B: RemoteEnv> RemoteLaneWorker<B> {
             }
         }
         for g in 0..self.groups.len() {
-            self.send(g, &mut deal);
+            self.send(g, &mut deal, out);
         }
         while self.groups.iter().any(|g| g.in_flight) {
             for g in 0..self.groups.len() {
@@ -296,14 +296,14 @@ impl<B: RemoteEnv> RemoteLaneWorker<B> {
                 for group in &mut self.groups {
                     deal.cut_off(&mut group.lanes);
                 }
-                self.send(g, &mut deal);
+                self.send(g, &mut deal, out);
             }
         }
         deal.finish(&mut self.block_weights)
     }
 
     /// Sends group `g`'s next exchange, if any of its lanes is busy.
-    fn send(&mut self, g: usize, deal: &mut Deal<'_>) {
+    fn send(&mut self, g: usize, deal: &mut Deal<'_>, out: &mut [EpisodeResult]) {
         if self.dead {
             return;
         }
@@ -314,9 +314,11 @@ impl<B: RemoteEnv> RemoteLaneWorker<B> {
         }
         if group.lanes.iter().any(|l| l.status == LaneState::Running) {
             group.policy.forward(&group.obs);
-            if deal.stop_non_finite(&group.policy, &mut group.lanes)
-                && group.lanes.iter().all(|l| l.status == LaneState::Free)
-            {
+            let (any, ended) = deal.stop_non_finite(&group.policy, &mut group.lanes, out);
+            if ended != 0 {
+                start_ended(deal, group, ended);
+            }
+            if any && group.lanes.iter().all(|l| l.status == LaneState::Free) {
                 return;
             }
         }
@@ -418,10 +420,14 @@ impl<B: RemoteEnv> RemoteLaneWorker<B> {
                     }
                 }
                 LaneOutcome::Failed(err) => {
-                    self.poisoned = true;
                     let step = lane.failing_step();
                     lane.stop();
-                    deal.fail(lane.item, step, err);
+                    if deal.env_failed(lane, step, err, out) {
+                        // a value not finite, the episode ended: the env is sound
+                        start_next(deal, &mut group.policy, i, lane);
+                    } else {
+                        self.poisoned = true;
+                    }
                 }
             }
         }
@@ -433,6 +439,17 @@ impl<B: RemoteEnv> RemoteLaneWorker<B> {
 fn start_next(deal: &mut Deal<'_>, policy: &mut PolicyLanes<LANES>, i: usize, lane: &mut Lane) {
     if let Some(ep) = deal.next(policy, i, lane) {
         lane.status = LaneState::Resetting(ep.seed);
+    }
+}
+
+/// Deals the next episodes to the lanes of `ended` (bit `l`: lane `l`) of
+/// `group`, whose episodes a network output that was not finite ended.
+#[cold]
+fn start_ended(deal: &mut Deal<'_>, group: &mut Group, ended: u64) {
+    for (i, lane) in group.lanes.iter_mut().enumerate() {
+        if ended >> i & 1 == 1 {
+            start_next(deal, &mut group.policy, i, lane);
+        }
     }
 }
 

@@ -9,7 +9,8 @@
 pub use crate::block::draw_block_weights;
 use crate::deal::{Deal, Lane};
 pub use crate::plan::{
-    draw_weights, reset_seed, weight_rng, CellPlan, EpisodeResult, SampleError, WeightDist,
+    draw_weights, reset_seed, return_within_bound, weight_rng, with_end_hint, CellPlan,
+    EpisodeResult, NonFinite, SampleError, WeightDist, MAX_RETURN,
 };
 use crate::policy::{NetShape, Policy, PolicyLanes};
 use rayon::prelude::*;
@@ -50,7 +51,8 @@ impl<E: Environment> Worker<E> {
         for (episode, slot) in out.iter_mut().enumerate() {
             let episode = episode as u32;
             let r = reset_seed(plan.seed, &plan.env_id, sample, episode);
-            *slot = run_episode(&mut self.env, &mut self.policy, &mut self.obs, r).map_err(
+            let nf = (plan.non_finite, plan.dist.scale());
+            *slot = run_episode(&mut self.env, &mut self.policy, &mut self.obs, r, nf).map_err(
                 |(step, error)| SampleError {
                     env: plan.env_id.clone(),
                     sample,
@@ -147,8 +149,11 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
         }
         while lanes.iter().any(|l| l.running()) {
             self.policy.forward(&self.obs);
-            deal.stop_non_finite(&self.policy, &mut lanes);
+            let (_, ended) = deal.stop_non_finite(&self.policy, &mut lanes, out);
             self.step_lanes(&mut deal, &mut lanes, out);
+            if ended != 0 {
+                self.start_ended(&mut deal, &mut lanes, ended);
+            }
             deal.cut_off(&mut lanes);
         }
         deal.finish(&mut self.block_weights)
@@ -177,8 +182,21 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
                 }
                 Err(err) => {
                     lane.stop();
-                    deal.fail_cold(lane.item, lane.steps + 1, err);
+                    if deal.env_failed_cold(lane, lane.steps + 1, err, out) {
+                        self.start_next(deal, i, lane);
+                    }
                 }
+            }
+        }
+    }
+
+    /// Deals the next episodes to the lanes of `ended` (bit `l`: lane `l`),
+    /// whose episodes a network output that was not finite ended.
+    #[cold]
+    fn start_ended(&mut self, deal: &mut Deal<'_>, lanes: &mut [Lane<bool>; K], ended: u64) {
+        for (i, lane) in lanes.iter_mut().enumerate() {
+            if ended >> i & 1 == 1 {
+                self.start_next(deal, i, lane);
             }
         }
     }
@@ -199,25 +217,44 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
 }
 
 /// Runs one episode from `env.reset(seed=reset_seed)` until it terminates or
-/// is truncated. The loop allocates nothing. On failure returns the step
-/// (0 = reset) and the error.
+/// is truncated, as the lane loops do (a value that is not finite fails it
+/// or, with [`NonFinite::End`], ends it there, flagged). The loop allocates
+/// nothing. On failure returns the step (0 = reset) and the error.
 #[inline]
 pub fn run_episode<E: Environment>(
     env: &mut E,
     policy: &mut Policy,
     obs: &mut [f64],
     reset_seed: u64,
+    (non_finite, scale): (NonFinite, f64),
 ) -> Result<EpisodeResult, (u32, EnvError)> {
     env.reset(reset_seed, obs).map_err(|e| (0, e))?;
+    let end = non_finite == NonFinite::End;
     let mut score = 0.0;
     let mut steps = 0u32;
     loop {
-        let action = policy.act(obs);
-        let s = env.step(action, obs).map_err(|e| (steps + 1, e))?;
-        score += s.reward;
+        let action = match policy.act_checked(obs) {
+            Ok(a) => a,
+            Err(_) if end => return Ok(EpisodeResult::cut(score, steps)),
+            Err(v) => return Err((steps + 1, crate::block::non_finite_output(scale, v))),
+        };
+        let s = match env.step(action, obs) {
+            Ok(s) => s,
+            Err(EnvError::NonFinite(_)) if end => return Ok(EpisodeResult::cut(score, steps + 1)),
+            Err(e) => return Err((steps + 1, crate::plan::stopping(e))),
+        };
+        let total = score + s.reward;
         steps += 1;
+        if !crate::plan::return_within_bound(total) {
+            if end {
+                return Ok(EpisodeResult::cut(score, steps));
+            }
+            let err = crate::plan::return_refused(s.reward, total);
+            return Err((steps, crate::plan::stopping(err)));
+        }
+        score = total;
         if s.terminated || s.truncated {
-            return EpisodeResult::finished(score, steps).map_err(|e| (steps, e));
+            return Ok(EpisodeResult::new(score, steps));
         }
     }
 }
@@ -240,13 +277,7 @@ impl BlockResult {
         run: impl FnOnce(&mut [EpisodeResult]) -> Result<(), SampleError>,
     ) -> Result<BlockResult, SampleError> {
         let n = (samples.end - samples.start) as usize;
-        let mut results = vec![
-            EpisodeResult {
-                score: 0.0,
-                steps: 0
-            };
-            n * episodes
-        ];
+        let mut results = vec![EpisodeResult::EMPTY; n * episodes];
         run(&mut results)?;
         Ok(BlockResult {
             samples,
@@ -400,6 +431,7 @@ mod tests {
             },
             episodes,
             dist: WeightDist::Normal { std: 1.0 },
+            non_finite: Default::default(),
         }
     }
 
@@ -414,7 +446,8 @@ mod tests {
         let mut out = vec![
             EpisodeResult {
                 score: 0.0,
-                steps: 0
+                steps: 0,
+                non_finite: false,
             };
             (samples.end - samples.start) as usize * e
         ];
@@ -439,7 +472,8 @@ mod tests {
                     let mut got = vec![
                         EpisodeResult {
                             score: f64::NAN,
-                            steps: 0
+                            steps: 0,
+                            non_finite: false,
                         };
                         n
                     ];
@@ -469,46 +503,67 @@ mod tests {
     }
 
     #[test]
-    fn an_overflowing_total_fails_the_episode_where_it_ends() {
+    fn a_total_beyond_the_bound_fails_or_ends_the_episode_at_its_step() {
         use crate::test_envs::Toy;
-        let plan = CellPlan {
-            env_id: "Toy-v0".into(),
-            ..flaky_plan(1)
-        };
         // Toy(5): rewards of f64::MAX in episodes whose seed % 5 == 2
-        let (mut sums, mut singles) = (0, 0);
-        for n in 0..40 {
-            let seed = reset_seed(plan.seed, "Toy-v0", n, 0);
-            if seed % 5 != 2 {
-                continue;
-            }
-            let steps = 1 + seed % 7;
-            let mut lw = LaneWorker::<_, 3>::new(|| Toy::new(5, false), &plan);
-            let mut got = [EpisodeResult {
-                score: 0.0,
-                steps: 0,
-            }];
-            let res = lw.run_block(&plan, n..n + 1, &mut got);
-            let mut w = Worker::new(Toy::new(5, false), &plan);
-            let seq = w.run_sample(&plan, n, &mut [got[0]]);
-            assert_eq!(res, seq, "sample {n}");
-            if steps == 1 {
-                assert_eq!(res, Ok(()));
-                assert_eq!(got[0].score, f64::MAX);
-                singles += 1;
-            } else {
+        let mut seen = 0;
+        for non_finite in [NonFinite::Stop, NonFinite::End] {
+            let plan = CellPlan {
+                env_id: "Toy-v0".into(),
+                non_finite,
+                ..flaky_plan(1)
+            };
+            for n in 0..40 {
+                let seed = reset_seed(plan.seed, "Toy-v0", n, 0);
+                if seed % 5 != 2 {
+                    continue;
+                }
+                let mut lw = LaneWorker::<_, 3>::new(|| Toy::new(5, false), &plan);
+                let mut got = [EpisodeResult::EMPTY];
+                let res = lw.run_block(&plan, n..n + 1, &mut got);
+                let mut w = Worker::new(Toy::new(5, false), &plan);
+                let mut seq = [EpisodeResult::EMPTY];
+                assert_eq!(res, w.run_sample(&plan, n, &mut seq), "sample {n}");
+                if non_finite == NonFinite::End {
+                    assert_eq!(res, Ok(()));
+                    assert_eq!(got, [EpisodeResult::cut(0.0, 1)]);
+                    assert_eq!(seq, got);
+                    continue;
+                }
                 let e = res.unwrap_err();
-                assert_eq!((e.sample, e.episode, e.step), (n, 0, steps as u32));
-                assert!(
-                    e.error
-                        .to_string()
-                        .starts_with("the episode's total reward is inf"),
-                    "{e}"
-                );
-                sums += 1;
+                assert_eq!((e.sample, e.episode, e.step), (n, 0, 1));
+                let want = "the episode's total reward is 1.7976931348623157e308, beyond ±1e100";
+                assert!(e.error.to_string().starts_with(want), "{e}");
+                seen += 1;
             }
         }
-        assert!(sums > 0, "no episode overflowed ({singles} of one step)");
+        assert!(seen > 0, "no episode of f64::MAX rewards");
+    }
+
+    #[test]
+    fn with_end_values_not_finite_end_episodes_as_the_sequential_loop_does() {
+        use crate::test_envs::Toy;
+        let (mut cut, mut whole) = (0, 0);
+        for continuous in [false, true] {
+            let plan = CellPlan {
+                env_id: "Toy-v0".into(),
+                non_finite: NonFinite::End,
+                ..flaky_plan(3)
+            };
+            let n = 40;
+            let mut got = vec![EpisodeResult::EMPTY; n * 3];
+            let mut lw = LaneWorker::<_, 4>::new(|| Toy::with_values(1 << 40, continuous), &plan);
+            assert_eq!(lw.run_block(&plan, 0..n as u64, &mut got), Ok(()));
+            let mut w = Worker::new(Toy::with_values(1 << 40, continuous), &plan);
+            let mut seq = vec![EpisodeResult::EMPTY; n * 3];
+            for (k, out) in seq.chunks_mut(3).enumerate() {
+                w.run_sample(&plan, k as u64, out).unwrap();
+            }
+            assert_eq!(got, seq, "continuous {continuous}");
+            cut += got.iter().filter(|r| r.non_finite).count();
+            whole += got.iter().filter(|r| !r.non_finite).count();
+        }
+        assert!(cut > 4 && whole > cut, "{cut} cut, {whole} whole");
     }
 
     #[test]

@@ -6,12 +6,16 @@ use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 /// episodes whose seed is a multiple of `fail_every`, and at reset when
 /// it is also odd; rewards of `f64::MAX` (finite, but the total of two
 /// overflows) in episodes whose seed is 2 more than a multiple of it.
+/// With `values` ([`Toy::with_values`]), values that are not finite by
+/// `seed % 11`: 3, a `NonFinite` error at step 2; 4, a NaN reward at step
+/// 3; 5, infinite observations at step 1 (network outputs NaN or not).
 #[derive(Clone)]
 pub(crate) struct Toy {
     spec: EnvSpec,
     seed: u64,
     t: u64,
     fail_every: u64,
+    values: bool,
 }
 
 impl Toy {
@@ -31,6 +35,15 @@ impl Toy {
             seed: 0,
             t: 0,
             fail_every,
+            values: false,
+        }
+    }
+
+    /// [`Toy::new`] with values that are not finite.
+    pub(crate) fn with_values(fail_every: u64, continuous: bool) -> Self {
+        Toy {
+            values: true,
+            ..Toy::new(fail_every, continuous)
         }
     }
 }
@@ -61,8 +74,15 @@ impl Environment for Toy {
         obs[0] = obs[0] * 0.5 + a;
         obs[1] = obs[1] * 0.25 - a;
         let huge = self.seed % self.fail_every == 2;
+        let mut reward = if huge { f64::MAX } else { obs[0] - obs[1] };
+        match (self.values, self.seed % 11, self.t) {
+            (true, 3, 2) => return Err(EnvError::NonFinite("obs[0] = NaN".into())),
+            (true, 4, 3) => reward = f64::NAN,
+            (true, 5, 1) => (obs[0], obs[1]) = (f64::INFINITY, f64::NEG_INFINITY),
+            _ => {}
+        }
         Ok(Step {
-            reward: if huge { f64::MAX } else { obs[0] - obs[1] },
+            reward,
             terminated: self.t > self.seed % 7,
             truncated: false,
         })

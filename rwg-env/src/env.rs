@@ -116,6 +116,12 @@ pub enum EnvError {
     /// Any other failure (e.g. reported by a plugin).
     #[error("{0}")]
     Other(String),
+    /// A step returned an observation or reward that is not finite (NaN or
+    /// infinite), or one that takes the episode's return beyond what rwg
+    /// takes: with a manifest's `non_finite = "end"` the episode ends there
+    /// instead of failing. The message says which value.
+    #[error("{0}")]
+    NonFinite(String),
 }
 
 /// A Gym-like environment.

@@ -19,6 +19,7 @@ fn plan(env: &str, hidden: &[usize], bias: bool, episodes: u32) -> CellPlan {
         },
         episodes,
         dist: WeightDist::Normal { std: 1.0 },
+        non_finite: Default::default(),
     }
 }
 
@@ -27,7 +28,8 @@ fn unwritten(n: usize) -> Vec<EpisodeResult> {
     vec![
         EpisodeResult {
             score: f64::NAN,
-            steps: u32::MAX
+            steps: u32::MAX,
+            non_finite: false,
         };
         n
     ]
@@ -41,7 +43,8 @@ fn sequential(plan: &CellPlan, samples: std::ops::Range<u64>) -> Vec<EpisodeResu
     let mut out = vec![
         EpisodeResult {
             score: 0.0,
-            steps: 0
+            steps: 0,
+            non_finite: false,
         };
         (samples.end - samples.start) as usize * e
     ];

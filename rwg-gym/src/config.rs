@@ -33,6 +33,11 @@ pub struct GymConfig {
     /// worker finds out (it runs an episode on a used and on a fresh
     /// instance and compares them).
     pub fresh_per_episode: Option<bool>,
+    /// The manifest's `non_finite = "end"`: a NaN or infinite value that
+    /// random actions give while the worker probes the env at start-up
+    /// ends the probe's episode instead of refusing the env (the run ends
+    /// such episodes too).
+    pub non_finite_ends: bool,
 }
 
 impl GymConfig {
@@ -50,6 +55,7 @@ impl GymConfig {
             start_timeout: default_start_timeout(),
             hash_seed: default_hash_seed(),
             fresh_per_episode: None,
+            non_finite_ends: false,
         }
     }
 

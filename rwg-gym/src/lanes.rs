@@ -76,6 +76,7 @@ impl GymLanes {
             "check_reset": if check_reset { Some(CHECK_SEED) } else { None },
             "probe_history": cfg.fresh_per_episode.is_none(),
             "fresh_per_episode": cfg.fresh_per_episode.unwrap_or(false),
+            "non_finite_ends": cfg.non_finite_ends,
         });
         let (tag, payload) = start(&mut worker, &hello, cfg)?;
         let ready: Ready = match tag {

@@ -289,6 +289,8 @@ class Worker:
                 out.append(np.append(np.array(sp.flat_obs(o), dtype=np.float64), reward_of(r)))
                 done = flag("terminated", term) or flag("truncated", trunc)
                 if not np.all(np.isfinite(out[-1])):
+                    if self.hello.get("non_finite_ends"):
+                        break  # non_finite = "end": the run ends such an episode too
                     raise Refused(f"a non-finite observation or reward (observation "
                                   f"{floats(out[-1][:-1][:4])}, reward {floats(out[-1][-1:])[0]}) "
                                   f"to random actions; {FINITE}")

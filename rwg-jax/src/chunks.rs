@@ -1,8 +1,10 @@
 //! Blocks of networks cut into chunks of one compiled call, and the chunks'
 //! outcomes put back together into blocks, in block order.
 
-use crate::protocol::{Outcome, FAULT_OBS, FAULT_REWARD};
-use rwg_core::sampler::{BlockResult, EpisodeResult, SampleError};
+use crate::protocol::{Outcome, FAULT_OBS, FAULT_RETURN, FAULT_REWARD};
+use rwg_core::sampler::{
+    with_end_hint, BlockResult, CellPlan, EpisodeResult, NonFinite, SampleError,
+};
 use rwg_env::EnvError;
 use std::ops::Range;
 
@@ -53,31 +55,43 @@ pub fn chunks(blocks: &[Range<u64>], per_call: usize) -> Vec<Chunk> {
 }
 
 /// The episode results of a chunk's outcome (network-major, `episodes`
-/// per network, networks in chunk order), up to the first episode that
-/// failed (a fault bit, or a total that is not finite), with that failure.
+/// per network, networks in chunk order) for the cell `plan`, up to the
+/// first episode that failed (a fault bit, or a total that is not finite
+/// or beyond ±1e100), with that failure. With [`NonFinite::End`], an
+/// episode with fault bits after at least one step ended there (the
+/// compiled episode stopped at its first value that was not finite): it is
+/// flagged, not failed.
 pub fn results(
-    env: &str,
+    plan: &CellPlan,
     chunk: &Chunk,
-    episodes: u32,
     o: &Outcome,
 ) -> (Vec<EpisodeResult>, Option<SampleError>) {
     let samples = chunk.iter().flat_map(|p| p.samples.clone());
-    let e = episodes as usize;
+    let e = plan.episodes as usize;
+    let end = plan.non_finite == NonFinite::End;
     let mut out = Vec::with_capacity(o.returns.len());
     for (k, sample) in samples.enumerate() {
         for episode in 0..e {
             let i = k * e + episode;
             let (score, steps, fault) = (o.returns[i], o.lengths[i], o.faults[i]);
-            let r = if fault != 0 {
-                Err(EnvError::Other(fault_text(fault, steps)))
-            } else {
-                EpisodeResult::finished(score, steps)
+            let r = match (fault, end) {
+                (0, _) => EpisodeResult::finished(score, steps),
+                (_, true) if steps > 0 => EpisodeResult::finished(score, steps)
+                    .map(|r| EpisodeResult::cut(r.score, r.steps)),
+                (_, true) => Err(EnvError::Other(format!(
+                    "{} (after its reset: an env that cannot start an episode fails it, \
+                     whatever non_finite says)",
+                    fault_text(fault, 0, true)
+                ))),
+                (_, false) => Err(EnvError::Other(with_end_hint(&fault_text(
+                    fault, steps, false,
+                )))),
             };
             match r {
                 Ok(r) => out.push(r),
                 Err(error) => {
                     let failure = SampleError {
-                        env: env.to_string(),
+                        env: plan.env_id.clone(),
                         sample,
                         episode: episode as u32,
                         step: steps,
@@ -91,8 +105,9 @@ pub fn results(
     (out, None)
 }
 
-/// What a fault byte says.
-fn fault_text(fault: u8, steps: u32) -> String {
+/// What a fault byte says; `exact`: the episode stopped at the value, so
+/// `steps` says where.
+fn fault_text(fault: u8, steps: u32, exact: bool) -> String {
     let mut what = vec![];
     if fault & FAULT_OBS != 0 {
         what.push("an observation");
@@ -100,13 +115,23 @@ fn fault_text(fault: u8, steps: u32) -> String {
     if fault & FAULT_REWARD != 0 {
         what.push("a reward");
     }
+    if fault & FAULT_RETURN != 0 {
+        what.push("the return (beyond ±1e100)");
+    }
     if what.is_empty() {
         what.push("a value (unknown fault bits)");
     }
     let verb = if what.len() > 1 { "were" } else { "was" };
+    let when = if exact {
+        format!("at step {steps}")
+    } else {
+        format!(
+            "in this episode, which ran {steps} steps (the compiled episode does not say at \
+             which step)"
+        )
+    };
     format!(
-        "{} {verb} not finite (NaN or infinite) in this episode, which ran {steps} steps (the \
-         compiled episode does not say at which step); the env computes non-finite values for \
+        "{} {verb} not finite (NaN or infinite) {when}; the env computes non-finite values for \
          this network: fix the env, or bound its observations and rewards",
         what.join(" and ")
     )
@@ -198,7 +223,11 @@ mod tests {
     use super::*;
 
     fn er(score: f64) -> EpisodeResult {
-        EpisodeResult { score, steps: 1 }
+        EpisodeResult {
+            score,
+            steps: 1,
+            non_finite: false,
+        }
     }
 
     #[test]
@@ -265,16 +294,45 @@ mod tests {
             lengths: vec![1, 2, 3, 4, 5, 6],
             faults: vec![0, 0, 0, FAULT_REWARD, FAULT_OBS, 0],
         };
-        let (ok, err) = results("CartPole-v1", &chunk, 2, &o);
+        let (ok, err) = results(&plan(NonFinite::Stop), &chunk, &o);
         assert_eq!(ok.len(), 3);
         let err = err.unwrap();
         assert_eq!((err.sample, err.episode, err.step), (9, 1, 4));
         assert!(err.to_string().contains("a reward was not finite"), "{err}");
+        assert!(err.to_string().contains("non_finite = \"end\""), "{err}");
         let clean = Outcome {
             faults: vec![0; 6],
+            ..o.clone()
+        };
+        let (ok, err) = results(&plan(NonFinite::Stop), &chunk, &clean);
+        assert_eq!((ok.len(), err), (6, None));
+        // with end: the faulty episodes are flagged, not failed ...
+        let (ok, err) = results(&plan(NonFinite::End), &chunk, &o);
+        assert_eq!(err, None);
+        let flags: Vec<bool> = ok.iter().map(|r| r.non_finite).collect();
+        assert_eq!(flags, [false, false, false, true, true, false]);
+        assert_eq!(ok[3], EpisodeResult::cut(4.0, 4));
+        // ... but one at its reset (0 steps) still fails
+        let reset = Outcome {
+            lengths: vec![1, 2, 3, 0, 5, 6],
             ..o
         };
-        let (ok, err) = results("CartPole-v1", &chunk, 2, &clean);
-        assert_eq!((ok.len(), err), (6, None));
+        let (ok, err) = results(&plan(NonFinite::End), &chunk, &reset);
+        assert_eq!(ok.len(), 3);
+        assert!(err.unwrap().to_string().contains("after its reset"));
+    }
+
+    fn plan(non_finite: NonFinite) -> CellPlan {
+        CellPlan {
+            seed: 0,
+            env_id: "CartPole-v1".into(),
+            arch: rwg_core::policy::Architecture {
+                hidden: vec![],
+                bias: false,
+            },
+            episodes: 2,
+            dist: rwg_core::sampler::WeightDist::Normal { std: 1.0 },
+            non_finite,
+        }
     }
 }

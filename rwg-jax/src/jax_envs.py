@@ -4,21 +4,26 @@ interface the episode loop drives (`Adapted`). `MAKERS` maps the protocol's
 source name to its maker."""
 
 from rwg_pipe import fail
-from rwg_jax_worker_common import fail_exc, version_of
-
-import sys
-import traceback
+from rwg_jax_worker_common import fail_exc, import_family, version_of
 
 
 class Adapted:
     """An env as the episode loop drives it: reset(key) -> (obs, state),
     step(key, state, action) -> (obs, state, reward, done); its spaces and
-    time limit; `versions` of what made it."""
+    time limit; `versions` of what made it; `settings`, the choices rwg made
+    for it (recorded); `legal(state)`, the legal actions of a state (a bool
+    per discrete action) where the family gives them, else None.
 
-    def __init__(self, reset, step, obs_space, act_space, max_steps, versions):
+    `obs_space` None: the observation is a pytree that `jax_obs.structured`
+    flattens and describes. After `structured`, obs is one vector."""
+
+    def __init__(self, reset, step, obs_space, act_space, max_steps, versions,
+                 settings=None, legal=None):
         self.reset, self.step = reset, step
         self.obs_space, self.act_space = obs_space, act_space
         self.max_steps, self.versions = max_steps, versions
+        self.settings = settings or {}
+        self.legal = legal
 
 
 def gymnax_step(env, params):
@@ -98,12 +103,8 @@ def limit_of(params, max_steps, what):
     return int(t)
 
 
-def make_gymnax(name, kwargs, max_steps):
-    try:
-        import gymnax
-    except ImportError as e:
-        fail("import", f"gymnax is not installed for {sys.executable} ({e}); install it with "
-                       f"`{sys.executable} -m pip install gymnax`", traceback.format_exc())
+def make_gymnax(name, kwargs, max_steps, package):
+    gymnax = import_family("gymnax", package, "gymnax")
     known = list(gymnax.registered_envs)
     if name not in known:
         fail("unknown-env", f"gymnax has no environment {name!r}; its environments are: "
@@ -135,18 +136,14 @@ class BraxBox:
         return f"Box({self.low[0]}, {self.high[0]}, {self.shape})"
 
 
-def make_brax(name, kwargs, max_steps):
-    try:
-        import brax.envs
-    except ImportError as e:
-        fail("import", f"brax is not installed for {sys.executable} ({e}); install it with "
-                       f"`{sys.executable} -m pip install brax`", traceback.format_exc())
-    known = sorted(getattr(brax.envs, "_envs", {}))
+def make_brax(name, kwargs, max_steps, package):
+    brax = import_family("brax.envs", package, "brax")
+    known = sorted(getattr(brax, "_envs", {}))
     if known and name not in known:
         fail("unknown-env", f"brax has no environment {name!r}; its environments are: "
                             f"{', '.join(known)}")
     try:
-        env = brax.envs.get_environment(name, **kwargs)
+        env = brax.get_environment(name, **kwargs)
     except BaseException as e:  # noqa: BLE001
         fail_exc("make", f"brax.envs.get_environment({name!r}, **{kwargs!r})", e)
 
@@ -164,8 +161,10 @@ def make_brax(name, kwargs, max_steps):
                    {"brax": version_of("brax")})
 
 
-def make_custom(target, kwargs, max_steps):
+def make_custom(target, kwargs, max_steps, package):
     import importlib
+    import sys
+    import traceback
 
     module, _, attr = target.partition(":")
     if not module or not attr:
@@ -205,6 +204,7 @@ def module_source(top):
     elsewhere needs (absolute; None for an installed one)."""
     import hashlib
     import os
+    import sys
 
     mod = sys.modules.get(top)
     paths = list(getattr(mod, "__path__", None) or [])
@@ -238,5 +238,6 @@ def module_source(top):
             "pythonpath": os.pathsep.join(on_path) if root in on_path else None}
 
 
-# The hello message's `source` -> make(name, kwargs, max_steps) -> Adapted.
+# The hello message's `source` -> make(name, kwargs, max_steps, package) ->
+# Adapted (`package`: what to pip install for the source's library).
 MAKERS = {"gymnax": make_gymnax, "brax": make_brax, "jax": make_custom}

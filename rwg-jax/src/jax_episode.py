@@ -3,14 +3,17 @@ over episodes and networks and compiled once at the cell's padded shape, and a
 chunk of networks run through it."""
 
 from rwg_pipe import fail
-from rwg_jax_worker_common import FAULT_OBS, FAULT_REWARD
+from rwg_jax_worker_common import FAULT_OBS, FAULT_RETURN, FAULT_REWARD, MAX_RETURN
 from rwg_jax_worker_policy import policy_fn
 
 import struct
 
 
-def episode_fn(jax, env, policy, dt):
-    """One episode: (returns, length, fault bits) of network Ws from key data."""
+def episode_fn(jax, env, policy, dt, end=False):
+    """One episode: (returns, length, fault bits) of network Ws from key data.
+    With `end` (non_finite = "end"), the episode ends at its first value that
+    is not finite (or a return beyond MAX_RETURN), that step counted, its
+    reward left out; a reset's non-finite observation ends it at step 0."""
     jnp, lax = jax.numpy, jax.lax
     T = env.max_steps
 
@@ -28,16 +31,25 @@ def episode_fn(jax, env, policy, dt):
 
         def body(c):
             obs, state, t, ret, fault, _ = c
-            a = policy(Ws, obs)
+            a = policy(Ws, obs, env.legal(state) if env.legal else None)
             obs, state, r, d = env.step(jax.random.fold_in(k_steps, t), state, a)
             r = jnp.asarray(r).astype(dt)
             fault = fault | jnp.where(not_finite(obs), FAULT_OBS, 0).astype(jnp.uint8)
             fault = fault | jnp.where(not_finite(r), FAULT_REWARD, 0).astype(jnp.uint8)
             t = t + 1
             done = jnp.logical_or(jnp.asarray(d, bool), t >= T)
-            return obs, state, t, ret + r, fault, done
+            if not end:
+                return obs, state, t, ret + r, fault, done
+            total = ret + r
+            ok = jnp.isfinite(total) & (jnp.abs(total) <= jnp.asarray(MAX_RETURN, dt))
+            fault = fault | jnp.where(ok | not_finite(r), 0, FAULT_RETURN).astype(jnp.uint8)
+            cut = fault != 0
+            return obs, state, t, jnp.where(cut, ret, total), fault, done | cut
 
-        init = (obs, state, jnp.int32(0), jnp.zeros((), dt), fault, jnp.bool_(T <= 0))
+        done0 = jnp.bool_(T <= 0)
+        if end:
+            done0 = done0 | (fault != 0)
+        init = (obs, state, jnp.int32(0), jnp.zeros((), dt), fault, done0)
         _, _, t, ret, fault, _ = lax.while_loop(cond, body, init)
         return ret, t, fault
 
@@ -56,7 +68,8 @@ def compile_cell(jax, env, dev, dt, space, obs_dim, cell):
     if nw != int(cell["n_weights"]):
         fail("protocol", f"rwg counts {cell['n_weights']} weights, the worker {nw} "
                          f"(layers {layers})")
-    episode = episode_fn(jax, env, policy_fn(jnp, layers, bias, dt, space), dt)
+    end = cell.get("non_finite") == "end"
+    episode = episode_fn(jax, env, policy_fn(jnp, layers, bias, dt, space), dt, end)
     call = jax.jit(jax.vmap(jax.vmap(episode, in_axes=(None, 0)), in_axes=(0, 0)))
     sharding = jax.sharding.SingleDeviceSharding(dev)
     specs = ([jax.ShapeDtypeStruct((N, o, i), dt, sharding=sharding) for o, i in layers],

@@ -45,9 +45,10 @@ def box_bounds(space, what):
                       f"which do not fit its shape {shape}")
 
 
-def describe_spaces(env, max_obs):
+def describe_spaces(env, max_obs, leaves):
     """The R message's space fields, and (discrete n, box low, box high,
-    action shape) for the policy."""
+    action shape) for the policy. `leaves`: the observation's (name, shape,
+    dtype), named when it is too large."""
     import numpy as np
 
     obs, act = env.obs_space, env.act_space
@@ -61,7 +62,13 @@ def describe_spaces(env, max_obs):
         fail("space", f"observation space {obs!r} has neither .low/.high/.shape nor .n")
     dim = int(np.prod(shape, dtype=np.int64))
     if dim == 0 or dim > max_obs:
-        fail("space", f"observation space {obs!r} has {dim} values; rwg takes 1 to {max_obs}")
+        from rwg_jax_worker_obs import largest_leaf
+
+        fail("space", f"the observation has {dim} values (largest leaf: {largest_leaf(leaves)}); "
+                      f"rwg's networks take 1 to {max_obs} inputs (a [4,4] network on {max_obs} "
+                      f"inputs already has {4 * max_obs + 20} weights, drawn and sent for every "
+                      f"network); give the env a smaller observation (a symbolic rather than a "
+                      f"pixel one)")
     fields = {"obs_shape": list(shape), "obs_dim": dim, "obs_low": floats(low),
               "obs_high": floats(high), "observation_space": repr(obs), "action_space": repr(act)}
     if hasattr(act, "n") and not hasattr(act, "low"):
@@ -80,9 +87,9 @@ def describe_spaces(env, max_obs):
 
 def check_sizes(jax, env, dt, space, obs_shape, obs_dim):
     """Traces (does not run) a reset and a step with the action rwg's
-    policy gives: observations of `obs_dim` values and a reward of one, or a
-    `space` failure naming both sizes (not XLA's message about the layer
-    they meet)."""
+    policy gives: observations of `obs_dim` values, or a `space` failure
+    naming both sizes (not XLA's message about the layer they meet; the
+    reward's shape is `check_reward`'s)."""
     import numpy as np
 
     jnp = jax.numpy
@@ -94,38 +101,41 @@ def check_sizes(jax, env, dt, space, obs_shape, obs_dim):
         k_reset, k_steps = jax.random.split(key)
         obs, state = env.reset(k_reset)
         out = env.step(jax.random.fold_in(k_steps, 0), state, action)
-        return obs, out[0], out[2]
+        return obs, out[0]
 
     try:
         shapes = jax.eval_shape(first_step, jax.ShapeDtypeStruct((2,), jnp.uint32))
     except BaseException as e:  # noqa: BLE001 -- the env's own code, traced
         fail_exc("make", "tracing the env's reset and a first step", e)
-    declared = f"its observation space declares {obs_dim} (shape {tuple(obs_shape)})"
-    for what, x, want, size_ok in (
-            ("reset returns an observation", shapes[0], declared, obs_dim),
-            ("step returns an observation", shapes[1], declared, obs_dim),
-            ("step returns a reward", shapes[2], "rwg takes one number", 1)):
-        shape = tuple(int(d) for d in x.shape)
-        size = int(np.prod(shape, dtype=np.int64))
-        if size != size_ok:
-            fail("space", f"the env's {what} of {size} values (shape {shape}) where {want}; fix "
-                          f"the env's spaces or what it computes")
+    for what, x in (("reset", shapes[0]), ("step", shapes[1])):
+        shapes_of = [tuple(int(d) for d in leaf.shape) for leaf in jax.tree_util.tree_leaves(x)]
+        size = sum(int(np.prod(s, dtype=np.int64)) for s in shapes_of)
+        if size != obs_dim:
+            shape = shapes_of[0] if len(shapes_of) == 1 else f"{len(shapes_of)} arrays"
+            fail("space", f"the env's {what} returns an observation of {size} values (shape "
+                          f"{shape}) where its observation space declares {obs_dim} (shape "
+                          f"{tuple(obs_shape)}); fix the env's spaces or what it computes")
 
 
 def policy_fn(jnp, layers, bias, dt, space):
-    """rwg's policy: x = tanh(W @ [x, 1]) per layer; argmax or the box map."""
+    """rwg's policy: x = tanh(W @ [x, 1]) per layer; argmax or the box map.
+    `legal` (a bool per action, or None): the argmax is over the legal
+    actions only; where none is legal, over all (plain argmax)."""
     n, low, high, ashape = space
     if n is None:
         symmetric = bool((low == -high).all())
         lo, hi = jnp.asarray(low, dt), jnp.asarray(high, dt)
 
-    def policy(Ws, obs):
+    def policy(Ws, obs, legal=None):
         x = jnp.ravel(obs).astype(dt)
         for W in Ws:
             if bias:
                 x = jnp.concatenate([x, jnp.ones((1,), dt)])
             x = jnp.tanh(W @ x)
         if n is not None:
+            if legal is not None:
+                legal = jnp.asarray(legal, bool)
+                x = jnp.where(legal | ~jnp.any(legal), x, -jnp.inf)
             return jnp.argmax(x).astype(jnp.int32)
         a = hi * x if symmetric else lo + (x + 1) / 2 * (hi - lo)
         return a.reshape(ashape)

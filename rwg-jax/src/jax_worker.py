@@ -19,8 +19,9 @@ from rwg_pipe import (  # the pipe first: it redirects fd 0/1
     send_json,
     write_msg,
 )
-from rwg_jax_worker_common import fail_exc, version_of
-from rwg_jax_worker_envs import MAKERS
+from rwg_jax_worker_common import fail_exc, import_family, version_of
+from rwg_jax_worker_families import MAKERS
+from rwg_jax_worker_obs import structured
 from rwg_jax_worker_policy import check_sizes, describe_spaces
 from rwg_jax_worker_episode import compile_cell, run_chunk
 
@@ -42,7 +43,11 @@ def import_jax(precision):
     os.environ.setdefault("XLA_FLAGS", ONE_THREAD_XLA)
     try:
         import jax
-    except ImportError as e:
+    except BaseException as e:  # noqa: BLE001
+        import importlib.util
+
+        if importlib.util.find_spec("jax") is not None:
+            import_family("jax", "jax", "JAX")  # installed but failing: says why
         fail("import", f"jax is not installed for {sys.executable} ({e}); install it with "
                        f"`{sys.executable} -m pip install jax` (CPU) or "
                        f"`{sys.executable} -m pip install \"jax[cuda12]\"` (NVIDIA GPU)",
@@ -66,6 +71,24 @@ def pick_device(jax, name):
         fail("device", f"no JAX device {name!r} ({type(e).__name__}: {e}); this JAX has: {known}")
 
 
+def action_mask(env, hello):
+    """How the policy picks a discrete action, recorded with the cell:
+    `legal` (argmax over the legal actions the family gives), `off` (the
+    family gives them, the manifest turned them off: plain argmax), `none`
+    (the family gives none). Drops the env's legal actions when not used."""
+    if env.legal is None or space_is_box(env):
+        env.legal = None
+        return "none"
+    if hello.get("action_mask", True):
+        return "legal"
+    env.legal = None
+    return "off"
+
+
+def space_is_box(env):
+    return hasattr(env.act_space, "low")
+
+
 def start(hello):
     """Imports, picks the device, makes the env: (jax, device, dtype, env, R fields, space)."""
     precision = hello.get("precision", "float32")
@@ -81,10 +104,13 @@ def start(hello):
     if make is None:
         fail("protocol", f"source {source!r}")
     with jax.default_device(dev):
-        env = make(name, kwargs, max_steps)
+        env = make(name, kwargs, max_steps, hello.get("package") or source)
+        env, described, leaves = structured(jax, env, dt)
     if env.max_steps < 1 or env.max_steps >= 2**31:
         fail("make", f"time limit {env.max_steps}: rwg takes 1 to {2**31 - 1} steps")
-    fields, space = describe_spaces(env, int(hello.get("max_obs", 4096)))
+    fields, space = describe_spaces(env, int(hello.get("max_obs", 4096)), leaves)
+    fields.update({"observation_leaves": described, "action_mask": action_mask(env, hello),
+                   "settings": {str(k): str(v) for k, v in env.settings.items()}})
     with jax.default_device(dev):
         check_sizes(jax, env, dt, space, fields["obs_shape"], fields["obs_dim"])
     import jaxlib

@@ -1,6 +1,7 @@
-//! # rwg-jax: JAX environments (gymnax, Brax, a user's own) at JAX's speed
+//! # rwg-jax: JAX environments (gymnax, Brax, MuJoCo Playground, Jumanji, Craftax, Navix, XLand-MiniGrid, Pgx, a user's own) at JAX's speed
 //!
-//! An environment id `gymnax:ID`, `brax:NAME` or `jax:module:callable` runs
+//! An environment id of a JAX family ([`FAMILIES`]: `gymnax:ID`,
+//! `brax:NAME`, `playground:NAME`, ..., `jax:module:callable`) runs
 //! in Python worker processes that compile rwg's policy and the env's
 //! episode into one call over a chunk of networks. Only weights and reset
 //! seeds go to Python; only per-episode returns, lengths and fault bits come
@@ -38,18 +39,25 @@
 //!
 //! # Modules
 //!
+//! - [`family`]: the JAX env sources, one row each (prefix, adapter, package).
 //! - [`protocol`]: the messages (hello, cell, chunk, ready, outcome).
 //! - The worker's Python: [`WORKER_PY`] and its [`MODULES`].
 //! - `worker`: one worker process, its handshake, compiles and chunks.
 //! - [`chunks`]: blocks cut into chunks, outcomes put back into blocks in order.
 //! - `run`: the chunks handed to the workers, one in flight each.
+//! - [`warm_up`]: a cell's workers starting and compiling, told to a
+//!   progress display and timed.
 
 pub mod chunks;
+pub mod family;
 pub mod protocol;
 mod run;
+pub mod warm_up;
 mod worker;
 
 use worker::JaxWorker;
+
+pub use family::{id_forms, jax_id, Family, JaxKind, FAMILIES};
 
 use rwg_core::sampler::{BlockResult, CellPlan, SampleError};
 use rwg_env::EnvSpec;
@@ -72,6 +80,14 @@ pub const COMMON_PY: &str = include_str!("jax_common.py");
 /// the interface the episode loop drives.
 pub const ENVS_PY: &str = include_str!("jax_envs.py");
 
+/// Structured observations: a pytree flattened in one documented order and
+/// described leaf by leaf.
+pub const OBS_PY: &str = include_str!("jax_obs.py");
+
+/// The families' adapters (Playground, Jumanji, Craftax, Navix,
+/// XLand-MiniGrid, Pgx) and the table of every source's maker.
+pub const FAMILIES_PY: &str = include_str!("jax_families.py");
+
 /// The env's spaces as rwg takes them, and rwg's policy in JAX.
 pub const POLICY_PY: &str = include_str!("jax_policy.py");
 
@@ -82,16 +98,15 @@ pub const EPISODE_PY: &str = include_str!("jax_episode.py");
 /// The modules [`WORKER_PY`] imports from rwg (name, source), in the order
 /// they are loaded: the pipe to rwg first, each module after those it
 /// imports.
-pub const MODULES: [(&str, &str); 5] = [
+pub const MODULES: [(&str, &str); 7] = [
     (rwg_worker::python::PIPE_MODULE, rwg_worker::python::PIPE_PY),
     ("rwg_jax_worker_common", COMMON_PY),
     ("rwg_jax_worker_envs", ENVS_PY),
+    ("rwg_jax_worker_obs", OBS_PY),
+    ("rwg_jax_worker_families", FAMILIES_PY),
     ("rwg_jax_worker_policy", POLICY_PY),
     ("rwg_jax_worker_episode", EPISODE_PY),
 ];
-
-/// The prefixes of JAX env ids, in [`JaxKind`] order.
-pub const PREFIXES: [&str; 3] = ["gymnax:", "brax:", "jax:"];
 
 /// The environment variable overriding [`DEFAULT_TIMEOUT_S`] (seconds).
 pub const TIMEOUT_VAR: &str = "RWG_JAX_TIMEOUT";
@@ -116,42 +131,6 @@ pub const MAX_OBS: usize = 4096;
 
 /// The environment variable naming the default Python interpreter.
 pub const PYTHON_VAR: &str = "RWG_PYTHON";
-
-/// Which library an env comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum JaxKind {
-    /// `gymnax:ID`: `gymnax.make(ID)`.
-    Gymnax,
-    /// `brax:NAME`: `brax.envs.get_environment(NAME)`.
-    Brax,
-    /// `jax:module:callable`: a user's function returning `(env, params)`.
-    Custom,
-}
-
-impl JaxKind {
-    /// The id prefix (`gymnax:`).
-    pub fn prefix(self) -> &'static str {
-        PREFIXES[self as usize]
-    }
-
-    /// The source's name in the worker protocol (`gymnax`, `brax`, `jax`).
-    pub fn source(self) -> &'static str {
-        match self {
-            JaxKind::Gymnax => "gymnax",
-            JaxKind::Brax => "brax",
-            JaxKind::Custom => "jax",
-        }
-    }
-}
-
-/// The kind and seed id of a JAX env id (`gymnax:CartPole-v1` ->
-/// `(Gymnax, "CartPole-v1")`), or `None` for any other id.
-pub fn jax_id(id: &str) -> Option<(JaxKind, &str)> {
-    const KINDS: [JaxKind; 3] = [JaxKind::Gymnax, JaxKind::Brax, JaxKind::Custom];
-    KINDS
-        .into_iter()
-        .find_map(|k| id.strip_prefix(k.prefix()).map(|rest| (k, rest)))
-}
 
 /// The float type the policy and the env compute in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -204,6 +183,9 @@ pub struct JaxConfig {
     /// Networks per compiled call; `None`: by platform
     /// ([`DEFAULT_NETWORKS_CPU`], [`DEFAULT_NETWORKS_ACCELERATOR`]).
     pub networks_per_call: Option<u32>,
+    /// Whether a discrete action is the argmax over the legal actions where
+    /// the family gives them (`true`), or over all actions.
+    pub action_mask: bool,
     /// How long a start, a compile or a call may take.
     pub timeout: Duration,
 }
@@ -222,6 +204,7 @@ impl JaxConfig {
             precision: Precision::F32,
             device: None,
             networks_per_call: None,
+            action_mask: true,
             timeout: default_timeout(),
         }
     }
@@ -267,8 +250,18 @@ pub struct JaxInfo {
     pub observation_space: String,
     /// The library's text of the action space.
     pub action_space: String,
-    /// Versions: `python`, `jax`, `jaxlib`, and `gymnax`, `brax` or `module`.
+    /// Versions: `python`, `jax`, `jaxlib`, and the env's library (its
+    /// package's name: `gymnax`, `playground`, ...) or `module`.
     pub versions: BTreeMap<String, String>,
+    /// The observation's leaves, in the order they are flattened.
+    pub observation_leaves: Vec<protocol::Leaf>,
+    /// How a discrete action is chosen: `legal` (argmax over the legal
+    /// actions), `off` (the family gives them, the manifest turned them
+    /// off), `none` (the family gives none, or the actions are a box).
+    pub action_mask: String,
+    /// Choices made when the env was made (Playground's physics `impl`,
+    /// Craftax's `auto_reset`, ...), recorded with the cell.
+    pub settings: BTreeMap<String, String>,
     /// The device used (`cpu:0`, `cuda:0`).
     pub device: String,
     /// The device's kind (`cpu`, `NVIDIA H200`).
@@ -406,6 +399,7 @@ pub struct JaxSource {
     config: JaxConfig,
     info: JaxInfo,
     pool: std::sync::Mutex<Vec<JaxWorker>>,
+    warm_ups: warm_up::WarmUps,
 }
 
 impl std::fmt::Debug for JaxSource {
@@ -425,7 +419,21 @@ impl JaxSource {
             config,
             info,
             pool: std::sync::Mutex::new(vec![first]),
+            warm_ups: warm_up::WarmUps::default(),
         })
+    }
+
+    /// Tells `observer` when the workers of each cell run from now on warm
+    /// up (start, compile) and when they are ready.
+    pub fn observe(&self, observer: std::sync::Arc<dyn warm_up::WarmUpObserver>) {
+        self.warm_ups.observe(observer);
+    }
+
+    /// The wall time of every cell's warm-up so far, added up: from the
+    /// start of [`JaxSource::run_blocks`] until its last worker has started
+    /// (if it was not idle) and compiled the cell.
+    pub fn warm_up_time(&self) -> Duration {
+        self.warm_ups.total()
     }
 
     /// The environment as the worker described it.

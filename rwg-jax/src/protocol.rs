@@ -24,12 +24,17 @@ pub const TAG_CHUNK: u8 = b'B';
 pub const FAULT_OBS: u8 = 1;
 /// Fault bit: a non-finite reward.
 pub const FAULT_REWARD: u8 = 2;
+/// Fault bit (with `non_finite = "end"` only): finite rewards took the
+/// return beyond ±1e100 (or, in float32, to infinity).
+pub const FAULT_RETURN: u8 = 4;
 
 /// The hello message's JSON for `cfg`.
 pub fn hello(cfg: &JaxConfig, max_obs: usize) -> serde_json::Value {
     serde_json::json!({
         "protocol": PROTOCOL,
         "source": cfg.kind.source(),
+        "package": cfg.kind.family().package,
+        "action_mask": cfg.action_mask,
         "env": cfg.id,
         "kwargs": cfg.kwargs,
         "max_episode_steps": cfg.max_episode_steps,
@@ -52,18 +57,27 @@ pub struct CellShape {
     pub episodes: u32,
     /// Weights per network.
     pub n_weights: usize,
+    /// The manifest's `non_finite = "end"`: an episode ends at its first
+    /// value that is not finite (observation, reward, or a return beyond
+    /// ±1e100), its return that of the steps before, its fault bits set.
+    pub non_finite_ends: bool,
 }
 
 impl CellShape {
-    /// The cell message's JSON.
+    /// The cell message's JSON (`"non_finite": "end"` only with
+    /// [`CellShape::non_finite_ends`]).
     pub fn json(&self) -> serde_json::Value {
-        serde_json::json!({
+        let mut j = serde_json::json!({
             "hidden": self.hidden,
             "bias": self.bias,
             "networks": self.networks,
             "episodes": self.episodes,
             "n_weights": self.n_weights,
-        })
+        });
+        if self.non_finite_ends {
+            j["non_finite"] = "end".into();
+        }
+        j
     }
 }
 
@@ -125,9 +139,24 @@ pub fn decode_outcome(payload: &[u8], m: usize) -> Result<Outcome, JaxError> {
     })
 }
 
+/// One leaf of a structured observation: its name (its path in the
+/// pytree), shape and dtype.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize, serde::Serialize)]
+pub struct Leaf {
+    /// `grid`, `agent.position`, `['state']`; `obs` for a bare array.
+    pub name: String,
+    /// Its shape (`[]` for a scalar).
+    pub shape: Vec<u64>,
+    /// Its dtype as JAX names it (`float32`, `uint8`, `bool`).
+    pub dtype: String,
+}
+
 /// What the worker says in its ready message.
 #[derive(Debug, Clone, Deserialize)]
 pub struct Ready {
+    observation_leaves: Vec<Leaf>,
+    action_mask: String,
+    settings: BTreeMap<String, String>,
     obs_dim: usize,
     obs_low: Vec<serde_json::Value>,
     obs_high: Vec<serde_json::Value>,
@@ -203,6 +232,9 @@ pub fn parse_ready(cfg: &JaxConfig, r: Ready) -> Result<JaxInfo, JaxError> {
         observation_space: r.observation_space,
         action_space: r.action_space,
         versions: r.versions,
+        observation_leaves: r.observation_leaves,
+        action_mask: r.action_mask,
+        settings: r.settings,
         device: r.device,
         device_kind: r.device_kind,
         platform: r.platform,
@@ -255,6 +287,8 @@ mod tests {
     fn ready_becomes_the_spec() {
         let cfg = JaxConfig::new(JaxKind::Brax, "inverted_pendulum");
         let r: Ready = serde_json::from_value(serde_json::json!({
+            "observation_leaves": [{"name": "obs", "shape": [4], "dtype": "float32"}],
+            "action_mask": "none", "settings": {},
             "obs_shape": [4], "obs_dim": 4, "obs_low": ["-inf", "-inf", "-inf", "-inf"],
             "obs_high": ["inf", "inf", "inf", "inf"],
             "action": {"box": {"low": [-1.0], "high": [1.0], "shape": [1]}},

@@ -5,10 +5,13 @@
 
 use crate::chunks::{chunk_len, chunks, results, Assembly, Chunk};
 use crate::protocol::{CellShape, Outcome};
+use crate::warm_up::WarmUp;
 use crate::worker::JaxWorker;
 use crate::{CallError, JaxError, JaxSource};
 use rwg_core::policy::NetShape;
-use rwg_core::sampler::{draw_block_weights, reset_seed, BlockResult, CellPlan, SampleError};
+use rwg_core::sampler::{
+    draw_block_weights, reset_seed, BlockResult, CellPlan, NonFinite, SampleError,
+};
 use std::ops::Range;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 
@@ -39,6 +42,7 @@ where
         networks: src.networks_per_call(),
         episodes: plan.episodes,
         n_weights: shape.n_weights(),
+        non_finite_ends: plan.non_finite == NonFinite::End,
     };
     let all = chunks(blocks, cell.networks as usize);
     let mut assembly = Assembly::new(blocks, plan.episodes);
@@ -46,14 +50,16 @@ where
         return assembly.add(&[], &mut on_block);
     }
     let workers = src.workers_for(threads).min(all.len());
+    let warm = src.warm_ups.begin(workers);
     std::thread::scope(|scope| {
         let mut outcomes = vec![];
         let mut handles = vec![];
         for t in 0..workers {
             let (tx, rx) = sync_channel(AHEAD_PER_WORKER);
             outcomes.push(rx);
-            let (cell, all) = (&cell, &all);
-            handles.push(scope.spawn(move || serve(src, plan, cell, all, (t, workers), tx)));
+            let (cell, all, warm) = (&cell, &all, &warm);
+            handles
+                .push(scope.spawn(move || serve(src, plan, (cell, warm), all, (t, workers), tx)));
         }
         let r = collect(plan, &all, &outcomes, &mut assembly, &mut on_block);
         drop(outcomes); // the threads end after their chunk in flight
@@ -85,7 +91,7 @@ where
             .recv()
             .unwrap_or_else(|_| unreachable!("a worker thread ended before its chunk {c}"));
         let outcome = outcome.map_err(|e| chunk_error(plan, chunk, e))?;
-        let (ok, failure) = results(&plan.env_id, chunk, plan.episodes, &outcome);
+        let (ok, failure) = results(plan, chunk, &outcome);
         assembly.add(&ok, on_block)?;
         if let Some(f) = failure {
             return Err(f.into());
@@ -121,13 +127,14 @@ fn chunk_error(plan: &CellPlan, chunk: &Chunk, e: Failed) -> CallError {
 }
 
 /// A worker thread `t` of `workers`: takes a worker (idle or new),
-/// compiles the cell, runs chunks `t`, `t + workers`, ... in order, drawing
+/// compiles the cell (then tells `warm` it is ready), runs chunks `t`,
+/// `t + workers`, ... in order, drawing
 /// each chunk's inputs while the worker runs the one before. Returns the
 /// worker if it is still sound.
 fn serve(
     src: &JaxSource,
     plan: &CellPlan,
-    cell: &CellShape,
+    (cell, warm): (&CellShape, &WarmUp),
     all: &[Chunk],
     (t, workers): (usize, usize),
     outcomes: SyncSender<Result<Outcome, Failed>>,
@@ -136,6 +143,7 @@ fn serve(
         Ok(mut w) => w.set_cell(cell).map(|_| w),
         Err(e) => Err(e),
     };
+    warm.ready();
     let mut inputs = (vec![], vec![]);
     let mut next = (vec![], vec![]);
     chunk_inputs(plan, cell, &all[t], &mut next);

@@ -60,6 +60,7 @@ fn plan(id: &str, hidden: &[usize], bias: bool, episodes: u32) -> CellPlan {
         },
         episodes,
         dist: WeightDist::Normal { std: 1.0 },
+        non_finite: Default::default(),
     }
 }
 

@@ -267,6 +267,7 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
                         },
                         episodes: m.episodes,
                         dist: m.weights,
+                        non_finite: e.non_finite,
                     },
                     source: source.clone(),
                     spec: spec.clone(),
@@ -392,12 +393,25 @@ impl Cell {
                 precision: j.info().precision.name().to_string(),
                 networks_per_call: j.networks_per_call(),
                 source: j.info().source.clone(),
+                observation_leaves: j.info().observation_leaves.clone(),
+                action_mask: Some(j.info().action_mask.clone()),
+                settings: j.info().settings.clone(),
             }),
             _ => record,
         }
     }
 
-    /// The cell's metadata for `run.json` / `cell.json`.
+    /// The rows of the cell's score files: `m`'s episodes per network, and
+    /// the `non_finite` flag when its env has `non_finite = "end"`.
+    pub fn rows(&self, m: &Manifest) -> crate::rundir::rows::CellRows {
+        crate::rundir::rows::CellRows {
+            episodes: m.episodes,
+            flagged: self.plan.non_finite == rwg_core::sampler::NonFinite::End,
+        }
+    }
+
+    /// The cell's metadata for `run.json` / `cell.json` (its
+    /// `non_finite_episodes` left for the finalisation to count).
     pub fn meta(&self, m: &Manifest, env_steps: u64, wall_s: f64) -> CellMeta {
         let shape = NetShape::new(
             self.spec.obs_dim(),
@@ -420,6 +434,7 @@ impl Cell {
             } else {
                 0.0
             },
+            non_finite_episodes: None,
         }
     }
 
@@ -438,8 +453,9 @@ impl Cell {
         let mut meta = None;
         // (Cells without a time limit are refused when planned.)
         let limit = self.spec.max_episode_steps.unwrap_or(u32::MAX);
-        let totals = finalize_cell(&dir, m.samples, m.episodes, limit, keep, pending, |t| {
-            let cm = self.meta(m, t.env_steps, wall_s);
+        let totals = finalize_cell(&dir, m.samples, self.rows(m), limit, keep, pending, |t| {
+            let mut cm = self.meta(m, t.env_steps, wall_s);
+            cm.non_finite_episodes = t.non_finite;
             let json = serde_json::to_string_pretty(&cm).expect("serialisable");
             meta = Some(cm);
             Some(json)

@@ -28,6 +28,7 @@
 
 use crate::rundir::blocks::{write_blocks, BLOCK_SAMPLES};
 use crate::rundir::error::RunDirError;
+use crate::rundir::rows::CellRows;
 use rwg_core::sampler::BlockResult;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering::SeqCst};
@@ -108,15 +109,18 @@ pub struct CommitThreads<'scope> {
 
 impl Committer {
     /// Starts [`COMMIT_THREADS`] I/O threads in `scope` committing blocks of
-    /// the cell in `cell_dir` (`episodes` per network). The threads may
+    /// the cell in `cell_dir` (its `rows`: episodes per network, flagged or
+    /// not). The threads may
     /// outlive the cell's sampling (the runner waits for them on another
     /// thread while the next cell samples).
     pub fn start<'scope>(
         scope: &'scope Scope<'scope, '_>,
         cell_dir: &Path,
-        episodes: u32,
+        rows: impl Into<CellRows>,
         linger: Duration,
     ) -> (Committer, CommitThreads<'scope>) {
+        let rows = rows.into();
+        let episodes = rows.episodes;
         let cell_dir: Arc<Path> = Arc::from(cell_dir);
         let (tx, rx) = sync_channel::<BlockResult>(QUEUE);
         let per_block = BLOCK_SAMPLES as usize * (episodes as usize).max(1);
@@ -132,7 +136,7 @@ impl Committer {
             .map(|_| {
                 let shared = Arc::clone(&shared);
                 let cell_dir = Arc::clone(&cell_dir);
-                scope.spawn(move || commit_loop(&shared, &cell_dir, episodes))
+                scope.spawn(move || commit_loop(&shared, &cell_dir, rows))
             })
             .collect();
         (
@@ -199,7 +203,7 @@ impl CommitThreads<'_> {
 /// group ([`write_blocks`]): fewer, larger commits, and a cell computed
 /// within [`LINGER`] writes no block file at all when its blocks are kept
 /// back ([`Committer::close`]). Returns its busy time.
-fn commit_loop(shared: &Shared, cell_dir: &Path, episodes: u32) -> Duration {
+fn commit_loop(shared: &Shared, cell_dir: &Path, rows: CellRows) -> Duration {
     let mut busy = Duration::ZERO;
     let mut group = Vec::with_capacity(shared.group);
     loop {
@@ -240,7 +244,7 @@ fn commit_loop(shared: &Shared, cell_dir: &Path, episodes: u32) -> Duration {
         let t = Instant::now();
         let stopped = lock(&shared.failed).is_some();
         if !stopped {
-            if let Err(e) = write_blocks(cell_dir, &group, episodes) {
+            if let Err(e) = write_blocks(cell_dir, &group, rows) {
                 lock(&shared.failed).get_or_insert(e);
             }
         }
@@ -268,6 +272,7 @@ mod tests {
             .map(|i| EpisodeResult {
                 score: (r.start + i) as f64 * 0.25,
                 steps: 7,
+                non_finite: false,
             })
             .collect();
         BlockResult {

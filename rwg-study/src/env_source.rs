@@ -65,6 +65,16 @@ impl EnvSource {
         }
     }
 
+    /// For a JAX env, the wall time its cells' warm-ups (workers starting,
+    /// compiling) took so far, added up (`rwg_jax::JaxSource::warm_up_time`);
+    /// `None` for the envs that compile nothing.
+    pub fn warm_up_time(&self) -> Option<std::time::Duration> {
+        match self {
+            EnvSource::Jax(j) => Some(j.warm_up_time()),
+            _ => None,
+        }
+    }
+
     /// How a fault report names `cell` (whose source this is) and its env
     /// (see [`fault_context`](crate::fault_context)).
     pub fn fault_label(&self, cell: &Cell) -> String {

@@ -23,6 +23,7 @@ pub fn config_of(e: &EnvEntry) -> GymConfig {
     }
     cfg.max_episode_steps = e.max_episode_steps;
     cfg.action_dtype = e.action_dtype.unwrap_or_default();
+    cfg.non_finite_ends = e.non_finite == rwg_core::sampler::NonFinite::End;
     cfg
 }
 
@@ -93,8 +94,9 @@ pub fn check_not_gym_fields(m: &Manifest, i: usize) -> Result<(), ManifestError>
             at,
             format!(
                 "envs[{i}]: `kwargs` and `python` apply to Gymnasium and JAX environments \
-                 only (write the id as gymnasium:{}, or gymnax:, brax:, jax:module:callable)",
-                e.id
+                 only (write the id as gymnasium:{}, or as a JAX id: {})",
+                e.id,
+                rwg_jax::id_forms()
             ),
         )),
         None => Ok(()),

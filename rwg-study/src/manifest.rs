@@ -36,10 +36,13 @@
 //! python = ".venv/bin/python"        # optional: default RWG_PYTHON, then python3
 //!
 //! [[envs]]
-//! id = "gymnax:CartPole-v1"          # a JAX env (also brax:NAME, jax:module:callable), rwg-jax
+//! id = "gymnax:CartPole-v1"          # a JAX env (also brax:, playground:, jumanji:, ...), rwg-jax
 //! precision = "float64"              # optional: float32 (default) or float64; part of the study
 //! device = "gpu:1"                   # optional: the JAX device (default: JAX's first)
 //! networks_per_call = 1024           # optional: networks in one compiled call (a multiple of 32)
+//! action_mask = false                # optional: plain argmax where the family gives legal actions
+//! non_finite = "end"                 # optional, any env: an episode meeting a NaN or infinite
+//!                                    # value ends there, flagged (default "stop": the study stops)
 //! ```
 //!
 //! Unknown keys and bad values are errors that name the file, line, column
@@ -55,7 +58,7 @@ use crate::limits;
 use crate::manifest_text;
 use checker::{locate, Checker};
 use raw::Raw;
-use rwg_core::sampler::WeightDist;
+use rwg_core::sampler::{NonFinite, WeightDist};
 use rwg_env::env::ActionDtype;
 use serde::Serialize;
 use std::ops::Range;
@@ -163,6 +166,20 @@ pub struct EnvEntry {
     /// default for the device's platform). Part of the study.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub networks_per_call: Option<u32>,
+    /// Whether a JAX env's discrete action is the argmax over the legal
+    /// actions where its family gives them: `Some(true)` unless the manifest
+    /// says `action_mask = false`; `None` for every other env. Part of the
+    /// study.
+    #[serde(skip_serializing_if = "jax_keys::mask_is_default")]
+    pub action_mask: Option<bool>,
+    /// What an episode that meets a value that is not finite does: stop
+    /// the study (the default, not written out) or end the episode there,
+    /// flagged. Part of the study.
+    #[serde(
+        skip_serializing_if = "is_stop",
+        serialize_with = "serialize_non_finite"
+    )]
+    pub non_finite: NonFinite,
     /// Where the `device` value stands, if given.
     #[serde(skip)]
     pub device_span: Option<Range<usize>>,
@@ -181,6 +198,15 @@ pub struct EnvEntry {
     /// Where the `config` value stands, if given.
     #[serde(skip)]
     pub config_span: Option<Range<usize>>,
+}
+
+fn is_stop(n: &NonFinite) -> bool {
+    *n == NonFinite::Stop
+}
+
+/// Writes `non_finite` as the manifest spells it (`"end"`).
+fn serialize_non_finite<S: serde::Serializer>(n: &NonFinite, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(n.name())
 }
 
 /// A validated manifest.
@@ -336,7 +362,7 @@ impl Manifest {
     /// back).
     pub fn isolate_all(&mut self) {
         for e in &mut self.envs {
-            e.isolate = !crate::jax_source::is_jax(&e.id);
+            e.isolate = rwg_jax::jax_id(&e.id).is_none();
         }
     }
 

@@ -221,7 +221,7 @@ pub(crate) fn spawn_cell_end<'scope>(
             if finalized.is_err() && !tail.is_empty() {
                 // Kept back for the finalisation, which failed: committed
                 // now, so that a rerun resumes after them.
-                let _ = write_blocks(&cell_dir(out, &cell.id.dir), &tail, m.episodes);
+                let _ = write_blocks(&cell_dir(out, &cell.id.dir), &tail, cell.rows(m));
             }
             Some(finalized?)
         };

@@ -440,6 +440,10 @@ pub struct CellSummary {
     pub mean_episode_length: f64,
     /// Longest episode in steps.
     pub max_episode_length: u32,
+    /// With `non_finite = "end"`: the cell's episodes a value that was not
+    /// finite ended (its `cell.json`'s count); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub non_finite_episodes: Option<u64>,
     /// The spread of `best_mean` and `p99_9_mean` over disjoint blocks of a
     /// chosen study size ([`spread_at_n`]); only when asked for
     /// (`rwg stats --at-n N`), absent from `stats.json` otherwise.
@@ -536,6 +540,7 @@ pub fn summarize_cell(
         best_episode: max(scores),
         mean_episode_length: mean_episode_length(steps),
         max_episode_length: steps.iter().copied().max().unwrap_or(0),
+        non_finite_episodes: meta.non_finite_episodes,
         at_n: None,
     }
 }

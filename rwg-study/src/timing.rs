@@ -22,6 +22,10 @@ pub struct CellTiming {
     /// Waves of blocks on the worker threads (parallel), the block commits
     /// that overlap them included.
     pub sampling: Duration,
+    /// Of the sampling, for a JAX env: its workers starting and compiling
+    /// the cell, until the last one is ready to run (wall time); `None` for
+    /// the envs that compile nothing. The rest of the sampling is running.
+    pub warm_up: Option<Duration>,
     /// The runner's thread busy with the cell, or waiting, outside its
     /// sampling, while the workers wait (serial).
     pub serial: Duration,
@@ -70,13 +74,17 @@ pub struct RunTiming {
 }
 
 impl RunTiming {
-    /// The cells' sampling and serial time added up (`dir` empty; the
-    /// overlapped phases are not added).
+    /// The cells' sampling, warm-up (`None` when no cell compiled) and
+    /// serial time added up (`dir` empty; the overlapped phases are not
+    /// added).
     pub fn cells_sum(&self) -> CellTiming {
         let mut sum = CellTiming::default();
         for c in &self.cells {
             sum.sampling += c.sampling;
             sum.serial += c.serial;
+            if let Some(w) = c.warm_up {
+                *sum.warm_up.get_or_insert(Duration::ZERO) += w;
+            }
         }
         sum
     }
@@ -110,6 +118,7 @@ mod tests {
         let c = CellTiming {
             dir: "CartPole-v0__0HL__nobias".into(),
             sampling: Duration::from_millis(900),
+            warm_up: None,
             serial: Duration::from_millis(100),
             commit_io: Duration::from_millis(500),
             commit_end: Duration::from_millis(60),
@@ -127,6 +136,11 @@ mod tests {
         assert_eq!(t.cells_sum().sampling, Duration::from_millis(1800));
         assert_eq!(t.cells_sum().serial, Duration::from_millis(200));
         assert_eq!(t.cells_sum().finalize, Duration::ZERO);
+        assert_eq!(t.cells_sum().warm_up, None);
+        let mut jax = t.clone();
+        jax.cells[0].warm_up = Some(Duration::from_millis(300));
+        jax.cells[1].warm_up = Some(Duration::from_millis(200));
+        assert_eq!(jax.cells_sum().warm_up, Some(Duration::from_millis(500)));
         let (serial, total) = t.serial_and_total(Duration::from_millis(50));
         // 50 + 2 * 100 + 40 + 10 + 50 of 2150
         assert_eq!(

@@ -192,6 +192,8 @@ impl PipeLanes {
                 if text.starts_with("step raised ResetNeeded") {
                     // Gymnasium's OrderEnforcing: a step before reset
                     LaneOutcome::Failed(EnvError::ResetNeeded)
+                } else if e.is_some_and(|e| e.kind == LANE_NON_FINITE) {
+                    LaneOutcome::Failed(EnvError::NonFinite(text))
                 } else {
                     LaneOutcome::Failed(EnvError::Other(text))
                 }
@@ -209,12 +211,12 @@ impl PipeLanes {
                 };
                 let reward = word(payload, rew_at + 8 * i);
                 if let Some(j) = o.iter().position(|v| !v.is_finite()) {
-                    LaneOutcome::Failed(EnvError::Other(format!(
+                    LaneOutcome::Failed(EnvError::NonFinite(format!(
                         "{what} returned a non-finite observation: value {j} of {d} is {}",
                         o[j]
                     )))
                 } else if !reward.is_finite() {
-                    LaneOutcome::Failed(EnvError::Other(format!(
+                    LaneOutcome::Failed(EnvError::NonFinite(format!(
                         "step returned a non-finite reward ({reward})"
                     )))
                 } else if let LaneOp::Reset(_) = ops[i] {

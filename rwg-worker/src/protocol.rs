@@ -131,7 +131,15 @@ pub struct LaneError {
     /// The Python traceback.
     #[serde(default)]
     pub traceback: String,
+    /// `non_finite` when the lane's env returned a value that is not
+    /// finite ([`rwg_env::EnvError::NonFinite`]: rwg's own plugin workers;
+    /// a NaN or infinite value a Python worker sends is judged by the host).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub kind: String,
 }
+
+/// [`LaneError::kind`] of a value that is not finite.
+pub const LANE_NON_FINITE: &str = "non_finite";
 
 /// A step message as the worker reads it (see [`encode_step`]).
 #[derive(Debug, Clone, PartialEq)]

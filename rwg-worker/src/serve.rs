@@ -79,10 +79,15 @@ pub fn serve<E: Environment>(
                 }
                 Err(e) => {
                     buf[flags_at + i] = F_ERROR;
+                    let kind = match e {
+                        EnvError::NonFinite(_) => LANE_NON_FINITE.to_string(),
+                        _ => String::new(),
+                    };
                     errors.push(LaneError {
                         lane: i,
                         message: e.to_string(),
                         traceback: String::new(),
+                        kind,
                     });
                 }
             }

@@ -8,7 +8,10 @@ functional interface of a `jax:module:callable` env: the callable returns
 staying near 0, done when it leaves [-3, 3]. With `nan_file`, a file holding
 one of rwg's reset seeds: the episode reset from that seed observes NaN from
 its first step on (read when the env is made, so deleting the file "fixes"
-the env without changing the study).
+the env without changing the study). With `blowup` g > 0, the physics blow
+up: the velocity grows g-fold each step and nothing ends the episode but the
+time limit, so the reward 1 - x^2 runs off to minus infinity (a float32
+overflow) or beyond what rwg takes (-1e100, in float64).
 """
 
 from typing import NamedTuple
@@ -49,8 +52,9 @@ def _key_words(key):
 class Slider:
     """The slider env (see the module's doc)."""
 
-    def __init__(self, poisoned_reset_key):
+    def __init__(self, poisoned_reset_key, blowup=0.0):
         self.poisoned = poisoned_reset_key
+        self.blowup = blowup
 
     def _obs(self, s):
         o = jnp.stack([s.x, s.v])
@@ -68,9 +72,12 @@ class Slider:
     def step(self, key, state, action, params):
         force = jnp.clip(jnp.ravel(action)[0], -2.0, 2.0)
         v = state.v + 0.1 * force + 0.01 * jax.random.normal(key, (), state.x.dtype)
+        if self.blowup > 0:
+            v = self.blowup * v + state.x
         x = state.x + 0.1 * v
         s = State(x, v, state.poison)
-        return self._obs(s), s, 1.0 - x * x, jnp.abs(x) > 3.0, {}
+        done = jnp.abs(x) > 3.0 if self.blowup <= 0 else jnp.array(False)
+        return self._obs(s), s, 1.0 - x * x, done, {}
 
     def observation_space(self, params):
         inf = jnp.full((2,), jnp.inf)
@@ -80,7 +87,7 @@ class Slider:
         return Box(jnp.array([-2.0]), jnp.array([2.0]), (1,))
 
 
-def make_slider(nan_file=None, max_steps_in_episode=60):
+def make_slider(nan_file=None, max_steps_in_episode=60, blowup=0.0):
     """The slider env and its params (see the module's doc)."""
     poisoned = None
     if nan_file is not None:
@@ -93,7 +100,7 @@ def make_slider(nan_file=None, max_steps_in_episode=60):
             # rwg's key of reset seed r, split as rwg splits it: the reset's key
             key = jnp.array([r >> 32, r & 0xFFFFFFFF], dtype=jnp.uint32)
             poisoned = _key_words(jax.random.split(key)[0])
-    return Slider(poisoned), Params(max_steps_in_episode=max_steps_in_episode)
+    return Slider(poisoned, blowup), Params(max_steps_in_episode=max_steps_in_episode)
 
 
 class WrongSize(Slider):

@@ -199,6 +199,7 @@ mod tests {
             best_episode: 0.0,
             mean_episode_length: 0.0,
             max_episode_length: 0,
+            non_finite_episodes: None,
             at_n: None,
         };
         CompareRow {

@@ -88,7 +88,7 @@ pub fn compare_table(rows: &[CompareRow]) -> Table {
 }
 
 /// The columns of [`compare_csv`].
-const COMPARE_CSV_HEADER: [&str; 18] = [
+const COMPARE_CSV_HEADER: [&str; 19] = [
     "run",
     "env",
     "arch",
@@ -107,6 +107,7 @@ const COMPARE_CSV_HEADER: [&str; 18] = [
     "normalised_best",
     "normalised_p99.9",
     "difficulty_rank",
+    "non_finite_episodes",
 ];
 
 /// The comparison as CSV, one row per cell, floats in shortest round-trip
@@ -147,6 +148,9 @@ pub fn compare_csv(rows: &[CompareRow]) -> String {
             opt(r.normalised_best),
             opt(r.normalised_p99_9),
             r.difficulty_rank.to_string(),
+            s.non_finite_episodes
+                .map(|n| n.to_string())
+                .unwrap_or_default(),
         ];
         w.write_record(&fields).expect("writing to memory");
     }

@@ -2,45 +2,14 @@
 
 use super::*;
 use rwg_study::rundir::data::CellData;
-use rwg_study::rundir::meta::{CellId, CellMeta, RunMeta, WeightsMeta};
+use rwg_study::rundir::meta::RunMeta;
 
 fn meta(episodes: u32, dist: &str, archs: &[&str]) -> RunMeta {
-    RunMeta {
-        format: 1,
-        rwg_version: "t".into(),
-        seed: 0,
-        samples: 10,
-        episodes,
-        weights: WeightsMeta {
-            distribution: dist.into(),
-            scale: 1.0,
-        },
-        threads: 1,
-        start_time: String::new(),
-        end_time: None,
-        wall_s: 0.0,
-        env_steps: 0,
-        steps_per_s: 0.0,
-        cells: archs
-            .iter()
-            .map(|a| CellMeta {
-                id: CellId::new("E", a, &[], false),
-                n_weights: 1,
-                obs_dim: 1,
-                max_episode_steps: 1,
-                solved: None,
-                solved_source: None,
-                samples: 10,
-                episodes,
-                wall_s: 0.0,
-                env_steps: 0,
-                steps_per_s: 0.0,
-            })
-            .collect(),
-        block_samples: 10,
-        shard: None,
-        study: None,
-    }
+    let cells = archs
+        .iter()
+        .map(|a| crate::fixtures::cell("E", a, &[], 10, episodes, None))
+        .collect();
+    crate::fixtures::run(0, dist, cells)
 }
 
 #[test]
@@ -74,17 +43,25 @@ fn csv_keeps_its_header_and_quotes_only_what_must_be() {
         difficulty_rank: 1,
     };
     let csv = compare_csv(&[row("plain"), row("a,\"b\""), row("two\nlines")]);
+    // a cell with non_finite = "end" gives its count; others leave it empty
+    let mut counted = row("counted");
+    counted.summary.non_finite_episodes = Some(3);
+    assert!(compare_csv(&[counted])
+        .lines()
+        .nth(1)
+        .unwrap()
+        .ends_with(",1,3"));
     assert!(csv.ends_with('\n') && !csv.contains('\r'), "{csv:?}");
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(
         lines[0],
         "run,env,arch,bias,samples,episodes,solved,p_solved,p_solved_lo,p_solved_hi,\
          expected_guesses,expected_guesses_lo,best_mean,p99.9_mean,median_mean,\
-         normalised_best,normalised_p99.9,difficulty_rank"
+         normalised_best,normalised_p99.9,difficulty_rank,non_finite_episodes"
     );
     assert!(lines[1].starts_with("plain,E,0HL,false,"), "{csv}");
-    assert!(lines[1].ends_with(",,0.5,1"), "{csv}");
-    assert_eq!(lines[1].split(',').count(), 18, "{csv}");
+    assert!(lines[1].ends_with(",,0.5,1,"), "{csv}");
+    assert_eq!(lines[1].split(',').count(), 19, "{csv}");
     assert_eq!(lines[2], lines[1].replacen("plain", "\"a,\"\"b\"\"\"", 1));
     assert_eq!(
         format!("{}\n{}", lines[3], lines[4]),

@@ -68,7 +68,11 @@ pub(crate) struct HistSeries<'a> {
 
 /// `[lo, hi]` of the finite values and `extra`, padded by `pad` of the span
 /// on each side; a unit span around a single value.
-fn padded_range(values: impl Iterator<Item = f64>, extra: Option<f64>, pad: f64) -> (f64, f64) {
+pub(crate) fn padded_range(
+    values: impl Iterator<Item = f64>,
+    extra: Option<f64>,
+    pad: f64,
+) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values.chain(extra).filter(|v| v.is_finite()) {
         lo = lo.min(v);
@@ -245,7 +249,7 @@ pub(crate) fn histogram_panel<DB: DrawingBackend>(
 }
 
 /// Dot alpha and size for `points` dots over a plot `width` pixels wide.
-fn dot_style(points: usize, width: u32) -> (f64, i32) {
+pub(crate) fn dot_style(points: usize, width: u32) -> (f64, i32) {
     let per_column = points as f64 / f64::from(width.max(1));
     let alpha = (6.0 / per_column).clamp(0.15, 0.8);
     let size = if points < 20_000 { 3 } else { 2 };

@@ -11,8 +11,14 @@ use rwg_analysis::ranking::ranking_table;
 use rwg_study::rundir::data::Run;
 use std::path::PathBuf;
 
+mod paired;
+
 /// Arguments of `rwg compare`.
 #[derive(clap::Args)]
+#[command(after_help = "\
+Examples:
+  rwg compare runs/quick runs/quick-seed1 --html compare.html
+  rwg compare runs/quick runs/quick-seed1 --paired CartPole-v0 CartPole-v0 --format csv")]
 pub struct Args {
     /// Run directories, as written by `rwg run`.
     #[arg(required = true)]
@@ -26,7 +32,8 @@ pub struct Args {
     force: bool,
     /// Also write the profiles figure (one panel per architecture: each env's
     /// fraction of networks reaching a normalised score, the first run grey)
-    /// to this file: SVG, or PNG if the name ends in `.png`.
+    /// to this file: SVG, or PNG if the name ends in `.png`. With --paired,
+    /// the paired figure (each network's two means; the two CDFs).
     #[arg(long, value_name = "FILE")]
     figure: Option<PathBuf>,
     /// Also write the difficulty-ranking figure to this file: SVG, or PNG if
@@ -37,6 +44,15 @@ pub struct Args {
     /// cell and the runs' metadata.
     #[arg(long, value_name = "FILE")]
     html: Option<PathBuf>,
+    /// Compare two implementations of one benchmark network by network: env
+    /// ENV_A against env ENV_B, both of the one run given, or ENV_A of the
+    /// first run and ENV_B of the second. One row per architecture and bias
+    /// setting: p(solved) of each, the networks solved in both or one only,
+    /// the rank correlation of the networks' means, a KS test of their
+    /// distributions, McNemar's test of the solved flags, and a verdict
+    /// (docs/guide.md, "Two implementations of one benchmark").
+    #[arg(long, num_args = 2, value_names = ["ENV_A", "ENV_B"])]
+    paired: Option<Vec<String>>,
 }
 
 fn image_format(path: &std::path::Path) -> ImageFormat {
@@ -79,6 +95,20 @@ fn refuse_twice(dirs: &[PathBuf]) -> Result<()> {
     Ok(())
 }
 
+/// The runs' labels in tables and legends: their directory names, or their
+/// paths where two names are alike.
+fn labels(dirs: &[PathBuf], names: Vec<String>) -> Vec<String> {
+    let unique = names
+        .iter()
+        .enumerate()
+        .all(|(i, n)| !names[..i].contains(n));
+    if unique {
+        names
+    } else {
+        dirs.iter().map(|d| d.display().to_string()).collect()
+    }
+}
+
 /// Runs `rwg compare`.
 pub fn run(args: Args) -> Result<()> {
     refuse_twice(&args.run_dirs)?;
@@ -97,18 +127,10 @@ pub fn run(args: Args) -> Result<()> {
             )
         })
         .collect();
-    let unique = names
-        .iter()
-        .enumerate()
-        .all(|(i, n)| !names[..i].contains(n));
-    let labels: Vec<String> = if unique {
-        names
-    } else {
-        args.run_dirs
-            .iter()
-            .map(|d| d.display().to_string())
-            .collect()
-    };
+    let labels = labels(&args.run_dirs, names);
+    if let Some(envs) = &args.paired {
+        return paired::run(&args, &runs, &labels, envs);
+    }
     let metas: Vec<(&str, &rwg_study::rundir::meta::RunMeta)> = labels
         .iter()
         .zip(&runs)

@@ -27,12 +27,15 @@ Examples:
 A gymnasium: id is described by Gymnasium itself (a Python worker is started):
 its spaces as rwg sees them (flattened), its registered time limit and reward
 threshold; --json adds Gymnasium's own text of the spaces and the Gymnasium and
-Python versions. A JAX id (gymnax:ID, brax:NAME, jax:module:callable) is
-described by a JAX worker: its spaces, time limit, the versions of JAX and the
-env's library, and the device JAX runs it on.")]
+Python versions. A JAX id (gymnax:ID, brax:NAME, playground:NAME, jumanji:ID,
+craftax:NAME, navix:ID, xminigrid:ID, pgx:ID, jax:module:callable) is described
+by a JAX worker: its spaces (an observation's leaves, in the order they are
+flattened), time limit, legal-action mask, the versions of JAX and the env's
+library, and the device JAX runs it on.")]
 pub struct Args {
     /// Describe these gymnasium: envs (gymnasium:ID or gymnasium:module:ID)
-    /// or JAX envs (gymnax:ID, brax:NAME, jax:module:callable) instead of
+    /// or JAX envs (gymnax:ID, brax:NAME, playground:NAME, jumanji:ID, ...,
+    /// jax:module:callable) instead of
     /// listing the built-in and plugin ones.
     ids: Vec<String>,
     #[command(flatten)]
@@ -73,6 +76,9 @@ struct JaxRow {
     platform: String,
     precision: &'static str,
     networks_per_call: u32,
+    observation_leaves: Vec<rwg_jax::protocol::Leaf>,
+    action_mask: String,
+    settings: std::collections::BTreeMap<String, String>,
     python: String,
 }
 
@@ -97,6 +103,9 @@ fn jax_row(id: &str, gym: &crate::gym::GymArgs) -> Result<Row> {
             platform: info.platform,
             precision: info.precision.name(),
             networks_per_call: src.networks_per_call(),
+            observation_leaves: info.observation_leaves,
+            action_mask: info.action_mask,
+            settings: info.settings,
             python,
         }),
         spec: info.spec,
@@ -116,10 +125,12 @@ fn jax_lines(id: &str, j: &JaxRow) -> String {
         versions.push(format!("Python {p} ({})", j.python));
     }
     format!(
-        "\n{id}\n  observation: {}\n  action: {}\n  versions: {}\n  device: {} ({}, \
-         platform {}), {}, {} networks per call",
+        "\n{id}\n  observation: {} ({} values)\n  action: {} (legal-action mask: {})\n  \
+         versions: {}\n  device: {} ({}, platform {}), {}, {} networks per call",
         j.observation_space,
+        j.obs_dim,
         j.action_space,
+        j.action_mask,
         versions.join(", "),
         j.device,
         j.device_kind,
@@ -184,8 +195,9 @@ fn described_row(id: &str, gym: &crate::gym::GymArgs) -> Result<Row> {
     }
     if !crate::gym::is_gym(id) {
         anyhow::bail!(
-            "'{id}': only gymnasium: and JAX (gymnax:, brax:, jax:) ids are described \
-             one by one (rwg envs lists the others)"
+            "'{id}': only gymnasium: and JAX ({}) ids are described one by one (rwg envs \
+             lists the others)",
+            rwg_jax::id_forms()
         );
     }
     let cfg = gym.config(id)?;

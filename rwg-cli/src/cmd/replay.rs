@@ -25,7 +25,7 @@ stored score, and fails if any differs. With --episode: prints that episode step
 step, like `rwg rollout`. --export-weights writes the network as JSON so it can be
 rebuilt in numpy and run in Gymnasium (docs/guide.md shows how).
 
-A JAX env's cell (gymnax:, brax:, jax:) is replayed through a JAX worker, in a
+A JAX env's cell (gymnax:, playground:, ...) is replayed through a JAX worker, in a
 compiled call of the cell's shape on the device kind its env.json records, so
 the returns are the run's bit for bit; its episodes are not shown step by step.
 
@@ -261,8 +261,14 @@ pub fn run(args: Args) -> Result<()> {
 
     let stored = stored_scores(&args.run_dir, &cell.id.dir, args.sample)?;
     compare_episodes(&mut out, cell, args.sample, m.episodes, &stored, |e, r| {
-        run_episode(&mut env, &mut policy, &mut obs, r)
-            .map_err(|(step, err)| anyhow::anyhow!("episode {e}, step {step}: {err}"))
+        run_episode(
+            &mut env,
+            &mut policy,
+            &mut obs,
+            r,
+            (cell.plan.non_finite, cell.plan.dist.scale()),
+        )
+        .map_err(|(step, err)| anyhow::anyhow!("episode {e}, step {step}: {err}"))
     })
 }
 

@@ -2,9 +2,9 @@
 //! The study itself is `rwg_study::runner`; this is its arguments and output.
 
 use crate::fault_guard;
-use crate::progress::{Lines, Silent};
+use crate::progress::{Bar, Compiling, Lines, Silent};
 use anyhow::{Context, Result};
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rwg_jax::warm_up::WarmUpObserver;
 use rwg_study::cells::Cell;
 use rwg_study::env_source::EnvSource;
 use rwg_study::manifest::Manifest;
@@ -16,6 +16,7 @@ use rwg_study::shell::sh_path;
 use rwg_study::StudyError;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Arguments of `rwg run`.
@@ -42,7 +43,8 @@ kills rwg, though every committed block is kept and a rerun resumes). With
 --isolate (or `isolate = true` in an [[envs]] entry) they run in worker
 processes: a crash or hang is reported by rwg and the results are the same.
 
-JAX envs (gymnax:ID, brax:NAME, jax:module:callable) run in Python worker
+JAX envs (gymnax:ID, brax:NAME, playground:NAME, jumanji:ID, craftax:NAME,
+navix:ID, xminigrid:ID, pgx:ID, jax:module:callable) run in Python worker
 processes, the episodes of networks_per_call networks in one compiled call:
 --threads workers on the CPU (one XLA thread each), one worker on a GPU or
 TPU. The results are the same for any --threads, shards or resume.
@@ -68,7 +70,7 @@ pub struct Args {
     #[arg(long)]
     seed: Option<u64>,
     /// Worker threads (overrides the manifest; default: all cores). A JAX
-    /// env (gymnax:, brax:, jax:) on the CPU runs this many worker processes,
+    /// env (gymnax:, playground:, ...) on the CPU runs this many worker processes,
     /// each XLA on one thread; on a GPU or TPU one worker, whatever this says.
     #[arg(long)]
     threads: Option<usize>,
@@ -104,11 +106,14 @@ pub struct Args {
     /// No progress on stderr. Otherwise a progress bar on a terminal, and
     /// without one (a pipe, a batch job's log) a plain line every 5 s: cells,
     /// networks done of total, networks/s, ETA (`RWG_PROGRESS_INTERVAL=SECONDS`
-    /// changes the interval).
+    /// changes the interval). While a JAX cell's workers compile, both say
+    /// "compiling" and for how long; rates and ETA count the time outside
+    /// compiles.
     #[arg(long, short)]
     quiet: bool,
     /// Print where the wall time went to stderr at the end: set-up, per cell
-    /// sampling (parallel) and serial time with its share, the cell's last
+    /// sampling (parallel; a JAX cell's split into its workers starting and
+    /// compiling, and running) and serial time with its share, the cell's last
     /// block commits, finalising and run.json (overlapped with the next
     /// cell), the wait for the last cells, and the report.
     #[arg(long)]
@@ -240,7 +245,13 @@ fn run_with_progress(
     out: &Path,
     pp: Option<&str>,
 ) -> Result<RunOutcome, StudyError> {
-    let (mut bar, mut lines, mut silent) = (Bar::default(), Lines::new(), Silent);
+    // told by the JAX envs' sources when their workers compile
+    let compiling = Arc::new(Compiling::default());
+    let (mut bar, mut lines, mut silent) = (
+        Bar::new(Arc::clone(&compiling)),
+        Lines::new(Arc::clone(&compiling)),
+        Silent,
+    );
     let display: &mut dyn Progress = if args.quiet {
         &mut silent
     } else if std::io::stderr().is_terminal() {
@@ -250,6 +261,7 @@ fn run_with_progress(
     };
     let mut progress = WithChecks {
         display,
+        compiling,
         checks: vec![],
         started: Some(guard_texts(out, &resume_command(args, out, true, pp))),
     };
@@ -472,6 +484,9 @@ fn python_path(m: &Manifest) -> Option<String> {
 /// are planned, and passes every event on to the progress display.
 struct WithChecks<'a> {
     display: &'a mut dyn Progress,
+    /// What the display knows of JAX warm-ups, told by each JAX env's
+    /// source (registered when the cells are planned).
+    compiling: Arc<Compiling>,
     /// `rwg check`'s determinism and thread-safety checks, one per plugin
     /// env, each giving the warnings to print.
     checks: Vec<std::thread::JoinHandle<Vec<String>>>,
@@ -484,7 +499,14 @@ impl Progress for WithChecks<'_> {
     fn planned(&mut self, cells: &[Cell]) {
         // In child processes, in the background: the run does not wait.
         let mut seen = std::collections::HashSet::new();
+        let mut jax: Vec<&Arc<rwg_jax::JaxSource>> = vec![];
         for c in cells {
+            if let EnvSource::Jax(j) = &c.source {
+                if !jax.iter().any(|k| Arc::ptr_eq(k, j)) {
+                    j.observe(Arc::clone(&self.compiling) as Arc<dyn WarmUpObserver>);
+                    jax.push(j);
+                }
+            }
             let EnvSource::Plugin(p) = &c.source else {
                 continue;
             };
@@ -527,57 +549,5 @@ impl Progress for WithChecks<'_> {
 
     fn finish(&mut self, ok: bool) {
         self.display.finish(ok);
-    }
-}
-
-/// The progress bar on stderr: networks done, networks/s and env steps/s.
-#[derive(Default)]
-struct Bar {
-    bar: Option<ProgressBar>,
-    t0: Option<Instant>,
-    steps: u64,
-}
-
-impl Progress for Bar {
-    fn start(&mut self, networks: u64) {
-        let bar = ProgressBar::with_draw_target(Some(networks), ProgressDrawTarget::stderr());
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{msg}\n[{elapsed_precise}] {wide_bar} {pos}/{len} networks (ETA {eta})",
-            )
-            .expect("valid template"),
-        );
-        self.bar = Some(bar);
-        self.t0 = Some(Instant::now());
-    }
-
-    fn cell(&mut self, label: &str) {
-        if let Some(bar) = &self.bar {
-            bar.set_message(label.to_string());
-        }
-    }
-
-    fn block(&mut self, label: &str, networks: u64, env_steps: u64) {
-        let (Some(bar), Some(t0)) = (&self.bar, self.t0) else {
-            return;
-        };
-        self.steps += env_steps;
-        bar.inc(networks);
-        let secs = t0.elapsed().as_secs_f64();
-        let nets = bar.position() as f64 / secs;
-        let rate = self.steps as f64 / secs;
-        bar.set_message(format!(
-            "{label}  {nets:.0} networks/s, {rate:.3e} env steps/s"
-        ));
-    }
-
-    fn finish(&mut self, ok: bool) {
-        if let Some(bar) = &self.bar {
-            if ok {
-                bar.finish_and_clear();
-            } else {
-                bar.abandon();
-            }
-        }
     }
 }

@@ -2,6 +2,7 @@
 //! `stats.csv` into the run directory.
 
 use anyhow::{bail, Context, Result};
+use rwg_analysis::jax_cells::{jax_settings, jax_table};
 use rwg_analysis::{render_tables, tables::run_tables, TableFormat};
 use rwg_study::rundir::data::{
     stats_csv, write_stats, Run, RunReadError, RunStats, SummarizeError,
@@ -145,7 +146,14 @@ pub fn run(args: Args) -> Result<()> {
             .with_context(|| format!("cannot write stats into {}", args.run_dir.display()))?;
     }
     match args.format.table_format() {
-        Some(f) => crate::out!("{}", render_tables(&run_tables(&stats), f)),
+        Some(f) => {
+            let mut tables = run_tables(&stats);
+            let jax = jax_settings(&run.dir, stats.cells.iter().map(|c| c.id.dir.as_str()));
+            if !jax.is_empty() {
+                tables.push(jax_table(&jax));
+            }
+            crate::out!("{}", render_tables(&tables, f))
+        }
         None if args.format == Format::Csv => crate::out!("{}", stats_csv(&stats)),
         None => crate::outln!("{}", serde_json::to_string_pretty(&stats)?),
     }

@@ -5,6 +5,7 @@ use crate::cluster::{
     live_jobs, merged_complete, shard_state, LiveJob, Plan, ShardState, ShardedDir,
 };
 use anyhow::{bail, Result};
+use rwg_analysis::jax_cells::{jax_settings, setting_line};
 use rwg_analysis::report::REPORT_HTML;
 use rwg_analysis::table::{Align, TextColumns};
 use rwg_study::manifest::Manifest;
@@ -129,6 +130,7 @@ pub fn run(args: Args) -> Result<()> {
         ),
     }
     print_cells(&cells, shard.is_some());
+    print_jax(dir, &cells);
     let ended = meta.as_ref().is_some_and(|m| m.end_time.is_some());
     print_totals(&t, if shard.is_some() { "shard" } else { "run" }, ended);
     let finish = rwg_study::shell::with_pythonpath(
@@ -189,6 +191,17 @@ fn print_cells(cells: &[CellProgress], shard: bool) {
         };
         let blocks = format!("{}/{}", c.blocks_done, c.blocks_total);
         crate::outln!("  {}", columns.line(&[c.dir.as_str(), &blocks, state]));
+    }
+}
+
+/// How the JAX cells started so far compute, from their `env.json`.
+fn print_jax(dir: &Path, cells: &[CellProgress]) {
+    let settings = jax_settings(dir, cells.iter().map(|c| c.dir.as_str()));
+    if !settings.is_empty() {
+        crate::outln!("  JAX (each cell's env.json):");
+        for s in &settings {
+            crate::outln!("    {}", setting_line(s));
+        }
     }
 }
 

@@ -29,6 +29,16 @@ fn parse_n(s: &str) -> Result<usize, String> {
     }
 }
 
+/// `x` with 3 decimals, in scientific notation from 8 digits before the
+/// point on (returns reach ±1e100).
+fn fixed(x: f64) -> String {
+    if x.abs() >= 1e7 {
+        format!("{x:.3e}")
+    } else {
+        format!("{x:.3}")
+    }
+}
+
 /// Runs `rwg top`.
 pub fn run(args: Args) -> Result<()> {
     rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
@@ -47,8 +57,9 @@ pub fn run(args: Args) -> Result<()> {
     let stdout = crate::stdio::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     for cell in &run_dir.meta.cells {
-        let mut rows: Vec<(u64, f64, f64, f64, f64)> = run_dir
-            .load_samples(cell)?
+        let samples = run_dir.load_samples(cell)?;
+        let flagged = samples.iter().any(|r| r.non_finite.is_some());
+        let mut rows: Vec<(u64, f64, f64, f64, f64, u32)> = samples
             .iter()
             .map(|r| {
                 (
@@ -57,6 +68,7 @@ pub fn run(args: Args) -> Result<()> {
                     r.stats.std,
                     r.stats.min,
                     r.stats.max,
+                    r.non_finite.unwrap_or(0),
                 )
             })
             .collect();
@@ -68,29 +80,32 @@ pub fn run(args: Args) -> Result<()> {
             cell.id.dir,
             cell.solved.map_or("-".into(), fmt_f64)
         )?;
-        let columns = TextColumns::new(
-            &[
-                (8, Align::Right),
-                (12, Align::Right),
-                (10, Align::Right),
-                (10, Align::Right),
-                (10, Align::Right),
-            ],
-            " ",
-        );
-        writeln!(
-            out,
-            "  {}  replay",
-            columns.line(&["sample", "mean", "std", "min", "max"])
-        )?;
-        for (s, mean, std, min, max) in rows.iter().take(args.n) {
-            let values = [
+        let mut widths = vec![
+            (8, Align::Right),
+            (12, Align::Right),
+            (10, Align::Right),
+            (10, Align::Right),
+            (10, Align::Right),
+        ];
+        let mut names = vec!["sample", "mean", "std", "min", "max"];
+        if flagged {
+            // the network's episodes a value not finite ended (non_finite = "end")
+            widths.push((10, Align::Right));
+            names.push("non-finite");
+        }
+        let columns = TextColumns::new(&widths, " ");
+        writeln!(out, "  {}  replay", columns.line(&names))?;
+        for (s, mean, std, min, max, cut) in rows.iter().take(args.n) {
+            let mut values = vec![
                 s.to_string(),
-                format!("{mean:.3}"),
-                format!("{std:.3}"),
-                format!("{min:.3}"),
-                format!("{max:.3}"),
+                fixed(*mean),
+                fixed(*std),
+                fixed(*min),
+                fixed(*max),
             ];
+            if flagged {
+                values.push(cut.to_string());
+            }
             let replay = format!(
                 "rwg replay {run} --env {} --arch {} --bias {} --sample {s}",
                 sh_quote(&cell.id.env),

@@ -78,6 +78,7 @@ fn plan(episodes: u32) -> CellPlan {
         },
         episodes,
         dist: WeightDist::Normal { std: 1.0 },
+        non_finite: Default::default(),
     }
 }
 
@@ -133,6 +134,41 @@ fn many_lanes_give_the_lane_workers_results_and_first_error() {
 }
 
 #[test]
+fn with_end_many_lanes_end_the_episodes_the_lane_workers_end() {
+    let blocks: Vec<Range<u64>> = vec![0..5, 5..37, 37..40];
+    for continuous in [false, true] {
+        let toy = Toy::with_values(1 << 40, continuous);
+        let p = CellPlan {
+            non_finite: crate::plan::NonFinite::End,
+            ..plan(3)
+        };
+        let lanes = collect(|f| run_blocks(&p, &blocks, 2, || toy.clone(), f));
+        let many = collect(|f| {
+            run_blocks_many(
+                &p,
+                &blocks,
+                2,
+                || {
+                    Ok(Many {
+                        envs: vec![toy.clone(); LANES],
+                        calls: 0,
+                    })
+                },
+                f,
+            )
+        });
+        assert_eq!(lanes, many, "continuous {continuous}");
+        let cut = many
+            .unwrap()
+            .iter()
+            .flat_map(|b| b.episodes.clone())
+            .filter(|r| r.non_finite)
+            .count();
+        assert!(cut > 4, "{cut}");
+    }
+}
+
+#[test]
 fn a_worker_makes_one_call_per_step_of_all_lanes() {
     let toy = Toy::new(1 << 40, false);
     let p = plan(2);
@@ -146,7 +182,8 @@ fn a_worker_makes_one_call_per_step_of_all_lanes() {
     let mut out = vec![
         EpisodeResult {
             score: 0.0,
-            steps: 0
+            steps: 0,
+            non_finite: false,
         };
         64
     ];

@@ -97,6 +97,7 @@ fn remote_lanes_give_the_lane_workers_results_and_first_error() {
                 },
                 episodes,
                 dist: WeightDist::Normal { std: 1.0 },
+                non_finite: Default::default(),
             };
             for fail_every in [1 << 40, 3, 13, 41] {
                 for samples in [0..1, 0..9, 20..40] {
@@ -104,6 +105,7 @@ fn remote_lanes_give_the_lane_workers_results_and_first_error() {
                     let blank = EpisodeResult {
                         score: f64::NAN,
                         steps: 0,
+                        non_finite: false,
                     };
                     let mut want = vec![blank; n];
                     let mut lw =
@@ -139,6 +141,37 @@ fn remote_lanes_give_the_lane_workers_results_and_first_error() {
 }
 
 #[test]
+fn with_end_remote_lanes_end_the_episodes_the_lane_workers_end() {
+    for continuous in [false, true] {
+        let plan = CellPlan {
+            seed: 5,
+            env_id: "Toy-v0".into(),
+            arch: Architecture {
+                hidden: vec![3],
+                bias: true,
+            },
+            episodes: 3,
+            dist: WeightDist::Normal { std: 1.0 },
+            non_finite: crate::plan::NonFinite::End,
+        };
+        let n = 40 * 3;
+        let mut want = vec![EpisodeResult::EMPTY; n];
+        let toy = || Toy::with_values(1 << 40, continuous);
+        let mut lw = LaneWorker::<_, LANES>::new(toy, &plan);
+        assert_eq!(lw.run_block(&plan, 0..40, &mut want), Ok(()));
+        assert!(want.iter().filter(|r| r.non_finite).count() > 4);
+        for groups in [1, 2] {
+            let mut bw = RemoteLaneWorker::new(Hosted::new(toy(), groups), &plan);
+            let mut got = vec![EpisodeResult::EMPTY; n];
+            assert_eq!(bw.run_block(&plan, 0..40, &mut got), Ok(()));
+            assert_eq!(got, want, "continuous {continuous}, {groups} groups");
+            // episodes ended by a value not finite leave the env sound
+            assert!(bw.into_env().is_some());
+        }
+    }
+}
+
+#[test]
 fn pool_reuses_and_drops_failed_envs() {
     let plan = CellPlan {
         seed: 1,
@@ -149,6 +182,7 @@ fn pool_reuses_and_drops_failed_envs() {
         },
         episodes: 2,
         dist: WeightDist::Normal { std: 1.0 },
+        non_finite: Default::default(),
     };
     let pool = RemotePool::default();
     let made = std::sync::atomic::AtomicUsize::new(0);
@@ -233,6 +267,7 @@ fn a_failure_between_calls_blames_no_episode() {
         },
         episodes: 2,
         dist: WeightDist::Normal { std: 1.0 },
+        non_finite: Default::default(),
     };
     let env = DiesBetweenCalls {
         hosted: Hosted::new(Toy::new(1 << 40, false), 1),
@@ -243,7 +278,8 @@ fn a_failure_between_calls_blames_no_episode() {
     let mut out = vec![
         EpisodeResult {
             score: f64::NAN,
-            steps: 0
+            steps: 0,
+            non_finite: false,
         };
         2 * 32
     ];

@@ -335,7 +335,7 @@ pub(super) fn call_error(prefix: &str, what: &str, status: Status, msg: &str) ->
 pub(super) fn check_obs(prefix: &str, what: &str, obs: &[f64]) -> Result<(), EnvError> {
     match obs.iter().position(|x| !x.is_finite()) {
         None => Ok(()),
-        Some(i) => Err(EnvError::Other(format!(
+        Some(i) => Err(EnvError::NonFinite(format!(
             "{prefix}: {what} returned a non-finite observation: obs[{i}] = {}",
             obs[i]
         ))),
@@ -378,7 +378,7 @@ pub(super) fn output_error(prefix: &str, out: &RwgStepOut, obs: &[f64]) -> EnvEr
         }
     }
     if !out.reward.is_finite() {
-        return EnvError::Other(format!(
+        return EnvError::NonFinite(format!(
             "{prefix}: step returned a non-finite reward: {}",
             out.reward
         ));

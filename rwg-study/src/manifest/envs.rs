@@ -7,6 +7,7 @@ use super::checker::Checker;
 use super::raw::RawEnv;
 use super::{jax_keys, EnvEntry, ManifestError};
 use crate::limits;
+use rwg_core::sampler::NonFinite;
 use rwg_env::env::ActionDtype;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
@@ -42,6 +43,7 @@ fn env(
     let solved = solved(at, key, e)?;
     let max_episode_steps = max_episode_steps(at, key, e)?;
     let action_dtype = action_dtype(at, key, e)?;
+    let non_finite = non_finite(at, key, e)?;
     let id = e.id.get_ref();
     let jax = jax_keys::check(key, id, e).map_err(|l| at.located(l))?;
     // (a JAX env refuses the key: jax_keys::check)
@@ -61,6 +63,8 @@ fn env(
         precision: jax.precision,
         device: jax.device,
         networks_per_call: jax.networks_per_call,
+        action_mask: jax.action_mask,
+        non_finite,
         device_span: e.device.as_ref().map(|d| d.span()),
         kwargs_span: e.kwargs.as_ref().map(|k| k.span()),
         python_span: e.python.as_ref().map(|p| p.span()),
@@ -95,7 +99,7 @@ fn check_id_unique(
     if !earlier.iter().any(|x| x.id == *id) {
         return Ok(());
     }
-    let hint = if crate::gym_source::is_gym(id) {
+    let hint = if rwg_gym::gym_id(id).is_some() {
         " (one entry per id, as the id enters the seeds and the cell names: for \
          another configuration of the env use a registered id of its own, e.g. \
          gymnasium:LunarLanderContinuous-v3 beside gymnasium:LunarLander-v3, or a \
@@ -138,6 +142,17 @@ fn action_dtype(at: &Checker, key: &str, e: &RawEnv) -> Result<ActionDtype, Mani
             .get_ref()
             .parse()
             .map_err(|m: String| at.err(d.span(), format!("{key}.action_dtype: {m}"))),
+    }
+}
+
+/// `non_finite`: stop (the default) or end.
+fn non_finite(at: &Checker, key: &str, e: &RawEnv) -> Result<NonFinite, ManifestError> {
+    match &e.non_finite {
+        None => Ok(NonFinite::Stop),
+        Some(d) => d
+            .get_ref()
+            .parse()
+            .map_err(|m: String| at.err(d.span(), format!("{key}.non_finite: {m}"))),
     }
 }
 

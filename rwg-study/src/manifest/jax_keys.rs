@@ -1,12 +1,13 @@
-//! The keys of JAX envs (`gymnax:`, `brax:`, `jax:module:callable`) in an
-//! `[[envs]]` entry: `precision`, `device`, `networks_per_call`, checked
-//! where they stand, and the keys a JAX env does not take (`plugin`,
-//! `config`, `isolate`, `action_dtype`) refused there; the same three keys
-//! on any other env are refused too.
+//! The keys of JAX envs (`gymnax:`, `brax:`, `playground:`, ...,
+//! `jax:module:callable`: [`rwg_jax::FAMILIES`]) in an `[[envs]]` entry:
+//! `precision`, `device`, `networks_per_call`, `action_mask`, checked where
+//! they stand, and the keys a JAX env does not take (`plugin`, `config`,
+//! `isolate`, `action_dtype`) refused there; the same four keys on any other
+//! env are refused too.
 
 use super::raw::RawEnv;
 use crate::limits;
-use rwg_jax::Precision;
+use rwg_jax::{Precision, NETWORKS_MULTIPLE};
 use std::ops::Range;
 use toml::Spanned;
 
@@ -18,6 +19,8 @@ pub(super) struct JaxKeys {
     pub device: Option<String>,
     /// Networks per compiled call, if given.
     pub networks_per_call: Option<u32>,
+    /// `Some` for a JAX env (the manifest's, else true), `None` for others.
+    pub action_mask: Option<bool>,
 }
 
 /// What a located error is made of: where, and the message.
@@ -25,21 +28,22 @@ type Located = (Range<usize>, String);
 
 /// Checks the JAX keys of entry `key` (`envs[i]`) with id `id`.
 pub(super) fn check(key: &str, id: &str, e: &RawEnv) -> Result<JaxKeys, Located> {
-    let given: [(&str, Option<Range<usize>>); 3] = [
+    let given: [(&str, Option<Range<usize>>); 4] = [
         ("precision", e.precision.as_ref().map(Spanned::span)),
         ("device", e.device.as_ref().map(Spanned::span)),
         (
             "networks_per_call",
             e.networks_per_call.as_ref().map(Spanned::span),
         ),
+        ("action_mask", e.action_mask.as_ref().map(Spanned::span)),
     ];
     let Some((kind, rest)) = rwg_jax::jax_id(id) else {
         if let Some((name, Some(at))) = given.into_iter().find(|(_, s)| s.is_some()) {
             return Err((
                 at,
                 format!(
-                    "{key}.{name}: applies to JAX environments only (ids gymnax:ID, brax:NAME \
-                     or jax:module:callable); '{id}' is not one"
+                    "{key}.{name}: applies to JAX environments only (ids {}); '{id}' is not one",
+                    rwg_jax::id_forms()
                 ),
             ));
         }
@@ -47,6 +51,7 @@ pub(super) fn check(key: &str, id: &str, e: &RawEnv) -> Result<JaxKeys, Located>
             precision: None,
             device: None,
             networks_per_call: None,
+            action_mask: None,
         });
     };
     refuse_other_keys(key, id, e)?;
@@ -84,6 +89,7 @@ pub(super) fn check(key: &str, id: &str, e: &RawEnv) -> Result<JaxKeys, Located>
         precision: Some(precision),
         device,
         networks_per_call,
+        action_mask: Some(e.action_mask.as_ref().is_none_or(|m| *m.get_ref())),
     })
 }
 
@@ -137,7 +143,7 @@ fn device(key: &str, d: &Spanned<String>) -> Result<String, Located> {
 fn networks_per_call(key: &str, n: &Spanned<i64>) -> Result<u32, Located> {
     let v = *n.get_ref();
     let max = limits::MAX_NETWORKS_PER_CALL;
-    let block = crate::rundir::blocks::BLOCK_SAMPLES as i64;
+    let block = i64::from(NETWORKS_MULTIPLE);
     if v < block || v > i64::from(max) || v % block != 0 {
         return Err((
             n.span(),
@@ -150,6 +156,13 @@ fn networks_per_call(key: &str, n: &Spanned<i64>) -> Result<u32, Located> {
     Ok(v as u32)
 }
 
+/// Whether the manifest writes an env's `action_mask`: only when it is
+/// `false` (`true`, the default of a JAX env, and `None`, any other env's,
+/// are left out, so that a manifest without the key reads back the same).
+pub(super) fn mask_is_default(m: &Option<bool>) -> bool {
+    *m != Some(false)
+}
+
 /// Writes an env's precision as the manifest spells it (`"float32"`).
 pub(super) fn serialize_precision<S: serde::Serializer>(
     p: &Option<Precision>,
@@ -158,5 +171,16 @@ pub(super) fn serialize_precision<S: serde::Serializer>(
     match p {
         Some(p) => s.serialize_str(p.name()),
         None => s.serialize_none(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn networks_per_call_counts_in_rwgs_blocks() {
+        assert_eq!(
+            u64::from(super::NETWORKS_MULTIPLE),
+            crate::rundir::blocks::BLOCK_SAMPLES
+        );
     }
 }

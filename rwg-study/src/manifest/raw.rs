@@ -91,4 +91,6 @@ pub(super) struct RawEnv {
     pub(super) precision: Option<Spanned<String>>,
     pub(super) device: Option<Spanned<String>>,
     pub(super) networks_per_call: Option<Spanned<i64>>,
+    pub(super) action_mask: Option<Spanned<bool>>,
+    pub(super) non_finite: Option<Spanned<String>>,
 }

@@ -450,6 +450,14 @@ fn jax_keys_are_checked_where_they_stand() {
             "networks_per_call = 32",
             "envs[0].networks_per_call: applies to JAX",
         ),
+        (
+            "gymnasium:CartPole-v1",
+            "action_mask = false",
+            "envs[0].action_mask: applies to JAX environments only (ids gymnax:ID, brax:NAME, \
+             playground:NAME, jumanji:ID, craftax:NAME, navix:ID, xminigrid:ID, pgx:ID, \
+             jax:module:callable)",
+        ),
+        ("pgx:2048", "action_mask = \"no\"", "envs[0].action_mask"),
     ] {
         let e = error_of(&jax_study(id, extra));
         assert!(e.contains(says), "{id} {extra}: {e}");
@@ -461,6 +469,29 @@ fn jax_keys_are_checked_where_they_stand() {
         ))
         .unwrap();
     }
+}
+
+/// `action_mask` on a JAX env of a family: the manifest keeps `false` (part
+/// of the study) and leaves out the default.
+#[test]
+fn action_mask_is_a_jax_key_written_only_when_off() {
+    let off = parse(&jax_study("pgx:2048", "action_mask = false")).unwrap();
+    assert_eq!(off.envs[0].action_mask, Some(false));
+    let on = parse(&jax_study("pgx:2048", "")).unwrap();
+    assert_eq!(on.envs[0].action_mask, Some(true));
+    assert!(!on.to_toml().contains("action_mask"), "{}", on.to_toml());
+    assert_eq!(
+        parse(&off.to_toml()).unwrap().envs[0].action_mask,
+        Some(false)
+    );
+    assert_eq!(
+        on.study_differences(&off).len(),
+        1,
+        "{:?}",
+        on.study_differences(&off)
+    );
+    let builtin = parse(GOOD).unwrap();
+    assert!(builtin.envs.iter().all(|e| e.action_mask.is_none()));
 }
 
 #[test]

@@ -11,6 +11,7 @@
 use crate::rundir::checksum::{self, append_sum, append_sums_unsynced, read_sums, Digest, SUMS};
 use crate::rundir::error::io_err;
 use crate::rundir::export::{self, write_atomic_hashed, write_score_rows, AtomicFile};
+use crate::rundir::rows::CellRows;
 use crate::rundir::BLOCKS;
 use rwg_core::sampler::BlockResult;
 use std::collections::BTreeMap;
@@ -127,8 +128,12 @@ pub fn block_done(cell_dir: &Path, b: u64) -> bool {
 }
 
 /// Commits a block atomically: its `scores.csv` rows, without header.
-pub fn write_block(cell_dir: &Path, block: &BlockResult, episodes: u32) -> Result<(), RunDirError> {
-    write_blocks(cell_dir, std::slice::from_ref(block), episodes)
+pub fn write_block(
+    cell_dir: &Path,
+    block: &BlockResult,
+    rows: impl Into<CellRows>,
+) -> Result<(), RunDirError> {
+    write_blocks(cell_dir, std::slice::from_ref(block), rows)
 }
 
 /// Commits several blocks of one cell as a group: each block's file is
@@ -148,8 +153,9 @@ pub fn write_block(cell_dir: &Path, block: &BlockResult, episodes: u32) -> Resul
 pub fn write_blocks(
     cell_dir: &Path,
     blocks: &[BlockResult],
-    episodes: u32,
+    rows: impl Into<CellRows>,
 ) -> Result<(), RunDirError> {
+    let rows = rows.into();
     let dir = cell_dir.join(BLOCKS);
     if !dir.is_dir() {
         export::create_dir_all(&dir).map_err(io_err(&dir))?;
@@ -160,7 +166,7 @@ pub fn write_blocks(
         let b = block.samples.start / BLOCK_SAMPLES;
         let path = block_path(cell_dir, b);
         let written = AtomicFile::create(&path).and_then(|mut f| {
-            write_score_rows(&mut f, block, episodes)?;
+            write_score_rows(&mut f, block, rows)?;
             f.commit_hashed_unsynced()
         });
         match written {

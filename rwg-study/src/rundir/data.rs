@@ -58,6 +58,9 @@ pub struct CellData {
     pub stats: Vec<SampleStats>,
     /// Per-sample rank by mean ([`stats::ranks`]).
     pub ranks: Vec<usize>,
+    /// In a cell with `non_finite = "end"`: per sample, its episodes a value
+    /// that was not finite ended (flagged in `scores.csv`); else `None`.
+    pub non_finite: Option<Vec<u32>>,
 }
 
 impl CellData {
@@ -81,7 +84,19 @@ impl CellData {
             steps,
             stats,
             ranks,
+            non_finite: None,
         }
+    }
+
+    /// With the episodes' flags (row-major, as the scores: whether a value
+    /// that was not finite ended each), counted per sample.
+    pub fn with_non_finite(mut self, cut: &[bool]) -> Self {
+        let counts = cut
+            .chunks(self.episodes.max(1))
+            .map(|c| c.iter().filter(|&&f| f).count() as u32)
+            .collect();
+        self.non_finite = Some(counts);
+        self
     }
 
     /// Number of samples `N`.
@@ -196,7 +211,8 @@ impl Run {
                 message: format!("cell {} has no episodes to analyse", cell.id.dir),
             });
         }
-        let (scores, steps) = self.read_scores_verified(cell, &dir)?;
+        let read = self.read_scores_verified(cell, &dir)?;
+        let (scores, steps) = (read.scores, read.steps);
         let expected = cell.samples as usize * episodes;
         if scores.len() != expected {
             return Err(RunReadError::Mismatch {
@@ -211,12 +227,13 @@ impl Run {
         }
         // Rows an episode cannot have are refused whatever the checksums say.
         let limit = cell.max_episode_steps.max(1);
+        let cut = |i: usize| read.cut.get(i).copied().unwrap_or(false);
         let bad = scores
             .iter()
             .zip(&steps)
             .enumerate()
             .find_map(|(i, (&s, &st))| {
-                crate::rundir::finalize::check_episode(s, u64::from(st), limit)
+                crate::rundir::finalize::check_episode(s, u64::from(st), limit, cut(i))
                     .err()
                     .map(|m| (i, m))
             });
@@ -227,7 +244,17 @@ impl Run {
                 message,
             });
         }
-        let data = CellData::new(cell.clone(), episodes, scores, steps);
+        let mut data = CellData::new(cell.clone(), episodes, scores, steps);
+        if let Some(want) = cell.non_finite_episodes {
+            let got = read.cut.iter().filter(|&&c| c).count() as u64;
+            if got != want {
+                return Err(RunReadError::Mismatch {
+                    path: spath,
+                    message: format!("{got} episodes flagged non_finite, but run.json says {want}"),
+                });
+            }
+            data = data.with_non_finite(&read.cut);
+        }
         let path = dir.join(SAMPLES_CSV);
         if self.verified || path.exists() {
             self.check_samples_verified(&dir, &data)?;
@@ -262,7 +289,9 @@ mod unfinished;
 mod verified;
 
 use cell_csv::check_samples_csv;
-pub use cell_csv::{read_sample_scores, read_samples_csv, read_scores_csv, SampleRow};
+pub use cell_csv::{
+    read_cell_scores, read_sample_scores, read_samples_csv, read_scores_csv, SampleRow, ScoreRows,
+};
 pub use cell_list::check_cell_list;
 pub use cell_writers::{
     samples_csv, scores_csv, write_cell_files, write_run_json, write_samples_csv,
@@ -273,7 +302,9 @@ pub use read_error::RunReadError;
 use unfinished::study_cells;
 pub use unfinished::Unfinished;
 
-pub use stats_files::{stats_csv, stats_csv_header, stats_csv_row, write_stats};
+pub use stats_files::{
+    stats_csv, stats_csv_header, stats_csv_row, write_stats, NON_FINITE_CSV_COLUMN,
+};
 
 pub use spread::{spread_csv_fields, CellSpreadError, SummarizeError, SPREAD_CSV_COLUMNS};
 

@@ -66,6 +66,21 @@ pub struct JaxRecord {
     /// (compared) and where it was imported from (not compared).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub source: Option<rwg_jax::protocol::ModuleSource>,
+    /// The observation's leaves (name, shape, dtype) in the order they are
+    /// flattened into the networks' inputs (empty in records written before
+    /// rwg recorded them).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub observation_leaves: Vec<rwg_jax::protocol::Leaf>,
+    /// How a discrete action is chosen: `legal` (argmax over the legal
+    /// actions the family gives, an extension of the paper's policy), `off`
+    /// (plain argmax, the manifest's choice), `none` (the family gives no
+    /// legal actions, or the actions are a box); absent in older records.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub action_mask: Option<String>,
+    /// Choices made when the env was made (Playground's physics `impl`,
+    /// Craftax's `auto_reset`, Pgx's game version).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub settings: BTreeMap<String, String>,
 }
 
 /// The version key shown in a record but not compared.
@@ -115,6 +130,21 @@ impl JaxRecord {
                 &code(&self.source),
                 &code(&now.source),
             );
+        }
+        // (what an older record lacks is not compared)
+        if !self.observation_leaves.is_empty() {
+            let text = |r: &JaxRecord| format!("{:?}", r.observation_leaves);
+            differ("observation leaves", &text(self), &text(now));
+        }
+        if let (Some(then), Some(n)) = (&self.action_mask, &now.action_mask) {
+            differ("action mask", then, n);
+        }
+        let mut keys: Vec<&String> = self.settings.keys().chain(now.settings.keys()).collect();
+        keys.sort();
+        keys.dedup();
+        for k in keys {
+            let get = |v: &BTreeMap<String, String>| v.get(k).cloned().unwrap_or("none".into());
+            differ(k, &get(&self.settings), &get(&now.settings));
         }
         out
     }
@@ -408,6 +438,13 @@ mod tests {
             precision: "float32".into(),
             networks_per_call: 256,
             source: None,
+            observation_leaves: vec![rwg_jax::protocol::Leaf {
+                name: "grid".into(),
+                shape: vec![5, 5, 3],
+                dtype: "uint8".into(),
+            }],
+            action_mask: Some("legal".into()),
+            settings: [("impl".to_string(), "jax".to_string())].into(),
         }
     }
 
@@ -425,6 +462,9 @@ mod tests {
         let mut now = jax("0.4.30", "3.11.7", "NVIDIA H200");
         now.precision = "float64".into();
         now.networks_per_call = 4096;
+        now.action_mask = Some("off".into());
+        now.settings.insert("impl".into(), "warp".into());
+        now.observation_leaves[0].dtype = "float32".into();
         let now = EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(now);
         let err = check_record(&dir, &now, "do this").unwrap_err().to_string();
         for s in [
@@ -433,6 +473,9 @@ mod tests {
             "device kind: cpu then, NVIDIA H200 now",
             "precision: float32 then, float64 now",
             "networks per call: 256 then, 4096 now",
+            "action mask: legal then, off now",
+            "impl: jax then, warp now",
+            "observation leaves: ",
             "(gymnax 1.0.1, jax 0.10.2, jaxlib 0.10.2, Python 3.11.7)",
         ] {
             assert!(err.contains(s), "{s:?} missing in {err}");

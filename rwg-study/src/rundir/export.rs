@@ -9,7 +9,8 @@
 
 use crate::rundir::checksum::{Digest, HashingWriter};
 use crate::rundir::rows;
-use crate::rundir::SAMPLES_HEADER;
+use crate::rundir::rows::CellRows;
+use crate::rundir::{SAMPLES_HEADER, SAMPLES_HEADER_FLAGGED};
 use crate::stats::SampleStats;
 use rwg_core::sampler::BlockResult;
 use rwg_env::float::fmt_f64;
@@ -261,28 +262,37 @@ pub fn csv_io_error(e: csv::Error) -> io::Error {
 }
 
 /// Appends a block's rows to a `scores.csv` writer: `sample,episode,score,steps`
-/// ([`rows::push_score_rows`]).
+/// (and `non_finite` when `rows` are flagged; [`rows::push_score_rows`]).
 pub fn write_score_rows<W: Write>(
     out: &mut W,
     block: &BlockResult,
-    episodes: u32,
+    rows: impl Into<CellRows>,
 ) -> io::Result<()> {
     let mut buf = Vec::with_capacity(block.episodes.len() * 24);
-    rows::push_score_rows(&mut buf, block, episodes);
+    rows::push_score_rows(&mut buf, block, rows);
     out.write_all(&buf)
 }
 
-/// Writes `samples.csv` rows for samples `0..summaries.len()`.
+/// Writes `samples.csv` rows for samples `0..summaries.len()`; with
+/// `non_finite` (a flagged cell's: each network's count of episodes a
+/// value that was not finite ended), its column too.
 pub fn write_sample_rows<W: Write>(
     out: &mut W,
     summaries: &[SampleStats],
     ranks: &[usize],
+    non_finite: Option<&[u32]>,
 ) -> io::Result<()> {
     let mut w = csv_writer(out);
-    w.write_record(SAMPLES_HEADER.split(','))
-        .map_err(csv_io_error)?;
+    let header = if non_finite.is_some() {
+        SAMPLES_HEADER_FLAGGED
+    } else {
+        SAMPLES_HEADER
+    };
+    w.write_record(header.split(',')).map_err(csv_io_error)?;
+    let mut row = Vec::with_capacity(8);
     for (i, (s, r)) in summaries.iter().zip(ranks).enumerate() {
-        w.write_record([
+        row.clear();
+        row.extend([
             i.to_string(),
             fmt_f64(s.mean),
             fmt_f64(s.variance),
@@ -290,8 +300,11 @@ pub fn write_sample_rows<W: Write>(
             fmt_f64(s.min),
             fmt_f64(s.max),
             r.to_string(),
-        ])
-        .map_err(csv_io_error)?;
+        ]);
+        if let Some(n) = non_finite {
+            row.push(n[i].to_string());
+        }
+        w.write_record(&row).map_err(csv_io_error)?;
     }
     w.flush()
 }
@@ -393,18 +406,22 @@ mod tests {
                 EpisodeResult {
                     score: 1.5,
                     steps: 3,
+                    non_finite: false,
                 },
                 EpisodeResult {
                     score: -0.1,
                     steps: 7,
+                    non_finite: false,
                 },
                 EpisodeResult {
                     score: 200.0,
                     steps: 200,
+                    non_finite: false,
                 },
                 EpisodeResult {
                     score: 1e-20,
                     steps: 1,
+                    non_finite: false,
                 },
             ],
         };

@@ -10,9 +10,11 @@ use crate::rundir::checksum::{self, sums_text, Digest, SUMS};
 use crate::rundir::env_record::ENV_JSON;
 use crate::rundir::error::{io_err, RunDirError};
 use crate::rundir::export::{self, sync_dir, write_atomic_hashed, write_sample_rows, AtomicFile};
-use crate::rundir::{rows, BLOCKS, CELL_JSON, SAMPLES_CSV, SCORES_CSV, SCORES_HEADER};
+use crate::rundir::rows::CellRows;
+use crate::rundir::{rows, BLOCKS, CELL_JSON, SAMPLES_CSV, SCORES_CSV};
 use crate::stats::{ranks, sample_stats, SampleStats};
 use rwg_core::sampler::BlockResult;
+use rwg_core::sampler::MAX_RETURN;
 use std::collections::BTreeMap;
 use std::io::{self, Write};
 use std::ops::Range;
@@ -29,6 +31,9 @@ pub struct CellTotals {
     /// row-major `samples × episodes`, as `scores.csv` holds them (for the
     /// analysis of a run that just finalised the cell); else empty.
     pub episodes: (Vec<f64>, Vec<u32>),
+    /// With flagged rows (`non_finite = "end"`): how many episodes a value
+    /// that was not finite ended; else `None`.
+    pub non_finite: Option<u64>,
 }
 
 /// Whether the cell is finalised: its `SHA256SUMS`, written last, exists.
@@ -47,12 +52,30 @@ pub fn tidy_complete_cell(cell_dir: &Path) -> Result<(), RunDirError> {
     Ok(())
 }
 
-/// Parses one `sample,episode,score,steps` row, checking it is the expected
-/// one and holds what an episode can give: a finite score and
-/// 1 ≤ steps ≤ `max_steps` (the cell's time limit).
-fn parse_row(line: &str, sample: u64, episode: u32, max_steps: u32) -> Result<(f64, u64), String> {
-    let [s, e, score, steps] =
-        rows::split_fields::<4>(line).map_err(|_| format!("expected 4 columns: '{line}'"))?;
+/// Parses one `sample,episode,score,steps` row (with `,non_finite` when
+/// `flagged`), checking it is the expected one and holds what an episode
+/// can give ([`check_episode`]). Returns its score, steps and flag.
+fn parse_row(
+    line: &str,
+    (sample, episode): (u64, u32),
+    max_steps: u32,
+    flagged: bool,
+) -> Result<(f64, u64, bool), String> {
+    let (fields, cut) = if flagged {
+        let [s, e, score, steps, flag] =
+            rows::split_fields::<5>(line).map_err(|_| format!("expected 5 columns: '{line}'"))?;
+        let cut = match flag {
+            "0" => false,
+            "1" => true,
+            _ => return Err(format!("non_finite '{flag}' is not 0 or 1")),
+        };
+        ([s, e, score, steps], cut)
+    } else {
+        let f =
+            rows::split_fields::<4>(line).map_err(|_| format!("expected 4 columns: '{line}'"))?;
+        (f, false)
+    };
+    let [s, e, score, steps] = fields;
     if s.parse::<u64>().ok() != Some(sample) || e.parse::<u32>().ok() != Some(episode) {
         return Err(format!(
             "expected sample {sample}, episode {episode}: '{line}'"
@@ -64,22 +87,31 @@ fn parse_row(line: &str, sample: u64, episode: u32, max_steps: u32) -> Result<(f
     let steps = steps
         .parse::<u64>()
         .map_err(|_| format!("bad steps '{steps}'"))?;
-    check_episode(score, steps, max_steps)?;
-    Ok((score, steps))
+    check_episode(score, steps, max_steps, cut)?;
+    Ok((score, steps, cut))
 }
 
 /// Whether an episode's score and length are ones an episode can have: a
-/// finite score, and 1 ≤ `steps` ≤ `max_steps` (the cell's time limit). The
+/// score within ±[`MAX_RETURN`], and 1 ≤ `steps` ≤ `max_steps` (the cell's
+/// time limit; 0 steps too for an episode `cut` by a value that was not
+/// finite, which a network's output can end before its first step). The
 /// message says what is wrong, for a row read back from a file.
-pub fn check_episode(score: f64, steps: u64, max_steps: u32) -> Result<(), String> {
+pub fn check_episode(score: f64, steps: u64, max_steps: u32, cut: bool) -> Result<(), String> {
     if !score.is_finite() {
         return Err(format!(
             "score {score} is not a finite number (an episode's score is a sum of finite rewards)"
         ));
     }
-    if steps == 0 || steps > u64::from(max_steps) {
+    if score.abs() > MAX_RETURN {
         return Err(format!(
-            "{steps} steps: an episode of this cell lasts 1 to {max_steps} steps (its time limit)"
+            "score {score:e} is beyond ±{MAX_RETURN:e}, the largest return rwg takes"
+        ));
+    }
+    let least = u64::from(!cut);
+    if steps < least || steps > u64::from(max_steps) {
+        return Err(format!(
+            "{steps} steps: an episode of this cell lasts {least} to {max_steps} steps (its \
+             time limit)"
         ));
     }
     Ok(())
@@ -101,16 +133,17 @@ pub fn check_episode(score: f64, steps: u64, max_steps: u32) -> Result<(), Strin
 pub fn finalize_cell(
     cell_dir: &Path,
     samples: u64,
-    episodes: u32,
+    rows: impl Into<CellRows>,
     max_steps: u32,
     keep: bool,
     pending: &[BlockResult],
     cell_json: impl FnOnce(&CellTotals) -> Option<String>,
 ) -> Result<CellTotals, RunDirError> {
+    let rows = rows.into();
     let cell = CellBlocks {
         dir: cell_dir,
         samples,
-        episodes,
+        rows,
         max_steps,
         index: BlockIndex::load(cell_dir)?,
     };
@@ -123,11 +156,11 @@ pub fn finalize_cell(
     export::create_dir_all(cell_dir).map_err(io_err(cell_dir))?;
     let scores_path = cell_dir.join(SCORES_CSV);
     let mut scores = AtomicFile::create(&scores_path).map_err(io_err(&scores_path))?;
-    writeln!(scores, "{SCORES_HEADER}").map_err(io_err(&scores_path))?;
-    let mut tally = Tally::new(samples, episodes, keep);
+    writeln!(scores, "{}", rows.scores_header()).map_err(io_err(&scores_path))?;
+    let mut tally = Tally::new(samples, rows, keep);
     for b in 0..n_blocks(samples) {
         let text = match pending.get(&b) {
-            Some(block) => tally.add_pending(block, episodes),
+            Some(block) => tally.add_pending(block, rows),
             None => tally.add_file(&cell, b)?,
         };
         scores.write_all(&text).map_err(io_err(&scores_path))?;
@@ -140,7 +173,7 @@ pub fn finalize_cell(
 struct CellBlocks<'a> {
     dir: &'a Path,
     samples: u64,
-    episodes: u32,
+    rows: CellRows,
     max_steps: u32,
     index: BlockIndex,
 }
@@ -158,7 +191,7 @@ impl CellBlocks<'_> {
                 );
                 assert_eq!(
                     p.episodes.len(),
-                    p.samples.clone().count() * self.episodes as usize
+                    p.samples.clone().count() * self.rows.episodes as usize
                 );
                 continue;
             }
@@ -182,29 +215,42 @@ struct Tally {
     keep: bool,
     all_scores: Vec<f64>,
     all_steps: Vec<u32>,
+    /// With flagged rows: per sample, its episodes a value that was not
+    /// finite ended (the current sample's last).
+    cut: Option<Vec<u32>>,
 }
 
 impl Tally {
-    fn new(samples: u64, episodes: u32, keep: bool) -> Tally {
+    fn new(samples: u64, rows: CellRows, keep: bool) -> Tally {
         let kept = if keep {
-            samples as usize * episodes as usize
+            samples as usize * rows.episodes as usize
         } else {
             0
         };
         Tally {
             summaries: Vec::with_capacity(samples as usize),
             env_steps: 0,
-            buf: Vec::with_capacity(episodes as usize),
+            buf: Vec::with_capacity(rows.episodes as usize),
             keep,
             all_scores: Vec::with_capacity(kept),
             all_steps: Vec::with_capacity(kept),
+            cut: rows.flagged.then(|| Vec::with_capacity(samples as usize)),
         }
     }
 
-    /// One episode of the current sample.
-    fn episode(&mut self, score: f64, steps: u32) {
+    /// One episode of the current sample (`cut`: a value that was not
+    /// finite ended it).
+    fn episode(&mut self, score: f64, steps: u32, cut: bool) {
+        if self.buf.is_empty() {
+            if let Some(c) = &mut self.cut {
+                c.push(0);
+            }
+        }
         self.buf.push(score);
         self.env_steps += u64::from(steps);
+        if let (true, Some(c)) = (cut, &mut self.cut) {
+            *c.last_mut().expect("pushed") += 1;
+        }
         if self.keep {
             self.all_scores.push(score);
             self.all_steps.push(steps);
@@ -220,15 +266,15 @@ impl Tally {
     /// Adds a block of this process's own results (no file to read or
     /// check); returns its rows as [`crate::rundir::blocks::write_blocks`]
     /// writes them.
-    fn add_pending(&mut self, block: &BlockResult, episodes: u32) -> Vec<u8> {
-        for sample in block.episodes.chunks(episodes as usize) {
+    fn add_pending(&mut self, block: &BlockResult, rows: CellRows) -> Vec<u8> {
+        for sample in block.episodes.chunks(rows.episodes as usize) {
             for r in sample {
-                self.episode(r.score, r.steps);
+                self.episode(r.score, r.steps, r.non_finite);
             }
             self.end_sample();
         }
         let mut text = vec![];
-        rows::push_score_rows(&mut text, block, episodes);
+        rows::push_score_rows(&mut text, block, rows);
         text
     }
 
@@ -259,7 +305,7 @@ impl Tally {
         let mut rows = rows::lines(text);
         let mut line_no = 0;
         for sample in samples {
-            for episode in 0..cell.episodes {
+            for episode in 0..cell.rows.episodes {
                 line_no += 1;
                 let corrupt = |message: String| RunDirError::Corrupt {
                     path: path.to_path_buf(),
@@ -269,12 +315,13 @@ impl Tally {
                 let row = rows
                     .next()
                     .ok_or_else(|| corrupt("file ends early".into()))?;
-                let (score, steps) =
-                    parse_row(row, sample, episode, cell.max_steps).map_err(corrupt)?;
+                let (score, steps, cut) =
+                    parse_row(row, (sample, episode), cell.max_steps, cell.rows.flagged)
+                        .map_err(corrupt)?;
                 // parse_row bounds steps by max_steps, a u32.
                 let steps = u32::try_from(steps)
                     .map_err(|_| corrupt(format!("{steps} steps: more than 2^32")))?;
-                self.episode(score, steps);
+                self.episode(score, steps, cut);
             }
             self.end_sample();
         }
@@ -320,6 +367,10 @@ fn write_final_files(
         env_steps: tally.env_steps,
         means,
         episodes: (tally.all_scores, tally.all_steps),
+        non_finite: tally
+            .cut
+            .as_ref()
+            .map(|c| c.iter().map(|&n| u64::from(n)).sum()),
     };
     if let Some(json) = cell_json(&totals) {
         let p = cell_dir.join(CELL_JSON);
@@ -331,7 +382,8 @@ fn write_final_files(
     let ranks = ranks(&totals.means);
     let samples_path = cell_dir.join(SAMPLES_CSV);
     let mut f = AtomicFile::create(&samples_path).map_err(io_err(&samples_path))?;
-    write_sample_rows(&mut f, &tally.summaries, &ranks).map_err(io_err(&samples_path))?;
+    write_sample_rows(&mut f, &tally.summaries, &ranks, tally.cut.as_deref())
+        .map_err(io_err(&samples_path))?;
     sums.push((
         SAMPLES_CSV,
         f.commit_hashed().map_err(io_err(&samples_path))?,

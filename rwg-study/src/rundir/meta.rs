@@ -181,6 +181,22 @@ pub struct CellMeta {
     pub env_steps: u64,
     /// `env_steps / wall_s`.
     pub steps_per_s: f64,
+    /// With the manifest's `non_finite = "end"` for the cell's env: how
+    /// many of its episodes a value that was not finite ended (flagged in
+    /// its `scores.csv`). Absent with the default, `stop`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub non_finite_episodes: Option<u64>,
+}
+
+impl CellMeta {
+    /// The rows of the cell's score files: its episodes per network, and
+    /// the `non_finite` flag when it has `non_finite = "end"`.
+    pub fn rows(&self) -> crate::rundir::rows::CellRows {
+        crate::rundir::rows::CellRows {
+            episodes: self.episodes,
+            flagged: self.non_finite_episodes.is_some(),
+        }
+    }
 }
 
 pub use crate::rundir::names::cell_dir_name;

@@ -7,7 +7,8 @@
 //! RUN/run.json                 run metadata (meta::RunMeta)
 //! RUN/cells/CELL/blocks/...    one committed block of networks each (blocks)
 //! RUN/cells/CELL/scores.csv    sample,episode,score,steps   (export, data)
-//! RUN/cells/CELL/samples.csv   sample,mean,variance,std,min,max,rank
+//!                              (,non_finite: cells with non_finite = "end")
+//! RUN/cells/CELL/samples.csv   sample,mean,variance,std,min,max,rank (,non_finite)
 //! RUN/cells/CELL/cell.json     the cell's metadata (meta::CellMeta)
 //! RUN/cells/CELL/env.json      the env as the cell started (env_record)
 //! RUN/cells/CELL/SHA256SUMS    checksums of the four files above, written last (checksum)
@@ -80,6 +81,13 @@ pub const LAST_ERROR: &str = "last-error.txt";
 pub const SCORES_HEADER: &str = "sample,episode,score,steps";
 /// Header of a cell's `samples.csv`.
 pub const SAMPLES_HEADER: &str = "sample,mean,variance,std,min,max,rank";
+/// Header of the `scores.csv` (and block files) of a cell with
+/// `non_finite = "end"`: 1 in `non_finite` marks an episode a value that
+/// was not finite ended.
+pub const SCORES_HEADER_FLAGGED: &str = "sample,episode,score,steps,non_finite";
+/// Header of the `samples.csv` of a cell with `non_finite = "end"`:
+/// `non_finite` counts the network's episodes so ended.
+pub const SAMPLES_HEADER_FLAGGED: &str = "sample,mean,variance,std,min,max,rank,non_finite";
 
 /// The folder of cell `cell` (its directory name) in run directory `run`.
 pub fn cell_dir(run: &Path, cell: &str) -> PathBuf {

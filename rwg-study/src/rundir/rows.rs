@@ -131,11 +131,56 @@ pub fn split_fields<const K: usize>(line: &str) -> Result<[&str; K], usize> {
     }
 }
 
-/// Appends a block's rows (`sample,episode,score,steps`, no header) to
-/// `out`: the bytes the `csv` writer gave for them, scores in shortest
-/// round-trip form ([`rwg_env::float::fmt_f64`]'s `{:?}`).
-pub fn push_score_rows(out: &mut Vec<u8>, block: &BlockResult, episodes: u32) {
-    let e = episodes as usize;
+/// The rows of a cell's score files (`scores.csv`, its blocks): episodes
+/// per network, and whether each row ends with the `non_finite` flag (a
+/// cell whose manifest entry has `non_finite = "end"`; the other cells'
+/// files have no such column).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CellRows {
+    /// Episodes per network.
+    pub episodes: u32,
+    /// Rows end with `,0` or `,1`: whether a value that was not finite
+    /// ended the episode.
+    pub flagged: bool,
+}
+
+impl From<u32> for CellRows {
+    /// Rows of `episodes` episodes per network, without the flag.
+    fn from(episodes: u32) -> CellRows {
+        CellRows {
+            episodes,
+            flagged: false,
+        }
+    }
+}
+
+impl CellRows {
+    /// The header of the cell's `scores.csv`.
+    pub fn scores_header(self) -> &'static str {
+        if self.flagged {
+            crate::rundir::SCORES_HEADER_FLAGGED
+        } else {
+            crate::rundir::SCORES_HEADER
+        }
+    }
+
+    /// The header of the cell's `samples.csv`.
+    pub fn samples_header(self) -> &'static str {
+        if self.flagged {
+            crate::rundir::SAMPLES_HEADER_FLAGGED
+        } else {
+            crate::rundir::SAMPLES_HEADER
+        }
+    }
+}
+
+/// Appends a block's rows (`sample,episode,score,steps`, then `,0` or `,1`
+/// when `rows` are flagged; no header) to `out`: the bytes the `csv` writer
+/// gave for them, scores in shortest round-trip form
+/// ([`rwg_env::float::fmt_f64`]'s `{:?}`).
+pub fn push_score_rows(out: &mut Vec<u8>, block: &BlockResult, rows: impl Into<CellRows>) {
+    let rows = rows.into();
+    let e = rows.episodes as usize;
     for (k, sample) in block.samples.clone().enumerate() {
         for (ep, r) in block.episodes[k * e..(k + 1) * e].iter().enumerate() {
             push_u64(out, sample);
@@ -145,6 +190,9 @@ pub fn push_score_rows(out: &mut Vec<u8>, block: &BlockResult, episodes: u32) {
             push_f64(out, r.score);
             out.push(b',');
             push_u64(out, u64::from(r.steps));
+            if rows.flagged {
+                out.extend_from_slice(if r.non_finite { b",1" } else { b",0" });
+            }
             out.push(b'\n');
         }
     }

@@ -175,8 +175,9 @@ fn sample_cell<'scope, 'a: 'scope>(
     let mut cell_steps = 0u64;
     // Blocks are committed by I/O threads while the workers compute
     // the next ones; the cell's end waits for the last commits.
-    let (committer, io_threads) = Committer::start(fin, dir, m.episodes, opts.commit_linger);
+    let (committer, io_threads) = Committer::start(fin, dir, cell.rows(m), opts.commit_linger);
     let t_sampling = Instant::now();
+    let warm_before = cell.source.warm_up_time();
     let stop = [opts.stop, s.abort];
     let sampled = s.pool.install(|| {
         cell.source
@@ -189,6 +190,11 @@ fn sample_cell<'scope, 'a: 'scope>(
             })
     });
     let sampling = t_sampling.elapsed();
+    let warm_up = cell
+        .source
+        .warm_up_time()
+        .zip(warm_before)
+        .map(|(after, before)| after.saturating_sub(before));
     // A cell sampled to its end is finalised from the blocks still
     // gathering for a commit, without writing them.
     committer.close(sampled.is_ok() && opts.shard.is_none());
@@ -223,6 +229,7 @@ fn sample_cell<'scope, 'a: 'scope>(
         timing: CellTiming {
             dir: cell.id.dir.clone(),
             sampling,
+            warm_up,
             ..CellTiming::default()
         },
         end,

@@ -6,6 +6,7 @@ use super::*;
 
 fn meta(solved: Option<f64>) -> CellMeta {
     CellMeta {
+        non_finite_episodes: None,
         id: CellId::new("Fixture-v0", "0HL", &[], false),
         n_weights: 8,
         obs_dim: 4,
@@ -603,4 +604,28 @@ fn spread_is_deterministic_and_absent_unless_asked() {
     assert!(with.starts_with(&plain[..plain.len() - 1]) && with.contains("\"at_n\":{\"n\":1000,"));
     let back: CellSummary = serde_json::from_str(&plain).unwrap();
     assert!(back.at_n.is_none());
+}
+
+/// Returns at rwg's bound (`MAX_RETURN`, the largest it takes) keep every
+/// statistic finite: a sample's alternating extremes (the largest variance),
+/// and a cell of them; and the bound holds for the largest study.
+#[test]
+fn returns_at_the_bound_keep_every_statistic_finite() {
+    use rwg_core::sampler::MAX_RETURN;
+    let (samples, episodes) = (crate::limits::MAX_SAMPLES, crate::limits::MAX_EPISODES);
+    // the variance's sum of squared deviations (each at most (2 bound)^2)
+    assert!(4.0 * samples as f64 * f64::from(episodes) * MAX_RETURN * MAX_RETURN < f64::MAX);
+    let scores: Vec<f64> = (0..64)
+        .map(|i| if i % 3 == 0 { -MAX_RETURN } else { MAX_RETURN })
+        .collect();
+    let stats = per_sample(&scores, 8);
+    for s in &stats {
+        let all = [s.mean, s.variance, s.std, s.min, s.max];
+        assert!(all.iter().all(|v| v.is_finite()), "{s:?}");
+    }
+    let s = summarize_cell(&meta(Some(1.0)), 8, &scores, &[1; 64], &stats);
+    let mut all = vec![s.best_mean, s.best_variance, s.worst_mean, s.mean_of_means];
+    all.extend([s.mean_variance, s.median_mean, s.p99_9_mean]);
+    all.extend(s.mean_percentiles.iter().map(|p| p.value));
+    assert!(all.iter().all(|v| v.is_finite()), "{all:?}");
 }

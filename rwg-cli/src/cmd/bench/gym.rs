@@ -174,6 +174,7 @@ fn measure_env(args: &GymBenchArgs, id: &str) -> Result<Row> {
         },
         episodes: args.episodes,
         dist: WeightDist::Normal { std: 1.0 },
+        non_finite: Default::default(),
     };
     // Warm-up (untimed): starts the second worker process.
     bridge_run(&src, &plan, 64.min(args.samples), 2)?;

@@ -309,6 +309,7 @@ impl<'a> Workload<'a> {
             },
             episodes: args.episodes,
             dist: WeightDist::Normal { std: 1.0 },
+            non_finite: Default::default(),
         };
         let source = PluginSource {
             ty: ty.clone(),

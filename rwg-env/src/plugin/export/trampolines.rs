@@ -289,7 +289,7 @@ pub fn status_of(e: &EnvError) -> Status {
         EnvError::InvalidAction(_) | EnvError::StateLength { .. } => RWG_ERR_INVALID_ARGUMENT,
         EnvError::ResetNeeded => RWG_ERR_RESET_NEEDED,
         EnvError::Unsupported(_) => RWG_ERR_UNSUPPORTED,
-        EnvError::Other(_) => RWG_ERR_INTERNAL,
+        EnvError::Other(_) | EnvError::NonFinite(_) => RWG_ERR_INTERNAL,
     }
 }
 

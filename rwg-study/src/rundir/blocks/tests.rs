@@ -18,6 +18,7 @@ pub(crate) fn block(b: u64, samples: u64, episodes: u32) -> BlockResult {
         .map(|i| EpisodeResult {
             score: (r.start as f64) + i as f64 * 0.5,
             steps: 10 + i as u32,
+            non_finite: false,
         })
         .collect();
     BlockResult {

@@ -13,7 +13,8 @@ use std::path::Path;
 /// (the run writer's own format, [`crate::rundir::export::write_sample_rows`]).
 pub fn samples_csv(stats: &[SampleStats], ranks: &[usize]) -> String {
     let mut out = Vec::with_capacity(64 * (stats.len() + 1));
-    crate::rundir::export::write_sample_rows(&mut out, stats, ranks).expect("writing to memory");
+    crate::rundir::export::write_sample_rows(&mut out, stats, ranks, None)
+        .expect("writing to memory");
     String::from_utf8(out).expect("ASCII")
 }
 

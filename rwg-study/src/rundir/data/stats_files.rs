@@ -125,18 +125,36 @@ pub fn stats_csv_row(s: &CellSummary) -> Vec<String> {
     r
 }
 
-/// The text of `stats.csv`: one row per cell. The [`SPREAD_CSV_COLUMNS`]
-/// come last, and only when a cell has a spread.
+/// The column of `stats.csv` that counts the episodes a value that was not
+/// finite ended: present when a cell has `non_finite = "end"` (empty for
+/// the other cells).
+pub const NON_FINITE_CSV_COLUMN: &str = "non_finite_episodes";
+
+/// The text of `stats.csv`: one row per cell. [`NON_FINITE_CSV_COLUMN`]
+/// comes after [`stats_csv_header`]'s columns when a cell has
+/// `non_finite = "end"`; the [`SPREAD_CSV_COLUMNS`] come last, and only
+/// when a cell has a spread.
 pub fn stats_csv(stats: &RunStats) -> String {
     let spread = stats.cells.iter().any(|c| c.at_n.is_some());
+    let non_finite = stats.cells.iter().any(|c| c.non_finite_episodes.is_some());
     let mut w = csv_writer(Vec::new());
     let mut header = stats_csv_header();
+    if non_finite {
+        header.push(NON_FINITE_CSV_COLUMN.to_string());
+    }
     if spread {
         header.extend(SPREAD_CSV_COLUMNS.map(String::from));
     }
     w.write_record(header).expect("writing to memory");
     for c in &stats.cells {
         let mut row = stats_csv_row(c);
+        if non_finite {
+            row.push(
+                c.non_finite_episodes
+                    .map(|n| n.to_string())
+                    .unwrap_or_default(),
+            );
+        }
         if spread {
             row.extend(spread_csv_fields(c));
         }

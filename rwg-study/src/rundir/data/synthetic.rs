@@ -124,6 +124,7 @@ pub fn write_synthetic_run(dir: &Path, spec: &SyntheticRun) -> std::io::Result<R
         let env_steps: u64 = steps.iter().map(|&s| u64::from(s)).sum();
         total_steps += env_steps;
         let meta = CellMeta {
+            non_finite_episodes: None,
             id: CellId::new(&c.env, &c.arch, &c.hidden, c.bias),
             n_weights: 4 * (c.hidden.first().copied().unwrap_or(2)),
             obs_dim: 4,

@@ -3,7 +3,8 @@
 //! error naming it and, where reading it shows one, the row.
 
 use super::{
-    check_samples_csv, read_samples_csv, read_scores_csv, CellData, Run, RunReadError, SampleRow,
+    check_samples_csv, read_cell_scores, read_samples_csv, CellData, Run, RunReadError, SampleRow,
+    ScoreRows,
 };
 use crate::rundir::checksum;
 use crate::rundir::error::RunDirError;
@@ -29,22 +30,26 @@ impl Run {
         &self,
         cell: &CellMeta,
         dir: &Path,
-    ) -> Result<(Vec<f64>, Vec<u32>), RunReadError> {
+    ) -> Result<ScoreRows, RunReadError> {
         let episodes = cell.episodes as usize;
         let spath = dir.join(SCORES_CSV);
         match (
             self.check_file(dir, SCORES_CSV),
-            read_scores_csv(&spath, episodes),
+            read_cell_scores(&spath, cell.rows()),
         ) {
             (Ok(()), parsed) => parsed,
             (Err(check), Err(row)) => Err(RunReadError::Damaged {
                 check,
                 row: Box::new(row),
             }),
-            (Err(check), Ok((scores, steps))) => {
+            (Err(check), Ok(read)) => {
                 let samples = dir.join(SAMPLES_CSV);
-                if scores.len() % episodes == 0 && self.check_file(dir, SAMPLES_CSV).is_ok() {
-                    let data = CellData::new(cell.clone(), episodes, scores, steps);
+                let whole = read.scores.len() % episodes == 0;
+                if whole && self.check_file(dir, SAMPLES_CSV).is_ok() {
+                    let mut data = CellData::new(cell.clone(), episodes, read.scores, read.steps);
+                    if cell.non_finite_episodes.is_some() {
+                        data = data.with_non_finite(&read.cut);
+                    }
                     if let Err(RunReadError::Csv { line, .. }) = check_samples_csv(&samples, &data)
                     {
                         let i = line.saturating_sub(2);
