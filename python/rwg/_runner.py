@@ -311,6 +311,7 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
             stderr=stderr,
             env=env,
             start_new_session=True,
+            preexec_fn=_die_with(os.getpid()) if sys.platform.startswith("linux") else None,
         )
     except OSError as e:
         if master is not None:
@@ -362,6 +363,23 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
             numbered = "\n".join(f"{i:4}  {line}" for i, line in enumerate(manifest_text.splitlines(), 1))
             message += f"\nThe manifest, as written from the dict (line numbers as in the message):\n{numbered}"
         raise RwgFailedError(message, proc.returncode, stderr, cmd, manifest_text)
+
+
+def _die_with(parent: int) -> Any:
+    """The child's set-up on Linux: rwg, in a session of its own (Ctrl-C
+    reaches Python, which stops it), gets SIGTERM when this Python dies, even
+    by SIGKILL, instead of running on orphaned with the run's lock (its
+    committed blocks are kept; the run resumes)."""
+
+    def set_up() -> None:
+        import ctypes
+
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None).prctl(pr_set_pdeathsig, int(signal.SIGTERM), 0, 0, 0)
+        if os.getppid() != parent:  # it died before the signal was asked for
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    return set_up
 
 
 #: How often the wait for rwg lets Python's signal handlers run (seconds).
