@@ -778,24 +778,25 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
 /// Each page runs in a clone of its own, as a reader who opens it would:
 /// its commands may use what earlier commands of the same page made, never
 /// another page's. The `--help` examples run after the README's, in its
-/// clone (they look at the run of its quick start).
+/// clone (they look at the run of its quick start). Pages are independent,
+/// so as many run at once as the machine has cores (much of a page's time is
+/// one process's start-up or a JAX compilation, on one core).
 #[test]
 fn every_page_and_help_example_runs_as_printed() {
     let root = temp_dir("examples");
     let help = help_examples();
     assert!(help.len() >= 15, "help examples found: {help:#?}");
-    let mut notes = Vec::new();
-    let mut counts = Vec::new();
     let started = Instant::now();
     // every page is read before any runs: a page that cannot be parsed fails at once
-    let pages: Vec<(String, Vec<Example>)> = doc_pages()
+    let mut pages: Vec<(String, Vec<Example>)> = doc_pages()
         .into_iter()
         .map(|page| {
             let examples = page_examples(&page);
             (page, examples)
         })
         .collect();
-    for (page, mut examples) in pages {
+    let mut counts = Vec::new();
+    for (page, examples) in &mut pages {
         counts.push(format!("{} from {page}", examples.len()));
         if page == "README.md" {
             assert!(examples.len() >= 10, "README examples found: {examples:#?}");
@@ -804,17 +805,42 @@ fn every_page_and_help_example_runs_as_printed() {
         if ["docs/guide.md", "docs/gymnasium.md", "docs/plugins.md"].contains(&page.as_str()) {
             assert!(examples.len() >= 3, "{page}: examples found: {examples:#?}");
         }
-        let dir = root.join(page.replace(['/', '.'], "-")).join("rwg");
-        run_in_clone(&examples, &dir, &mut notes);
     }
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .min(pages.len());
+    let page_notes: Vec<std::sync::Mutex<Vec<String>>> =
+        pages.iter().map(|_| Default::default()).collect();
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                scope.spawn(|| loop {
+                    let i = next.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+                    let Some((page, examples)) = pages.get(i) else {
+                        break;
+                    };
+                    let dir = root.join(page.replace(['/', '.'], "-")).join("rwg");
+                    let mut notes = page_notes[i].lock().unwrap_or_else(|e| e.into_inner());
+                    run_in_clone(examples, &dir, &mut notes);
+                })
+            })
+            .collect();
+        // a page's failure is this test's, with its own message
+        for h in handles {
+            if let Err(panic) = h.join() {
+                std::panic::resume_unwind(panic);
+            }
+        }
+    });
     use std::io::Write;
     let mut err = std::io::stderr();
-    for n in &notes {
+    for n in page_notes.iter().flat_map(|n| n.lock().unwrap().clone()) {
         let _ = writeln!(err, "example {n}");
     }
     let _ = writeln!(
         err,
-        "examples: {}, {} from --help, in {:.0} s",
+        "examples: {}, {} from --help, in {:.0} s on {workers} threads",
         counts.join(", "),
         help.len(),
         started.elapsed().as_secs_f64()
