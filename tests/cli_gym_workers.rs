@@ -273,9 +273,10 @@ fn start_up_honours_the_timeouts_and_names_the_right_variable() {
         assert!(t0.elapsed() < Duration::from_secs(60), "{where_}: {err}");
         assert!(err.contains(says), "{where_}: {err}");
         assert!(err.contains(&format!("set {var}")), "{where_}: {err}");
-        // faulthandler's traceback names where it hung
+        // faulthandler's traceback names where it hung (in the file the
+        // one error line names)
         assert!(
-            err.contains("rwg_family_envs/__init__.py"),
+            with_details(&err).contains("rwg_family_envs/__init__.py"),
             "{where_}: {err}"
         );
     }
@@ -482,7 +483,11 @@ fn gymnasium_workers_die_with_rwg_on_any_signal() {
             assert_eq!(code, Some(130), "{err}");
             assert!(err.contains("did not finish within"), "{err}");
             assert!(!err.contains("plugin"), "{err}");
-            assert!(err.contains("resume with: rwg run"), "{err}");
+            // the resume command sets the PYTHONPATH the env's module was
+            // found through, as the run had it
+            let pp = python_dir();
+            let resume = format!("resume with: PYTHONPATH={} rwg run ", pp.display());
+            assert!(err.contains(&resume), "{err}");
         }
     }
     let _ = std::fs::remove_dir_all(&dir);

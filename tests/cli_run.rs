@@ -172,6 +172,19 @@ fn a_finished_run_is_not_redone_and_another_study_is_refused() {
         "{err}"
     );
     assert!(err.contains("--force-new"), "{err}");
+    // a key of one entry: named, not the whole envs array
+    let other = manifest(
+        &dir,
+        "other.toml",
+        &CARTPOLE
+            .replace("samples = 40", "samples = 2")
+            .replace("id = \"CartPole-v0\"", "id = \"CartPole-v0\"\nsolved = 100"),
+    );
+    let err = rwg_err(&["run", &other, "--out", out.to_str().unwrap()]);
+    assert!(
+        err.contains("holds a different study (envs[0] (CartPole-v0).solved: (absent) vs 100.0)"),
+        "{err}"
+    );
     rwg_ok(&[
         "run",
         &m,

@@ -172,6 +172,7 @@ mod tests {
             platform: platform.into(),
             precision: "float32".into(),
             networks_per_call: 256,
+            source: None,
             observation_leaves: vec![],
             action_mask: None,
             settings: BTreeMap::new(),

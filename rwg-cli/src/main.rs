@@ -7,6 +7,7 @@
 
 mod cluster;
 mod cmd;
+mod details;
 mod ending;
 mod env_vars;
 mod errors;
@@ -203,7 +204,7 @@ fn status_of(result: Result<i32>) -> i32 {
                 Some(out) if e.chain().count() == 1 && e.is::<std::io::Error>() => {
                     format!("cannot write to standard output: {out}")
                 }
-                _ => error_text(&e),
+                _ => details::one_line(&error_text(&e), None),
             };
             errln!("error: {text}");
             // (args() would panic on an argument that is not UTF-8)

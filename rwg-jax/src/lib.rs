@@ -13,7 +13,8 @@
 //! is padded), so a network's results are the same bits whatever the
 //! chunking of blocks, the threads, shards or a resume. The weights are
 //! rwg's draw ([`rwg_core::sampler::draw_block_weights`]); the episode's key
-//! is `PRNGKey(r)` of rwg's reset seed `r`.
+//! is the threefry key of data `[r >> 32, r & 0xFFFFFFFF]` of rwg's reset
+//! seed `r`.
 //!
 //! # Example
 //!
@@ -216,7 +217,7 @@ impl JaxConfig {
 
 /// `RWG_PYTHON` if set, else `python3` (as for `gymnasium:` envs).
 pub fn default_python() -> String {
-    rwg_env::vars::text(PYTHON_VAR)
+    rwg_env::vars::text(PYTHON_VAR, "a Python interpreter")
         .ok()
         .flatten()
         .unwrap_or_else(|| "python3".into())
@@ -269,6 +270,8 @@ pub struct JaxInfo {
     pub platform: String,
     /// The precision the worker ran.
     pub precision: Precision,
+    /// For a `jax:module:callable` env: what its code is.
+    pub source: Option<protocol::ModuleSource>,
 }
 
 /// What can go wrong with a JAX environment.
@@ -331,6 +334,55 @@ pub enum JaxError {
 }
 
 use rwg_worker::stderr_tail_text as tail;
+
+/// A failure of a JAX env that no episode is to blame for: a worker that
+/// could not start or compile the cell, or a compiled call that failed as a
+/// whole (the worker's error, death or timeout), named by the call's
+/// networks. (An episode's own failure is a [`SampleError`].)
+#[derive(Debug, Error)]
+#[error("{env}: {}{error}", calls_text(.networks))]
+pub struct CallError {
+    /// The env's id.
+    pub env: String,
+    /// The call's first and last network and how many it ran; `None` for a
+    /// worker's start or compile.
+    pub networks: Option<(u64, u64, usize)>,
+    /// What went wrong (in this text, not chained: printed once).
+    pub error: JaxError,
+}
+
+fn calls_text(networks: &Option<(u64, u64, usize)>) -> String {
+    networks.map_or(String::new(), |(first, last, n)| {
+        format!(
+            "the compiled call of networks {first} to {last} ({n} networks, every episode) \
+             failed: "
+        )
+    })
+}
+
+/// Why [`JaxSource::run_blocks`] stopped, for a caller without an error
+/// type of its own.
+#[derive(Debug, Error)]
+pub enum RunError {
+    /// An episode failed.
+    #[error(transparent)]
+    Episode(Box<SampleError>),
+    /// A start, compile or whole call failed.
+    #[error(transparent)]
+    Call(Box<CallError>),
+}
+
+impl From<SampleError> for RunError {
+    fn from(e: SampleError) -> Self {
+        RunError::Episode(Box::new(e))
+    }
+}
+
+impl From<CallError> for RunError {
+    fn from(e: CallError) -> Self {
+        RunError::Call(Box::new(e))
+    }
+}
 
 fn worker_error_text(python: &str, e: &WorkerError) -> String {
     let mut s = format!("{} (Python {python})", e.message);
@@ -447,9 +499,10 @@ impl JaxSource {
     /// workers (kept between calls), in chunks of
     /// [`JaxSource::networks_per_call`] networks of consecutive blocks, one
     /// chunk in flight per worker, and hands the results to `on_block` in
-    /// block order. Stops at the first failure in network order (a fault
-    /// bit, a worker's error, death or timeout) or the first error
-    /// `on_block` returns; the blocks handed out before stay valid.
+    /// block order. Stops at the first failure in network order (an
+    /// episode's fault bit: a [`SampleError`]; a worker's error, death or
+    /// timeout: a [`CallError`]) or the first error `on_block` returns; the
+    /// blocks handed out before stay valid.
     pub fn run_blocks<G, X>(
         &self,
         plan: &CellPlan,
@@ -459,7 +512,7 @@ impl JaxSource {
     ) -> Result<(), X>
     where
         G: FnMut(BlockResult) -> Result<(), X>,
-        X: From<SampleError> + Send,
+        X: From<SampleError> + From<CallError> + Send,
     {
         run::run_blocks(self, plan, blocks, threads, on_block)
     }

@@ -172,6 +172,26 @@ pub struct Ready {
     device_kind: String,
     platform: String,
     precision: String,
+    #[serde(default)]
+    source: Option<ModuleSource>,
+}
+
+/// What the code of a `jax:module:callable` env is: a digest of its
+/// package's source files (a resume under other code is refused), and the
+/// `PYTHONPATH` it was imported through (what a printed command needs).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, Deserialize)]
+pub struct ModuleSource {
+    /// The top module (`my_pkg` of `jax:my_pkg.envs:make`).
+    pub module: String,
+    /// SHA-256 of its `.py` files (relative path and bytes, in path order).
+    pub sha256: String,
+    /// How many files.
+    pub files: u64,
+    /// The `PYTHONPATH` (absolute folders) it was imported through, if it
+    /// was found through `PYTHONPATH` or the current directory (not an
+    /// installed package): what a command that starts the env again needs.
+    #[serde(default)]
+    pub pythonpath: Option<String>,
 }
 
 fn floats(v: &[serde_json::Value]) -> Result<Vec<f64>, JaxError> {
@@ -222,6 +242,7 @@ pub fn parse_ready(cfg: &JaxConfig, r: Ready) -> Result<JaxInfo, JaxError> {
         device_kind: r.device_kind,
         platform: r.platform,
         precision,
+        source: r.source,
     })
 }
 

@@ -7,12 +7,11 @@ use crate::chunks::{chunk_len, chunks, results, Assembly, Chunk};
 use crate::protocol::{CellShape, Outcome};
 use crate::warm_up::WarmUp;
 use crate::worker::JaxWorker;
-use crate::{JaxError, JaxSource};
+use crate::{CallError, JaxError, JaxSource};
 use rwg_core::policy::PolicyKind;
 use rwg_core::sampler::{
     draw_block_weights, reset_seed, BlockResult, CellPlan, NonFinite, SampleError,
 };
-use rwg_env::EnvError;
 use std::ops::Range;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
 
@@ -29,7 +28,7 @@ pub fn run_blocks<G, X>(
 ) -> Result<(), X>
 where
     G: FnMut(BlockResult) -> Result<(), X>,
-    X: From<SampleError> + Send,
+    X: From<SampleError> + From<CallError> + Send,
 {
     let shape = plan.net_shape(&src.info.spec);
     let cell = CellShape {
@@ -75,13 +74,13 @@ where
 fn collect<G, X>(
     plan: &CellPlan,
     all: &[Chunk],
-    outcomes: &[Receiver<Result<Outcome, JaxError>>],
+    outcomes: &[Receiver<Result<Outcome, Failed>>],
     assembly: &mut Assembly<'_>,
     on_block: &mut G,
 ) -> Result<(), X>
 where
     G: FnMut(BlockResult) -> Result<(), X>,
-    X: From<SampleError> + Send,
+    X: From<SampleError> + From<CallError> + Send,
 {
     for (c, chunk) in all.iter().enumerate() {
         let outcome = outcomes[c % outcomes.len()]
@@ -97,20 +96,29 @@ where
     Ok(())
 }
 
-/// The error of a chunk whose call failed: named by its first network.
-fn chunk_error(plan: &CellPlan, chunk: &Chunk, e: JaxError) -> SampleError {
-    let first = chunk[0].samples.start;
-    let last = chunk.last().expect("a chunk has networks").samples.end - 1;
-    SampleError {
+/// Why a worker thread sent no outcome for a chunk.
+enum Failed {
+    /// Its worker could not start or compile the cell.
+    Setup(JaxError),
+    /// The chunk's call failed as a whole.
+    Call(JaxError),
+}
+
+/// The error of a chunk whose worker failed: a setup failure is the env's,
+/// a call's is named by its networks (no episode of it is to blame).
+fn chunk_error(plan: &CellPlan, chunk: &Chunk, e: Failed) -> CallError {
+    let (networks, error) = match e {
+        Failed::Setup(e) => (None, e),
+        Failed::Call(e) => {
+            let first = chunk[0].samples.start;
+            let last = chunk.last().expect("a chunk has networks").samples.end - 1;
+            (Some((first, last, chunk_len(chunk))), e)
+        }
+    };
+    CallError {
         env: plan.env_id.clone(),
-        sample: first,
-        episode: 0,
-        step: 0,
-        error: EnvError::Other(format!(
-            "in the compiled call running networks {first} to {last} ({} networks, every \
-             episode): {e}",
-            chunk_len(chunk)
-        )),
+        networks,
+        error,
     }
 }
 
@@ -125,7 +133,7 @@ fn serve(
     (cell, warm): (&CellShape, &WarmUp),
     all: &[Chunk],
     (t, workers): (usize, usize),
-    outcomes: SyncSender<Result<Outcome, JaxError>>,
+    outcomes: SyncSender<Result<Outcome, Failed>>,
 ) -> Option<JaxWorker> {
     let mut worker = match src.take_worker() {
         Ok(mut w) => w.set_cell(cell).map(|_| w),
@@ -141,17 +149,20 @@ fn serve(
             Ok(ref mut w) => w,
             Err(e) => {
                 // a start-up or compile failure, reported for its first chunk
-                let _ = outcomes.send(Err(e));
+                let _ = outcomes.send(Err(Failed::Setup(e)));
                 return None;
             }
         };
         let n = chunk_len(&all[c]);
-        let outcome = w.send_chunk(n, &inputs.0, &inputs.1).and_then(|()| {
-            if let Some(after) = all.get(c + workers) {
-                chunk_inputs(plan, cell, after, &mut next);
-            }
-            w.recv_outcome(inputs.1.len())
-        });
+        let outcome = w
+            .send_chunk(n, &inputs.0, &inputs.1)
+            .and_then(|()| {
+                if let Some(after) = all.get(c + workers) {
+                    chunk_inputs(plan, cell, after, &mut next);
+                }
+                w.recv_outcome(inputs.1.len())
+            })
+            .map_err(Failed::Call);
         let broken = outcome.is_err();
         if outcomes.send(outcome).is_err() || broken {
             return None;

@@ -129,7 +129,7 @@ fn builtin_env(
         ));
     }
     let opts = EnvOptions {
-        action_dtype: e.action_dtype,
+        action_dtype: e.action_dtype.unwrap_or_default(),
         max_episode_steps: e.max_episode_steps,
     };
     let spec = visit(&e.id, &opts, SpecOf).expect("a built-in id");
@@ -144,7 +144,7 @@ fn open_plugin_env(
     key: &str,
     ty: PluginEnvType,
 ) -> Result<(EnvSource, EnvSpec), ManifestError> {
-    if e.action_dtype != ActionDtype::default() {
+    if e.action_dtype.unwrap_or_default() != ActionDtype::default() {
         return Err(m.error_at(
             e.id_span.clone(),
             format!(
@@ -414,6 +414,7 @@ impl Cell {
                 platform: j.info().platform.clone(),
                 precision: j.info().precision.name().to_string(),
                 networks_per_call: j.networks_per_call(),
+                source: j.info().source.clone(),
                 observation_leaves: j.info().observation_leaves.clone(),
                 action_mask: Some(j.info().action_mask.clone()),
                 settings: j.info().settings.clone(),

@@ -151,8 +151,10 @@ pub struct EnvEntry {
     /// Time limit override.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_episode_steps: Option<u32>,
-    /// dtype of continuous actions.
-    pub action_dtype: ActionDtype,
+    /// dtype of continuous actions; `None` for a JAX env, which takes none
+    /// (its actions are of its `precision`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub action_dtype: Option<ActionDtype>,
     /// Plugin library providing the env (resolved against the manifest's
     /// folder; absolute when the manifest was read with [`Manifest::load`]).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -389,7 +391,9 @@ impl Manifest {
         }
     }
 
-    /// How the study of `other` differs from this one (empty: the same study).
+    /// How the study of `other` differs from this one (empty: the same study),
+    /// one `key: this vs other` line per key that differs, down to the entry
+    /// and key (`envs[1] (ID).kwargs.g: 9.8 vs 9.0`; a NaN equals itself).
     /// Compares what [`Manifest::to_toml`] writes, key by key, except the
     /// envs' `isolate` and `device` (they change where an env runs, not its
     /// results; the device a JAX cell ran on is compared through its
@@ -405,18 +409,7 @@ impl Manifest {
             }
             t
         };
-        let (a, b) = (study(self), study(other));
-        let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
-        keys.sort();
-        keys.dedup();
-        keys.into_iter()
-            .filter(|k| a.get(*k) != b.get(*k))
-            .map(|k| {
-                let show =
-                    |v: Option<&toml::Value>| v.map_or("(absent)".to_string(), |v| v.to_string());
-                format!("{k}: {} vs {}", show(a.get(k)), show(b.get(k)))
-            })
-            .collect()
+        diff::differences(&study(self), &study(other))
     }
 }
 
@@ -444,6 +437,7 @@ fn unknown_field_suggestion(msg: &str) -> Option<String> {
 
 mod architectures;
 mod checker;
+mod diff;
 mod envs;
 mod jax_keys;
 pub mod kwargs;

@@ -43,6 +43,15 @@ pub fn sh_path(p: &Path) -> String {
     }
 }
 
+/// `cmd` run with `PYTHONPATH` set to `pythonpath` (quoted), when there is
+/// one: what a printed command that starts a Python env needs.
+pub fn with_pythonpath(pythonpath: Option<&str>, cmd: String) -> String {
+    match pythonpath {
+        Some(p) if !p.is_empty() => format!("PYTHONPATH={} {cmd}", sh_quote(p)),
+        _ => cmd,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -300,9 +300,10 @@ fn run_gym(args: &Args, id: &str) -> Result<()> {
                 .push_str(" (legal for a Gymnasium env; rwg's networks never produce them)");
         }
     }
+    let mut kept = crate::details::KeptFile::new("check");
     for r in &results {
         if !args.json {
-            writeln!(crate::stdio::stdout(), "{r}")?;
+            writeln!(crate::stdio::stdout(), "{}", kept.one_line(&r.to_string()))?;
         }
     }
     finish(args, &results)
@@ -370,6 +371,7 @@ pub fn run(mut args: Args) -> Result<()> {
     let mut results = Results {
         json: args.json,
         list: vec![],
+        kept: crate::details::KeptFile::new("check"),
     };
     let Some(loaded) = load(&args, timeout, &mut results)? else {
         return finish(&args, &results.list);
@@ -386,14 +388,20 @@ pub fn run(mut args: Args) -> Result<()> {
 struct Results {
     json: bool,
     list: Vec<CheckResult>,
+    /// Where a check's traceback goes (its line names it).
+    kept: crate::details::KeptFile,
 }
 
 impl Results {
     /// Prints `r` (writeln, not println: `rwg check ... | head` must not
-    /// panic) and keeps it.
+    /// panic; one line, a traceback kept in a file it names) and keeps it.
     fn add(&mut self, r: CheckResult) -> std::io::Result<()> {
         if !self.json {
-            writeln!(crate::stdio::stdout(), "{r}")?;
+            writeln!(
+                crate::stdio::stdout(),
+                "{}",
+                self.kept.one_line(&r.to_string())
+            )?;
         }
         self.list.push(r);
         Ok(())

@@ -3,7 +3,7 @@
 use crate::step_lines::StepLines;
 use anyhow::{bail, Context, Result};
 use rwg_core::policy::{Policy, PolicyKind};
-use rwg_core::sampler::{reset_seed, run_episode, BlockResult, EpisodeResult, SampleError};
+use rwg_core::sampler::{reset_seed, run_episode, BlockResult, EpisodeResult};
 use rwg_env::float::fmt_f64;
 use rwg_env::{Environment, Space};
 use rwg_study::cells::{plan_cells, Cell};
@@ -380,7 +380,7 @@ fn replay_jax(args: &Args, m: &Manifest, cell: &Cell, j: &rwg_jax::JaxSource) ->
     let network = args.sample..args.sample + 1;
     j.run_blocks(&cell.plan, &[network], 1, |b: BlockResult| {
         results = b.episodes;
-        Ok::<(), SampleError>(())
+        Ok::<(), rwg_jax::RunError>(())
     })?;
     if results.len() != m.episodes as usize {
         bail!(

@@ -174,9 +174,11 @@ pub fn run(args: Args) -> Result<i32> {
     apply_overrides(&mut m, &args)?;
     let out = run_dir(&args, &m)?;
     let manifest = crate::cmd::absolute(&args.manifest)?;
+    let pp = python_path(&m);
+    let pp = pp.as_deref();
     // Until the run directory holds the study, the command as given
     // resumes it; from then on, the directory's own manifest.
-    let (resume, resume_stopped) = guard_texts(&out, &resume_command(&args, &out, false));
+    let (resume, resume_stopped) = guard_texts(&out, &resume_command(&args, &out, false, pp));
     let _armed = fault_guard::arm(resume, resume_stopped, args.step_timeout);
     rwg_study::isolate::set_settings(rwg_study::isolate::IsolateSettings {
         timeout: (args.step_timeout > 0).then(|| std::time::Duration::from_secs(args.step_timeout)),
@@ -191,7 +193,7 @@ pub fn run(args: Args) -> Result<i32> {
         keep_episodes: args.shard.is_none() && !args.no_report,
         commit_linger: crate::env_vars::commit_linger()?,
     };
-    let outcome = run_with_progress(&mut m, &opts, &args, &out);
+    let outcome = run_with_progress(&mut m, &opts, &args, &out, pp);
     // What a crash while rwg exits (a plugin's exit handler) leaves.
     let complete = format!(
         "The run in {} is complete: every file was written and indexed before (`rwg verify {}` \
@@ -199,7 +201,7 @@ pub fn run(args: Args) -> Result<i32> {
         out.display(),
         sh_path(&out)
     );
-    let mut report = match finished(outcome, &args, &out)? {
+    let mut report = match finished(outcome, &args, &out, pp)? {
         Finished::Report(report) => report,
         Finished::AlreadyComplete => {
             fault_guard::finished(complete);
@@ -259,6 +261,7 @@ fn run_with_progress(
     opts: &RunOptions<'_>,
     args: &Args,
     out: &Path,
+    pp: Option<&str>,
 ) -> Result<RunOutcome, StudyError> {
     // told by the JAX envs' sources when their workers compile
     let compiling = Arc::new(Compiling::default());
@@ -278,7 +281,7 @@ fn run_with_progress(
         display,
         compiling,
         checks: vec![],
-        started: Some(guard_texts(out, &resume_command(args, out, true))),
+        started: Some(guard_texts(out, &resume_command(args, out, true, pp))),
     };
     let outcome = run_study(m, opts, &mut progress);
     // A failed run does not wait for the checks (a hanging plugin's would
@@ -311,7 +314,12 @@ enum Finished {
 /// What a run's outcome means: its report, a directory that was complete
 /// already (its report written if missing), or a run stopped by an
 /// interrupt or a failed cell, which prints how to resume.
-fn finished(outcome: Result<RunOutcome, StudyError>, args: &Args, out: &Path) -> Result<Finished> {
+fn finished(
+    outcome: Result<RunOutcome, StudyError>,
+    args: &Args,
+    out: &Path,
+    pp: Option<&str>,
+) -> Result<Finished> {
     Ok(match outcome {
         Ok(RunOutcome::AlreadyComplete(_lock)) => {
             crate::outln!(
@@ -328,17 +336,18 @@ fn finished(outcome: Result<RunOutcome, StudyError>, args: &Args, out: &Path) ->
             crate::errln!(
                 "stopped; every finished block is saved in {}. Resume with:\n  {}",
                 out.display(),
-                resume_command(args, out, true)
+                resume_command(args, out, true, pp)
             );
             fault_guard::disarm();
             Finished::Stopped(130)
         }
         Err(e @ StudyError::Cell { .. }) => {
             // (an isolated plugin's crash or hang, a Gymnasium worker's, an env error)
-            crate::errln!("error: {}", crate::error_text(&e.into()));
+            let text = crate::error_text(&e.into());
+            crate::errln!("error: {}", crate::details::one_line(&text, Some(out)));
             crate::errln!(
                 "Every committed block is kept; once the cause is fixed, resume with: {}",
-                resume_command(args, out, true)
+                resume_command(args, out, true, pp)
             );
             fault_guard::disarm();
             Finished::Stopped(1)
@@ -432,8 +441,9 @@ fn guard_texts(out: &Path, resume: &str) -> (String, String) {
 /// Once the run directory holds the study (`in_dir`), it runs the
 /// directory's `manifest.toml` (the study, every override applied: see
 /// [`crate::cmd::status::finish_command`]) with the options that are not
-/// part of the study; before, it is the command as given.
-fn resume_command(args: &Args, out: &Path, in_dir: bool) -> String {
+/// part of the study; before, it is the command as given. With
+/// `pythonpath`, it sets `PYTHONPATH` as the run had it.
+fn resume_command(args: &Args, out: &Path, in_dir: bool, pythonpath: Option<&str>) -> String {
     let mut cmd = if in_dir {
         crate::cmd::status::finish_command(out, args.shard)
     } else {
@@ -478,7 +488,19 @@ fn resume_command(args: &Args, out: &Path, in_dir: bool) -> String {
             opt(flag.into());
         }
     }
-    cmd
+    rwg_study::shell::with_pythonpath(pythonpath, cmd)
+}
+
+/// The `PYTHONPATH` a printed command that starts this study's envs again
+/// needs: this process's, when the study has a `gymnasium:` or JAX env
+/// (whose module may be found through it); `None` otherwise.
+fn python_path(m: &Manifest) -> Option<String> {
+    let python = m
+        .envs
+        .iter()
+        .any(|e| e.id.starts_with("gymnasium:") || rwg_study::jax_source::is_jax(&e.id));
+    let pp = std::env::var("PYTHONPATH").ok().filter(|p| !p.is_empty());
+    pp.filter(|_| python)
 }
 
 /// Starts the contract checks of the study's plugin envs when the cells

@@ -42,7 +42,7 @@ fn parses_a_full_manifest() {
     assert_eq!(m.weights, WeightDist::Uniform { a: 2.0 });
     assert_eq!(m.architectures[1].hidden, [4, 4]);
     assert_eq!(m.envs[0].solved, Some(195.0));
-    assert_eq!(m.envs[1].action_dtype, ActionDtype::F32);
+    assert_eq!(m.envs[1].action_dtype, Some(ActionDtype::F32));
     assert_eq!(
         m.envs[1].plugin.as_deref(),
         Some(Path::new("/base/libs/x.so"))
@@ -424,6 +424,11 @@ fn jax_keys_are_checked_where_they_stand() {
             "jax:m:f",
             "action_dtype = \"float32\"",
             "envs[0].action_dtype: 'jax:m:f' is a JAX environment",
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "action_dtype = \"float64\"",
+            "envs[0].action_dtype: 'gymnax:CartPole-v1' is a JAX environment",
         ),
         (
             "jax:my_module",

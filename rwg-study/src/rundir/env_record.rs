@@ -2,8 +2,9 @@
 //! (its spaces, time limit and reward threshold, and for a Gymnasium env
 //! Gymnasium's own text of its spaces and the workers' `PYTHONHASHSEED`; for
 //! a JAX env the library's text of its spaces, the versions of JAX and the
-//! env's library, the device's kind and platform, the precision and the
-//! networks per compiled call).
+//! env's library, the device's kind and platform, the precision, the
+//! networks per compiled call, and for a `jax:` env a digest of its
+//! module's source and the `PYTHONPATH` it was found through).
 //! Every block of a cell must be computed under the same env, so a resume
 //! or a merge compares the env as it is now with this record and is refused
 //! when they differ, naming the difference (a new version of the env's
@@ -61,6 +62,10 @@ pub struct JaxRecord {
     pub precision: String,
     /// Networks per compiled call.
     pub networks_per_call: u32,
+    /// For a `jax:module:callable` env: a digest of its module's source
+    /// (compared) and where it was imported from (not compared).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<rwg_jax::protocol::ModuleSource>,
     /// The observation's leaves (name, shape, dtype) in the order they are
     /// flattened into the networks' inputs (empty in records written before
     /// rwg recorded them).
@@ -112,6 +117,20 @@ impl JaxRecord {
             &self.networks_per_call.to_string(),
             &now.networks_per_call.to_string(),
         );
+        let code = |s: &Option<rwg_jax::protocol::ModuleSource>| {
+            s.as_ref().map_or("none".to_string(), |s| {
+                format!("SHA-256 {} of {} file(s)", s.sha256, s.files)
+            })
+        };
+        if code(&self.source) != code(&now.source) {
+            let module = self.source.as_ref().or(now.source.as_ref());
+            let what = module.map_or(String::new(), |s| format!(" {}", s.module));
+            differ(
+                &format!("the source of module{what} (edited since the cell started?)"),
+                &code(&self.source),
+                &code(&now.source),
+            );
+        }
         // (what an older record lacks is not compared)
         if !self.observation_leaves.is_empty() {
             let text = |r: &JaxRecord| format!("{:?}", r.observation_leaves);
@@ -264,6 +283,21 @@ impl EnvRecord {
     }
 }
 
+/// The `PYTHONPATH` the envs of run directory `run` were imported through
+/// (the first a cell's `env.json` records for a `jax:module:callable`
+/// env), if any: what a printed command that starts them again needs.
+pub fn recorded_pythonpath(run: &Path) -> Option<String> {
+    let cells = std::fs::read_dir(run.join(crate::rundir::CELLS)).ok()?;
+    let mut dirs: Vec<_> = cells.flatten().map(|e| e.path()).collect();
+    dirs.sort();
+    dirs.iter().find_map(|d| cell_pythonpath(d))
+}
+
+/// The `PYTHONPATH` cell directory `dir`'s `env.json` records, if any.
+pub fn cell_pythonpath(dir: &Path) -> Option<String> {
+    read_record(dir).ok()??.jax?.source?.pythonpath
+}
+
 /// Reads the record in cell directory `dir`, if there is one.
 pub fn read_record(dir: &Path) -> Result<Option<EnvRecord>, StudyError> {
     let p = dir.join(ENV_JSON);
@@ -403,6 +437,7 @@ mod tests {
             platform: "cpu".into(),
             precision: "float32".into(),
             networks_per_call: 256,
+            source: None,
             observation_leaves: vec![rwg_jax::protocol::Leaf {
                 name: "grid".into(),
                 shape: vec![5, 5, 3],
@@ -447,5 +482,29 @@ mod tests {
         }
         assert!(!err.contains("gymnax: "), "{err}");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_jax_module_s_source_is_compared_not_where_it_was_found() {
+        use rwg_jax::protocol::ModuleSource;
+        let source = |sha: &str, pythonpath: &str| {
+            let mut r = jax("0.10.2", "3.11.7", "cpu");
+            r.source = Some(ModuleSource {
+                module: "my_envs".into(),
+                sha256: sha.into(),
+                files: 2,
+                pythonpath: Some(pythonpath.into()),
+            });
+            EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(r)
+        };
+        let then = source("aa", "/home/me/envs");
+        assert!(then.differences(&source("aa", "/elsewhere")).is_empty());
+        assert_eq!(
+            then.differences(&source("bb", "/home/me/envs")),
+            [
+                "the source of module my_envs (edited since the cell started?): SHA-256 aa of 2 \
+              file(s) then, SHA-256 bb of 2 file(s) now"
+            ]
+        );
     }
 }

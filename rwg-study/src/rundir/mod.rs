@@ -15,6 +15,7 @@
 //! RUN/cells/CELL/blocks/SHA256SUMS  checksums of the committed blocks (checksum)
 //! RUN/stats.json, stats.csv    the run's statistics (data)
 //! RUN/rwg.lock                 the writers' lock (lock)
+//! RUN/last-error.txt           the last failed cell's whole message (the `rwg` binary)
 //! ```
 //!
 //! - [`names`]: the cell directory names (injective, portable).
@@ -80,6 +81,9 @@ pub const STATS_CSV: &str = "stats.csv";
 pub const FIGURES: &str = "figures";
 /// The run's HTML report (written by `rwg-analysis`).
 pub const REPORT_HTML: &str = "report.html";
+/// The whole message of the last failed cell, its traceback included
+/// (written by the `rwg` binary, which prints one line naming it).
+pub const LAST_ERROR: &str = "last-error.txt";
 /// Header of a cell's `scores.csv` (and of its block files).
 pub const SCORES_HEADER: &str = "sample,episode,score,steps";
 /// Header of a cell's `samples.csv`.
