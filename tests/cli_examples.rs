@@ -15,8 +15,8 @@
 //!   provides what they make (`rwg` on PATH; `target/release/rwg` and the
 //!   plugin libraries are the test build's, linked there).
 //! - `cargo test --workspace`: not run, it is this test suite.
-//! - The JAX atlas's commands (docs/jax-atlas.md): not run here;
-//!   tests/cli_jax_atlas.rs runs them on one env of the atlas.
+//! - The JAX atlas's commands (`examples/jax-atlas.toml`, docs/jax-families.md):
+//!   not run here; tests/cli_jax_atlas.rs runs them on one env of the atlas.
 //! - `pip install ...` and `maturin build`: not run; `.ci/run` builds the
 //!   wheel with maturin and installs it into a fresh virtualenv.
 //!   `cargo install --path rwg-cli --no-default-features`: not run, a
@@ -417,8 +417,8 @@ fn plan(e: &Example) -> Plan {
     }
     if c.contains("jax-atlas") {
         return Plan::NotRun(
-            "tests/cli_jax_atlas.rs runs docs/jax-atlas.md's commands on one env of the \
-             atlas (the whole atlas compiles 132 JAX programs)",
+            "tests/cli_jax_atlas.rs runs the JAX atlas's commands on one env of it (the \
+             whole atlas compiles 132 JAX programs)",
         );
     }
     if c.starts_with("python3 -m pip install") && c.contains("gymnasium") {
