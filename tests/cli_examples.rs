@@ -15,6 +15,8 @@
 //!   provides what they make (`rwg` on PATH; `target/release/rwg` and the
 //!   plugin libraries are the test build's, linked there).
 //! - `cargo test --workspace`: not run, it is this test suite.
+//! - The JAX atlas's commands (`examples/jax-atlas.toml`, docs/jax-families.md):
+//!   not run here; tests/cli_jax_atlas.rs runs them on one env of the atlas.
 //! - `pip install ...` and `maturin build`: not run; `.ci/run` builds the
 //!   wheel with maturin and installs it into a fresh virtualenv.
 //!   `cargo install --path rwg-cli --no-default-features`: not run, a
@@ -36,8 +38,11 @@
 //!   cluster here (tests/cli_slurm.rs submits to a real one).
 //! - `python3 -m pip install "gymnasium[...]"`: not run; the Python of
 //!   `RWG_TEST_PYTHON` (the CI virtualenv, which holds those packages) is
-//!   handed to rwg as `RWG_PYTHON`. Without it the Gymnasium examples are
-//!   skipped, visibly, and under `CI=true` the test fails.
+//!   handed to rwg as `RWG_PYTHON`. Without it the examples that need it are
+//!   skipped, visibly, and under `CI=true` the test fails: those that name a
+//!   `gymnasium:` env or `rwg bench gym`, run a manifest with a
+//!   `gymnasium:` env, or a Python script that imports numpy, pandas or
+//!   Gymnasium (what a command needs is read from what it runs, [`needs`]).
 //! - JAX (`python3 -m pip install jax gymnax`, a family's line): not run; a
 //!   command that names JAX, gymnax, Brax or a JAX family (docs/jax.md,
 //!   docs/jax-families.md, the `gymnax:` envs) runs with
@@ -410,6 +415,12 @@ fn plan(e: &Example) -> Plan {
     if c.starts_with("cargo test") {
         return Plan::NotRun("this is the test suite");
     }
+    if c.contains("jax-atlas") {
+        return Plan::NotRun(
+            "tests/cli_jax_atlas.rs runs the JAX atlas's commands on one env of it (the \
+             whole atlas compiles 132 JAX programs)",
+        );
+    }
     if c.starts_with("python3 -m pip install") && c.contains("gymnasium") {
         return Plan::NotRun("provided: RWG_PYTHON is RWG_TEST_PYTHON, which holds it");
     }
@@ -456,6 +467,85 @@ fn needs_jax(cmd: &str) -> bool {
         .map(|f| f.source)
         .chain(["jax", "gymnax", "brax"])
         .any(|w| cmd.contains(w))
+}
+
+/// The Pythons a command needs, from what it runs: the ids it names, the
+/// env ids of the manifests it names (read in `dir`, as the reader's rwg
+/// reads them) and the modules its Python scripts import (a script file it
+/// names, or a here-document).
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+struct Needs {
+    /// A Python with Gymnasium, Box2D, MuJoCo and numpy (`RWG_TEST_PYTHON`).
+    gymnasium: bool,
+    /// A Python with JAX, gymnax and Brax (`RWG_PEER_PYTHON`).
+    jax: bool,
+}
+
+fn needs(ran: &str, dir: &Path) -> Needs {
+    let mut n = Needs {
+        gymnasium: ["gymnasium:", "gymnasium[", "rwg bench gym"]
+            .iter()
+            .any(|w| ran.contains(w)),
+        jax: needs_jax(ran),
+    };
+    let words = ran.split(|c: char| c.is_whitespace() || c == ';' || c == '=');
+    for word in words {
+        let path = dir.join(word);
+        if word.ends_with(".toml") && path.is_file() {
+            if let Ok(m) = rwg_study::manifest::Manifest::load(&path) {
+                for e in &m.envs {
+                    n.gymnasium |= e.id.starts_with("gymnasium:");
+                    n.jax |= rwg_study::jax_source::is_jax(&e.id);
+                }
+            }
+        }
+        if word.ends_with(".py") && path.is_file() {
+            n.gymnasium |= imports_numeric(&std::fs::read_to_string(&path).unwrap_or_default());
+        }
+    }
+    if ran.contains("python3 -") {
+        n.gymnasium |= imports_numeric(ran);
+    }
+    n
+}
+
+/// What a command makes that later commands may use: the run directory of
+/// an `rwg run` (its `--out`, else its manifest's `out`, else
+/// `runs/NAME`), and the file or folder after `--out`, `--export-weights`,
+/// `--html`, `--figure` or a `>`.
+fn outputs(ran: &str, dir: &Path) -> Vec<String> {
+    let words: Vec<&str> = ran.split_whitespace().collect();
+    let mut out = vec![];
+    for (i, w) in words.iter().enumerate() {
+        let next = words.get(i + 1).map(|n| n.to_string());
+        if ["--out", "--export-weights", "--html", "--figure", ">"].contains(w) {
+            out.extend(next);
+        } else if *w == "run" && i > 0 && words[i - 1].ends_with("rwg") && !words.contains(&"--out")
+        {
+            if let Some(m) = next.filter(|m| m.ends_with(".toml")) {
+                let given = rwg_study::manifest::Manifest::load(&dir.join(&m))
+                    .ok()
+                    .and_then(|m| m.out)
+                    .map(|o| o.to_string_lossy().into_owned());
+                let stem = Path::new(&m)
+                    .file_stem()
+                    .unwrap_or_default()
+                    .to_string_lossy();
+                out.push(given.unwrap_or_else(|| format!("runs/{stem}")));
+            }
+        }
+    }
+    out
+}
+
+/// Whether Python source imports a package the test Python provides and a
+/// bare Python lacks (numpy, pandas, Gymnasium).
+fn imports_numeric(source: &str) -> bool {
+    source.lines().map(str::trim_start).any(|l| {
+        ["numpy", "pandas", "gymnasium"]
+            .iter()
+            .any(|m| l.starts_with(&format!("import {m}")) || l.starts_with(&format!("from {m}")))
+    })
 }
 
 /// The output shape an example must have, by what it runs.
@@ -639,6 +729,9 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
     let bin = prepare(dir);
     let python = std::env::var_os("RWG_TEST_PYTHON");
     let jax_python = std::env::var_os("RWG_PEER_PYTHON").filter(|p| !p.is_empty());
+    // what the commands skipped would have made: a later command that uses
+    // it is skipped too (it would fail for want of it, not for its own sake)
+    let mut missing: Vec<String> = vec![];
     for e in examples {
         let ran = match plan(e) {
             Plan::NotRun(why) => {
@@ -650,31 +743,23 @@ fn run_in_clone(examples: &[Example], dir: &Path, notes: &mut Vec<String>) {
         if ran != e.command {
             notes.push(format!("{}: `{}` ran as `{ran}`", e.source, e.command));
         }
-        if ran.contains("gymnasium") && python.is_none() {
-            skip(
-                TEST,
-                &format!(
-                    "{}: `{}` needs RWG_TEST_PYTHON, a Python with gymnasium[box2d,mujoco]",
-                    e.source, e.command
-                ),
-            );
-            continue;
-        }
-        if needs_jax(&ran) && jax_python.is_none() {
-            skip(
-                TEST,
-                &format!(
-                    "{}: `{}` needs RWG_PEER_PYTHON, a Python with jax, gymnax and brax",
-                    e.source, e.command
-                ),
-            );
-            continue;
-        }
-        let python = if needs_jax(&ran) {
-            &jax_python
+        let need = needs(&ran, dir);
+        let why = if need.gymnasium && python.is_none() {
+            Some("RWG_TEST_PYTHON, a Python with gymnasium[box2d,mujoco]".to_string())
+        } else if need.jax && jax_python.is_none() {
+            Some("RWG_PEER_PYTHON, a Python with jax, gymnax and brax".to_string())
         } else {
-            &python
+            missing
+                .iter()
+                .find(|m| ran.contains(m.as_str()))
+                .map(|m| format!("{m}, which a command skipped before it makes"))
         };
+        if let Some(why) = why {
+            skip(TEST, &format!("{}: `{}` needs {why}", e.source, e.command));
+            missing.extend(outputs(&ran, dir));
+            continue;
+        }
+        let python = if need.jax { &jax_python } else { &python };
         let t = Instant::now();
         let (ok, stdout, stderr) = sh(&ran, dir, &bin, python.as_deref(), Duration::from_secs(300));
         assert!(
@@ -768,6 +853,57 @@ fn every_page_and_help_example_runs_as_printed() {
         help.len(),
         started.elapsed().as_secs_f64()
     );
+}
+
+/// The skip rule reads what a command runs, not its words: a manifest of
+/// Gymnasium envs whose name says nothing of them (docs/atlas.md's), a
+/// script that imports numpy, and commands that need nothing but rwg.
+#[test]
+fn the_skip_rule_reads_what_each_command_runs() {
+    let dir = temp_dir("examples-needs").join("rwg");
+    std::fs::create_dir_all(&dir).unwrap();
+    prepare(&dir);
+    let gymnasium = Needs {
+        gymnasium: true,
+        jax: false,
+    };
+    let jax = Needs {
+        gymnasium: false,
+        jax: true,
+    };
+    for (cmd, want) in [
+        ("rwg run examples/atlas.toml", gymnasium),
+        ("rwg run examples/gymnasium.toml", gymnasium),
+        (
+            "target/release/rwg bench gym --peer benches/peers/ref_numpy.py",
+            gymnasium,
+        ),
+        ("PYTHONPATH=examples/jax-env rwg run examples/jax.toml", jax),
+        ("rwg run examples/quick.toml", Needs::default()),
+        ("rwg run examples/paper.toml --out runs/p", Needs::default()),
+        (
+            "python3 examples/paper-tables.py runs/a runs/b",
+            Needs::default(),
+        ),
+        (
+            "python3 - <<'EOF'\nimport csv, json\nprint(1)\nEOF",
+            Needs::default(),
+        ),
+        ("python3 - <<'EOF'\nimport numpy as np\nEOF", gymnasium),
+    ] {
+        assert_eq!(needs(cmd, &dir), want, "{cmd}");
+    }
+    // what a skipped command would have made, which later ones then lack
+    assert_eq!(outputs("rwg run examples/atlas.toml", &dir), ["runs/atlas"]);
+    assert_eq!(
+        outputs("rwg run examples/quick.toml --out runs/q", &dir),
+        ["runs/q"]
+    );
+    assert_eq!(
+        outputs("rwg replay r --sample 0 --export-weights net.json", &dir),
+        ["net.json"]
+    );
+    let _ = std::fs::remove_dir_all(dir.parent().unwrap());
 }
 
 /// The pages stay readable: the README at most 300 lines, ARCHITECTURE.md at

@@ -368,6 +368,34 @@ fn check_runs_the_plugin_checks_and_determinism_on_gymnasium_envs() {
         text.contains("[FAIL] gymnasium:rwg_test_envs:Unseeded-v0: reset determinism: reset(seed=42) twice on one instance"),
         "{text}"
     );
+    // an env that raises: one line per check, the tracebacks in the file named
+    let out = rwg_cmd(
+        &py,
+        &[
+            "check",
+            "gymnasium:rwg_test_envs:Faulty-v0",
+            "--kwargs",
+            r#"{"mode": "raise"}"#,
+        ],
+    )
+    .output()
+    .unwrap();
+    assert!(!out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let failed: Vec<&str> = text.lines().filter(|l| l.starts_with("[FAIL]")).collect();
+    assert!(!failed.is_empty(), "{text}");
+    assert!(!text.contains("Traceback (most"), "{text}");
+    for line in failed {
+        assert!(
+            line.contains("step raised RuntimeError: deliberate failure"),
+            "{line}"
+        );
+        let (_, file) = line
+            .rsplit_once("; the Python traceback is in ")
+            .unwrap_or_else(|| panic!("{line}"));
+        let kept = std::fs::read_to_string(file).unwrap();
+        assert!(kept.contains("Traceback (most recent call last)"), "{kept}");
+    }
 }
 
 #[test]

@@ -273,9 +273,10 @@ fn start_up_honours_the_timeouts_and_names_the_right_variable() {
         assert!(t0.elapsed() < Duration::from_secs(60), "{where_}: {err}");
         assert!(err.contains(says), "{where_}: {err}");
         assert!(err.contains(&format!("set {var}")), "{where_}: {err}");
-        // faulthandler's traceback names where it hung
+        // faulthandler's traceback names where it hung (in the file the
+        // one error line names)
         assert!(
-            err.contains("rwg_family_envs/__init__.py"),
+            with_details(&err).contains("rwg_family_envs/__init__.py"),
             "{where_}: {err}"
         );
     }
@@ -482,9 +483,46 @@ fn gymnasium_workers_die_with_rwg_on_any_signal() {
             assert_eq!(code, Some(130), "{err}");
             assert!(err.contains("did not finish within"), "{err}");
             assert!(!err.contains("plugin"), "{err}");
-            assert!(err.contains("resume with: rwg run"), "{err}");
+            // the resume command sets the PYTHONPATH the env's module was
+            // found through, as the run had it
+            let pp = python_dir();
+            let resume = format!("resume with: PYTHONPATH={} rwg run ", pp.display());
+            assert!(err.contains(&resume), "{err}");
         }
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A Python started through a wrapper that runs it as a child instead of
+/// exec-ing it (a cluster's module-loading shell script): rwg's death
+/// signal kills the wrapper, and the worker, stuck in a step, ends with it
+/// when rwg is SIGKILLed, instead of running on under init.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_worker_behind_a_wrapper_ends_with_rwg() {
+    use std::os::unix::fs::PermissionsExt;
+    let Some(py) = python() else { return };
+    let dir = temp_dir("gym-family-wrapper");
+    let wrapper = dir.join("python-wrapper.sh");
+    std::fs::write(&wrapper, format!("#!/bin/sh\n{py:?} \"$@\"\n")).unwrap();
+    std::fs::set_permissions(&wrapper, std::fs::Permissions::from_mode(0o755)).unwrap();
+    let marker = dir.join("stalled");
+    std::fs::create_dir_all(&marker).unwrap();
+    let kwargs = format!(
+        "marker = {:?}, where = \"step\", at_seed = \"{}\"",
+        marker.to_str().unwrap(),
+        rwg_core::sampler::reset_seed(0, "rwg_family_envs:Stall-v0", 40, 0)
+    );
+    let m = write(&dir, "m.toml", &manifest("Stall-v0", &kwargs, 96));
+    let out = dir.join("run");
+    let mut cmd = rwg_cmd(
+        wrapper.to_str().unwrap(),
+        &["run", &m, "--out", path_str(&out)],
+    );
+    cmd.args(["--threads", "1", "-q"]);
+    let stalled = || std::fs::read_dir(&marker).unwrap().count() > 0;
+    signal_rwg(cmd, "KILL", stalled);
+    all_end("behind a wrapper", &started_in(&marker));
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -611,7 +649,8 @@ fn processes_an_env_starts_end_with_rwg_on_any_catchable_signal() {
 
 /// A worker killed from outside while it waits for rwg's next exchange (no
 /// reset or step in flight) is reported as such, with the episodes in
-/// progress, not blamed on one of them as if it had failed there.
+/// progress, not blamed on one of them as if it had failed there; SIGKILL's
+/// name says where to look for an out-of-memory kill.
 #[cfg(target_os = "linux")]
 #[test]
 fn a_worker_killed_between_calls_is_not_blamed_on_an_episode() {
@@ -660,7 +699,9 @@ fn a_worker_killed_between_calls_is_not_blamed_on_an_episode() {
     assert!(!out.status.success(), "{err}");
     assert!(
         err.contains(
-            "the Python worker was killed by signal 9 (SIGKILL); no reset or step was in flight"
+            "the Python worker was killed by signal 9 (SIGKILL: sent by another process, or by \
+             the kernel when memory ran out: `dmesg` or `journalctl -k` shows an \
+             out-of-memory kill); no reset or step was in flight"
         ),
         "{err}"
     );

@@ -87,6 +87,36 @@ fn commands_that_need_a_run_directory_say_so() {
         );
         assert!(!err.contains("os error"), "{cmd:?}: {err}");
     }
+    // a cell directory, or a file, of a run: the run is named
+    let cell = std::fs::read_dir(run.join("cells"))
+        .unwrap()
+        .next()
+        .unwrap()
+        .unwrap()
+        .path();
+    for inside in [cell, run.join("run.json"), run.join("manifest.toml")] {
+        for cmd in ["stats", "top", "verify", "status"] {
+            let err = rwg_err(&[cmd, inside.to_str().unwrap()]);
+            assert!(
+                err.contains(&format!(
+                    "; it is inside the run directory {}: give that",
+                    run.display()
+                )),
+                "{cmd} {}: {err}",
+                inside.display()
+            );
+        }
+    }
+    // a manifest given where a run directory is expected
+    let m = dir.join("m.toml");
+    std::fs::write(&m, "samples = 2\n").unwrap();
+    for cmd in ["stats", "status"] {
+        let err = rwg_err(&[cmd, m.to_str().unwrap()]);
+        assert!(
+            err.contains("(it is a file)") && err.contains("`rwg run "),
+            "{cmd}: {err}"
+        );
+    }
     // a typo of an existing run directory
     let typo = parent.join(format!("{name}x"));
     let err = rwg_err(&["stats", typo.to_str().unwrap()]);

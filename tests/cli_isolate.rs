@@ -101,6 +101,8 @@ fn twins_manifest(isolate: bool) -> String {
 /// Computes a cell as `rwg run` does, with the built-in env `builtin`
 /// (statically dispatched, in this process) and the seeds of `seed_id`.
 fn builtin_cell(dir: &Path, seed_id: &str, builtin: &str, f32_actions: bool, bias: bool) {
+    // as the runner does before a cell's first block
+    std::fs::create_dir_all(dir).unwrap();
     let plan = CellPlan {
         seed: 5,
         env_id: seed_id.into(),
@@ -110,6 +112,7 @@ fn builtin_cell(dir: &Path, seed_id: &str, builtin: &str, f32_actions: bool, bia
         },
         episodes: EPISODES,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: rwg_core::policy::PolicyKind::Network,
         non_finite: Default::default(),
     };
     let opts = EnvOptions {

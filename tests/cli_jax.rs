@@ -19,7 +19,7 @@ mod common;
 mod jax_common;
 use common::*;
 use jax_common::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 const CARTPOLE: &str = "gymnax=CartPole-v1";
@@ -455,23 +455,34 @@ fn a_brax_env_runs_a_study() {
 /// A `jax:module:callable` env of the user's runs; one whose observation
 /// turns NaN stops the run naming the network and episode, keeps the blocks
 /// committed before it, and the run resumes once the env is fixed.
-#[test]
-fn a_jax_env_of_ones_own_runs_and_a_nan_observation_stops_it() {
-    let Some(py) = python() else { return };
-    let dir = temp_dir("jax-custom");
+/// `dir/m.toml`, a study of `jax:ID` (a slider of `rwg_jax_envs`, seed 5,
+/// `samples` x `episodes`, calls of 32 networks) whose episode `episode` of
+/// network `sample` observes NaN while `dir/nan-seed` (returned too) holds
+/// its reset seed.
+fn nan_study(
+    py: &str,
+    dir: &Path,
+    id: &str,
+    (sample, episode): (u64, u32),
+    (samples, episodes): (u32, u32),
+) -> (String, PathBuf) {
     let nan_file = dir.join("nan-seed");
-    // network 70's episode 1: in the third call of 32 networks
-    let seed = rwg_core::sampler::reset_seed(5, "rwg_jax_envs:make_slider", 70, 1);
+    let seed = rwg_core::sampler::reset_seed(5, id, sample, episode);
     std::fs::write(&nan_file, seed.to_string()).unwrap();
     let entry = format!(
         "kwargs = {{ nan_file = {:?} }}\nnetworks_per_call = 32",
         s(&nan_file)
     );
-    let m = write(
-        &dir,
-        "m.toml",
-        &manifest(&py, "jax:rwg_jax_envs:make_slider", &entry, 128, 2, false),
-    );
+    let body = manifest(py, &format!("jax:{id}"), &entry, samples, episodes, false);
+    (write(dir, "m.toml", &body), nan_file)
+}
+
+#[test]
+fn a_jax_env_of_ones_own_runs_and_a_nan_observation_stops_it() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-custom");
+    // network 70's episode 1: in the third call of 32 networks
+    let (m, nan_file) = nan_study(&py, &dir, "rwg_jax_envs:make_slider", (70, 1), (128, 2));
     let run = dir.join("run");
     let mut cmd = rwg_cmd(&["run", &m, "--out", s(&run), "--threads", "1", "--no-report"]);
     let out = cmd.env("RWG_COMMIT_LINGER", "0").output().unwrap();
@@ -500,11 +511,69 @@ fn a_jax_env_of_ones_own_runs_and_a_nan_observation_stops_it() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// SIGTERM to rwg alone while its JAX workers run: rwg ends and no worker
-/// outlives it.
+/// A `jax:module:callable` env edited between a failed run and its resume
+/// is noticed: env.json records a digest of the module's source, and the
+/// resume is refused naming the module (no cell mixing networks of two
+/// versions); the commands rwg prints (the resume, `rwg top`'s replay,
+/// `rwg status`'s) set the PYTHONPATH the module is found through.
+#[test]
+fn an_edited_jax_module_is_not_resumed_and_printed_commands_find_it() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-edited");
+    let envs = dir.join("envs");
+    std::fs::create_dir_all(&envs).unwrap();
+    let module = envs.join("my_slider.py");
+    let source = "from rwg_jax_envs import make_slider as make\n";
+    std::fs::write(&module, source).unwrap();
+    let (m, nan_file) = nan_study(&py, &dir, "my_slider:make", (40, 0), (64, 1));
+    let run = dir.join("run");
+    let data = std::fs::canonicalize(data_dir()).unwrap();
+    let pythonpath = format!("{}:{}", s(&envs), s(&data));
+    let rwg = |args: &[&str]| {
+        let mut c = rwg_cmd(args);
+        c.env("PYTHONPATH", &pythonpath)
+            .env("RWG_COMMIT_LINGER", "0");
+        c.output().unwrap()
+    };
+    let args = ["run", &m, "--out", s(&run), "--threads", "1", "--no-report"];
+    let first = rwg(&args);
+    let e = String::from_utf8_lossy(&first.stderr);
+    assert!(!first.status.success() && e.contains("sample 40"), "{e}");
+    assert!(
+        e.contains(&format!("resume with: PYTHONPATH={pythonpath} rwg run ")),
+        "{e}"
+    );
+    // the module edited, the cause removed: the resume is refused
+    std::fs::write(&module, format!("{source}# edited\n")).unwrap();
+    std::fs::remove_file(&nan_file).unwrap();
+    let second = rwg(&args);
+    let e = String::from_utf8_lossy(&second.stderr);
+    assert!(!second.status.success(), "{e}");
+    assert!(e.contains("the source of module my_slider"), "{e}");
+    // as it was: the resume finishes
+    std::fs::write(&module, source).unwrap();
+    let third = rwg(&args);
+    assert!(
+        third.status.success(),
+        "{}",
+        String::from_utf8_lossy(&third.stderr)
+    );
+    // printed in another shell (no PYTHONPATH), from what env.json records
+    let top = ok(&["top", s(&run), "-n", "1"]);
+    assert!(
+        top.contains(&format!("PYTHONPATH={pythonpath} rwg replay ")),
+        "{top}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// SIGTERM or SIGHUP to rwg alone while its JAX workers start or run a
+/// chunk: rwg ends by that signal, says so (not that a worker it killed
+/// itself "was killed while starting"), and no worker outlives it.
 #[cfg(target_os = "linux")]
 #[test]
-fn jax_workers_end_with_rwg_on_sigterm() {
+fn jax_workers_end_with_rwg_on_sigterm_and_sighup() {
+    use std::os::unix::process::ExitStatusExt;
     use std::time::{Duration, Instant};
     let Some(py) = python() else { return };
     let dir = temp_dir("jax-sigterm");
@@ -520,56 +589,79 @@ fn jax_workers_end_with_rwg_on_sigterm() {
             true,
         ),
     );
-    let mut child = rwg_cmd(&[
-        "run",
-        &m,
-        "--out",
-        s(&dir.join("r")),
-        "--threads",
-        "2",
-        "-q",
-    ])
-    .stdout(std::process::Stdio::null())
-    .stderr(std::process::Stdio::null())
-    .spawn()
-    .unwrap();
-    let t0 = Instant::now();
-    let workers = loop {
-        let w = children(child.id());
-        if w.len() >= 2 {
-            break w;
-        }
-        assert!(
-            t0.elapsed() < Duration::from_secs(120),
-            "no workers started"
-        );
-        assert!(child.try_wait().unwrap().is_none(), "rwg ended");
-        std::thread::sleep(Duration::from_millis(100));
-    };
-    std::thread::sleep(Duration::from_secs(2));
-    let kill = Command::new("kill")
-        .args(["-TERM", &child.id().to_string()])
-        .status()
+    // (signal, workers to wait for, then seconds): one worker still
+    // starting, then both computing chunks
+    for (name, sig, workers, wait) in [
+        ("TERM", libc::SIGTERM, 1, 0.0),
+        ("HUP", libc::SIGHUP, 2, 2.0),
+    ] {
+        let err_file = dir.join(format!("stderr-{name}"));
+        let mut child = rwg_cmd(&[
+            "run",
+            &m,
+            "--out",
+            s(&dir.join(format!("r{name}"))),
+            "--threads",
+            "2",
+            "-q",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::fs::File::create(&err_file).unwrap())
+        .spawn()
         .unwrap();
-    assert!(kill.success());
-    let t0 = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if t0.elapsed() > Duration::from_secs(40) {
-            let _ = child.kill();
-            panic!("rwg did not end");
+        let t0 = Instant::now();
+        let started = loop {
+            let w = children(child.id());
+            if w.len() >= workers {
+                break w;
+            }
+            assert!(
+                t0.elapsed() < Duration::from_secs(120),
+                "{name}: no workers started"
+            );
+            assert!(child.try_wait().unwrap().is_none(), "{name}: rwg ended");
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        std::thread::sleep(Duration::from_secs_f64(wait));
+        let started = [started, children(child.id())].concat();
+        // SAFETY: signalling the test's own child.
+        unsafe {
+            libc::kill(child.id() as i32, sig);
         }
-        std::thread::sleep(Duration::from_millis(50));
+        let t0 = Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break s;
+            }
+            if t0.elapsed() > Duration::from_secs(40) {
+                let _ = child.kill();
+                panic!("{name}: rwg did not end");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        };
+        let ended = Instant::now();
+        while started.iter().any(|&w| alive(w)) && ended.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let late = ended.elapsed();
+        let left: Vec<u32> = started.iter().copied().filter(|&w| alive(w)).collect();
+        for &w in &left {
+            let _ = Command::new("kill")
+                .args(["-KILL", &w.to_string()])
+                .status();
+        }
+        let err = std::fs::read_to_string(&err_file).unwrap();
+        assert!(left.is_empty(), "{name}: workers {left:?} outlived rwg");
+        assert!(
+            late < Duration::from_millis(500),
+            "{name}: workers outlived rwg by {late:?}"
+        );
+        assert_eq!(status.signal(), Some(sig), "{name}: {status:?}: {err}");
+        assert!(
+            err.contains(&format!("error: rwg received SIG{name} (")),
+            "{name}: {err}"
+        );
+        assert!(!err.contains("was killed by signal 9"), "{name}: {err}");
     }
-    let t0 = Instant::now();
-    while workers.iter().any(|&w| alive(w)) && t0.elapsed() < Duration::from_secs(10) {
-        std::thread::sleep(Duration::from_millis(50));
-    }
-    let left: Vec<u32> = workers.iter().copied().filter(|&w| alive(w)).collect();
-    for &w in &left {
-        let _ = Command::new("kill")
-            .args(["-KILL", &w.to_string()])
-            .status();
-    }
-    assert!(left.is_empty(), "workers {left:?} outlived rwg");
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -1,7 +1,9 @@
 //! JAX envs refused or described, end to end with the real `rwg` binary:
 //! bad JAX entries are refused at their manifest line, `rwg envs` describes
-//! a JAX env, `rwg rollout` and `rwg check` refuse one saying what works, and
-//! `rwg slurm` checks one without the device its shards will have.
+//! a JAX env, `rwg rollout` and `rwg check` refuse one saying what works,
+//! `rwg slurm` checks one without the device its shards will have, an env
+//! that computes other sizes than its spaces declare is named with both, and
+//! a compiled call that fails as a whole names its networks, not an episode.
 //!
 //! Needs `RWG_PEER_PYTHON` (see `cli_jax.rs`) except for the refusals that
 //! start no Python.
@@ -73,6 +75,144 @@ fn bad_jax_entries_are_refused_at_their_line() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// An env whose observations or rewards have other sizes than it declares
+/// is refused before anything runs, naming both sizes (not XLA's
+/// "dot_general requires contracting dimensions"); one that raises is one
+/// error line naming the file its traceback is kept in; a worker that dies
+/// in a call is named by the call's networks, with no episode or step of it
+/// blamed.
+#[test]
+fn wrong_sizes_and_failed_calls_are_told_as_they_are() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-sizes");
+    for (kwargs, says) in [
+        (
+            "declared = 3",
+            "the env's reset returns an observation of 2 values (shape (2,)) where its \
+             observation space declares 3 (shape (3,))",
+        ),
+        (
+            "reward_values = 4",
+            "the env's reward has shape (4,): rwg sums one reward (a scalar) per step",
+        ),
+    ] {
+        let entry = format!("kwargs = {{ {kwargs} }}");
+        let body = manifest(
+            &py,
+            "jax:rwg_jax_envs:make_wrong_size",
+            &entry,
+            32,
+            1,
+            false,
+        );
+        let m = write(&dir, "m.toml", &body);
+        let run = dir.join("r");
+        let e = err(&["run", &m, "--out", s(&run), "--no-report"]);
+        assert!(e.contains(says), "{kwargs}: {e}");
+        assert!(e.contains("m.toml:8:"), "{kwargs}: {e}");
+        assert!(!e.contains("dot_general"), "{kwargs}: {e}");
+        assert!(!run.exists(), "{kwargs}: nothing may be created");
+    }
+    // an env that raises: one error line; the traceback in the file it names
+    let body = manifest(&py, "jax:rwg_jax_envs:make_raising", "", 32, 1, false);
+    let m = write(&dir, "m.toml", &body);
+    let e = err(&["run", &m, "--out", s(&dir.join("r")), "--no-report"]);
+    assert!(
+        e.contains(
+            "tracing the env's reset and a first step raised RuntimeError: a deliberate \
+                    failure in step"
+        ),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(e.contains("; the Python traceback is in "), "{e}");
+    let all = with_details(&e);
+    assert!(all.contains("Traceback (most recent call last)"), "{all}");
+    let entry = "networks_per_call = 32";
+    let body = manifest(&py, "jax:rwg_jax_envs:make_dying", entry, 64, 1, false);
+    let m = write(&dir, "m.toml", &body);
+    let d = dir.join("d");
+    let e = err(&["run", &m, "--out", s(&d), "--threads", "1", "--no-report"]);
+    assert!(
+        e.contains(
+            "rwg_jax_envs:make_dying: the compiled call of networks 0 to 31 (32 \
+                    networks, every episode) failed: the JAX worker exited with status 3"
+        ),
+        "{e}"
+    );
+    assert!(!e.contains("episode 0, step 0"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Action spaces rwg cannot drive and gymnax kwargs of the wrong type are
+/// refused in one line saying what is wrong: a space at the id's line, a
+/// kwarg at the kwargs line (not a bare TypeError, a protocol error, or a
+/// kwarg silently cast).
+#[test]
+fn odd_action_spaces_and_kwargs_of_the_wrong_type_say_what_is_wrong() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-odd-spaces");
+    let custom = "jax:rwg_jax_envs:make_actions";
+    let cases: [(&str, &str, &str, &[&str]); 7] = [
+        (
+            custom,
+            "multi",
+            ":8:",
+            &["2 discrete choices", "MultiDiscrete"],
+        ),
+        (custom, "none", ":8:", &["n = 0", "a whole n of 1 or more"]),
+        (
+            custom,
+            "half",
+            ":8:",
+            &["n = 2.5", "a whole n of 1 or more"],
+        ),
+        (
+            custom,
+            "misfit",
+            ":8:",
+            &["bounds of shape (2,)", "shape (3,)"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "gravity = \"heavy\"",
+            ":10:",
+            &["gravity = 'heavy' is a str", "a number (its default: 9.8"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "gravity = true",
+            ":10:",
+            &["gravity = True is a bool", "a number"],
+        ),
+        (
+            "gymnax:CartPole-v1",
+            "max_steps_in_episode = 2.5",
+            ":10:",
+            &[
+                "max_steps_in_episode = 2.5",
+                "a whole number (its default: 500",
+            ],
+        ),
+    ];
+    for (id, arg, line, says) in cases {
+        let kwargs = if id == custom {
+            format!("kind = \"{arg}\"")
+        } else {
+            arg.to_string()
+        };
+        let entry = format!("kwargs = {{ {kwargs} }}");
+        let m = write(&dir, "m.toml", &manifest(&py, id, &entry, 32, 1, false));
+        let e = err(&["run", &m, "--out", s(&dir.join("r")), "--no-report"]);
+        assert!(e.contains(&format!("m.toml{line}")), "{arg}: {e}");
+        for w in says {
+            assert!(e.contains(w), "{arg}: {w:?} missing in {e}");
+        }
+        assert_eq!(e.lines().count(), 1, "{arg}: {e}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// `rwg envs gymnax:CartPole-v1` describes the env: spaces, time limit,
 /// versions, device.
 #[test]
@@ -104,6 +244,34 @@ fn rollout_and_check_refuse_jax_envs_naming_what_works() {
         assert!(e.contains(&format!("'{id}' is a JAX env")), "{e}");
         assert!(e.contains(&format!("rwg envs {id}")), "{e}");
     }
+}
+
+/// `action_dtype` on a JAX env is refused at its line whatever its value
+/// (float64, the default elsewhere, too: the page says it is refused), and
+/// no Python is started to say so.
+#[test]
+fn action_dtype_is_refused_on_jax_envs_even_the_default() {
+    let dir = temp_dir("jax-action-dtype");
+    for dtype in ["float64", "float32"] {
+        let body = manifest(
+            "/nonexistent/python3",
+            "gymnax:CartPole-v1",
+            &format!("action_dtype = \"{dtype}\""),
+            32,
+            1,
+            false,
+        );
+        let m = write(&dir, "m.toml", &body);
+        let e = err(&["run", &m, "--out", s(&dir.join("r")), "--no-report"]);
+        assert!(
+            e.starts_with(&format!(
+                "error: {m}:10:16: envs[0].action_dtype: 'gymnax:CartPole-v1' is a JAX \
+                 environment, which takes no `action_dtype`"
+            )),
+            "{dtype}: {e}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// `rwg slurm` on a machine without the device a JAX env names (a login
@@ -157,6 +325,8 @@ fn isolate_leaves_jax_envs_alone() {
     let own = run.join("manifest.toml");
     let resolved = std::fs::read_to_string(&own).unwrap();
     assert!(!resolved.contains("isolate"), "{resolved}");
+    // nor an action_dtype, which a JAX env refuses
+    assert!(!resolved.contains("action_dtype"), "{resolved}");
     ok(&["run", s(&own), "--out", s(&run), "--no-report"]);
     let study = dir.join("study");
     ok(&[

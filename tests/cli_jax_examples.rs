@@ -195,3 +195,45 @@ fn jax_replay_recomputes_scores_bit_for_bit() {
         "float32 gave the float64 bits"
     );
 }
+
+/// The key recipe of docs/jax.md ("Keys and policy"), run as printed in
+/// float32 mode (JAX's default, without x64) and in float64 mode, gives the
+/// key data rwg uses, `[r >> 32, r & 0xFFFFFFFF]`, for reset seeds whose
+/// upper word is not 0 (and one of 2^63 or more).
+#[test]
+fn the_documented_key_recipe_gives_rwg_s_key_in_both_modes() {
+    let Some(py) = python("the_documented_key_recipe_gives_rwg_s_key_in_both_modes") else {
+        return;
+    };
+    let page = std::fs::read_to_string(repo().join("docs/jax.md")).unwrap();
+    let recipe = page
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with("key = "))
+        .expect("docs/jax.md gives the key as `key = ...`");
+    let seeds = [1_099_511_627_781u64, 17_368_565_813_789_276_978, u64::MAX];
+    let want: Vec<String> = seeds
+        .iter()
+        .map(|r| format!("[{}, {}]", r >> 32, r & 0xFFFF_FFFF))
+        .collect();
+    for x64 in ["False", "True"] {
+        let script = format!(
+            "import jax, jax.numpy as jnp\n\
+             jax.config.update('jax_enable_x64', {x64})\n\
+             for r in {seeds:?}:\n    {recipe}\n    \
+             print([int(w) for w in jax.random.key_data(key)])\n"
+        );
+        let out = Command::new(&py)
+            .args(["-c", &script])
+            .env("JAX_PLATFORMS", "cpu")
+            .output()
+            .unwrap();
+        let printed = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "x64 {x64}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(printed.lines().collect::<Vec<_>>(), want, "x64 {x64}");
+    }
+}

@@ -301,13 +301,48 @@ fn every_rwg_variable_is_checked_before_anything_is_created() {
         err.starts_with("error: RWG_PYTHON=py\u{FFFD}thon: expected text in UTF-8"),
         "{err}"
     );
-    // good values, and empty ones (unset), run
+    // set to the empty string: refused, not taken as unset
+    for var in [
+        "RWG_PROGRESS_INTERVAL",
+        "RWG_COMMIT_LINGER",
+        "RWG_GYM_TIMEOUT",
+        "RWG_GYM_START_TIMEOUT",
+        "RWG_JAX_TIMEOUT",
+        "RWG_PYTHON",
+        "RWG_PLUGIN_PATH",
+        "RWG_PLUGIN_VEC",
+        "RWG_PLUGIN_BATCH",
+        "RWG_LOCKSTEP",
+        "RWG_SIMD",
+        "RWG_PEER_PYTHON",
+        "RWG_PEERS_DIR",
+    ] {
+        let o = rwg_env(
+            &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
+            &[(var, std::ffi::OsStr::new(""))],
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{var}=: {err}");
+        assert!(
+            err.starts_with(&format!("error: {var}=: expected ")),
+            "{var}=: {err}"
+        );
+        assert!(
+            err.trim_end().ends_with(&format!(
+                "; {var} is set to the empty string: unset it (`unset {var}`) for the default"
+            )),
+            "{var}=: {err}"
+        );
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(!out.exists(), "{var}=: nothing may be created");
+    }
+    // good values run
     let o = rwg_env(
         &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
         &[
             ("RWG_PROGRESS_INTERVAL", std::ffi::OsStr::new("0.5")),
             ("RWG_GYM_TIMEOUT", std::ffi::OsStr::new("2.5")),
-            ("RWG_COMMIT_LINGER", std::ffi::OsStr::new("")),
+            ("RWG_COMMIT_LINGER", std::ffi::OsStr::new("0")),
             ("RWG_LOCKSTEP", std::ffi::OsStr::new("1")),
             ("RWG_SIMD", std::ffi::OsStr::new("scalar")),
             ("RWG_PLUGIN_BATCH", std::ffi::OsStr::new("1")),

@@ -45,6 +45,8 @@ const TWINS: [(&str, bool); 4] = [
 /// (statically dispatched, no plugin involved) but the seeds of `seed_id`,
 /// and writes scores.csv / samples.csv into `dir`.
 fn builtin_cell(dir: &Path, seed_id: &str, builtin: &str, f32_actions: bool, bias: bool) {
+    // as the runner does before a cell's first block
+    std::fs::create_dir_all(dir).unwrap();
     let plan = CellPlan {
         seed: 7,
         env_id: seed_id.into(),
@@ -54,6 +56,7 @@ fn builtin_cell(dir: &Path, seed_id: &str, builtin: &str, f32_actions: bool, bia
         },
         episodes: 2,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: rwg_core::policy::PolicyKind::Network,
         non_finite: Default::default(),
     };
     let opts = EnvOptions {

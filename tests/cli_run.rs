@@ -172,6 +172,19 @@ fn a_finished_run_is_not_redone_and_another_study_is_refused() {
         "{err}"
     );
     assert!(err.contains("--force-new"), "{err}");
+    // a key of one entry: named, not the whole envs array
+    let other = manifest(
+        &dir,
+        "other.toml",
+        &CARTPOLE
+            .replace("samples = 40", "samples = 2")
+            .replace("id = \"CartPole-v0\"", "id = \"CartPole-v0\"\nsolved = 100"),
+    );
+    let err = rwg_err(&["run", &other, "--out", out.to_str().unwrap()]);
+    assert!(
+        err.contains("holds a different study (envs[0] (CartPole-v0).solved: (absent) vs 100.0)"),
+        "{err}"
+    );
     rwg_ok(&[
         "run",
         &m,
@@ -374,8 +387,10 @@ fn the_manifest_given_is_never_written_over() {
     let out = rwg_in(&dir, &["run", "manifest.toml", "--out", ".", "-q"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
+    // (paths made absolute before any plugin code runs)
     assert!(
-        err.contains("./manifest.toml is the manifest given and . holds no run")
+        err.contains("/manifest.toml is the manifest given and /")
+            && err.contains(" holds no run")
             && err.contains("--out runs/"),
         "{err}"
     );
@@ -527,4 +542,79 @@ fn what_stands_in_the_way_of_the_run_directory_is_named() {
         assert!(err.contains(&want), "{args:?}: {err}");
         assert!(!err.contains("File exists"), "{args:?}: {err}");
     }
+}
+
+/// A `policy = "random"` architecture adds one cell per env (whatever
+/// `bias` says) of uniformly random actions: the same bytes for any thread
+/// count, CartPole's known random baseline (about 22 steps an episode;
+/// constant actions last about 9), a box's actions within its bounds (a
+/// replay gives the stored scores), and no weights to export.
+#[test]
+fn a_random_cell_is_the_random_baseline_for_any_threads() {
+    let dir = temp_dir("random");
+    let m = manifest(
+        &dir,
+        "m.toml",
+        r#"
+seed = 3
+samples = 40
+episodes = 3
+bias = [true, false]
+[[architectures]]
+name = "0HL"
+hidden = []
+[[architectures]]
+name = "random"
+policy = "random"
+[[envs]]
+id = "CartPole-v1"
+[[envs]]
+id = "MountainCarContinuous-v0"
+max_episode_steps = 50
+"#,
+    );
+    for t in ["1", "2"] {
+        let out = dir.join(format!("t{t}"));
+        rwg_ok(&["run", &m, "--threads", t, "--out", out.to_str().unwrap()]);
+    }
+    let cells: Vec<String> = std::fs::read_dir(dir.join("t1/cells"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("__random__"))
+        .collect();
+    assert_eq!(cells.len(), 2, "one random cell per env: {cells:?}");
+    for cell in &cells {
+        assert!(cell.ends_with("__random__nobias"), "{cell}");
+        let f = format!("cells/{cell}/scores.csv");
+        assert_eq!(read(dir.join("t1").join(&f)), read(dir.join("t2").join(&f)));
+    }
+    let scores = read(dir.join("t1/cells/CartPole-v1__random__nobias/scores.csv"));
+    let steps: Vec<f64> = scores
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(3).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(steps.len(), 120);
+    let mean = steps.iter().sum::<f64>() / 120.0;
+    assert!((17.0..28.0).contains(&mean), "mean episode {mean} steps");
+    let run = dir.join("t1");
+    let run = run.to_str().unwrap();
+    let replay = |extra: &[&str]| {
+        let mut args = vec!["replay", run, "--env", "MountainCarContinuous-v0"];
+        args.extend_from_slice(&["--arch", "random", "--sample", "7"]);
+        args.extend_from_slice(extra);
+        args.iter().map(|s| s.to_string()).collect::<Vec<_>>()
+    };
+    let args = replay(&[]);
+    rwg_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    let args = replay(&["--episode", "1", "--format", "csv"]);
+    let steps = rwg_ok(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(steps.lines().count() > 40, "{steps}");
+    let out = dir.join("w.json");
+    let args = replay(&["--export-weights", out.to_str().unwrap()]);
+    let e = rwg_err(&args.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(e.contains("no weights to export"), "{e}");
+    let stats = rwg_ok(&["stats", run]);
+    assert!(stats.contains("random"), "{stats}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

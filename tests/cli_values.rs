@@ -376,6 +376,23 @@ fn gymnasium_kwargs_pass_nan_and_inf_as_floats_and_refuse_datetimes() {
         &py,
         &["run", &m, "--out", out.to_str().unwrap(), "--no-report"],
     );
+    // a NaN is the same NaN: the finished run verifies, and the same command
+    // (or the run's own manifest) finds it complete, not another study
+    run_ok(&py, &["verify", out.to_str().unwrap()]);
+    let own = out.join("manifest.toml");
+    for manifest in [m.as_str(), own.to_str().unwrap()] {
+        let again = run_ok(
+            &py,
+            &[
+                "run",
+                manifest,
+                "--out",
+                out.to_str().unwrap(),
+                "--no-report",
+            ],
+        );
+        assert!(again.contains("complete; nothing to do"), "{again}");
+    }
     assert_eq!(
         std::fs::read_to_string(&got).unwrap(),
         format!(

@@ -156,6 +156,22 @@ pub fn rwg_env(args: &[&str], vars: &[(&str, &std::ffi::OsStr)]) -> Output {
     cmd.output().expect("cannot run rwg")
 }
 
+/// `err` with the files its `error:` lines name as keeping their long part
+/// (`...; the Python traceback is in FILE`) appended: what a user reads
+/// who opens the file.
+pub fn with_details(err: &str) -> String {
+    let mut all = err.to_string();
+    for line in err.lines().filter(|l| l.starts_with("error: ")) {
+        if let Some((_, path)) = line.rsplit_once(" is in ") {
+            if let Ok(text) = std::fs::read_to_string(path.trim_end()) {
+                all.push('\n');
+                all.push_str(&text);
+            }
+        }
+    }
+    all
+}
+
 /// Whether a skipped test must fail instead: under CI (`CI=true`) or with
 /// `RWG_NO_SKIP=1`.
 pub fn skips_forbidden() -> bool {

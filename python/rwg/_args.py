@@ -14,15 +14,23 @@ from .errors import ArgumentError
 
 def path(value: Any, name: str, where: str, what: str = "the run directory's path") -> str:
     """``value`` (``str``, ``bytes`` or ``os.PathLike``) as a ``str`` path
-    (bytes decoded as the file system does)."""
+    (bytes decoded as the file system does; a leading ``~`` or ``~user``
+    expanded, as pandas does, never a folder named ``~`` made)."""
     if isinstance(value, (str, bytes, os.PathLike)):
         try:
-            p = os.fsdecode(value)
+            p = os.path.expanduser(os.fsdecode(value))
         except TypeError:  # an os.PathLike whose __fspath__ gives neither
             p = None
         if p == "":
             raise ArgumentError(f"{where}: {name} is empty; give {what}")
         if p is not None and "\0" not in p:
+            try:
+                os.fsencode(p)
+            except UnicodeEncodeError as e:
+                raise ArgumentError(
+                    f"{where}: {name} {ascii(p)} holds a lone surrogate ({ascii(p[e.start])} at "
+                    f"index {e.start}), which no file name holds; give {what}"
+                ) from None
             return p
     raise ArgumentError(f"{where}: {name} takes {what}, not {value!r}")
 

@@ -20,14 +20,20 @@ def _user_scheme() -> str:
 
 
 def find_rwg_bin() -> str:
-    """The path of the ``rwg`` binary: ``$RWG_BIN`` if set, else the one in
+    """The path of the ``rwg`` binary: ``$RWG_BIN`` if set (the empty string
+    is an error, not unset), else the one in
     this Python environment's scripts folder (where ``pip install`` puts the
     wheel's binary), else in the user scheme's scripts folder (``pip install
     --user``), else ``bin/`` beside the package (``pip install --target``),
     else ``rwg`` on PATH. Raises :class:`RwgNotFoundError` naming the places
     searched."""
     env = os.environ.get(BIN_VAR)
-    if env:
+    if env == "":
+        raise RwgNotFoundError(
+            f"{BIN_VAR}=: expected the path of an rwg binary; {BIN_VAR} is set to the empty "
+            f"string: unset it (`unset {BIN_VAR}`) for the default"
+        )
+    if env is not None:
         if not os.path.isfile(env):
             why = "a directory" if os.path.isdir(env) else "no such file"
             raise RwgNotFoundError(

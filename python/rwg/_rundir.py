@@ -243,7 +243,7 @@ class Run:
         stats_csv = os.path.join(self.path, "stats.csv")
         if os.path.isfile(stats_csv):
             with open(stats_csv, "rb") as f:
-                return _stats_frame(f.read(), stats_csv)
+                return self._this_runs_stats(_stats_frame(f.read(), stats_csv), stats_csv)
         try:
             rwg = find_rwg_bin()
         except RwgNotFoundError as e:
@@ -267,6 +267,25 @@ class Run:
                 + res.stderr.decode("utf-8", "replace").strip()
             )
         return _stats_frame(res.stdout, f"`rwg stats {self.path} --format csv`")
+
+    def _this_runs_stats(self, df: pd.DataFrame, stats_csv: str) -> pd.DataFrame:
+        """``df``, read from ``stats.csv``, if it holds this run's cells (each
+        cell's dir, samples and episodes as ``run.json`` records them): a
+        stats.csv left by another study, or an earlier run in the folder, is
+        refused (as ``rwg verify`` refuses it)."""
+        want = [(c["dir"], c["samples"], c["episodes"]) for c in self.cells]
+        try:
+            got = list(zip(df["dir"], df["samples"].astype(int), df["episodes"].astype(int)))
+        except (KeyError, ValueError, TypeError):
+            got = None
+        if got != want:
+            problem = (
+                f"{stats_csv}: written for another run than run.json records (another "
+                f"study, or an earlier run in this folder); `rwg stats {self.path}` writes "
+                "the statistics of this run again"
+            )
+            raise RunDamagedError(problem, [problem])
+        return df
 
     def cell(self, env: str, arch: str, bias: bool = False) -> Dict[str, Any]:
         """The ``run.json`` entry of the cell (env, architecture, bias); a

@@ -166,13 +166,20 @@ def _absolute_paths(manifest: Mapping[str, Any]) -> dict:
     return doc
 
 
-def _forward(src: IO[bytes], dst_name: str, keep: Optional[List[str]]) -> None:
+def _forward(
+    src: IO[bytes], dst_name: str, keep: Optional[List[str]], held: Optional[List[bytes]] = None
+) -> None:
     """Copies the child's output line by line to ``sys.stdout``/``sys.stderr``
     (looked up per line: notebooks and test harnesses swap them); with
-    ``keep``, also gathers its lines there."""
+    ``keep``, also gathers its lines there. With ``held``, rwg's message
+    (its lines from the first ``error:`` on) is held there instead of
+    copied: it is the message of the exception raised, shown once."""
     for raw in iter(src.readline, b""):
         text = raw.decode("utf-8", "replace")
-        _write_to(dst_name, text)
+        if held is not None and (held or text.startswith("error:")):
+            held.append(raw)
+        else:
+            _write_to(dst_name, text)
         if keep is not None:
             keep.append(text.rstrip("\r\n"))
     src.close()
@@ -213,11 +220,12 @@ def _terminal_stderr() -> bool:
         return False
 
 
-def _forward_pty(master: int, keep: List[str]) -> None:
+def _forward_pty(master: int, keep: List[str], held: List[bytes]) -> None:
     """Copies what rwg writes to its terminal (a pseudo-terminal) to this
     process's terminal as it is (progress bar included), and gathers its
-    lines as they read."""
-    pending = b""
+    lines as they read. rwg's message, from the ``error:`` that starts a
+    line on, is held in ``held`` instead (the exception's message)."""
+    pending = b""  # the line being written, up to what was shown
     while True:
         try:
             chunk = os.read(master, 1 << 16)
@@ -225,16 +233,40 @@ def _forward_pty(master: int, keep: List[str]) -> None:
             break
         if not chunk:
             break
+        if held:
+            held.append(chunk)
+            continue
+        data = pending + chunk
+        cut = _error_start(data)
+        if cut >= 0:
+            held.append(data[cut:])
+            chunk, data = data[len(pending):cut] if cut > len(pending) else b"", data[:cut]
         try:
-            os.write(2, chunk)
+            if chunk:
+                os.write(2, chunk)
         except OSError:
             pass
-        pending += chunk
-        *complete, pending = pending.split(b"\n")
+        *complete, pending = data.split(b"\n")
         keep.extend(_plain_line(raw) for raw in complete)
-    if pending:
-        keep.append(_plain_line(pending))
+    rest = pending + b"".join(held)
+    keep.extend(_plain_line(raw) for raw in rest.split(b"\n") if _plain_line(raw))
     os.close(master)
+
+
+def _error_start(data: bytes) -> int:
+    """Where the text ``error:`` starts a line of ``data`` as a terminal
+    shows it (after a carriage return and escape sequences only), or -1."""
+    start = 0
+    while start <= len(data):
+        end = data.find(b"\n", start)
+        line = data[start:] if end < 0 else data[start:end]
+        at = line.find(b"error:")
+        if at >= 0 and not _ANSI.sub(b"", line[:at].split(b"\r")[-1]).strip():
+            return start + at
+        if end < 0:
+            return -1
+        start = end + 1
+    return -1
 
 
 def _error_message(lines: List[str]) -> str:
@@ -279,6 +311,7 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
             stderr=stderr,
             env=env,
             start_new_session=True,
+            preexec_fn=_die_with(os.getpid()) if sys.platform.startswith("linux") else None,
         )
     except OSError as e:
         if master is not None:
@@ -291,17 +324,23 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
     finally:
         if master is not None:
             os.close(stderr)
+    held: List[bytes] = []
     readers = [
         threading.Thread(target=_forward, args=(proc.stdout, "stdout", None), daemon=True),
-        threading.Thread(target=_forward_pty, args=(master, lines), daemon=True)
+        threading.Thread(target=_forward_pty, args=(master, lines, held), daemon=True)
         if master is not None
-        else threading.Thread(target=_forward, args=(proc.stderr, "stderr", lines), daemon=True),
+        else threading.Thread(
+            target=_forward, args=(proc.stderr, "stderr", lines, held), daemon=True
+        ),
     ]
     for t in readers:
         t.start()
     interrupted, pending = _wait(proc)
     for t in readers:
         t.join()
+    if held and (proc.returncode == 0 or pending is not None or interrupted):
+        # no RwgFailedError carries rwg's message: show it as rwg wrote it
+        _write_to("stderr", b"".join(held).decode("utf-8", "replace"))
     if pending is not None:
         raise pending
     if interrupted and proc.returncode == 0:
@@ -324,6 +363,23 @@ def _run_child(cmd: List[str], manifest_text: Optional[str]) -> None:
             numbered = "\n".join(f"{i:4}  {line}" for i, line in enumerate(manifest_text.splitlines(), 1))
             message += f"\nThe manifest, as written from the dict (line numbers as in the message):\n{numbered}"
         raise RwgFailedError(message, proc.returncode, stderr, cmd, manifest_text)
+
+
+def _die_with(parent: int) -> Any:
+    """The child's set-up on Linux: rwg, in a session of its own (Ctrl-C
+    reaches Python, which stops it), gets SIGTERM when this Python dies, even
+    by SIGKILL, instead of running on orphaned with the run's lock (its
+    committed blocks are kept; the run resumes)."""
+
+    def set_up() -> None:
+        import ctypes
+
+        pr_set_pdeathsig = 1
+        ctypes.CDLL(None).prctl(pr_set_pdeathsig, int(signal.SIGTERM), 0, 0, 0)
+        if os.getppid() != parent:  # it died before the signal was asked for
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    return set_up
 
 
 #: How often the wait for rwg lets Python's signal handlers run (seconds).

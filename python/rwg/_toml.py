@@ -24,14 +24,33 @@ def dumps(doc: Mapping[str, Any]) -> str:
     if not isinstance(doc, Mapping):
         raise ArgumentError(f"a manifest must be a dict, not {type(doc).__name__}")
     lines: List[str] = []
-    _table(doc, [], lines)
+    try:
+        _table(doc, [], lines)
+    except RecursionError:
+        raise ArgumentError(
+            "a manifest given as a dict: its dicts and lists nest too deep to write as TOML "
+            "(past Python's recursion limit); rwg reads values nested under 80 levels deep"
+        ) from None
     return "\n".join(lines).lstrip("\n") + "\n"
 
 
 def _key(k: Any, path: List[str]) -> str:
     if not isinstance(k, str):
         raise ArgumentError(f"{_dotted(path)}: keys must be strings, not {k!r}")
+    _utf8(k, "key", path)
     return k if _BARE_KEY.match(k) else _string(k)
+
+
+def _utf8(s: str, what: str, path: List[str]) -> None:
+    """Refuses a string UTF-8 cannot encode (a lone surrogate, as
+    ``"\\ud800"`` or a file name's undecodable byte), naming its key."""
+    try:
+        s.encode("utf-8")
+    except UnicodeEncodeError as e:
+        raise ArgumentError(
+            f"manifest key {_dotted(path)}: the {what} {ascii(s)} holds a lone surrogate "
+            f"({ascii(s[e.start])} at index {e.start}), which UTF-8, and so TOML, cannot hold"
+        ) from None
 
 
 def _dotted(path: List[str]) -> str:
@@ -81,6 +100,7 @@ def _value(v: Any, path: List[str]) -> str:
             return "inf" if v > 0 else "-inf"
         return repr(v)
     if isinstance(v, str):
+        _utf8(v, "string", path)
         return _string(v)
     if isinstance(v, Mapping):
         items = ", ".join(f"{_key(k, path)} = {_value(x, path + [str(k)])}" for k, x in v.items())

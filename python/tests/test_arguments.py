@@ -125,6 +125,44 @@ def test_bad_overrides_are_refused_naming_them(tmp_path):
     assert not out.exists()
 
 
+def test_text_that_utf_8_cannot_hold_is_an_argument_error_naming_where(tmp_path):
+    out = tmp_path / "x"
+    cases = [
+        (dict(TINY, envs=[{"id": "CartPole-v1\ud800"}]), r"manifest key envs.id: the string"),
+        (dict(TINY, **{"note\udcff": 1}), r"manifest key \(top level\): the key"),
+        (dict(TINY, architectures=[{"name": "a\udfff", "hidden": []}]), r"manifest key architectures.name"),
+        (dict(TINY, envs=[{"id": "CartPole-v1", "kwargs": {"k": ["\ud800"]}}]), r"envs.kwargs.k"),
+    ]
+    for manifest, where in cases:
+        with pytest.raises(rwg.ArgumentError, match=where + r".*lone surrogate"):
+            rwg.run(manifest, out=out)
+    with pytest.raises(rwg.ArgumentError, match=r"out= .*lone surrogate"):
+        rwg.run(TINY, out=str(out) + "\ud800")
+    with pytest.raises(rwg.ArgumentError, match=r"manifest= .*lone surrogate"):
+        rwg.run(str(tmp_path / "m\ud800.toml"))
+    with pytest.raises(rwg.ArgumentError, match=r"run_dir= .*lone surrogate"):
+        rwg.load(str(tmp_path / "r\ud800"))
+    assert not out.exists()
+    # a file name's undecodable bytes (surrogate escapes) are a path still
+    assert rwg.run(TINY, out=os.fsencode(str(out)) + b"\xff").path.endswith("x\udcff")
+
+
+def test_deep_dicts_and_home_paths(tmp_path, monkeypatch):
+    deep = cur = {}
+    for _ in range(5000):
+        cur["k"] = {}
+        cur = cur["k"]
+    with pytest.raises(rwg.ArgumentError, match=r"nest too deep to write as TOML"):
+        rwg.run(dict(TINY, envs=[{"id": "CartPole-v1", "kwargs": deep}]), out=tmp_path / "d")
+    # `~` is the home folder, as in pandas, not a folder named ~ in the current one
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.chdir(tmp_path)
+    run = rwg.run(TINY, out="~/runs/tiny")
+    assert run.path == str(tmp_path / "home" / "runs" / "tiny")
+    assert not (tmp_path / "~").exists()
+    assert rwg.load("~/runs/tiny").path == run.path
+
+
 def test_load_s_bad_arguments_and_a_file_say_what_they_are(tmp_path, small_run):
     f = tmp_path / "a-file.txt"
     f.write_text("x")
@@ -156,6 +194,10 @@ def test_a_wrong_rwg_bin_is_rwg_not_found(tmp_path, monkeypatch):
     text.write_text("#!/bin/sh\nexit 0\n")
     monkeypatch.setenv("RWG_BIN", str(text))
     with pytest.raises(rwg.RwgNotFoundError, match=r"RWG_BIN=.*not-executable: not an executable"):
+        rwg.run(TINY, out=tmp_path / "x")
+    # set to the empty string: not taken as unset
+    monkeypatch.setenv("RWG_BIN", "")
+    with pytest.raises(rwg.RwgNotFoundError, match=r"RWG_BIN is set to the empty string: unset it"):
         rwg.run(TINY, out=tmp_path / "x")
     garbage = tmp_path / "garbage"
     garbage.write_bytes(b"\x00\x01 not a program")

@@ -179,3 +179,42 @@ def test_another_exception_while_rwg_runs_stops_it_before_it_is_raised(tmp_path)
         os.kill(pid, 0)
     with pytest.raises(rwg.RunInProgressError):
         rwg.load(out)
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the parent-death signal is Linux's")
+def test_rwg_ends_with_a_python_that_is_killed(tmp_path):
+    # SIGKILL (a notebook kernel restarted, an out-of-memory kill) gives
+    # Python no chance to stop rwg: rwg, in a session of its own, must not
+    # run on orphaned, holding the run's lock
+    out = tmp_path / "run"
+    proc = python(
+        f"""
+        import rwg
+        rwg.run({STUDY!r}, out={str(out)!r}, samples=400000, threads=1, quiet=True)
+        """
+    )
+    lock = out / "rwg.lock"
+    deadline = time.monotonic() + 60
+    while not (lock.exists() and re.search(r"\d+", lock.read_text())):
+        assert proc.poll() is None, f"rwg.run ended early: {proc.communicate()}"
+        assert time.monotonic() < deadline, "no rwg.lock after 60 s"
+        time.sleep(0.05)
+    pid = int(re.search(r"\d+", lock.read_text()).group(0))
+    proc.kill()
+    proc.communicate()
+    deadline = time.monotonic() + 30
+    while "zombie" not in _state(pid) and _state(pid):
+        if time.monotonic() > deadline:
+            os.kill(pid, signal.SIGKILL)
+            pytest.fail("rwg still running 30 s after the Python that started it was killed")
+        time.sleep(0.05)
+    assert (out / "manifest.toml").exists()
+
+
+def _state(pid):
+    """The state line of /proc/PID/status ("" once it is gone)."""
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            return next((l for l in f if l.startswith("State:")), "").lower()
+    except OSError:
+        return ""

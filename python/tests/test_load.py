@@ -168,6 +168,17 @@ def test_stats_are_computed_by_rwg_when_stats_csv_is_missing(small_run, run_copy
     assert not (run_copy / "stats.csv").exists(), "loading must not write into the run"
 
 
+def test_a_stats_csv_of_another_run_is_refused(tmp_path, run_copy):
+    other = tmp_path / "other"
+    (tmp_path / "m.toml").write_text((run_copy / "manifest.toml").read_text())
+    rwg_cli("run", tmp_path / "m.toml", "--out", other, "--samples", "33", "-q")
+    shutil.copy(other / "stats.csv", run_copy / "stats.csv")
+    with pytest.raises(rwg.RunDamagedError, match=r"stats.csv: written for another run"):
+        rwg.load(run_copy)
+    res = rwg_cli("verify", run_copy, check=False)
+    assert res.returncode == 1 and "stats.csv: written for another run" in res.stdout
+
+
 def test_a_run_that_did_not_record_its_end_is_in_progress(run_copy):
     # rwg writes end_time after the last cell: a run stopped in between
     meta = json.loads((run_copy / "run.json").read_text())

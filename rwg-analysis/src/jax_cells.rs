@@ -177,6 +177,7 @@ mod tests {
             matmul_precision: "highest".into(),
             lanes: 1024,
             refill: 128,
+            source: None,
             observation_leaves: vec![],
             action_mask: None,
             settings: BTreeMap::new(),
@@ -239,6 +240,9 @@ mod tests {
         };
         let mut rec = plain.clone().with_jax(record("cpu", "cpu"));
         rec.env = "gymnax:CartPole-v1".into();
+        for c in ["a", "b", "c", "d"] {
+            std::fs::create_dir_all(dir.join("cells").join(c)).unwrap();
+        }
         write_record(&dir.join("cells/a"), &rec).unwrap();
         write_record(&dir.join("cells/b"), &rec).unwrap();
         let mut other = rec.clone();

@@ -40,10 +40,22 @@ pub fn commit_linger() -> Result<Duration, VarError> {
 /// One variable's check.
 type Check = fn() -> Result<(), VarError>;
 
-/// Every variable rwg reads with its check. `RWG_PLUGIN_PATH` (any list of
+/// Every variable rwg reads with its check. `RWG_PLUGIN_PATH` (a list of
 /// folders) and the `rwg bench peers` variables (paths, read by its
-/// arguments) take any value.
-pub const CHECKS: [(&str, Check); 11] = [
+/// arguments) take any value but the empty string.
+pub const CHECKS: [(&str, Check); 14] = [
+    (rwg_plugin_host::PLUGIN_PATH_VAR, || {
+        vars::not_empty(
+            rwg_plugin_host::PLUGIN_PATH_VAR,
+            "folders of plugin libraries, colon-separated",
+        )
+    }),
+    ("RWG_PEER_PYTHON", || {
+        vars::not_empty("RWG_PEER_PYTHON", "the Python of `rwg bench peers`' peer")
+    }),
+    ("RWG_PEERS_DIR", || {
+        vars::not_empty("RWG_PEERS_DIR", "the folder of `rwg bench peers`' scripts")
+    }),
     (PROGRESS_INTERVAL_VAR, || progress_interval().map(drop)),
     (COMMIT_LINGER_VAR, || commit_linger().map(drop)),
     (rwg_gym::TIMEOUT_VAR, || {

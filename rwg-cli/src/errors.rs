@@ -41,6 +41,76 @@ fn file_not_directory(e: &anyhow::Error, args: &[String]) -> Option<String> {
     (!hints.is_empty()).then(|| hints.join("\n"))
 }
 
+/// The type of getrlimit's resource argument.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+type Resource = libc::__rlimit_resource_t;
+#[cfg(all(unix, not(all(target_os = "linux", target_env = "gnu"))))]
+type Resource = libc::c_int;
+
+/// This process's soft limit of `resource`, unless unlimited (or unknown).
+#[cfg(unix)]
+fn soft_limit(resource: Resource) -> Option<u64> {
+    let mut lim = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit fills a valid struct.
+    let ok = unsafe { libc::getrlimit(resource, &mut lim) } == 0;
+    (ok && lim.rlim_cur != libc::RLIM_INFINITY).then_some(lim.rlim_cur)
+}
+
+/// For a write past the largest file this process may write: the limit,
+/// and what to do.
+fn file_size_limit() -> String {
+    #[cfg(unix)]
+    if let Some(cur) = soft_limit(libc::RLIMIT_FSIZE) {
+        return format!(
+            "files are limited to {} bytes in this shell (`ulimit -f` shows the limit in \
+             blocks of 1024 bytes): raise it (`ulimit -f unlimited`) and run the same \
+             command again; what was committed is kept",
+            cur
+        );
+    }
+    "the file system or a quota refuses a file this large".into()
+}
+
+/// Whether `e` is an open-file limit's refusal (EMFILE: this process's
+/// `ulimit -n`; ENFILE: the system's), as an I/O error or in a message that
+/// quotes one (a worker that could not start).
+fn too_many_open_files(e: &anyhow::Error) -> bool {
+    #[cfg(unix)]
+    {
+        let raw = e.chain().any(|c| {
+            c.downcast_ref::<std::io::Error>()
+                .is_some_and(|io| matches!(io.raw_os_error(), Some(libc::EMFILE | libc::ENFILE)))
+        });
+        let text = format!("{e:#}");
+        raw || text.contains(&format!("(os error {})", libc::EMFILE))
+            || text.contains(&format!("(os error {})", libc::ENFILE))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = e;
+        false
+    }
+}
+
+/// For an open-file limit's refusal: the limit, and what to do.
+fn open_files_limit() -> String {
+    #[cfg(unix)]
+    if let Some(cur) = soft_limit(libc::RLIMIT_NOFILE) {
+        return format!(
+            "a process may have {} files open at once here (`ulimit -n`; each worker \
+             takes a few for its pipes): raise it (`ulimit -n 4096`, at most `ulimit -Hn`) \
+             and run the same command again; what was committed is kept",
+            cur
+        );
+    }
+    "the system's open-file table is full (`/proc/sys/fs/file-nr`): close some programs and \
+     run the same command again; what was committed is kept"
+        .into()
+}
+
 /// The existing entry of `missing`'s folder whose name is nearest to
 /// `missing`'s, if one is close enough to be a typo.
 pub fn nearby(missing: &Path) -> Option<PathBuf> {
@@ -78,6 +148,12 @@ pub fn nearby(missing: &Path) -> Option<PathBuf> {
 pub fn hint(e: &anyhow::Error, args: &[String]) -> Option<String> {
     if let Some(h) = file_not_directory(e, args) {
         return Some(h);
+    }
+    if io_kind(e, std::io::ErrorKind::FileTooLarge) {
+        return Some(file_size_limit());
+    }
+    if too_many_open_files(e) {
+        return Some(open_files_limit());
     }
     if !not_found(e) {
         return None;

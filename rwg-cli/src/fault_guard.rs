@@ -10,14 +10,19 @@
 //! - `exit()` from a plugin: an `atexit` handler turns the exit of an
 //!   unfinished run into exit status 1 with the message.
 //! - SIGSEGV, SIGBUS, SIGILL, SIGFPE, SIGABRT: a signal handler writes the
-//!   message with `write(2)` only (async-signal-safe), then the signal takes
-//!   its default course (the exit status still says which signal).
+//!   message with `write(2)` only (async-signal-safe), ends rwg's family of
+//!   processes (`rwg_worker::family::end_all`), then the signal takes its
+//!   default course (the exit status still says which signal). After the
+//!   command finished ([`finished`]), such a crash (a plugin's exit handler
+//!   or destructor) is reported as one that spared the results.
 //! - A call that does not return within `--step-timeout` seconds: a watchdog
 //!   thread reports it and exits with status 1 (a call in progress cannot be
 //!   stopped in-process).
 //! - Ctrl-C: the first one stops after the blocks in flight, but exits at
 //!   once (status 130) if a plugin call is stuck, and after
-//!   [`INTERRUPT_GRACE`] in any case; a second one exits at once.
+//!   [`INTERRUPT_GRACE`] in any case; a second one exits at once. The
+//!   watchdog puts rwg's handling of SIGINT, SIGTERM and SIGHUP back where a
+//!   plugin changed it (`crate::ending`).
 //!
 //! What in-process cannot do: report a plugin's own threads (no network or
 //! episode is known there), survive `_exit()`/`quick_exit()` or a SIGKILL
@@ -38,8 +43,14 @@ struct Text(Box<[u8]>);
 static RESUME: AtomicPtr<Text> = AtomicPtr::new(std::ptr::null_mut());
 /// What to do after an interrupted run (resume), whatever its envs are.
 static RESUME_STOPPED: AtomicPtr<Text> = AtomicPtr::new(std::ptr::null_mut());
+/// What is complete once the command finished (see [`finished`]); null
+/// before.
+static FINISHED: AtomicPtr<Text> = AtomicPtr::new(std::ptr::null_mut());
 /// A run is in progress: an exit now is not rwg's own.
 static ARMED: AtomicBool = AtomicBool::new(false);
+/// The process that installed the handlers (a plugin's `fork()` without
+/// `exec` copies them into a helper: there they hand the signal on).
+static OWNER_PID: std::sync::atomic::AtomicI32 = std::sync::atomic::AtomicI32::new(0);
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 /// Seconds a plugin call may take (0: no limit).
 static STEP_TIMEOUT_S: AtomicU64 = AtomicU64::new(0);
@@ -91,7 +102,6 @@ pub fn arm(resume: String, resume_stopped: String, step_timeout_s: u64) -> Armed
     STEP_TIMEOUT_S.store(step_timeout_s, SeqCst);
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
-        install_handlers();
         let _ = ctrlc::set_handler(|| {
             if INTERRUPTED.swap(true, SeqCst) {
                 disarm_and_exit(130);
@@ -101,6 +111,9 @@ pub fn arm(resume: String, resume_stopped: String, step_timeout_s: u64) -> Armed
             );
             *INTERRUPT_AT.lock().unwrap_or_else(|e| e.into_inner()) = Some(Instant::now());
         });
+        // Ctrl-C's handler is rwg's own from now on: put back where a plugin
+        // changes it (the watchdog checks).
+        rwg_worker::family::keep_dispositions();
         std::thread::Builder::new()
             .name("rwg-watchdog".into())
             .spawn(watchdog)
@@ -108,6 +121,56 @@ pub fn arm(resume: String, resume_stopped: String, step_timeout_s: u64) -> Armed
     });
     ARMED.store(true, SeqCst);
     Armed(())
+}
+
+/// Installs the handlers of fatal signals and of `exit()` (once, early in
+/// `main`, before any plugin is loaded): a crash during a run is reported
+/// as [`arm`] says, one after the command finished (a plugin's exit handler
+/// or destructor) as such, and every process of rwg's family ends first.
+pub fn install() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(install_handlers);
+}
+
+/// Whether a run is in progress (armed).
+pub fn armed() -> bool {
+    ARMED.load(SeqCst)
+}
+
+/// What to do after a run that stops early, whatever its envs are
+/// (`Every committed block is kept in DIR; resume with: ...`).
+pub fn resume_stopped_text() -> String {
+    String::from_utf8_lossy(text(&RESUME_STOPPED)).into_owned()
+}
+
+/// The command has finished (its output is complete): a crash from now on
+/// happens while rwg exits (a plugin's exit handler or destructor), and is
+/// reported with `what` (what is complete and how to check it; "" for the
+/// command's output).
+pub fn finished(what: String) {
+    set_text(&FINISHED, what);
+}
+
+/// [`finished`] with `what`, unless the command said what is complete itself.
+pub fn finished_unless_said(what: String) {
+    if FINISHED.load(SeqCst).is_null() {
+        finished(what);
+    }
+}
+
+/// Reports a resource error that leaves rwg unable to go on (a thread that
+/// cannot start), with how to resume during a run, and exits with status 1
+/// once the blocks already computed are committed.
+pub fn exit_on_resource_error(error: &str) -> ! {
+    let mut text = format!("error: {error}");
+    if ARMED.load(SeqCst) {
+        rwg_study::committer::wait_for_commits(Duration::from_secs(2));
+        text.push_str(". ");
+        text.push_str(&resume_stopped_text());
+    }
+    text.push('\n');
+    crate::stdio::write_err(&text);
+    disarm_and_exit(1)
 }
 
 /// Replaces what the handlers print after a fault (`resume`) and after an
@@ -274,7 +337,10 @@ impl Msg {
             let mut off = 0;
             while off < self.len {
                 // SAFETY: a live buffer; write is async-signal-safe.
-                let n = unsafe { libc::write(2, self.buf[off..].as_ptr().cast(), self.len - off) };
+                let n = unsafe {
+                    let fd = crate::stdio::stderr_fd();
+                    libc::write(fd, self.buf[off..].as_ptr().cast(), self.len - off)
+                };
                 if n <= 0 {
                     break;
                 }
@@ -298,7 +364,8 @@ fn this_call() -> CallSnapshot {
 
 #[cfg(unix)]
 extern "C" fn on_exit() {
-    if !ARMED.load(SeqCst) {
+    // SAFETY: getpid has no preconditions.
+    if !ARMED.load(SeqCst) || unsafe { libc::getpid() } != OWNER_PID.load(SeqCst) {
         return;
     }
     let call = this_call();
@@ -311,7 +378,8 @@ extern "C" fn on_exit() {
         m.resume();
         m.emit();
     }
-    // SAFETY: _exit is always safe to call.
+    rwg_worker::family::end_all(); // _exit runs no other exit handler
+                                   // SAFETY: _exit is always safe to call.
     unsafe { libc::_exit(1) }
 }
 
@@ -330,12 +398,19 @@ const FATAL: [(libc::c_int, &[u8]); 5] = [
 
 #[cfg(unix)]
 extern "C" fn on_fatal(sig: libc::c_int, _info: *mut libc::siginfo_t, _uctx: *mut libc::c_void) {
-    let call = this_call();
-    if ARMED.load(SeqCst) {
-        let name = FATAL
-            .iter()
-            .find(|(n, _)| *n == sig)
-            .map_or(&b"a fatal signal"[..], |(_, d)| d);
+    // SAFETY: getpid is async-signal-safe.
+    let own = unsafe { libc::getpid() } == OWNER_PID.load(SeqCst);
+    let name = FATAL
+        .iter()
+        .find(|(n, _)| *n == sig)
+        .map_or(&b"a fatal signal"[..], |(_, d)| d);
+    if own && sig == libc::SIGABRT {
+        if let Some(bytes) = crate::ending::failed_allocation() {
+            out_of_memory(bytes);
+        }
+    }
+    if own && ARMED.load(SeqCst) {
+        let call = this_call();
         if let Some(mut m) = Msg::new() {
             m.push(b"\nerror: rwg was killed by ");
             m.push(name);
@@ -344,6 +419,22 @@ extern "C" fn on_fatal(sig: libc::c_int, _info: *mut libc::siginfo_t, _uctx: *mu
             m.resume();
             m.emit();
         }
+    } else if own && !FINISHED.load(SeqCst).is_null() {
+        if let Some(mut m) = Msg::new() {
+            m.push(b"\nerror: rwg was killed by ");
+            m.push(name);
+            m.push(
+                b" while exiting, after the command had finished: in a plugin's exit handler \
+                  or destructor? ",
+            );
+            m.push(text(&FINISHED));
+            m.push(b"\n");
+            m.emit();
+        }
+    }
+    if own {
+        // What rwg started, and what its plugins forked, ends with it.
+        rwg_worker::family::end_all();
     }
     // Hand the signal on: to the handler installed before ours (Rust's
     // stack-overflow report), else to the default action. Returning re-runs
@@ -369,11 +460,34 @@ extern "C" fn on_fatal(sig: libc::c_int, _info: *mut libc::siginfo_t, _uctx: *mu
     }
 }
 
+/// rwg's own allocation of `bytes` failed and Rust aborts: reported as the
+/// resource error it is, with how to resume during a run, and status 1.
+#[cfg(unix)]
+fn out_of_memory(bytes: usize) -> ! {
+    if let Some(mut m) = Msg::new() {
+        m.push(b"\nerror: rwg ran out of memory: an allocation of ");
+        m.num(bytes as u64);
+        m.push(
+            b" bytes failed; its process is at a limit on memory (`ulimit -v`, a container's or \
+              job's memory limit) or the machine's memory is used up: raise the limit, or run \
+              with fewer --threads",
+        );
+        if ARMED.load(SeqCst) {
+            m.resume_with(&RESUME_STOPPED);
+        } else {
+            m.push(b"\n");
+        }
+        m.emit();
+    }
+    disarm_and_exit(1)
+}
+
 #[cfg(unix)]
 fn install_handlers() {
     // SAFETY: plain libc calls with valid arguments, before any handler of
     // ours can run.
     unsafe {
+        OWNER_PID.store(libc::getpid(), SeqCst);
         libc::atexit(on_exit);
         for (sig, _) in FATAL {
             let mut old: libc::sigaction = std::mem::zeroed();
@@ -400,6 +514,9 @@ fn watchdog() {
     let mut seen: Vec<(Key, Instant)> = Vec::new();
     loop {
         std::thread::sleep(TICK);
+        crate::ending::restore_signal_handling();
+        rwg_worker::family::reap_orphans();
+        rwg_plugin_host::loader::refill_std_fds();
         if !ARMED.load(SeqCst) {
             seen.clear();
             continue;

@@ -7,6 +7,8 @@
 
 mod cluster;
 mod cmd;
+mod details;
+mod ending;
 mod env_vars;
 mod errors;
 mod fault_guard;
@@ -19,6 +21,10 @@ mod summary;
 mod timing_table;
 
 use anyhow::Result;
+
+/// The system allocator, recording a failed allocation (see [`ending::Allocator`]).
+#[global_allocator]
+static ALLOCATOR: ending::Allocator = ending::Allocator;
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -99,6 +105,9 @@ fn install_panic_hook() {
             .map(|s| s.to_string())
             .or_else(|| info.payload().downcast_ref::<String>().cloned())
             .unwrap_or_else(|| "unknown".into());
+        if let Some(e) = ending::thread_start_failure(&msg) {
+            fault_guard::exit_on_resource_error(&e);
+        }
         let at = info
             .location()
             .map(|l| format!(" at {}:{}", l.file(), l.line()))
@@ -132,18 +141,27 @@ fn exit_code(status: i32) -> ExitCode {
 }
 
 fn main() -> ExitCode {
+    ending::set_up();
     install_panic_hook();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         Err(e) => return exit_code(clap_status(e)),
     };
+    cmd::pin_env_paths();
     // From here on, what a plugin prints goes to stderr, never into rwg's output.
     stdio::protect();
     if let Err(e) = env_vars::check_all() {
         errln!("error: {e}");
         return exit_code(1);
     }
-    let status = status_of(run_command(cli.command));
+    let result = run_command(cli.command);
+    // A command cut short by a signal rwg ends by: that signal's report is
+    // the message, and its status the exit status.
+    ending::wait_if_ending();
+    let status = status_of(result);
+    fault_guard::finished_unless_said(format!(
+        "rwg's work was done (exit status {status}): its output and files are complete."
+    ));
     exit_code(stdio::exit_status(status))
 }
 
@@ -186,7 +204,7 @@ fn status_of(result: Result<i32>) -> i32 {
                 Some(out) if e.chain().count() == 1 && e.is::<std::io::Error>() => {
                     format!("cannot write to standard output: {out}")
                 }
-                _ => error_text(&e),
+                _ => details::one_line(&error_text(&e), None),
             };
             errln!("error: {text}");
             // (args() would panic on an argument that is not UTF-8)

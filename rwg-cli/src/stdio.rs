@@ -7,7 +7,9 @@
 //! moves rwg's standard output to a private duplicate of fd 1 and points
 //! fd 1 at stderr: what a plugin prints appears on stderr, never in rwg's
 //! output. rwg prints through [`stdout`] and [`outln!`](crate::outln), and
-//! to stderr through [`errln!`](crate::errln).
+//! to stderr through [`errln!`](crate::errln), which writes to a private
+//! duplicate of fd 2 taken at the same time: a plugin that closes fd 2 or
+//! points it at `/dev/null` silences itself, never rwg's messages.
 //!
 //! Output can always fail (`rwg ... | head`, a full disk): a failed write
 //! never panics and never ends the command half-way (so its files and its
@@ -22,6 +24,8 @@ use std::sync::Mutex;
 
 /// rwg's own stdout once [`protect`]ed (-1: fd 1 itself).
 static OWN_FD: AtomicI32 = AtomicI32::new(-1);
+/// rwg's own stderr once [`protect`]ed (-1: fd 2 itself).
+static OWN_ERR_FD: AtomicI32 = AtomicI32::new(-1);
 
 /// The exit status of a command whose output went to a closed pipe: that
 /// of a process killed by SIGPIPE (128 + 13), as the shell reports it.
@@ -39,14 +43,18 @@ static STDERR_STATE: AtomicU8 = AtomicU8::new(OK);
 /// The first write error on stdout that was not a closed pipe.
 static STDOUT_ERROR: Mutex<Option<String>> = Mutex::new(None);
 
-/// Moves rwg's output off fd 1 (unix; elsewhere a no-op). Call once, early,
-/// before any plugin is loaded.
+/// Moves rwg's output off fd 1 and keeps its own copy of stderr (unix;
+/// elsewhere a no-op). Call once, early, before any plugin is loaded.
 pub fn protect() {
     #[cfg(unix)]
     {
         let _ = io::stdout().flush();
         // SAFETY: plain descriptor calls; fd 1 and 2 are open (or the calls fail).
         unsafe {
+            let err = libc::fcntl(2, libc::F_DUPFD_CLOEXEC, 3);
+            if err >= 0 {
+                OWN_ERR_FD.store(err, Ordering::SeqCst);
+            }
             let own = libc::fcntl(1, libc::F_DUPFD_CLOEXEC, 3);
             if own >= 0 && libc::dup2(2, 1) >= 0 {
                 OWN_FD.store(own, Ordering::SeqCst);
@@ -94,12 +102,50 @@ impl Stdout {
     }
 }
 
+/// The descriptor of rwg's own stderr: its private copy once [`protect`]ed,
+/// else 2. Async-signal-safe (one atomic load), for the fatal-signal handler.
+pub fn stderr_fd() -> i32 {
+    match OWN_ERR_FD.load(Ordering::Relaxed) {
+        fd if fd >= 0 => fd,
+        _ => 2,
+    }
+}
+
+/// Whether rwg's own stderr is a terminal (whatever a plugin did to fd 2).
+pub fn stderr_is_terminal() -> bool {
+    #[cfg(unix)]
+    // SAFETY: isatty on a descriptor number.
+    return unsafe { libc::isatty(stderr_fd()) == 1 };
+    #[cfg(not(unix))]
+    std::io::IsTerminal::is_terminal(&io::stderr())
+}
+
 /// One `write(2)` to rwg's own stdout.
 fn write_own(buf: &[u8]) -> io::Result<usize> {
     let fd = OWN_FD.load(Ordering::Relaxed);
     if fd < 0 {
         return io::stdout().write(buf);
     }
+    write_fd(fd, buf)
+}
+
+/// All of `buf` to rwg's own stderr.
+fn write_all_err(mut buf: &[u8]) -> io::Result<()> {
+    if OWN_ERR_FD.load(Ordering::Relaxed) < 0 {
+        return io::stderr().lock().write_all(buf);
+    }
+    while !buf.is_empty() {
+        match write_fd(stderr_fd(), buf)? {
+            0 => return Err(io::ErrorKind::WriteZero.into()),
+            n => buf = &buf[n..],
+        }
+    }
+    Ok(())
+}
+
+/// One `write(2)` to `fd`, retried when interrupted.
+#[cfg_attr(not(unix), allow(unused_variables))]
+fn write_fd(fd: i32, buf: &[u8]) -> io::Result<usize> {
     #[cfg(unix)]
     loop {
         // SAFETY: a live buffer and our own descriptor.
@@ -146,10 +192,17 @@ pub fn write_line(line: &str) {
 
 /// Writes `text` to stderr, unless an earlier write to it failed; a failure
 /// is recorded for [`exit_status`], never a panic (a closed stderr leaves
-/// nowhere to report it).
+/// nowhere to report it). Control characters other than newline and tab are
+/// written escaped: what rwg prints on stderr quotes text from plugins,
+/// workers and file names, whose terminal escape sequences must not reach
+/// the terminal.
 pub fn write_err(text: &str) {
+    if crate::ending::quiet_while_ending() {
+        return;
+    }
     if STDERR_STATE.load(Ordering::SeqCst) == OK {
-        if let Err(e) = io::stderr().lock().write_all(text.as_bytes()) {
+        let text = rwg_env::text::escape_controls(text);
+        if let Err(e) = write_all_err(text.as_bytes()) {
             record(&STDERR_STATE, &e, None);
         }
     }

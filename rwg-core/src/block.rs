@@ -153,6 +153,7 @@ mod tests {
             },
             episodes: 3,
             dist: WeightDist::Normal { std: 1.0 },
+            policy: crate::policy::PolicyKind::Network,
             non_finite: Default::default(),
         }
     }

@@ -9,7 +9,8 @@
 
 use crate::block::{non_finite_output, record_failure, BlockRun, Episode};
 use crate::plan::{
-    return_refused, return_within_bound, stopping, CellPlan, EpisodeResult, NonFinite, SampleError,
+    action_rng, return_refused, return_within_bound, stopping, CellPlan, EpisodeResult, NonFinite,
+    SampleError,
 };
 use crate::policy::PolicyLanes;
 use rwg_env::EnvError;
@@ -132,7 +133,7 @@ impl<'a> Deal<'a> {
     }
 
     /// Deals the next episode to lane `i` (its network's weights loaded into
-    /// `policy`, its `item` set), unless all have been dealt or one failed;
+    /// `policy`, or a random policy's lane seeded for the episode; its `item` set), unless all have been dealt or one failed;
     /// the caller resets its env with the episode's seed.
     #[inline]
     pub fn next<const K: usize, S: Status>(
@@ -145,7 +146,11 @@ impl<'a> Deal<'a> {
             return None;
         }
         let ep = self.run.next_episode()?;
-        if lane.weights_of != ep.k {
+        if policy.is_random() {
+            let plan = self.run.plan;
+            let sample = self.run.samples.start + ep.k as u64;
+            policy.seed_lane(i, action_rng(plan.seed, &plan.env_id, sample, ep.episode));
+        } else if lane.weights_of != ep.k {
             let nw = self.nw;
             policy.set_weights(i, &self.weights[ep.k * nw..(ep.k + 1) * nw]);
             lane.weights_of = ep.k;

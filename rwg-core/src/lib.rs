@@ -18,7 +18,7 @@
 //!
 //! ```
 //! use rwg_core::policy::Architecture;
-//! use rwg_core::sampler::{run_cell, CellPlan, SampleError, WeightDist, Worker};
+//! use rwg_core::sampler::{run_cell, CellPlan, PolicyKind, SampleError, WeightDist, Worker};
 //! use rwg_env::env::discrete_action;
 //! use rwg_env::{Action, BoxSpace, EnvError, EnvSpec, Environment, Space, Step};
 //!
@@ -63,6 +63,7 @@
 //!     arch: Architecture { hidden: vec![], bias: false },
 //!     episodes: 3,
 //!     dist: WeightDist::Normal { std: 1.0 },
+//!     policy: PolicyKind::Network,
 //!     non_finite: Default::default(),
 //! };
 //! let mut blocks = vec![];

@@ -12,7 +12,7 @@
 
 use crate::block::make_failed;
 use crate::deal::{Deal, Lane};
-use crate::policy::{NetShape, PolicyLanes};
+use crate::policy::PolicyLanes;
 use crate::sampler::{BlockResult, CellPlan, EpisodeResult, SampleError, LANES};
 use rayon::prelude::*;
 pub use rwg_env::many::ManyEnv;
@@ -42,14 +42,9 @@ impl<M: ManyEnv> ManyLaneWorker<M> {
         assert_eq!(env.lanes(), LANES, "a ManyEnv of {LANES} lanes");
         let spec = env.spec();
         let obs_dim = spec.obs_dim();
-        let shape = NetShape::new(
-            obs_dim,
-            &plan.arch,
-            NetShape::outputs_for(&spec.action_space),
-        );
         let action_len = spec.action_space.flat_dim();
         ManyLaneWorker {
-            policy: PolicyLanes::new(shape, &spec.action_space),
+            policy: plan.lanes(spec),
             obs: vec![0.0; LANES * obs_dim],
             actions: vec![0.0; LANES * action_len],
             step_mask: [0; LANES],

@@ -13,13 +13,18 @@
 //! - episode `e` of network `n` starts with `env.reset(seed=r)` where
 //!   `r = SeedSequence([seed, 2, env_key, n, e]).generate_state(1, np.uint64)[0]`.
 //!
+//! - a cell of random actions ([`PolicyKind::Random`]) draws the actions of
+//!   episode `e` of its "network" `n` from
+//!   `PCG64(SeedSequence([seed, 3, env_key, n, e]))` ([`action_rng`];
+//!   `crate::policy::RandomActions` says how), and resets as every cell does.
+//!
 //! `env_key = int.from_bytes(env_id.encode(), "little")` and `bias` is 0 or 1,
 //! all as in numpy (`SeedSequence` takes a list of non-negative integers). The
 //! reset seeds do not depend on the architecture, so network `n` of every
 //! architecture meets the same initial conditions (a paired comparison), and a
 //! user can replay any episode in Gymnasium with `env.reset(seed=r)`.
 
-use crate::policy::{Architecture, NetShape, Policy};
+use crate::policy::{Architecture, NetShape, Policy, PolicyKind, PolicyLanes};
 use rand_distr::{Distribution, StandardNormal};
 use rwg_env::env::EnvError;
 use rwg_env::seeding::{Pcg64, SeedSequence};
@@ -72,6 +77,8 @@ impl WeightDist {
 const STREAM_WEIGHTS: u64 = 1;
 /// Seed stream tag of episode reset seeds.
 const STREAM_RESETS: u64 = 2;
+/// Seed stream tag of the random actions of an episode.
+const STREAM_ACTIONS: u64 = 3;
 
 /// The 32-bit words of `int.from_bytes(id.encode(), "little")`, i.e. numpy's
 /// entropy words for that integer (at least one word).
@@ -106,6 +113,18 @@ pub fn reset_seed(seed: u64, env_id: &str, sample: u64, episode: u32) -> u64 {
     push_int(episode as u64, &mut w);
     let [r] = SeedSequence::from_words(&w).generate_u64::<1>();
     r
+}
+
+/// The random generator of the actions of episode `episode` of "network"
+/// `sample` in a cell of random actions (see the module docs).
+pub fn action_rng(seed: u64, env_id: &str, sample: u64, episode: u32) -> Pcg64 {
+    let mut w = Vec::with_capacity(16);
+    push_int(seed, &mut w);
+    push_int(STREAM_ACTIONS, &mut w);
+    env_key_words(env_id, &mut w);
+    push_int(sample, &mut w);
+    push_int(episode as u64, &mut w);
+    Pcg64::from_seed_sequence(&SeedSequence::from_words(&w))
 }
 
 /// The random generator of network `sample`'s weights (see the module docs).
@@ -192,23 +211,56 @@ pub struct CellPlan {
     pub episodes: u32,
     /// Weight distribution.
     pub dist: WeightDist,
+    /// Networks of `arch` (the paper's), or uniformly random actions (then
+    /// `arch` is unused: no layers, no weights).
+    pub policy: PolicyKind,
     /// What an episode that meets a value that is not finite does.
     pub non_finite: NonFinite,
 }
 
 impl CellPlan {
+    /// The networks' shape on an env with `spec`: `arch`'s layers, or none
+    /// (no weights) for random actions.
+    pub fn net_shape(&self, spec: &rwg_env::EnvSpec) -> NetShape {
+        match self.policy {
+            PolicyKind::Network => NetShape::new(
+                spec.obs_dim(),
+                &self.arch,
+                NetShape::outputs_for(&spec.action_space),
+            ),
+            PolicyKind::Random => NetShape::none(),
+        }
+    }
+
+    /// `K` lanes of this cell's policy on an env with `spec` (zero weights;
+    /// the lane loops load each network's).
+    pub fn lanes<const K: usize>(&self, spec: &rwg_env::EnvSpec) -> PolicyLanes<K> {
+        match self.policy {
+            PolicyKind::Network => PolicyLanes::new(self.net_shape(spec), &spec.action_space),
+            PolicyKind::Random => PolicyLanes::random(&spec.action_space),
+        }
+    }
+
     /// Network `sample` of this cell for an env with `spec`: the same weights
-    /// the sampler draws (for replay and export).
+    /// the sampler draws (for replay and export). For random actions, a
+    /// policy without weights; [`CellPlan::begin_episode`] seeds its draws.
     pub fn policy(&self, spec: &rwg_env::EnvSpec, sample: u64) -> Policy {
-        let shape = NetShape::new(
-            spec.obs_dim(),
-            &self.arch,
-            NetShape::outputs_for(&spec.action_space),
-        );
-        let mut policy = Policy::new(shape, &spec.action_space);
+        if self.policy == PolicyKind::Random {
+            return Policy::random(&spec.action_space);
+        }
+        let mut policy = Policy::new(self.net_shape(spec), &spec.action_space);
         let mut rng = weight_rng(self.seed, &self.env_id, &self.arch, sample);
         draw_weights(&mut rng, self.dist, policy.weights_mut());
         policy
+    }
+
+    /// Before episode `episode` of network `sample` runs with `policy`
+    /// (made by [`CellPlan::policy`]): a random policy gets the episode's
+    /// generator ([`action_rng`]); a network needs nothing.
+    pub fn begin_episode(&self, policy: &mut Policy, sample: u64, episode: u32) {
+        if self.policy == PolicyKind::Random {
+            policy.seed_actions(action_rng(self.seed, &self.env_id, sample, episode));
+        }
     }
 }
 

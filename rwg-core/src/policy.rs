@@ -11,11 +11,18 @@
 //! `tanh` is rwg's own [`crate::tanh::tanh`] (within 2 ulp of libm's, several
 //! times faster), everywhere in the network and the action mapping.
 
-use crate::tanh::{tanh, tanh_lanes};
+use crate::tanh::tanh_lanes;
 use rwg_env::env::Action;
 use rwg_env::simd::Simd;
 use rwg_env::space::Space;
 use serde::Serialize;
+
+mod argmax;
+mod random;
+mod shape;
+pub use argmax::argmax_tanh;
+pub use random::{PolicyKind, RandomActions};
+pub use shape::NetShape;
 
 /// The hidden-layer sizes and bias setting of a network family.
 #[derive(Debug, Clone, PartialEq, Eq, Hash, Serialize)]
@@ -24,57 +31,6 @@ pub struct Architecture {
     pub hidden: Vec<usize>,
     /// Whether every layer has a bias input.
     pub bias: bool,
-}
-
-/// Shapes of a network for a given env: `(out, in)` per layer, `in` counting
-/// the bias input.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct NetShape {
-    layers: Vec<(usize, usize)>,
-    bias: bool,
-}
-
-impl NetShape {
-    /// Shape for `obs_dim` inputs, `arch`'s hidden layers and `n_out` outputs.
-    pub fn new(obs_dim: usize, arch: &Architecture, n_out: usize) -> Self {
-        let mut sizes = vec![obs_dim];
-        sizes.extend(&arch.hidden);
-        sizes.push(n_out);
-        let b = usize::from(arch.bias);
-        let layers = sizes.windows(2).map(|w| (w[1], w[0] + b)).collect();
-        NetShape {
-            layers,
-            bias: arch.bias,
-        }
-    }
-
-    /// Number of outputs a network needs for this action space.
-    pub fn outputs_for(space: &Space) -> usize {
-        match space {
-            Space::Discrete { n } => *n,
-            Space::Box(b) => b.dim(),
-        }
-    }
-
-    /// `(out, in)` of every layer, `in` including the bias input.
-    pub fn layers(&self) -> &[(usize, usize)] {
-        &self.layers
-    }
-
-    /// Whether the layers have a bias input.
-    pub fn bias(&self) -> bool {
-        self.bias
-    }
-
-    /// Total number of weights.
-    pub fn n_weights(&self) -> usize {
-        self.layers.iter().map(|(o, i)| o * i).sum()
-    }
-
-    /// Width of the widest layer output (scratch buffer size).
-    fn max_width(&self) -> usize {
-        self.layers.iter().map(|(o, _)| *o).max().unwrap_or(0)
-    }
 }
 
 /// How the network's outputs become an action.
@@ -156,6 +112,8 @@ pub struct PolicyLanes<const K: usize> {
     /// many lanes one instruction handles: all are the same IEEE operations
     /// in the same order (no fused multiply-add), so they give the same bits.
     simd: Simd,
+    /// Uniformly random actions instead of networks (no weights).
+    random: Option<Box<RandomActions<K>>>,
 }
 
 /// The SIMD level [`PolicyLanes::forward`] runs at on this process:
@@ -186,6 +144,31 @@ impl<const K: usize> PolicyLanes<K> {
             shape,
             map,
             simd: rwg_env::simd::level(),
+            random: None,
+        }
+    }
+
+    /// `K` lanes of uniformly random actions of `action_space`
+    /// ([`PolicyKind::Random`]): no weights; [`PolicyLanes::seed_lane`]
+    /// gives each lane's episode its draws.
+    pub fn random(action_space: &Space) -> Self {
+        PolicyLanes {
+            random: Some(Box::new(RandomActions::new(action_space))),
+            ..PolicyLanes::new(NetShape::none(), action_space)
+        }
+    }
+
+    /// Whether the lanes act at random (no network).
+    #[inline(always)]
+    pub fn is_random(&self) -> bool {
+        self.random.is_some()
+    }
+
+    /// Lane `lane` of a random policy starts an episode whose actions come
+    /// from `rng`; no effect on networks.
+    pub fn seed_lane(&mut self, lane: usize, rng: rwg_env::seeding::Pcg64) {
+        if let Some(r) = &mut self.random {
+            r.seed_lane(lane, rng);
         }
     }
 
@@ -217,6 +200,9 @@ impl<const K: usize> PolicyLanes<K> {
     /// or the target's baseline (the results are the same bits at each).
     #[inline]
     pub fn forward(&mut self, obs: &[f64]) {
+        if self.random.is_some() {
+            return; // random actions are drawn when they are read
+        }
         #[cfg(target_arch = "x86_64")]
         match self.simd {
             // SAFETY: `rwg_env::simd::level` names only a level the CPU has
@@ -373,6 +359,9 @@ impl<const K: usize> PolicyLanes<K> {
     /// [`PolicyLanes::forward`].
     #[inline]
     pub fn action(&mut self, lane: usize) -> Action<'_> {
+        if let Some(r) = &mut self.random {
+            return r.action(lane);
+        }
         let n_out = self.z.len();
         match &self.map {
             ActionMap::Argmax => {
@@ -405,6 +394,9 @@ impl<const K: usize> PolicyLanes<K> {
     /// `action` lane by lane); the same values as `action`.
     #[inline]
     pub fn actions_into(&mut self, mask: &[u8; K], out: &mut [f64]) {
+        if let Some(r) = &mut self.random {
+            return r.actions_into(mask, out);
+        }
         let n_out = self.z.len();
         match &self.map {
             ActionMap::Argmax => {
@@ -455,46 +447,6 @@ impl<const K: usize> PolicyLanes<K> {
             }
         }
     }
-}
-
-/// `numpy.argmax(tanh(z))` with rwg's [`tanh`]: the first index whose tanh
-/// is the largest.
-///
-/// Computed without evaluating tanh in the common case. Let `b` be the first
-/// maximum of `z`. An index `j` can have `tanh(z[j]) >= tanh(z[b])` only if
-/// it is "close" to `b`: `z[b] - z[j] < 1e-6`, or `z[b] > 5`, or
-/// `z[j] < -5`. Otherwise both lie in [-5, 5], where the exact tanh' is at
-/// least 1.8e-4, so the exact values differ by more than 1.8e-10, far more
-/// than the 2 ulp (< 4.5e-16) each computed value may be off: `tanh(z[j]) <
-/// tanh(z[b])` whatever the rounding. The close indices (before or after
-/// `b`: the computed tanh need not be monotonic) are settled by computing
-/// tanh, first index winning ties.
-#[inline]
-pub fn argmax_tanh(z: &[f64]) -> usize {
-    let mut best = 0;
-    for i in 1..z.len() {
-        if z[i] > z[best] {
-            best = i;
-        }
-    }
-    let zb = z[best];
-    let close = |zj: f64| zb - zj < 1e-6 || zb > 5.0 || zj < -5.0;
-    if !z.iter().enumerate().any(|(j, &zj)| j != best && close(zj)) {
-        return best;
-    }
-    // numpy's argmax over `best` and the close indices (the others lose).
-    let mut arg = best;
-    let mut max = tanh(zb);
-    for (j, &zj) in z.iter().enumerate() {
-        if j != best && close(zj) {
-            let t = tanh(zj);
-            if t > max || (t == max && j < arg) {
-                arg = j;
-                max = t;
-            }
-        }
-    }
-    arg
 }
 
 mod single;

@@ -13,7 +13,7 @@
 
 use crate::block::make_failed;
 use crate::deal::{Deal, Status};
-use crate::policy::{NetShape, PolicyLanes};
+use crate::policy::PolicyLanes;
 use crate::sampler::{BlockResult, CellPlan, EpisodeResult, SampleError, LANES};
 use rayon::prelude::*;
 use rwg_env::Action;
@@ -226,8 +226,6 @@ impl<B: RemoteEnv> RemoteLaneWorker<B> {
             "a remote env of {LANES} lanes per group"
         );
         let spec = env.spec();
-        let n_out = NetShape::outputs_for(&spec.action_space);
-        let shape = NetShape::new(spec.obs_dim(), &plan.arch, n_out);
         let obs_dim = spec.obs_dim();
         let action_dim = match &spec.action_space {
             rwg_env::Space::Discrete { .. } => 0,
@@ -235,7 +233,7 @@ impl<B: RemoteEnv> RemoteLaneWorker<B> {
         };
         let groups = (0..env.groups())
             .map(|_| Group {
-                policy: PolicyLanes::new(shape.clone(), &spec.action_space),
+                policy: plan.lanes(spec),
                 obs: vec![0.0; LANES * obs_dim],
                 lanes: [Lane::IDLE; LANES],
                 ops: vec![LaneOp::Idle; LANES],
@@ -246,7 +244,7 @@ impl<B: RemoteEnv> RemoteLaneWorker<B> {
             })
             .collect();
         RemoteLaneWorker {
-            n_weights: shape.n_weights(),
+            n_weights: plan.net_shape(spec).n_weights(),
             env,
             groups,
             action_dim,

@@ -9,10 +9,11 @@
 pub use crate::block::draw_block_weights;
 use crate::deal::{Deal, Lane};
 pub use crate::plan::{
-    draw_weights, reset_seed, return_within_bound, weight_rng, with_end_hint, CellPlan,
+    action_rng, draw_weights, reset_seed, return_within_bound, weight_rng, with_end_hint, CellPlan,
     EpisodeResult, NonFinite, SampleError, WeightDist, MAX_RETURN,
 };
-use crate::policy::{NetShape, Policy, PolicyLanes};
+pub use crate::policy::PolicyKind;
+use crate::policy::{Policy, PolicyLanes};
 use rayon::prelude::*;
 use rwg_env::env::{EnvError, Environment};
 use std::ops::Range;
@@ -28,18 +29,14 @@ impl<E: Environment> Worker<E> {
     /// A worker for `plan` on `env`.
     pub fn new(env: E, plan: &CellPlan) -> Self {
         let spec = env.spec();
-        let shape = NetShape::new(
-            spec.obs_dim(),
-            &plan.arch,
-            NetShape::outputs_for(&spec.action_space),
-        );
-        let policy = Policy::new(shape, &spec.action_space);
+        let policy = plan.policy(spec, 0);
         let obs = vec![0.0; spec.obs_dim()];
         Worker { env, policy, obs }
     }
 
-    /// Draws network `sample`'s weights and runs its episodes into `out`
-    /// (length `plan.episodes`).
+    /// Draws network `sample`'s weights (or, for random actions, each
+    /// episode's generator) and runs its episodes into `out` (length
+    /// `plan.episodes`).
     pub fn run_sample(
         &mut self,
         plan: &CellPlan,
@@ -51,6 +48,7 @@ impl<E: Environment> Worker<E> {
         for (episode, slot) in out.iter_mut().enumerate() {
             let episode = episode as u32;
             let r = reset_seed(plan.seed, &plan.env_id, sample, episode);
+            plan.begin_episode(&mut self.policy, sample, episode);
             let nf = (plan.non_finite, plan.dist.scale());
             *slot = run_episode(&mut self.env, &mut self.policy, &mut self.obs, r, nf).map_err(
                 |(step, error)| SampleError {
@@ -113,13 +111,8 @@ impl<E: Environment, const K: usize> LaneWorker<E, K> {
     pub fn new(mut make_env: impl FnMut() -> E, plan: &CellPlan) -> Self {
         let envs: Vec<E> = (0..K).map(|_| make_env()).collect();
         let spec = envs[0].spec();
-        let shape = NetShape::new(
-            spec.obs_dim(),
-            &plan.arch,
-            NetShape::outputs_for(&spec.action_space),
-        );
         let obs_dim = spec.obs_dim();
-        let policy = PolicyLanes::new(shape, &spec.action_space);
+        let policy = plan.lanes(spec);
         LaneWorker {
             obs: vec![0.0; K * obs_dim],
             obs_dim,
@@ -431,6 +424,7 @@ mod tests {
             },
             episodes,
             dist: WeightDist::Normal { std: 1.0 },
+            policy: crate::policy::PolicyKind::Network,
             non_finite: Default::default(),
         }
     }
@@ -460,8 +454,12 @@ mod tests {
     #[test]
     fn lanes_give_the_sequential_results_and_first_error() {
         let (mut oks, mut step_errs, mut reset_errs) = (0, 0, 0);
-        for episodes in [1, 2, 5] {
-            let plan = flaky_plan(episodes);
+        let kinds = [PolicyKind::Network, PolicyKind::Random];
+        for (episodes, policy) in [1, 2, 5].into_iter().flat_map(|e| kinds.map(|k| (e, k))) {
+            let plan = CellPlan {
+                policy,
+                ..flaky_plan(episodes)
+            };
             // fail_every 1 << 40: no failure; small values: failures in
             // various positions of the block.
             for fail_every in [1 << 40, 2, 5, 11, 37] {
@@ -500,6 +498,32 @@ mod tests {
             oks > 0 && step_errs > 0 && reset_errs > 0,
             "{oks} {step_errs} {reset_errs}"
         );
+    }
+
+    /// A random cell's episodes differ from a network's (its actions are
+    /// drawn, not computed) and from one seed to another, and do not
+    /// depend on how many lanes run them.
+    #[test]
+    fn random_actions_are_drawn_per_episode() {
+        let run = |policy, seed, lanes: bool| {
+            let plan = CellPlan {
+                policy,
+                seed,
+                ..flaky_plan(4)
+            };
+            if lanes {
+                let mut got = vec![EpisodeResult::EMPTY; 40];
+                let mut lw = LaneWorker::<_, 4>::new(|| Flaky::new(1 << 40), &plan);
+                lw.run_block(&plan, 0..10, &mut got).unwrap();
+                got
+            } else {
+                sequential(&plan, 1 << 40, 0..10).unwrap()
+            }
+        };
+        let random = run(PolicyKind::Random, 1, false);
+        assert_eq!(random, run(PolicyKind::Random, 1, true));
+        assert_ne!(random, run(PolicyKind::Network, 1, false));
+        assert_ne!(random, run(PolicyKind::Random, 2, false));
     }
 
     #[test]

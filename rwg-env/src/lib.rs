@@ -116,7 +116,8 @@
 //!   default where the CPU has it, `scalar`, or `avx512` when asked for; the
 //!   bits never differ).
 //! - `vars`: parsing of `RWG_*` environment variables with messages naming them;
-//!   [`suggest`]: did-you-mean hints.
+//!   [`suggest`]: did-you-mean hints; [`text`]: text from outside rwg made safe
+//!   to print (control characters escaped).
 
 pub mod env;
 pub mod float;
@@ -129,6 +130,7 @@ pub mod sha512;
 pub mod simd;
 pub mod space;
 pub mod suggest;
+pub mod text;
 pub mod time_limit;
 pub mod vars;
 

@@ -13,7 +13,7 @@
 //! - `RWG_SIMD=scalar`: the target's baseline (SSE2 on x86-64) and one libm
 //!   call per `sin`/`cos`/`pow` element.
 //!
-//! Unset (or empty), rwg runs [`Simd::default_level`]: AVX2 where the CPU
+//! Unset, rwg runs [`Simd::default_level`]: AVX2 where the CPU
 //! has it, else scalar. AVX-512 runs only when asked for (`RWG_SIMD=avx512`
 //! on a CPU that has it), because whether it pays depends on the CPU: on an
 //! Intel Xeon it ran the peer workloads of `rwg bench peers` in 0.70-0.94 of
@@ -110,11 +110,11 @@ fn detect() -> Simd {
     Simd::Scalar
 }
 
-/// `RWG_SIMD`: `None` if unset or empty, the level it names if this CPU has
+/// `RWG_SIMD`: `None` if unset, the level it names if this CPU has
 /// it; an error naming the variable for an unknown name or a level the CPU
 /// lacks.
 pub fn setting() -> Result<Option<Simd>, VarError> {
-    match crate::vars::text(VAR)? {
+    match crate::vars::value(VAR)? {
         None => Ok(None),
         Some(v) => parse(&v).map(Some),
     }

@@ -2,14 +2,15 @@
 //! value is an error that names the variable, its value and what is
 //! expected, never a silent fallback to the default nor a panic.
 //!
-//! A variable that is unset or set to the empty string counts as unset.
+//! A variable that is unset takes its default; one set to the empty string
+//! is an error (a shell's `VAR= cmd` sets it, it does not unset it).
 
 use std::time::Duration;
 use thiserror::Error;
 
 /// A bad value of an environment variable.
 #[derive(Debug, Clone, PartialEq, Error)]
-#[error("{var}={value}: expected {expected}")]
+#[error("{var}={value}: expected {expected}{}", empty_hint(var, value))]
 pub struct VarError {
     /// The variable.
     pub var: &'static str,
@@ -19,12 +20,22 @@ pub struct VarError {
     pub expected: String,
 }
 
-/// The value of `var`, `None` if it is unset or empty; an error if it is not
-/// UTF-8.
-pub fn text(var: &'static str) -> Result<Option<String>, VarError> {
+/// What to do about a variable set to the empty string: nothing for
+/// another value.
+fn empty_hint(var: &str, value: &str) -> String {
+    if value.is_empty() {
+        format!("; {var} is set to the empty string: unset it (`unset {var}`) for the default")
+    } else {
+        String::new()
+    }
+}
+
+/// The value of `var`, `None` if it is unset, the empty string if it is set
+/// to it; an error if it is not UTF-8. The parsers below refuse an empty
+/// value as they refuse any other they cannot read.
+pub fn value(var: &'static str) -> Result<Option<String>, VarError> {
     match std::env::var_os(var) {
         None => Ok(None),
-        Some(v) if v.is_empty() => Ok(None),
         Some(v) => v.into_string().map(Some).map_err(|v| VarError {
             var,
             value: v.to_string_lossy().into_owned(),
@@ -33,10 +44,36 @@ pub fn text(var: &'static str) -> Result<Option<String>, VarError> {
     }
 }
 
-/// A switch: `0` (off) or `1` (on); `default` if `var` is unset or empty.
+/// Refuses `var` set to the empty string (any other value, UTF-8 or not, is
+/// left to its reader); `expected` says what it may hold, for the error.
+pub fn not_empty(var: &'static str, expected: &str) -> Result<(), VarError> {
+    match std::env::var_os(var) {
+        Some(v) if v.is_empty() => Err(VarError {
+            var,
+            value: String::new(),
+            expected: expected.into(),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// The value of `var`, `None` if it is unset; an error if it is empty or not
+/// UTF-8. `expected` says what it may hold, for the error.
+pub fn text(var: &'static str, expected: &str) -> Result<Option<String>, VarError> {
+    match value(var)? {
+        Some(v) if v.is_empty() => Err(VarError {
+            var,
+            value: v,
+            expected: expected.into(),
+        }),
+        v => Ok(v),
+    }
+}
+
+/// A switch: `0` (off) or `1` (on); `default` if `var` is unset.
 /// `meaning` says what each value does, for the error.
 pub fn switch(var: &'static str, default: bool, meaning: &str) -> Result<bool, VarError> {
-    match text(var)? {
+    match value(var)? {
         None => Ok(default),
         Some(v) => parse_switch(var, &v, meaning),
     }
@@ -56,7 +93,7 @@ pub fn parse_switch(var: &'static str, value: &str, meaning: &str) -> Result<boo
 }
 
 /// Seconds from `min` to `max` (a decimal number, may be fractional);
-/// `default` if `var` is unset or empty. `meaning` says what the time is,
+/// `default` if `var` is unset. `meaning` says what the time is,
 /// for the error.
 pub fn seconds(
     var: &'static str,
@@ -65,7 +102,7 @@ pub fn seconds(
     default: Duration,
     meaning: &str,
 ) -> Result<Duration, VarError> {
-    match text(var)? {
+    match value(var)? {
         None => Ok(default),
         Some(v) => parse_seconds(var, &v, min, max, meaning),
     }
@@ -129,10 +166,24 @@ mod tests {
     }
 
     #[test]
-    fn unset_and_empty_take_the_default() {
+    fn empty_values_are_refused_with_what_to_do() {
+        let e = parse_switch("RWG_S", "", "0: off").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "RWG_S=: expected 0 or 1 (0: off); RWG_S is set to the empty string: unset it \
+             (`unset RWG_S`) for the default"
+        );
+        let e = parse_seconds("RWG_T", " ", 0.0, 1.0, "x").unwrap_err();
+        assert_eq!(e.to_string(), "RWG_T= : expected seconds from 0 to 1 (x)");
+    }
+
+    #[test]
+    fn unset_takes_the_default() {
         // a name no one sets
         let var = "RWG_VARS_TEST_NEVER_SET";
-        assert_eq!(text(var), Ok(None));
+        assert_eq!(text(var, "x"), Ok(None));
+        assert_eq!(value(var), Ok(None));
+        assert_eq!(not_empty(var, "x"), Ok(()));
         assert_eq!(switch(var, true, "x"), Ok(true));
         assert_eq!(
             seconds(var, 0.0, 1.0, Duration::from_secs(7), "x"),

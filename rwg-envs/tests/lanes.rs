@@ -19,6 +19,7 @@ fn plan(env: &str, hidden: &[usize], bias: bool, episodes: u32) -> CellPlan {
         },
         episodes,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: rwg_core::policy::PolicyKind::Network,
         non_finite: Default::default(),
     }
 }

@@ -1,5 +1,6 @@
 //! The step loop allocates nothing: `Environment::step` of every built-in
-//! env, `Policy::act`, `PolicyLanes::forward` / `action` / `actions_into`, and `reset`
+//! env, `Policy::act`, `PolicyLanes::forward` / `action` / `actions_into`
+//! (of networks and of random actions), and `reset`
 //! (counted with a global allocator that counts the calls of this thread),
 //! and the lockstep envs' `reset_many` / `step_many`.
 
@@ -125,6 +126,37 @@ fn step_loop_allocates_nothing() {
             );
             assert_eq!(lanes, 0, "{} {hidden:?}: PolicyLanes allocated", r.id);
         }
+    }
+}
+
+/// Random actions (a cell with `policy = "random"`) allocate nothing per
+/// step: `Policy::act`, `PolicyLanes::forward` / `action` / `actions_into`
+/// of random policies, in every built-in env's action space.
+#[test]
+fn random_actions_allocate_nothing() {
+    for r in REGISTRY {
+        let spec = rwg_envs::make(r.id, &EnvOptions::default())
+            .unwrap()
+            .spec()
+            .clone();
+        let space = spec.action_space.clone();
+        let mut policy = Policy::random(&space);
+        policy.seed_actions(Pcg64::from_seed(5));
+        let mut lanes = PolicyLanes::<4>::random(&space);
+        for l in 0..4 {
+            lanes.seed_lane(l, Pcg64::from_seed(l as u64));
+        }
+        let obs = vec![0.0; 4 * spec.obs_dim()];
+        let mut out = vec![0.0; 4 * space.flat_dim()];
+        let n = allocations(|| {
+            for t in 0..2000 {
+                let _ = policy.act(&obs);
+                lanes.forward(&obs);
+                let _ = lanes.action(t % 4);
+                lanes.actions_into(&[1, u8::from(t % 3 == 0), 1, 0], &mut out);
+            }
+        });
+        assert_eq!(n, 0, "{}: random actions allocated", r.id);
     }
 }
 

@@ -71,9 +71,14 @@ pub const PYTHON_VAR: &str = "RWG_PYTHON";
 /// The largest [`TIMEOUT_VAR`] accepted, in seconds (a week).
 pub const MAX_TIMEOUT_S: f64 = 604_800.0;
 
-/// `RWG_PYTHON` if set, else `python3`; an error if it is not UTF-8.
+/// What [`PYTHON_VAR`] may hold, for its errors.
+pub const PYTHON_EXPECTED: &str =
+    "a Python interpreter, a name on PATH or a path (the Python of envs without a `python` key)";
+
+/// `RWG_PYTHON` if set, else `python3`; an error if it is empty or not
+/// UTF-8.
 pub fn python_setting() -> Result<String, rwg_env::vars::VarError> {
-    Ok(rwg_env::vars::text(PYTHON_VAR)?.unwrap_or_else(|| "python3".into()))
+    Ok(rwg_env::vars::text(PYTHON_VAR, PYTHON_EXPECTED)?.unwrap_or_else(|| "python3".into()))
 }
 
 /// [`python_setting`], or `python3` if that is an error (the `rwg` binary

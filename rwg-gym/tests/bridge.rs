@@ -36,6 +36,7 @@ fn plan(id: &str, hidden: &[usize], bias: bool) -> CellPlan {
         },
         episodes: 3,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: rwg_core::policy::PolicyKind::Network,
         non_finite: Default::default(),
     }
 }

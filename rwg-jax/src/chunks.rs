@@ -332,6 +332,7 @@ mod tests {
             },
             episodes: 2,
             dist: rwg_core::sampler::WeightDist::Normal { std: 1.0 },
+            policy: rwg_core::policy::PolicyKind::Network,
             non_finite,
         }
     }

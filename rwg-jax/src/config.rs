@@ -134,7 +134,7 @@ impl JaxConfig {
 
 /// `RWG_PYTHON` if set, else `python3` (as for `gymnasium:` envs).
 pub fn default_python() -> String {
-    rwg_env::vars::text(PYTHON_VAR)
+    rwg_env::vars::text(PYTHON_VAR, "a Python interpreter")
         .ok()
         .flatten()
         .unwrap_or_else(|| "python3".into())
@@ -158,7 +158,10 @@ pub fn timeout_setting() -> Result<Duration, rwg_env::vars::VarError> {
 /// variable for a relative path.
 pub fn cache_setting() -> Result<Option<std::path::PathBuf>, rwg_env::vars::VarError> {
     use std::path::PathBuf;
-    if let Some(v) = rwg_env::vars::text(CACHE_VAR)? {
+    if let Some(v) = rwg_env::vars::text(
+        CACHE_VAR,
+        "an absolute folder for JAX's compiled programs, or off",
+    )? {
         if v == "off" {
             return Ok(None);
         }

@@ -15,7 +15,9 @@ MAX_RETURN = 1e100  # rwg_core's bound on an episode's return
 def fail_exc(kind, what, e):
     """fail() for the exception `e` raised while doing `what`; an XLA
     RESOURCE_EXHAUSTED becomes `oom` with what to do."""
-    text = f"{type(e).__name__}: {e}"
+    lines = str(e).strip().splitlines()
+    # one line: the whole text is in the traceback
+    text = f"{type(e).__name__}: {lines[0] if lines else ''}{' ...' if len(lines) > 1 else ''}"
     if "RESOURCE_EXHAUSTED" in text or "out of memory" in text.lower():
         fail("oom", f"{what} ran out of device memory ({text.splitlines()[0]}); lower "
                     f"networks_per_call in the manifest's [[envs]] entry", traceback.format_exc())

@@ -59,10 +59,43 @@ def replace_params(params, kwargs, where):
         if unknown:
             fail("make", f"{where} has no field {', '.join(unknown)}; its fields are: "
                          f"{', '.join(fields)}")
+    for k, v in kwargs.items():
+        wrong = wrong_type(v, getattr(params, k, None))
+        if wrong:
+            fail("make", f"{where}: {k} = {v!r} is a {type(v).__name__}, where the field takes "
+                         f"{wrong}")
     try:
         return params.replace(**kwargs)
     except BaseException as e:  # noqa: BLE001
         fail_exc("make", f"{where}.replace(**{kwargs!r})", e)
+
+
+def wrong_type(value, default):
+    """What a params field of `default` takes, if `value` is not of it
+    (gymnax casts nothing: a string fails deep in tracing, a bool or 2.5
+    for a whole number is taken as a number); None if it is."""
+    import numpy as np
+
+    if default is None or isinstance(default, (str, bytes)):
+        return None
+    d = np.asarray(default)
+    is_bool = isinstance(value, (bool, np.bool_))
+    number = isinstance(value, (int, float, np.number)) and not is_bool
+    shown = default if d.ndim == 0 else d.tolist()
+    if d.dtype == np.bool_:
+        ok, want = is_bool, "true or false"
+    elif np.issubdtype(d.dtype, np.integer):
+        ok, want = number and isinstance(value, (int, np.integer)), "a whole number"
+    elif np.issubdtype(d.dtype, np.floating):
+        ok, want = number, "a number"
+    else:
+        return None
+    if d.ndim > 0:
+        ok = np.shape(value) == d.shape and all(
+            isinstance(x, (int, float, np.number)) and not isinstance(x, (bool, np.bool_))
+            for x in np.ravel(np.asarray(value, dtype=object)))
+        want = f"a list of shape {d.shape} of numbers"
+    return None if ok else f"{want} (its default: {shown!r})"
 
 
 def limit_of(params, max_steps, what):
@@ -209,10 +242,58 @@ def make_custom(target, kwargs, max_steps, package):
         env, params = fn(**kwargs)
     except BaseException as e:  # noqa: BLE001
         fail_exc("make", f"{target}(**{kwargs!r})", e)
-    return Adapted(lambda k: env.reset(k, params), gymnax_step(env, params),
-                   env.observation_space(params), env.action_space(params),
-                   limit_of(params, max_steps, f"jax:{target}"),
-                   {"module": version_of(module.split(".")[0])})
+    adapted = Adapted(lambda k: env.reset(k, params), gymnax_step(env, params),
+                      env.observation_space(params), env.action_space(params),
+                      limit_of(params, max_steps, f"jax:{target}"),
+                      {"module": version_of(module.split(".")[0])})
+    adapted.source = module_source(module.split(".")[0])
+    return adapted
+
+
+# The most source files of a module's package digested, and bytes read.
+MAX_SOURCE_FILES, MAX_SOURCE_BYTES = 4096, 64 << 20
+
+
+def module_source(top):
+    """What the code of a `jax:` env's top module is: the SHA-256 of its
+    package's `.py` files (relative path and bytes, in path order; a lone
+    module's file), how many, and, when it was found through PYTHONPATH or
+    the current directory (not installed), the PYTHONPATH a command run
+    elsewhere needs (absolute; None for an installed one)."""
+    import hashlib
+    import os
+    import sys
+
+    mod = sys.modules.get(top)
+    paths = list(getattr(mod, "__path__", None) or [])
+    files = []
+    if paths:
+        for base in paths:
+            for folder, dirs, names in os.walk(base):
+                dirs[:] = sorted(d for d in dirs if d != "__pycache__")
+                files += [os.path.join(folder, n) for n in sorted(names) if n.endswith(".py")]
+        root = os.path.dirname(os.path.abspath(paths[0]))
+    elif getattr(mod, "__file__", None):
+        files = [mod.__file__]
+        root = os.path.dirname(os.path.abspath(mod.__file__))
+    else:
+        return None
+    h, read = hashlib.sha256(), 0
+    for f in files[:MAX_SOURCE_FILES]:
+        try:
+            with open(f, "rb") as fh:
+                data = fh.read(MAX_SOURCE_BYTES - read + 1)
+        except OSError:
+            continue
+        read += len(data)
+        h.update(os.path.relpath(f, root).encode() + b"\0" + data + b"\0")
+        if read > MAX_SOURCE_BYTES:
+            break
+    on_path = [os.path.abspath(p) for p in os.environ.get("PYTHONPATH", "").split(os.pathsep) if p]
+    if root == os.getcwd() and root not in on_path:
+        on_path.append(root)
+    return {"module": top, "sha256": h.hexdigest(), "files": len(files),
+            "pythonpath": os.pathsep.join(on_path) if root in on_path else None}
 
 
 # The hello message's `source` -> make(name, kwargs, max_steps, package) ->

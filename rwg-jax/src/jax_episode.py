@@ -18,7 +18,7 @@ precision, device kind, versions) fixes the program.
 
 from rwg_pipe import fail
 from rwg_jax_worker_common import FAULT_OBS, FAULT_RETURN, FAULT_REWARD, MAX_RETURN
-from rwg_jax_worker_policy import policy_fn
+from rwg_jax_worker_policy import action_key, policy_fn, random_policy_fn
 
 import struct
 
@@ -43,8 +43,11 @@ def lane_fns(jax, env, policy, dt):
         return obs, state, jax.random.key_data(k_steps), bit(not_finite(obs), FAULT_OBS)
 
     def step(Ws, obs, state, k_steps, t):
-        a = policy(Ws, obs, env.legal(state) if env.legal else None)
-        key = jax.random.fold_in(jax.random.wrap_key_data(k_steps, impl="threefry2x32"), t)
+        k_steps = jax.random.wrap_key_data(k_steps, impl="threefry2x32")
+        # a random cell's action key: the item's step key's child T + t
+        akey = action_key(jax, k_steps, t, env.max_steps) if policy.needs_key else None
+        a = policy(Ws, obs, env.legal(state) if env.legal else None, akey)
+        key = jax.random.fold_in(k_steps, t)
         obs, state, r, d = env.step(key, state, a)
         r = jnp.asarray(r).astype(dt)
         fault = bit(not_finite(obs), FAULT_OBS) | bit(not_finite(r), FAULT_REWARD)
@@ -159,8 +162,9 @@ def chunk_program(jax, env, policy, dt, N, E, L, end=False):
 def cell_layers(space, obs_dim, cell):
     """The cell's layer shapes (out, in[+1]) and weights per network."""
     hidden, bias = [int(h) for h in cell["hidden"]], bool(cell["bias"])
+    random = cell.get("policy", "network") == "random"
     n_out = space[0] if space[0] is not None else len(space[1])
-    sizes = [obs_dim] + hidden + [n_out]
+    sizes = [] if random else [obs_dim] + hidden + [n_out]
     layers = [(sizes[i + 1], sizes[i] + int(bias)) for i in range(len(sizes) - 1)]
     nw = sum(o * i for o, i in layers)
     if nw != int(cell["n_weights"]):
@@ -182,7 +186,10 @@ def compile_cell(jax, env, devs, dt, space, obs_dim, cell):
     jnp = jax.numpy
     layers, nw = cell_layers(space, obs_dim, cell)
     N, E, L = int(cell["networks"]), int(cell["episodes"]), int(cell["lanes"])
-    policy = policy_fn(jnp, layers, bool(cell["bias"]), dt, space)
+    random = cell.get("policy", "network") == "random"
+    bias = bool(cell["bias"])
+    policy = random_policy_fn(jax, dt, space) if random else policy_fn(jnp, layers, bias, dt,
+                                                                         space)
     end = cell.get("non_finite") == "end"
     program = jax.jit(chunk_program(jax, env, policy, dt, N, E, L, end))
     calls = []

@@ -26,7 +26,7 @@ from rwg_pipe import (  # the pipe first: it redirects fd 0/1
 from rwg_jax_worker_common import fail_exc, import_family, version_of
 from rwg_jax_worker_families import MAKERS
 from rwg_jax_worker_obs import structured
-from rwg_jax_worker_policy import describe_spaces
+from rwg_jax_worker_policy import check_sizes, describe_spaces
 from rwg_jax_worker_episode import compile_cell, dispatch_chunk, outcome
 
 import collections
@@ -137,12 +137,16 @@ def start(hello):
     fields, space = describe_spaces(env, int(hello.get("max_obs", 4096)), leaves)
     fields.update({"observation_leaves": described, "action_mask": action_mask(env, hello),
                    "settings": {str(k): str(v) for k, v in env.settings.items()}})
+    with jax.default_device(dev):
+        check_sizes(jax, env, dt, space, fields["obs_shape"], fields["obs_dim"])
     fields["item_bytes"] = start_bytes(jax, env, dev)
     import jaxlib
 
     versions = {"python": sys.version.split()[0], "jax": jax.__version__,
                 "jaxlib": getattr(jaxlib, "__version__", None) or version_of("jaxlib")}
     versions.update(env.versions)
+    if getattr(env, "source", None):
+        fields["source"] = env.source
     fields.update({"max_episode_steps": env.max_steps, "precision": precision,
                    "versions": {k: v for k, v in versions.items() if v is not None},
                    "device": ", ".join(f"{d.platform}:{d.id}" for d in devs),

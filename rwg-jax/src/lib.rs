@@ -14,8 +14,8 @@
 //! computation has the lanes' shape, so a network's results are the same
 //! bits whatever the chunk that holds it, `networks_per_call`, the threads,
 //! devices, shards or a resume. The weights are rwg's draw
-//! ([`rwg_core::sampler::draw_block_weights`]); the episode's key is
-//! `PRNGKey(r)` of rwg's reset seed `r`.
+//! ([`rwg_core::sampler::draw_block_weights`]); the episode's key is the
+//! threefry key of data `[r >> 32, r & 0xFFFFFFFF]` of rwg's reset seed `r`.
 //!
 //! # Example
 //!
@@ -68,6 +68,7 @@ pub use source::{JaxSource, StartingSource};
 
 pub use family::{id_forms, jax_id, Family, JaxKind, FAMILIES};
 
+use rwg_core::sampler::SampleError;
 use rwg_env::EnvSpec;
 use rwg_worker::protocol::WorkerError;
 use std::collections::BTreeMap;
@@ -189,6 +190,8 @@ pub struct JaxInfo {
     /// Bytes an episode's start (its observation and state) takes on the
     /// device.
     pub item_bytes: u64,
+    /// For a `jax:module:callable` env: what its code is.
+    pub source: Option<protocol::ModuleSource>,
 }
 
 /// What can go wrong with a JAX environment.
@@ -251,6 +254,55 @@ pub enum JaxError {
 }
 
 use rwg_worker::stderr_tail_text as tail;
+
+/// A failure of a JAX env that no episode is to blame for: a worker that
+/// could not start or compile the cell, or a compiled call that failed as a
+/// whole (the worker's error, death or timeout), named by the call's
+/// networks. (An episode's own failure is a [`SampleError`].)
+#[derive(Debug, Error)]
+#[error("{env}: {}{error}", calls_text(.networks))]
+pub struct CallError {
+    /// The env's id.
+    pub env: String,
+    /// The call's first and last network and how many it ran; `None` for a
+    /// worker's start or compile.
+    pub networks: Option<(u64, u64, usize)>,
+    /// What went wrong (in this text, not chained: printed once).
+    pub error: JaxError,
+}
+
+fn calls_text(networks: &Option<(u64, u64, usize)>) -> String {
+    networks.map_or(String::new(), |(first, last, n)| {
+        format!(
+            "the compiled call of networks {first} to {last} ({n} networks, every episode) \
+             failed: "
+        )
+    })
+}
+
+/// Why [`JaxSource::run_blocks`] stopped, for a caller without an error
+/// type of its own.
+#[derive(Debug, Error)]
+pub enum RunError {
+    /// An episode failed.
+    #[error(transparent)]
+    Episode(Box<SampleError>),
+    /// A start, compile or whole call failed.
+    #[error(transparent)]
+    Call(Box<CallError>),
+}
+
+impl From<SampleError> for RunError {
+    fn from(e: SampleError) -> Self {
+        RunError::Episode(Box::new(e))
+    }
+}
+
+impl From<CallError> for RunError {
+    fn from(e: CallError) -> Self {
+        RunError::Call(Box::new(e))
+    }
+}
 
 fn worker_error_text(python: &str, e: &WorkerError) -> String {
     let mut s = format!("{} (Python {python})", e.message);

@@ -64,7 +64,7 @@ pub struct CellShape {
     pub networks: u32,
     /// Episodes per network.
     pub episodes: u32,
-    /// Weights per network.
+    /// Weights per network (0 for random actions).
     pub n_weights: usize,
     /// Episodes run at once (the program's lanes).
     pub lanes: u32,
@@ -72,6 +72,8 @@ pub struct CellShape {
     pub refill: u32,
     /// The precision of matrix products.
     pub matmul_precision: MatmulPrecision,
+    /// Uniformly random actions instead of networks (the random baseline).
+    pub random: bool,
     /// The manifest's `non_finite = "end"`: an episode ends at its first
     /// value that is not finite (observation, reward, or a return beyond
     /// ±1e100), its return that of the steps before, its fault bits set.
@@ -91,6 +93,7 @@ impl CellShape {
             "lanes": self.lanes,
             "refill": self.refill,
             "matmul_precision": self.matmul_precision.name(),
+            "policy": if self.random { "random" } else { "network" },
         });
         if self.non_finite_ends {
             j["non_finite"] = "end".into();
@@ -201,6 +204,26 @@ pub struct Ready {
     precision: String,
     memory: Option<u64>,
     item_bytes: u64,
+    #[serde(default)]
+    source: Option<ModuleSource>,
+}
+
+/// What the code of a `jax:module:callable` env is: a digest of its
+/// package's source files (a resume under other code is refused), and the
+/// `PYTHONPATH` it was imported through (what a printed command needs).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, Deserialize)]
+pub struct ModuleSource {
+    /// The top module (`my_pkg` of `jax:my_pkg.envs:make`).
+    pub module: String,
+    /// SHA-256 of its `.py` files (relative path and bytes, in path order).
+    pub sha256: String,
+    /// How many files.
+    pub files: u64,
+    /// The `PYTHONPATH` (absolute folders) it was imported through, if it
+    /// was found through `PYTHONPATH` or the current directory (not an
+    /// installed package): what a command that starts the env again needs.
+    #[serde(default)]
+    pub pythonpath: Option<String>,
 }
 
 fn floats(v: &[serde_json::Value]) -> Result<Vec<f64>, JaxError> {
@@ -254,6 +277,7 @@ pub fn parse_ready(cfg: &JaxConfig, r: Ready) -> Result<JaxInfo, JaxError> {
         precision,
         memory: r.memory,
         item_bytes: r.item_bytes,
+        source: r.source,
     })
 }
 

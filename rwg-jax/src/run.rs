@@ -9,9 +9,8 @@
 use crate::chunks::{chunk_len, chunks, results, Assembly, Chunk};
 use crate::protocol::{CellShape, Outcome};
 use crate::worker::JaxWorker;
-use crate::{JaxError, JaxSource};
+use crate::{CallError, JaxError, JaxSource};
 use rwg_core::sampler::{draw_block_weights, reset_seed, BlockResult, CellPlan, SampleError};
-use rwg_env::EnvError;
 use std::collections::VecDeque;
 use std::ops::Range;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
@@ -30,7 +29,7 @@ pub fn run_blocks<G, X>(
 ) -> Result<(), X>
 where
     G: FnMut(BlockResult) -> Result<(), X>,
-    X: From<SampleError> + Send,
+    X: From<SampleError> + From<CallError> + Send,
 {
     let cell = src.cell_shape(plan);
     let all = chunks(blocks, cell.networks as usize);
@@ -76,13 +75,13 @@ where
 fn collect<G, X>(
     plan: &CellPlan,
     all: &[Chunk],
-    outcomes: &[Receiver<Result<Outcome, JaxError>>],
+    outcomes: &[Receiver<Result<Outcome, Failed>>],
     assembly: &mut Assembly<'_>,
     on_block: &mut G,
 ) -> Result<(), X>
 where
     G: FnMut(BlockResult) -> Result<(), X>,
-    X: From<SampleError> + Send,
+    X: From<SampleError> + From<CallError> + Send,
 {
     for (c, chunk) in all.iter().enumerate() {
         let outcome = outcomes[c % outcomes.len()]
@@ -98,20 +97,29 @@ where
     Ok(())
 }
 
-/// The error of a chunk whose call failed: named by its first network.
-fn chunk_error(plan: &CellPlan, chunk: &Chunk, e: JaxError) -> SampleError {
-    let first = chunk[0].samples.start;
-    let last = chunk.last().expect("a chunk has networks").samples.end - 1;
-    SampleError {
+/// Why a worker thread sent no outcome for a chunk.
+enum Failed {
+    /// Its worker could not start or compile the cell.
+    Setup(JaxError),
+    /// The chunk's call failed as a whole.
+    Call(JaxError),
+}
+
+/// The error of a chunk whose worker failed: a setup failure is the env's,
+/// a call's is named by its networks (no episode of it is to blame).
+fn chunk_error(plan: &CellPlan, chunk: &Chunk, e: Failed) -> CallError {
+    let (networks, error) = match e {
+        Failed::Setup(e) => (None, e),
+        Failed::Call(e) => {
+            let first = chunk[0].samples.start;
+            let last = chunk.last().expect("a chunk has networks").samples.end - 1;
+            (Some((first, last, chunk_len(chunk))), e)
+        }
+    };
+    CallError {
         env: plan.env_id.clone(),
-        sample: first,
-        episode: 0,
-        step: 0,
-        error: EnvError::Other(format!(
-            "in the compiled call running networks {first} to {last} ({} networks, every \
-             episode): {e}",
-            chunk_len(chunk)
-        )),
+        networks,
+        error,
     }
 }
 
@@ -148,13 +156,13 @@ fn serve(
     all: &[Chunk],
     (t, workers): (usize, usize),
     worker: Result<JaxWorker, JaxError>,
-    outcomes: SyncSender<Result<Outcome, JaxError>>,
+    outcomes: SyncSender<Result<Outcome, Failed>>,
 ) -> Option<JaxWorker> {
     let mut w = match worker {
         Ok(w) => w,
         Err(e) => {
             // a start-up or compile failure, reported for its first chunk
-            let _ = outcomes.send(Err(e));
+            let _ = outcomes.send(Err(Failed::Setup(e)));
             return None;
         }
     };
@@ -167,7 +175,9 @@ fn serve(
     let episodes = plan.episodes as usize;
     let answer = |w: &mut JaxWorker, sent: &mut VecDeque<usize>| {
         let c = sent.pop_front().expect("a chunk in flight");
-        let outcome = w.recv_outcome(chunk_len(&all[c]) * episodes);
+        let outcome = w
+            .recv_outcome(chunk_len(&all[c]) * episodes)
+            .map_err(Failed::Call);
         let broken = outcome.is_err();
         outcomes.send(outcome).is_ok() && !broken
     };
@@ -175,7 +185,7 @@ fn serve(
         std::mem::swap(&mut inputs, &mut next);
         let answers = usize::from(w.in_flight() + 1 >= depth);
         if let Err(e) = w.send_chunk(answers, chunk_len(&all[c]), &inputs.0, &inputs.1) {
-            let _ = outcomes.send(Err(e));
+            let _ = outcomes.send(Err(Failed::Call(e)));
             return None;
         }
         sent.push_back(c);
@@ -187,7 +197,7 @@ fn serve(
         }
     }
     if let Err(e) = w.flush() {
-        let _ = outcomes.send(Err(e));
+        let _ = outcomes.send(Err(Failed::Call(e)));
         return None;
     }
     while !sent.is_empty() {

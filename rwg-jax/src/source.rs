@@ -5,10 +5,10 @@
 use crate::protocol::CellShape;
 use crate::worker::{JaxWorker, Starting};
 use crate::{
-    run, warm_up, JaxConfig, JaxError, JaxInfo, CACHE_VAR, DEFAULT_LANES_ACCELERATOR,
+    run, warm_up, CallError, JaxConfig, JaxError, JaxInfo, CACHE_VAR, DEFAULT_LANES_ACCELERATOR,
     DEFAULT_LANES_CPU, EPISODES_PER_LANE, MAX_DEFAULT_NETWORKS, MEMORY_SHARE, NETWORKS_MULTIPLE,
 };
-use rwg_core::policy::NetShape;
+use rwg_core::policy::{NetShape, PolicyKind};
 use rwg_core::sampler::{BlockResult, CellPlan, NonFinite, SampleError};
 use std::ops::Range;
 
@@ -66,7 +66,8 @@ impl JaxSource {
 
     /// What a cell message names for `plan`: its layers, the call's
     /// networks and episodes, the lanes, when ended lanes refill (an eighth
-    /// of them), the matmul precision, whether a value that is not finite
+    /// of them), the matmul precision, whether the actions are uniformly
+    /// random instead of the networks', whether a value that is not finite
     /// ends an episode.
     pub fn cell_shape(&self, plan: &CellPlan) -> CellShape {
         let spec = &self.info.spec;
@@ -85,6 +86,7 @@ impl JaxSource {
             lanes,
             refill: (lanes / 8).max(1),
             matmul_precision: self.config.matmul_precision,
+            random: plan.policy == PolicyKind::Random,
             non_finite_ends: plan.non_finite == NonFinite::End,
         }
     }
@@ -229,9 +231,10 @@ impl JaxSource {
     /// workers (kept between calls), in chunks of
     /// [`JaxSource::networks_per_call`] networks of consecutive blocks, one
     /// chunk in flight per worker, and hands the results to `on_block` in
-    /// block order. Stops at the first failure in network order (a fault
-    /// bit, a worker's error, death or timeout) or the first error
-    /// `on_block` returns; the blocks handed out before stay valid.
+    /// block order. Stops at the first failure in network order (an
+    /// episode's fault bit: a [`SampleError`]; a worker's error, death or
+    /// timeout: a [`CallError`]) or the first error `on_block` returns; the
+    /// blocks handed out before stay valid.
     pub fn run_blocks<G, X>(
         &self,
         plan: &CellPlan,
@@ -241,7 +244,7 @@ impl JaxSource {
     ) -> Result<(), X>
     where
         G: FnMut(BlockResult) -> Result<(), X>,
-        X: From<SampleError> + Send,
+        X: From<SampleError> + From<CallError> + Send,
     {
         run::run_blocks(self, plan, blocks, threads, on_block)
     }

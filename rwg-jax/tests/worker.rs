@@ -9,8 +9,8 @@
 )]
 
 use rwg_core::policy::Architecture;
-use rwg_core::sampler::{BlockResult, CellPlan, SampleError, WeightDist};
-use rwg_jax::{JaxConfig, JaxError, JaxKind, JaxSource, Precision};
+use rwg_core::sampler::{BlockResult, CellPlan, WeightDist};
+use rwg_jax::{JaxConfig, JaxError, JaxKind, JaxSource, Precision, RunError};
 use std::ops::Range;
 use std::path::PathBuf;
 
@@ -62,6 +62,7 @@ fn plan(id: &str, hidden: &[usize], bias: bool, episodes: u32) -> CellPlan {
         },
         episodes,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: rwg_core::policy::PolicyKind::Network,
         non_finite: Default::default(),
     }
 }
@@ -71,9 +72,9 @@ fn run(
     plan: &CellPlan,
     blocks: &[Range<u64>],
     threads: usize,
-) -> Result<Vec<BlockResult>, SampleError> {
+) -> Result<Vec<BlockResult>, RunError> {
     let mut out = vec![];
-    src.run_blocks(plan, blocks, threads, |b| -> Result<(), SampleError> {
+    src.run_blocks(plan, blocks, threads, |b| -> Result<(), RunError> {
         out.push(b);
         Ok(())
     })?;
@@ -211,11 +212,14 @@ fn a_non_finite_value_names_its_network_and_episode() {
         let p = plan("rwg_jax_test_envs:line", &[], false, 2);
         let mut committed = vec![];
         let err = src
-            .run_blocks(&p, &[5..7, 7..8], 1, |b| -> Result<(), SampleError> {
+            .run_blocks(&p, &[5..7, 7..8], 1, |b| -> Result<(), RunError> {
                 committed.push(b);
                 Ok(())
             })
             .unwrap_err();
+        let RunError::Episode(err) = err else {
+            panic!("{err}")
+        };
         // episodes shorter than 3 steps end before the NaN: the first
         // episode of 3 steps or more is the one named
         assert!(committed.is_empty());
@@ -260,6 +264,7 @@ fn a_worker_that_dies_in_a_call_names_the_call_and_how_it_ended() {
     let p = plan("rwg_jax_test_envs:dying", &[], false, 2);
     let err = run(&src, &p, &[4..6, 6..7], 1).unwrap_err().to_string();
     assert!(err.contains("networks 4 to 6"), "{err}");
+    assert!(!err.contains("episode 0, step 0"), "{err}");
     assert!(
         err.contains("exited with status 3 while running a chunk"),
         "{err}"

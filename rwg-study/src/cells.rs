@@ -9,10 +9,10 @@ use crate::rundir::meta::{CellId, CellMeta, RunMeta, ShardMeta, WeightsMeta, RUN
 use crate::rundir::names::check_distinct;
 use crate::stats;
 use crate::StudyError;
-use rwg_core::policy::{Architecture, NetShape};
+use rwg_core::policy::{Architecture, PolicyKind};
 use rwg_core::sampler::BlockResult;
 use rwg_core::sampler::CellPlan;
-use rwg_env::{ActionDtype, EnvSpec, Environment};
+use rwg_env::{ActionDtype, EnvSpec, Environment, Space};
 use rwg_envs::{visit, EnvOptions, EnvVisitor};
 use rwg_plugin_host::PluginEnvType;
 use std::path::Path;
@@ -130,7 +130,7 @@ fn builtin_env(
         ));
     }
     let opts = EnvOptions {
-        action_dtype: e.action_dtype,
+        action_dtype: e.action_dtype.unwrap_or_default(),
         max_episode_steps: e.max_episode_steps,
     };
     let spec = visit(&e.id, &opts, SpecOf).expect("a built-in id");
@@ -145,7 +145,7 @@ fn open_plugin_env(
     key: &str,
     ty: PluginEnvType,
 ) -> Result<(EnvSource, EnvSpec), ManifestError> {
-    if e.action_dtype != ActionDtype::default() {
+    if e.action_dtype.unwrap_or_default() != ActionDtype::default() {
         return Err(m.error_at(
             e.id_span.clone(),
             format!(
@@ -231,47 +231,26 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
         };
         let seed_id = seed_id(&e.id).to_string();
         for (j, a) in m.architectures.iter().enumerate() {
-            for &bias in &m.bias {
+            for &bias in a.biases(&m.bias) {
                 owners.push((i, j));
-                let shape = NetShape::new(
-                    spec.obs_dim(),
-                    &Architecture {
+                let plan = CellPlan {
+                    seed: m.seed,
+                    env_id: seed_id.clone(),
+                    arch: Architecture {
                         hidden: a.hidden.clone(),
                         bias,
                     },
-                    NetShape::outputs_for(&spec.action_space),
-                );
-                if shape.n_weights() > crate::limits::MAX_WEIGHTS {
-                    return Err(m
-                        .error_at(
-                            e.id_span.clone(),
-                            format!(
-                                "envs[{i}]: architectures[{j}] '{}' on '{}' has {} weights per \
-                                 network; at most {} (rwg's limit)",
-                                a.name,
-                                e.id,
-                                shape.n_weights(),
-                                crate::limits::MAX_WEIGHTS
-                            ),
-                        )
-                        .into());
-                }
-                let id = CellId::new(&e.id, &a.name, &a.hidden, bias);
-                // (Cells whose directories would be one, also on case-insensitive
-                // file systems, are refused below, naming both manifest lines.)
+                    episodes: m.episodes,
+                    dist: m.weights,
+                    policy: a.policy,
+                    non_finite: e.non_finite,
+                };
+                check_cell(m, i, j, &plan, &spec)?;
                 cells.push(Cell {
-                    id,
-                    plan: CellPlan {
-                        seed: m.seed,
-                        env_id: seed_id.clone(),
-                        arch: Architecture {
-                            hidden: a.hidden.clone(),
-                            bias,
-                        },
-                        episodes: m.episodes,
-                        dist: m.weights,
-                        non_finite: e.non_finite,
-                    },
+                    // (Cells whose directories would be one, also on case-insensitive
+                    // file systems, are refused below, naming both manifest lines.)
+                    id: CellId::new(&e.id, &a.name, &a.hidden, bias),
+                    plan,
                     source: source.clone(),
                     spec: spec.clone(),
                     solved,
@@ -287,6 +266,49 @@ pub fn plan_cells(m: &mut Manifest) -> Result<Vec<Cell>, StudyError> {
         )));
     }
     Ok(cells)
+}
+
+/// Refuses the cell of `plan` (env `i`, architecture `j`) where it cannot
+/// run on `spec`: a network over rwg's weight limit; random actions in a box
+/// with a bound that is not finite (nothing is uniform on it).
+fn check_cell(
+    m: &Manifest,
+    i: usize,
+    j: usize,
+    plan: &CellPlan,
+    spec: &EnvSpec,
+) -> Result<(), ManifestError> {
+    let (e, a) = (&m.envs[i], &m.architectures[j]);
+    let n_weights = plan.net_shape(spec).n_weights();
+    if n_weights > crate::limits::MAX_WEIGHTS {
+        return Err(m.error_at(
+            e.id_span.clone(),
+            format!(
+                "envs[{i}]: architectures[{j}] '{}' on '{}' has {n_weights} weights per \
+                 network; at most {} (rwg's limit)",
+                a.name,
+                e.id,
+                crate::limits::MAX_WEIGHTS
+            ),
+        ));
+    }
+    if let (PolicyKind::Random, Space::Box(b)) = (plan.policy, &spec.action_space) {
+        if !b.low.iter().chain(&b.high).all(|v| v.is_finite()) {
+            return Err(m.error_at(
+                e.id_span.clone(),
+                format!(
+                    "envs[{i}]: architectures[{j}] '{}' (policy = \"random\") on '{}': its \
+                     action space {} has bounds that are not finite, and no action is \
+                     uniformly random on an unbounded box; leave this env out of a manifest \
+                     with random actions, or give it finite bounds",
+                    a.name,
+                    e.id,
+                    spec.action_space.describe()
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The error for two cells whose directories would be one on some file
@@ -397,6 +419,7 @@ impl Cell {
                 matmul_precision: j.config().matmul_precision.name().to_string(),
                 lanes: j.lanes(),
                 refill: (j.lanes() / 8).max(1),
+                source: j.info().source.clone(),
                 observation_leaves: j.info().observation_leaves.clone(),
                 action_mask: Some(j.info().action_mask.clone()),
                 settings: j.info().settings.clone(),
@@ -417,14 +440,9 @@ impl Cell {
     /// The cell's metadata for `run.json` / `cell.json` (its
     /// `non_finite_episodes` left for the finalisation to count).
     pub fn meta(&self, m: &Manifest, env_steps: u64, wall_s: f64) -> CellMeta {
-        let shape = NetShape::new(
-            self.spec.obs_dim(),
-            &self.plan.arch,
-            NetShape::outputs_for(&self.spec.action_space),
-        );
         CellMeta {
             id: self.id.clone(),
-            n_weights: shape.n_weights(),
+            n_weights: self.plan.net_shape(&self.spec).n_weights(),
             obs_dim: self.spec.obs_dim(),
             max_episode_steps: self.spec.max_episode_steps.unwrap_or(0),
             solved: self.solved,

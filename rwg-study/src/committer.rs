@@ -286,6 +286,7 @@ mod tests {
         let base = std::env::temp_dir().join(format!("rwg-committer-{}", std::process::id()));
         let (a, b) = (base.join("a"), base.join("b"));
         let _ = std::fs::remove_dir_all(&base);
+        std::fs::create_dir_all(&base).unwrap();
         let samples = 40 * 32 + 3;
         for i in 0..n_blocks(samples) {
             write_block(&a, &block(i, samples), 1).unwrap();
@@ -315,6 +316,7 @@ mod tests {
     fn blocks_gathering_at_the_close_are_kept_back_when_asked() {
         let base = std::env::temp_dir().join(format!("rwg-committer-k-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&base);
+        std::fs::create_dir_all(&base).unwrap();
         let samples = 10 * 32;
         let run = |dir: &Path, keep: bool| {
             std::thread::scope(|s| {

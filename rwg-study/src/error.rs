@@ -95,12 +95,22 @@ pub enum CellError {
     /// The sampler failed (an env error naming the sample and episode).
     #[error(transparent)]
     Sample(#[from] SampleError),
+    /// A JAX env's worker failed to start or compile, or a compiled call
+    /// failed as a whole (naming its networks).
+    #[error(transparent)]
+    Call(Box<rwg_jax::CallError>),
     /// A block could not be committed.
     #[error(transparent)]
     Store(#[from] RunDirError),
     /// The stop flag was set.
     #[error("interrupted")]
     Interrupted,
+}
+
+impl From<rwg_jax::CallError> for CellError {
+    fn from(e: rwg_jax::CallError) -> Self {
+        CellError::Call(Box::new(e))
+    }
 }
 
 impl StudyError {

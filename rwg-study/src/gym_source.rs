@@ -22,7 +22,7 @@ pub fn config_of(e: &EnvEntry) -> GymConfig {
         cfg.kwargs = crate::manifest::kwargs::to_json(k);
     }
     cfg.max_episode_steps = e.max_episode_steps;
-    cfg.action_dtype = e.action_dtype;
+    cfg.action_dtype = e.action_dtype.unwrap_or_default();
     cfg.non_finite_ends = e.non_finite == rwg_core::sampler::NonFinite::End;
     cfg
 }

@@ -16,6 +16,10 @@
 //! name = "0HL"
 //! hidden = []
 //!
+//! [[architectures]]        # optional: the random baseline, one cell per env
+//! name = "random"
+//! policy = "random"        # uniformly random actions instead of networks
+//!
 //! [[envs]]
 //! id = "CartPole-v0"
 //! solved = 195             # optional, overrides the env's reward threshold
@@ -60,6 +64,7 @@ use crate::limits;
 use crate::manifest_text;
 use checker::{locate, Checker};
 use raw::Raw;
+use rwg_core::policy::PolicyKind;
 use rwg_core::sampler::{NonFinite, WeightDist};
 use rwg_env::env::ActionDtype;
 use serde::Serialize;
@@ -103,17 +108,37 @@ pub enum ManifestLoadError {
 pub struct ArchEntry {
     /// Name used in output (cell directories, tables).
     pub name: String,
-    /// Hidden layer sizes.
+    /// Hidden layer sizes (none for random actions).
     pub hidden: Vec<usize>,
+    /// Networks (the default, not written), or `policy = "random"`:
+    /// uniformly random actions, one cell per env whatever `bias` says.
+    #[serde(
+        skip_serializing_if = "architectures::is_network",
+        serialize_with = "architectures::serialize_policy"
+    )]
+    pub policy: PolicyKind,
     /// Where the name stands in the manifest (byte range), for error messages.
     #[serde(skip)]
     pub name_span: Range<usize>,
 }
 
+impl ArchEntry {
+    /// The bias settings this entry has cells for, of the manifest's `bias`:
+    /// all of them for networks; one (no bias) for random actions, which
+    /// have no network.
+    pub fn biases<'a>(&self, bias: &'a [bool]) -> &'a [bool] {
+        match self.policy {
+            PolicyKind::Network => bias,
+            PolicyKind::Random => &[false],
+        }
+    }
+}
+
 impl PartialEq for ArchEntry {
-    /// Equal names and layers (where they stand in the text does not count).
+    /// Equal names, layers and policies (where they stand in the text does
+    /// not count).
     fn eq(&self, other: &Self) -> bool {
-        self.name == other.name && self.hidden == other.hidden
+        self.name == other.name && self.hidden == other.hidden && self.policy == other.policy
     }
 }
 
@@ -128,8 +153,10 @@ pub struct EnvEntry {
     /// Time limit override.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub max_episode_steps: Option<u32>,
-    /// dtype of continuous actions.
-    pub action_dtype: ActionDtype,
+    /// dtype of continuous actions; `None` for a JAX env, which takes none
+    /// (its actions are of its `precision`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub action_dtype: Option<ActionDtype>,
     /// Plugin library providing the env (resolved against the manifest's
     /// folder; absolute when the manifest was read with [`Manifest::load`]).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -374,7 +401,9 @@ impl Manifest {
         }
     }
 
-    /// How the study of `other` differs from this one (empty: the same study).
+    /// How the study of `other` differs from this one (empty: the same study),
+    /// one `key: this vs other` line per key that differs, down to the entry
+    /// and key (`envs[1] (ID).kwargs.g: 9.8 vs 9.0`; a NaN equals itself).
     /// Compares what [`Manifest::to_toml`] writes, key by key, except the
     /// envs' `isolate`, `device` and `networks_per_call` (they change where
     /// or how an env runs, not its results; the kind of device a JAX cell
@@ -392,18 +421,7 @@ impl Manifest {
             }
             t
         };
-        let (a, b) = (study(self), study(other));
-        let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
-        keys.sort();
-        keys.dedup();
-        keys.into_iter()
-            .filter(|k| a.get(*k) != b.get(*k))
-            .map(|k| {
-                let show =
-                    |v: Option<&toml::Value>| v.map_or("(absent)".to_string(), |v| v.to_string());
-                format!("{k}: {} vs {}", show(a.get(k)), show(b.get(k)))
-            })
-            .collect()
+        diff::differences(&study(self), &study(other))
     }
 }
 
@@ -431,6 +449,7 @@ fn unknown_field_suggestion(msg: &str) -> Option<String> {
 
 mod architectures;
 mod checker;
+mod diff;
 mod envs;
 mod jax_keys;
 pub mod kwargs;

@@ -49,7 +49,17 @@ pub fn merge_shards(
     out: &Path,
     mut on_cell: impl FnMut(Option<&SummaryLine>),
 ) -> Result<MergeReport, StudyError> {
-    let dirs = load_shards(shards)?;
+    // Resolved before plugin code runs (planning the cells creates each env
+    // once), which may change the working directory.
+    let absolute = |p: &Path| {
+        std::path::absolute(p).map_err(StudyError::io(format!("cannot resolve {}", p.display())))
+    };
+    let shards: Vec<PathBuf> = shards
+        .iter()
+        .map(|d| absolute(d))
+        .collect::<Result<_, _>>()?;
+    let out = &absolute(out)?;
+    let dirs = load_shards(&shards)?;
     let (m, count) = one_study(&dirs)?;
     let owner = shard_owners(&dirs, count)?;
     // The shards' manifests name their plugin files already: nothing to fill in.
@@ -60,46 +70,51 @@ pub fn merge_shards(
     crate::rundir::export::create_dir_all(out)
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
     let lock = RunLock::acquire(out)?;
-    if let Some(previous) = check_out(out, m)? {
-        if previous.end_time.is_some() {
-            check_complete_merge(out)?;
-            return Ok(MergeReport {
-                shards: count,
-                meta: previous,
-                cells_kept: cells.len(),
-                already_complete: true,
-                lock,
-            });
+    // A directory moved or deleted while the merge writes it is said so.
+    let held = lock.clone();
+    let merge = || -> Result<MergeReport, StudyError> {
+        if let Some(previous) = check_out(out, m)? {
+            if previous.end_time.is_some() {
+                check_complete_merge(out)?;
+                return Ok(MergeReport {
+                    shards: count,
+                    meta: previous,
+                    cells_kept: cells.len(),
+                    already_complete: true,
+                    lock,
+                });
+            }
         }
-    }
-    let mut meta = start_out(out, m, &dirs)?;
-    on_cell(None);
-    let mut cells_kept = 0;
-    for (ci, cell) in cells.iter().enumerate() {
-        let dest = cell_dir(out, &cell.id.dir);
-        // A cell finalised by an interrupted merge is kept as it is.
-        if cell_complete(&dest) {
-            let cm = kept_cell(cell, &dest)?;
+        let mut meta = start_out(out, m, &dirs)?;
+        on_cell(None);
+        let mut cells_kept = 0;
+        for (ci, cell) in cells.iter().enumerate() {
+            let dest = cell_dir(out, &cell.id.dir);
+            // A cell finalised by an interrupted merge is kept as it is.
+            if cell_complete(&dest) {
+                let cm = kept_cell(cell, &dest)?;
+                meta.env_steps += cm.env_steps;
+                meta.cells.push(cm);
+                cells_kept += 1;
+                continue;
+            }
+            copy_cell_blocks(cell, &dest, &indexes[ci], ci, nb)?;
+            let (cm, totals) = cell.finalize(m, out, 0.0, false, &[])?;
+            on_cell(Some(&cell.summary_line(&totals.means, None)));
             meta.env_steps += cm.env_steps;
             meta.cells.push(cm);
-            cells_kept += 1;
-            continue;
+            write_run_meta(out, &meta)?;
         }
-        copy_cell_blocks(cell, &dest, &indexes[ci], ci, nb)?;
-        let (cm, totals) = cell.finalize(m, out, 0.0, false, &[])?;
-        on_cell(Some(&cell.summary_line(&totals.means, None)));
-        meta.env_steps += cm.env_steps;
-        meta.cells.push(cm);
-        write_run_meta(out, &meta)?;
-    }
-    finish_meta(out, &mut meta)?;
-    Ok(MergeReport {
-        shards: count,
-        meta,
-        cells_kept,
-        already_complete: false,
-        lock,
-    })
+        finish_meta(out, &mut meta)?;
+        Ok(MergeReport {
+            shards: count,
+            meta,
+            cells_kept,
+            already_complete: false,
+            lock,
+        })
+    };
+    merge().map_err(|e| crate::runner::moved_away(&held, out, e))
 }
 
 /// A shard directory given to the merge: its path, manifest and `run.json`.
@@ -369,6 +384,11 @@ const MERGE_REFUSED: &str = "a merged cell's blocks must all be computed under t
 /// Checks that `out` is empty or holds a merge of study `m`; returns that
 /// merge's metadata, if it got as far as writing `run.json`.
 fn check_out(out: &Path, m: &Manifest) -> Result<Option<RunMeta>, StudyError> {
+    if !crate::rundir::clear::holds_run(out) {
+        if let Some(why) = crate::rundir::clear::foreign_message(out, false) {
+            return refuse(why);
+        }
+    }
     let manifest_path = out.join(MANIFEST);
     if !manifest_path.exists() {
         if out.join(RUN_JSON).exists() {

@@ -21,7 +21,7 @@ use crate::rundir::meta::{write_run_meta, RunMeta, ShardMeta};
 use crate::timing::RunTiming;
 use crate::StudyError;
 use cell_loop::{run_cells, Sampled, Session};
-use setup::{open_dir, thread_count, worker_pool, Opened, Work};
+use setup::{open_dir, own_manifest, thread_count, worker_pool, Opened, Work};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::{Duration, Instant, SystemTime};
@@ -33,7 +33,8 @@ pub struct RunOptions<'a> {
     pub out: PathBuf,
     /// Compute only this shard (every N-th block across all cells).
     pub shard: Option<ShardMeta>,
-    /// Delete what the run directory holds and start over.
+    /// Delete the run the directory holds (every file it wrote, nothing
+    /// else: [`crate::rundir::clear`]) and start over.
     pub force_new: bool,
     /// Set to stop after the blocks in flight (e.g. by a Ctrl-C handler);
     /// the run then ends with [`StudyError::Interrupted`], resumable.
@@ -113,64 +114,118 @@ pub fn run_study(
 ) -> Result<RunOutcome, StudyError> {
     let t_setup = Instant::now();
     let mut timing = RunTiming::default();
+    let absolute = absolute_options(opts)?;
+    let opts = &absolute;
     let out = &opts.out;
+    let own_manifest = own_manifest(opts);
     let cells = plan_cells(m)?;
     progress.planned(&cells);
     let m = &*m;
     let threads = thread_count(m);
-    let (lock, previous) = match open_dir(m, opts)? {
+    let (lock, previous) = match open_dir(m, opts, own_manifest)? {
         Opened::Complete(lock) => return Ok(RunOutcome::AlreadyComplete(lock)),
         Opened::Ready { lock, previous } => (lock, previous),
     };
-    let pool = worker_pool(threads)?;
-    let work = Work::load(out, m, opts.shard, &cells, progress)?;
-    let todo = work.todo(out, &cells);
-    work.record_envs(out, &cells)?;
-    progress.start(todo);
-    timing.setup = t_setup.elapsed();
-    let t0 = Instant::now();
-    let meta = start_meta(m, threads, opts.shard, out, previous.as_deref())?;
-    let abort = AtomicBool::new(false);
-    let session = Session {
-        m,
-        opts,
-        cells: &cells,
-        work: &work,
-        pool: &pool,
-        t0,
-        abort: &abort,
+    // A run directory moved or deleted while the run writes it is said so.
+    let held = lock.clone();
+    let run = || -> Result<RunOutcome, StudyError> {
+        let pool = worker_pool(threads)?;
+        let work = Work::load(out, m, opts.shard, &cells, progress)?;
+        let todo = work.todo(out, &cells);
+        work.record_envs(out, &cells)?;
+        progress.start(todo);
+        timing.setup = t_setup.elapsed();
+        let t0 = Instant::now();
+        let meta = start_meta(m, threads, opts.shard, out, previous.as_deref())?;
+        let abort = AtomicBool::new(false);
+        let session = Session {
+            m,
+            opts,
+            cells: &cells,
+            work: &work,
+            pool: &pool,
+            t0,
+            abort: &abort,
+        };
+        let Sampled {
+            recorded,
+            steps,
+            serial,
+            drain,
+        } = run_cells(&session, meta, progress)?;
+        timing.drain = drain;
+        let Recorded {
+            meta,
+            lines,
+            cells: mut cell_timing,
+            episodes,
+        } = recorded;
+        for (ct, serial) in cell_timing.iter_mut().zip(serial) {
+            ct.serial = serial;
+        }
+        timing.cells = cell_timing;
+        let t_wrap = Instant::now();
+        progress.finish(true);
+        let meta = end_meta(out, meta, t0, steps)?;
+        timing.wrap_up = t_wrap.elapsed();
+        Ok(RunOutcome::Finished(Box::new(RunReport {
+            meta,
+            lines,
+            cells: cells.len(),
+            env_steps: steps,
+            threads,
+            timing,
+            episodes,
+            lock,
+        })))
     };
-    let Sampled {
-        recorded,
-        steps,
-        serial,
-        drain,
-    } = run_cells(&session, meta, progress)?;
-    timing.drain = drain;
-    let Recorded {
-        meta,
-        lines,
-        cells: mut cell_timing,
-        episodes,
-    } = recorded;
-    for (ct, serial) in cell_timing.iter_mut().zip(serial) {
-        ct.serial = serial;
+    run().map_err(|e| moved_away(&held, out, e))
+}
+
+/// `e`, the error a run stopped with, or if the run directory `out` was
+/// moved or deleted while the run wrote it (the writers' lock tells), that.
+pub(crate) fn moved_away(lock: &RunLock, out: &Path, e: StudyError) -> StudyError {
+    let Some(now) = lock.moved_from(out) else {
+        return e;
+    };
+    if matches!(e, StudyError::Interrupted) {
+        return e;
     }
-    timing.cells = cell_timing;
-    let t_wrap = Instant::now();
-    progress.finish(true);
-    let meta = end_meta(out, meta, t0, steps)?;
-    timing.wrap_up = t_wrap.elapsed();
-    Ok(RunOutcome::Finished(Box::new(RunReport {
-        meta,
-        lines,
-        cells: cells.len(),
-        env_steps: steps,
-        threads,
-        timing,
-        episodes,
-        lock,
-    })))
+    let what = match now {
+        Some(p) => format!(
+            "moved while this run was writing it: it is now {}, with every block committed \
+             before; resume it there: {}",
+            p.display(),
+            crate::rundir::study::resume_command(&p)
+        ),
+        None => "deleted (or moved to another file system) while this run was writing it; \
+                 rwg cannot tell where its committed blocks went"
+            .into(),
+    };
+    // (the write that failed: the last two of the error's causes, the
+    // file and why)
+    let mut at: &dyn std::error::Error = &e;
+    while let Some(s) = at.source().filter(|s| s.source().is_some()) {
+        at = s;
+    }
+    StudyError::Refused(format!(
+        "{} was {what}. (The write that failed: {})",
+        out.display(),
+        crate::rundir::error::with_causes(at)
+    ))
+}
+
+/// `opts` with its paths made absolute against the working directory now,
+/// before plugin code runs: a plugin that changes the working directory
+/// (in `create`, say) moves nothing rwg writes or reads.
+fn absolute_options<'a>(opts: &RunOptions<'a>) -> Result<RunOptions<'a>, StudyError> {
+    let absolute = |p: &Path| {
+        std::path::absolute(p).map_err(StudyError::io(format!("cannot resolve {}", p.display())))
+    };
+    Ok(RunOptions {
+        out: absolute(&opts.out)?,
+        ..opts.clone()
+    })
 }
 
 /// The finished run's `run.json`, written: its wall time and speed since

@@ -20,14 +20,35 @@ pub fn sh_quote(s: &str) -> String {
 
 /// A path quoted for a POSIX shell, as a command's argument ([`sh_quote`]
 /// of its text): a relative path starting with `-` is written `./-...`, so
-/// that no command parses it as an option. (A name that is not UTF-8 is
-/// shown lossily, as `Path::display` shows it.)
+/// that no command parses it as an option. A name that is not UTF-8 keeps
+/// its bytes: each byte that is not UTF-8 is written `"$(printf '\NNN')"`
+/// (POSIX), so the command still names that path.
 pub fn sh_path(p: &Path) -> String {
-    let s = p.to_string_lossy();
-    if s.starts_with('-') {
-        sh_quote(&format!("./{s}"))
-    } else {
-        sh_quote(&s)
+    let bytes = p.as_os_str().as_encoded_bytes();
+    let dash = if bytes.starts_with(b"-") { "./" } else { "" };
+    match std::str::from_utf8(bytes) {
+        Ok(s) => sh_quote(&format!("{dash}{s}")),
+        Err(_) => {
+            let mut out = dash.to_string();
+            for chunk in bytes.utf8_chunks() {
+                if !chunk.valid().is_empty() {
+                    out.push_str(&sh_quote(chunk.valid()));
+                }
+                for b in chunk.invalid() {
+                    out.push_str(&format!("\"$(printf '\\{b:03o}')\""));
+                }
+            }
+            out
+        }
+    }
+}
+
+/// `cmd` run with `PYTHONPATH` set to `pythonpath` (quoted), when there is
+/// one: what a printed command that starts a Python env needs.
+pub fn with_pythonpath(pythonpath: Option<&str>, cmd: String) -> String {
+    match pythonpath {
+        Some(p) if !p.is_empty() => format!("PYTHONPATH={} {cmd}", sh_quote(p)),
+        _ => cmd,
     }
 }
 
@@ -46,6 +67,19 @@ mod tests {
         assert_eq!(sh_path(Path::new("-run d")), "'./-run d'");
         assert_eq!(sh_path(Path::new("-x/manifest.toml")), "./-x/manifest.toml");
         assert_eq!(sh_path(Path::new("/tmp/-x")), "/tmp/-x");
+    }
+
+    #[test]
+    fn a_path_that_is_not_utf8_reads_back_through_a_shell() {
+        use std::os::unix::ffi::OsStrExt;
+        let raw: &[u8] = b"-a b\xff/c'\xfe\n";
+        let quoted = sh_path(Path::new(std::ffi::OsStr::from_bytes(raw)));
+        let out = std::process::Command::new("sh")
+            .args(["-c", &format!("printf %s {quoted}")])
+            .output();
+        if let Ok(out) = out {
+            assert_eq!(out.stdout, [b"./", raw].concat(), "{quoted}");
+        }
     }
 
     #[test]

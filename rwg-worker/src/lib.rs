@@ -109,13 +109,63 @@ pub fn stderr_tail_text(stderr: &str) -> String {
     if stderr.trim().is_empty() {
         String::new()
     } else {
-        format!("; the end of its stderr:\n{stderr}")
+        format!("{}{stderr}", DETAIL_MARKS[2].0)
     }
+}
+
+/// Where the long part of a worker's error text starts, as the messages of
+/// rwg-gym, rwg-jax, [`host`] and [`stderr_tail_text`] write it, and what it
+/// is: a Python traceback, a plugin worker's traceback, a worker's stderr.
+pub const DETAIL_MARKS: [(&str, &str); 3] = [
+    ("\nPython traceback:\n", "the Python traceback"),
+    ("\ntraceback:\n", "the traceback"),
+    (
+        "; the end of its stderr:\n",
+        "the end of the worker's stderr",
+    ),
+];
+
+/// `text` split where its long part starts (the first of
+/// [`DETAIL_MARKS`]): the message before it, what the long part is, and
+/// the long part from its label on. `None` for a text without one. The
+/// `rwg` binary keeps the long part in a file and prints the short one.
+pub fn split_details(text: &str) -> Option<(&str, &'static str, &str)> {
+    DETAIL_MARKS
+        .iter()
+        .filter_map(|(mark, what)| text.find(mark).map(|at| (at, mark, *what)))
+        .min_by_key(|(at, _, _)| *at)
+        .map(|(at, mark, what)| {
+            let label = at + mark.len() - mark.trim_start_matches(['\n', ';', ' ']).len();
+            (&text[..at], what, &text[label..])
+        })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn details_split_at_their_first_label() {
+        let t = "env X failed (Python py)\nPython traceback:\nTraceback ...\n  line";
+        assert_eq!(
+            split_details(t),
+            Some((
+                "env X failed (Python py)",
+                "the Python traceback",
+                "Python traceback:\nTraceback ...\n  line"
+            ))
+        );
+        let t = format!("the worker exited{}", stderr_tail_text("boom\n"));
+        assert_eq!(
+            split_details(&t),
+            Some((
+                "the worker exited",
+                "the end of the worker's stderr",
+                "the end of its stderr:\nboom\n"
+            ))
+        );
+        assert_eq!(split_details("one line; nothing long"), None);
+    }
     use std::error::Error as _;
 
     /// A program that cannot start: the reason is chained, not repeated in

@@ -60,10 +60,11 @@ impl Worker {
             .stdout(Stdio::piped())
             .stderr(Stdio::piped());
         let mark = crate::family::enlist(&mut command);
-        let mut child = spawn_in_family(command).map_err(|source| ProcError::Spawn {
-            program: program.to_string(),
-            source,
-        })?;
+        let mut child =
+            crate::family::spawn_in_family(command).map_err(|source| ProcError::Spawn {
+                program: program.to_string(),
+                source,
+            })?;
         crate::family::joined(child.id(), &mark);
         let stdin = child.stdin.take().expect("piped");
         let stdout = child.stdout.take().expect("piped");
@@ -312,19 +313,7 @@ impl Worker {
         {
             let t0 = Instant::now();
             loop {
-                // SAFETY: a zeroed siginfo_t for waitid to fill.
-                let mut info: libc::siginfo_t = unsafe { std::mem::zeroed() };
-                // SAFETY: waitid on our own child; WNOWAIT leaves it unreaped.
-                let r = unsafe {
-                    libc::waitid(
-                        libc::P_PID,
-                        self.child.id() as libc::id_t,
-                        &mut info,
-                        libc::WEXITED | libc::WNOHANG | libc::WNOWAIT,
-                    )
-                };
-                // SAFETY: filled by waitid (zero when the child still runs).
-                let ended = r != 0 || unsafe { info.si_pid() } != 0;
+                let ended = crate::family::ended_unreaped(self.child.id());
                 if ended || t0.elapsed() >= limit {
                     return ended;
                 }
@@ -381,74 +370,6 @@ impl Worker {
     }
 }
 
-/// Starts `command` as a member of rwg's family of workers: on Linux the
-/// child is killed (SIGKILL) as soon as rwg ends, however it ends (a signal,
-/// SIGKILL included, `_exit`, a crash), so that a worker hung in its
-/// environment is never left running on its own. The kernel ties this
-/// (`PR_SET_PDEATHSIG`) to the thread that forked the child, so every worker
-/// is forked by one thread that lives as long as the process.
-fn spawn_in_family(command: Command) -> std::io::Result<Child> {
-    #[cfg(target_os = "linux")]
-    {
-        use std::sync::mpsc::{channel, Sender};
-        type Request = (Command, Sender<std::io::Result<Child>>);
-        static SPAWNER: Mutex<Option<Sender<Request>>> = Mutex::new(None);
-        let (tx, rx) = channel();
-        let mut spawner = SPAWNER.lock().unwrap_or_else(|p| p.into_inner());
-        let sender = match spawner.as_ref() {
-            Some(s) => s.clone(),
-            None => {
-                let (req_tx, req_rx) = channel::<Request>();
-                std::thread::Builder::new()
-                    .name("rwg-worker-spawner".into())
-                    .spawn(move || {
-                        for (command, reply) in req_rx {
-                            let _ = reply.send(spawn_with_death_signal(command));
-                        }
-                    })?;
-                spawner.insert(req_tx).clone()
-            }
-        };
-        drop(spawner);
-        sender
-            .send((command, tx))
-            .map_err(|_| std::io::Error::other("the worker spawner thread is gone"))?;
-        rx.recv()
-            .map_err(|_| std::io::Error::other("the worker spawner thread is gone"))?
-    }
-    #[cfg(not(target_os = "linux"))]
-    {
-        let mut command = command;
-        command.spawn()
-    }
-}
-
-/// Forks and execs `command` with `PR_SET_PDEATHSIG` = SIGKILL set in the
-/// child (on the spawner thread of [`spawn_in_family`]).
-#[cfg(target_os = "linux")]
-fn spawn_with_death_signal(mut command: Command) -> std::io::Result<Child> {
-    use std::os::unix::process::CommandExt;
-    // A process group of its own, killed with the worker (Worker::kill).
-    command.process_group(0);
-    // SAFETY: getpid has no preconditions.
-    let parent = unsafe { libc::getpid() };
-    // SAFETY: the closure runs in the forked child before exec and calls
-    // only async-signal-safe functions (prctl, getppid, raise).
-    unsafe {
-        command.pre_exec(move || {
-            if libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL, 0, 0, 0) != 0 {
-                return Err(std::io::Error::last_os_error());
-            }
-            // rwg ended between the fork and the prctl: no signal will come.
-            if libc::getppid() != parent {
-                libc::raise(libc::SIGKILL);
-            }
-            Ok(())
-        })
-    };
-    command.spawn()
-}
-
 impl Drop for Worker {
     fn drop(&mut self) {
         self.kill();
@@ -456,7 +377,9 @@ impl Drop for Worker {
 }
 
 /// How a child process ended, to follow its name: "was killed by signal 11
-/// (SIGSEGV)", "exited with status 3".
+/// (SIGSEGV)", "exited with status 3". SIGKILL's says where to see whether
+/// the kernel's out-of-memory killer sent it (the usual sender for a worker
+/// holding a large model or batch).
 pub fn describe_status(s: std::process::ExitStatus) -> String {
     #[cfg(unix)]
     {
@@ -468,7 +391,10 @@ pub fn describe_status(s: std::process::ExitStatus) -> String {
                 6 => " (SIGABRT)",
                 7 => " (SIGBUS)",
                 8 => " (SIGFPE)",
-                9 => " (SIGKILL)",
+                9 => {
+                    " (SIGKILL: sent by another process, or by the kernel when memory ran out: \
+                     `dmesg` or `journalctl -k` shows an out-of-memory kill)"
+                }
                 11 => " (SIGSEGV)",
                 15 => " (SIGTERM)",
                 _ => "",

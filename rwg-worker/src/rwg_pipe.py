@@ -3,8 +3,9 @@ bridge's worker.py and rwg-jax's jax_worker.py), which import it first.
 
 Importing it takes private duplicates of the original stdin/stdout for the
 protocol and sends fd 1 to stderr and fd 0 to /dev/null (so whatever the env
-prints goes to stderr), ignores SIGINT and makes faulthandler dump the stacks
-on a fault or on SIGUSR1. Its functions frame the messages of
+prints goes to stderr), ignores SIGINT, ends with rwg even when started
+through a wrapper, and makes faulthandler dump the stacks on a fault or on
+SIGUSR1. Its functions frame the messages of
 docs/bridge-protocol.md: a 4-byte little-endian length (of the tag and
 payload), a 1-byte tag, the payload.
 """
@@ -31,6 +32,36 @@ import struct  # noqa: E402
 # is ignored too: rwg stops after the work in flight and then closes the
 # pipes (as with rwg's own plugin workers), not a KeyboardInterrupt.
 signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _end_with_rwg():
+    """On Linux rwg starts each worker with a death signal (SIGKILL when rwg
+    ends, however it ends). A worker started through a wrapper that runs
+    Python as its child instead of exec-ing it (a shell script that sets up
+    modules, say) is rwg's grandchild: the death signal kills the wrapper and
+    would leave this process computing on. It ties itself to the wrapper
+    (PR_SET_PDEATHSIG), and quits if rwg is gone already."""
+    try:
+        rwg = int(os.environ.get("RWG_WORKER_FAMILY", "").split(":")[0])
+    except ValueError:
+        return
+    wrapper = os.getppid()
+    if not sys.platform.startswith("linux") or wrapper == rwg:
+        return
+    import ctypes
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+        if os.getppid() != wrapper:
+            os._exit(1)  # the wrapper ended before the death signal was set
+        os.kill(rwg, 0)
+    except ProcessLookupError:
+        os._exit(1)
+    except (OSError, AttributeError):
+        pass
+
+
+_end_with_rwg()
 
 faulthandler.enable(file=sys.stderr)
 if hasattr(faulthandler, "register"):

@@ -101,3 +101,86 @@ def make_slider(nan_file=None, max_steps_in_episode=60, blowup=0.0):
             key = jnp.array([r >> 32, r & 0xFFFFFFFF], dtype=jnp.uint32)
             poisoned = _key_words(jax.random.split(key)[0])
     return Slider(poisoned, blowup), Params(max_steps_in_episode=max_steps_in_episode)
+
+
+class WrongSize(Slider):
+    """A slider whose observation space declares `declared` values (it
+    observes 2), or whose reward is `reward_values` values."""
+
+    def __init__(self, declared, reward_values):
+        super().__init__(None)
+        self.declared, self.reward_values = declared, reward_values
+
+    def step(self, key, state, action, params):
+        obs, s, r, done, info = super().step(key, state, action, params)
+        return obs, s, jnp.full((self.reward_values,), r) if self.reward_values else r, done, info
+
+    def observation_space(self, params):
+        inf = jnp.full((self.declared,), jnp.inf)
+        return Box(-inf, inf, (self.declared,))
+
+
+def make_wrong_size(declared=2, reward_values=0):
+    """An env whose spaces or reward do not match what it computes."""
+    return WrongSize(declared, reward_values), Params()
+
+
+class Dying(Slider):
+    """A slider whose worker process exits (status 3) at step 2 of an episode."""
+
+    def step(self, key, state, action, params):
+        out = super().step(key, state, action, params)
+
+        def die(v):
+            import os
+
+            import numpy as np
+
+            if (np.asarray(v) != 0.0).any():
+                os._exit(3)
+
+        jax.debug.callback(die, state.v)
+        return out
+
+
+def make_dying():
+    """The dying slider and its params."""
+    return Dying(None), Params()
+
+
+class Raising(Slider):
+    """A slider whose step raises when traced."""
+
+    def step(self, key, state, action, params):
+        raise RuntimeError("a deliberate failure in step")
+
+
+def make_raising():
+    """The raising slider and its params."""
+    return Raising(None), Params()
+
+
+class Choices(NamedTuple):
+    """A discrete space as the interface reads one: `.n` (here any value)."""
+
+    n: object
+
+
+class Actions(Slider):
+    """A slider whose action space is `kind`: `multi` (a MultiDiscrete-like
+    space, `.n` an array), `none` (Discrete(0)), `half` (n = 2.5) or
+    `misfit` (a Box whose bounds do not fit its shape)."""
+
+    def __init__(self, kind):
+        super().__init__(None)
+        self.kind = kind
+
+    def action_space(self, params):
+        if self.kind == "misfit":
+            return Box(jnp.array([-1.0, -1.0]), jnp.array([1.0, 1.0]), (3,))
+        return Choices({"multi": jnp.array([3, 4]), "none": 0, "half": 2.5}[self.kind])
+
+
+def make_actions(kind):
+    """A slider with the odd action space `kind` (see Actions)."""
+    return Actions(kind), Params()

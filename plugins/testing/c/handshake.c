@@ -25,6 +25,9 @@
  * talks: its output must never reach rwg's own stdout).
  * HANG_IN_CREATE_AFTER=N makes every create after the process's N-th
  * sleep for ever (a create that hangs, for the timeouts of isolation).
+ * CHDIR_IN_CREATE (e.g. -DCHDIR_IN_CREATE='"/"') makes create change the
+ * process's working directory (a plugin that finds its data files so):
+ * nothing rwg writes may follow it.
  *
  * The tests in ../tests/c_plugins.rs compile each variant with cc.
  */
@@ -34,8 +37,10 @@
 
 #include "rwg_plugin.h"
 
-#ifdef HANG_IN_CREATE_AFTER
+#if defined(HANG_IN_CREATE_AFTER) || defined(CHDIR_IN_CREATE)
 #include <unistd.h>
+#endif
+#ifdef HANG_IN_CREATE_AFTER
 static int creates_so_far = 0;
 #endif
 
@@ -52,6 +57,9 @@ static rwg_status_t create(uint32_t i, const char *config, rwg_env_t **out, char
 #ifdef HANG_IN_CREATE_AFTER
     if (++creates_so_far > HANG_IN_CREATE_AFTER)
         for (;;) pause();
+#endif
+#ifdef CHDIR_IN_CREATE
+    if (chdir(CHDIR_IN_CREATE) != 0) return RWG_ERR_INTERNAL;
 #endif
     *out = calloc(1, sizeof **out);
     return *out ? RWG_OK : RWG_ERR_INTERNAL;

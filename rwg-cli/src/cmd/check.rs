@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitStatus, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Arguments of `rwg check`.
 #[derive(clap::Args)]
@@ -224,45 +224,33 @@ fn spawn_child(args: &[&std::ffi::OsStr], timeout: Duration) -> Result<ChildRun>
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped());
-    // A check that hangs dies with rwg (`rwg run` that ends early, e.g. on
-    // an isolated plugin's crash, does not wait for its background checks).
-    #[cfg(target_os = "linux")]
-    {
-        use std::os::unix::process::CommandExt;
-        // SAFETY: prctl is async-signal-safe; nothing else runs in the child.
-        unsafe {
-            cmd.pre_exec(|| {
-                libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
-                Ok(())
-            });
-        }
-    }
-    let mut child = cmd
-        .spawn()
+    // A member of rwg's family: a check that hangs dies with rwg (`rwg run`
+    // that ends early, e.g. on an isolated plugin's crash, does not wait for
+    // its background checks), and what the plugin started in it (a daemon
+    // holding its pipes) ends with it.
+    let mut child = rwg_worker::family::FamilyChild::spawn(cmd)
         .with_context(|| format!("cannot run {}", exe.display()))?;
     let drain = |mut r: Box<dyn Read + Send>| {
+        let (tx, rx) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
             let mut buf = Vec::new();
             let _ = r.read_to_end(&mut buf);
-            String::from_utf8_lossy(&buf).into_owned()
-        })
+            let _ = tx.send(String::from_utf8_lossy(&buf).into_owned());
+        });
+        rx
     };
-    let out = drain(Box::new(child.stdout.take().expect("piped")));
-    let err = drain(Box::new(child.stderr.take().expect("piped")));
-    let t0 = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait()? {
-            break Some(s);
-        }
-        if t0.elapsed() >= timeout {
-            let _ = child.kill();
-            let _ = child.wait();
-            break None;
-        }
-        std::thread::sleep(Duration::from_millis(20));
+    let pipes = child.child_mut();
+    let out = drain(Box::new(pipes.stdout.take().expect("piped")));
+    let err = drain(Box::new(pipes.stderr.take().expect("piped")));
+    let status = child.wait_timeout(timeout)?;
+    // Its pipes close once it and what it started are gone; a process that
+    // escaped the family (left its group and cleared its environment) may
+    // hold them open: what was read by then is what is reported.
+    let collect = |rx: std::sync::mpsc::Receiver<String>| {
+        rx.recv_timeout(Duration::from_secs(2)).unwrap_or_default()
     };
-    let stdout = out.join().unwrap_or_default();
-    let stderr = err.join().unwrap_or_default();
+    let stdout = collect(out);
+    let stderr = collect(err);
     // A line cut short by a crash is dropped.
     let lines = stdout
         .lines()
@@ -312,9 +300,10 @@ fn run_gym(args: &Args, id: &str) -> Result<()> {
                 .push_str(" (legal for a Gymnasium env; rwg's networks never produce them)");
         }
     }
+    let mut kept = crate::details::KeptFile::new("check");
     for r in &results {
         if !args.json {
-            writeln!(crate::stdio::stdout(), "{r}")?;
+            writeln!(crate::stdio::stdout(), "{}", kept.one_line(&r.to_string()))?;
         }
     }
     finish(args, &results)
@@ -382,6 +371,7 @@ pub fn run(mut args: Args) -> Result<()> {
     let mut results = Results {
         json: args.json,
         list: vec![],
+        kept: crate::details::KeptFile::new("check"),
     };
     let Some(loaded) = load(&args, timeout, &mut results)? else {
         return finish(&args, &results.list);
@@ -398,14 +388,20 @@ pub fn run(mut args: Args) -> Result<()> {
 struct Results {
     json: bool,
     list: Vec<CheckResult>,
+    /// Where a check's traceback goes (its line names it).
+    kept: crate::details::KeptFile,
 }
 
 impl Results {
     /// Prints `r` (writeln, not println: `rwg check ... | head` must not
-    /// panic) and keeps it.
+    /// panic; one line, a traceback kept in a file it names) and keeps it.
     fn add(&mut self, r: CheckResult) -> std::io::Result<()> {
         if !self.json {
-            writeln!(crate::stdio::stdout(), "{r}")?;
+            writeln!(
+                crate::stdio::stdout(),
+                "{}",
+                self.kept.one_line(&r.to_string())
+            )?;
         }
         self.list.push(r);
         Ok(())

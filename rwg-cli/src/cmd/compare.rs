@@ -9,6 +9,8 @@ use rwg_analysis::compare_page::compare_html;
 use rwg_analysis::plot::{profiles_figure, ranking_figure, ImageFormat};
 use rwg_analysis::ranking::ranking_table;
 use rwg_study::rundir::data::Run;
+use rwg_study::rundir::lock::RunLock;
+use rwg_study::rundir::outputs::{resolve, Output, OutputKind};
 use std::path::PathBuf;
 
 mod paired;
@@ -95,6 +97,36 @@ fn refuse_twice(dirs: &[PathBuf]) -> Result<()> {
     Ok(())
 }
 
+/// The files `--figure`, `--ranking-figure` and `--html` name, each checked
+/// against the run directories around it ([`crate::cmd::claim_output`]) and
+/// against the others (one file named twice would keep only the last).
+/// Returns the locks of the runs they are written into.
+fn claim_outputs(args: &Args) -> Result<Vec<RunLock>> {
+    let named = [
+        ("--figure", &args.figure),
+        ("--ranking-figure", &args.ranking_figure),
+        ("--html", &args.html),
+    ];
+    let mut seen: Vec<(&str, PathBuf)> = vec![];
+    let mut locks = vec![];
+    for (flag, path) in named {
+        let Some(path) = path else { continue };
+        let key = resolve(path).unwrap_or_else(|_| path.clone());
+        if let Some((other, _)) = seen.iter().find(|(_, k)| *k == key) {
+            bail!(
+                "{flag} and {other} name the same file, {}: the one written last would \
+                 replace the other; name two files",
+                path.display()
+            );
+        }
+        seen.push((flag, key));
+        let elsewhere = format!("{flag} FILE outside the run writes it now");
+        let output = Output::new(path, OutputKind::File);
+        locks.extend(crate::cmd::claim_output(output, &elsewhere)?);
+    }
+    Ok(locks)
+}
+
 /// The runs' labels in tables and legends: their directory names, or their
 /// paths where two names are alike.
 fn labels(dirs: &[PathBuf], names: Vec<String>) -> Vec<String> {
@@ -112,6 +144,7 @@ fn labels(dirs: &[PathBuf], names: Vec<String>) -> Vec<String> {
 /// Runs `rwg compare`.
 pub fn run(args: Args) -> Result<()> {
     refuse_twice(&args.run_dirs)?;
+    let _locks = claim_outputs(&args)?;
     let runs: Vec<Run> = args
         .run_dirs
         .iter()

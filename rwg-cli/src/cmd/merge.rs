@@ -4,6 +4,7 @@
 use super::run::write_report;
 use anyhow::Result;
 use rwg_study::merge::merge_shards;
+use rwg_study::rundir::outputs::{Output, OutputKind};
 use std::path::PathBuf;
 
 /// Arguments of `rwg merge`.
@@ -37,7 +38,8 @@ pub fn run(args: Args) -> Result<()> {
     for d in &args.shards {
         rwg_study::rundir::data::require_run_dir(d)?;
     }
-    let out = &args.out;
+    crate::cmd::claim_output(Output::new(&args.out, OutputKind::RunDir), "")?;
+    let out = &crate::cmd::absolute(&args.out)?;
     let report = merge_shards(&args.shards, out, |cell| match cell {
         None => crate::outln!("{}", crate::summary::header()),
         Some(l) => crate::outln!("{}", crate::summary::line(l)),

@@ -3,6 +3,8 @@
 use anyhow::{Context, Result};
 use rwg_analysis::plot::{run_figures, ImageFormat};
 use rwg_study::rundir::data::Run;
+use rwg_study::rundir::outputs::{Output, OutputKind};
+use rwg_study::rundir::FIGURES;
 use std::path::PathBuf;
 
 /// Arguments of `rwg plot`.
@@ -20,10 +22,9 @@ pub struct Args {
 
 /// Runs `rwg plot`.
 pub fn run(args: Args) -> Result<()> {
-    let out = args
-        .out
-        .unwrap_or_else(|| args.run_dir.join(rwg_study::rundir::FIGURES));
-    let _lock = crate::cmd::lock_if_inside(&args.run_dir, &out)?;
+    let out = args.out.unwrap_or_else(|| args.run_dir.join(FIGURES));
+    let figures = Output::derived(&out, OutputKind::Folder, &args.run_dir, FIGURES);
+    let _lock = crate::cmd::claim_output(figures, "--out DIR writes the figures elsewhere")?;
     let run = Run::open(&args.run_dir)?;
     crate::cmd::warn_unverified(&run);
     let cells = rwg_analysis::load_cells(&run)?;

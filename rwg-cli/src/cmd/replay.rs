@@ -2,8 +2,8 @@
 
 use crate::step_lines::StepLines;
 use anyhow::{bail, Context, Result};
-use rwg_core::policy::Policy;
-use rwg_core::sampler::{reset_seed, run_episode, BlockResult, EpisodeResult, SampleError};
+use rwg_core::policy::{Policy, PolicyKind};
+use rwg_core::sampler::{reset_seed, run_episode, BlockResult, EpisodeResult};
 use rwg_env::float::fmt_f64;
 use rwg_env::{Environment, Space};
 use rwg_study::cells::{plan_cells, Cell};
@@ -13,6 +13,7 @@ use rwg_study::rundir;
 use rwg_study::rundir::data::Run;
 use rwg_study::rundir::env_record::check_record;
 use rwg_study::rundir::export::csv_writer;
+use rwg_study::rundir::outputs::{Output, OutputKind};
 use serde::Serialize;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -199,6 +200,25 @@ fn export<'a>(cell: &'a Cell, policy: &Policy, sample: u64, episodes: u32) -> Ex
 /// Runs `rwg replay`.
 pub fn run(args: Args) -> Result<()> {
     rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
+    // The export's place checked (and its run's lock taken) first; every
+    // path made absolute before plugin code runs, which may change the
+    // working directory.
+    let _lock = match &args.export_weights {
+        Some(path) => crate::cmd::claim_output(
+            Output::new(path, OutputKind::File),
+            "--export-weights FILE outside the run writes it now",
+        )?,
+        None => None,
+    };
+    let args = Args {
+        run_dir: crate::cmd::absolute(&args.run_dir)?,
+        export_weights: args
+            .export_weights
+            .as_deref()
+            .map(crate::cmd::absolute)
+            .transpose()?,
+        ..args
+    };
     let mut m = Manifest::load(&args.run_dir.join(rundir::MANIFEST))
         .with_context(|| format!("{} is not an rwg run directory", args.run_dir.display()))?;
     let cells = plan_cells(&mut m)?;
@@ -232,6 +252,7 @@ pub fn run(args: Args) -> Result<()> {
             reset_seed(cell.plan.seed, &cell.plan.env_id, args.sample, ep),
             &mut obs,
         )?;
+        cell.plan.begin_episode(&mut policy, args.sample, ep);
         lines.header(&mut out)?;
         lines.reset(&mut out, &obs)?;
         let mut t = 0;
@@ -261,6 +282,7 @@ pub fn run(args: Args) -> Result<()> {
 
     let stored = stored_scores(&args.run_dir, &cell.id.dir, args.sample)?;
     compare_episodes(&mut out, cell, args.sample, m.episodes, &stored, |e, r| {
+        cell.plan.begin_episode(&mut policy, args.sample, e);
         run_episode(
             &mut env,
             &mut policy,
@@ -275,7 +297,13 @@ pub fn run(args: Args) -> Result<()> {
 /// With --export-weights: writes the network's export.
 fn write_export(args: &Args, cell: &Cell, policy: &Policy, episodes: u32) -> Result<()> {
     if let Some(path) = &args.export_weights {
-        let _lock = crate::cmd::lock_if_inside(&args.run_dir, path)?;
+        if cell.plan.policy == PolicyKind::Random {
+            bail!(
+                "--export-weights: cell {} runs uniformly random actions (policy = \"random\"), \
+                 not a network: it has no weights to export",
+                cell.id.dir
+            );
+        }
         let e = export(cell, policy, args.sample, episodes);
         crate::cmd::write_named_file(path, serde_json::to_string_pretty(&e)?.as_bytes())?;
         crate::errln!("wrote {}", path.display());
@@ -352,7 +380,7 @@ fn replay_jax(args: &Args, m: &Manifest, cell: &Cell, j: &rwg_jax::JaxSource) ->
     let network = args.sample..args.sample + 1;
     j.run_blocks(&cell.plan, &[network], 1, |b: BlockResult| {
         results = b.episodes;
-        Ok::<(), SampleError>(())
+        Ok::<(), rwg_jax::RunError>(())
     })?;
     if results.len() != m.episodes as usize {
         bail!(

@@ -4,6 +4,7 @@ use anyhow::{Context, Result};
 use rwg_analysis::plot::{run_figures, ImageFormat};
 use rwg_analysis::report::{report_html, REPORT_HTML};
 use rwg_study::rundir::data::Run;
+use rwg_study::rundir::outputs::{Output, OutputKind};
 use std::path::PathBuf;
 
 /// Arguments of `rwg report`.
@@ -25,13 +26,8 @@ pub struct Args {
 /// Runs `rwg report`.
 pub fn run(args: Args) -> Result<()> {
     let out = args.out.unwrap_or_else(|| args.run_dir.join(REPORT_HTML));
-    let _lock = crate::cmd::lock_if_inside(&args.run_dir, &out).with_context(|| {
-        format!(
-            "writing {} into the run directory takes the run's writer lock; --out FILE \
-             writes the report elsewhere",
-            out.display()
-        )
-    })?;
+    let page = Output::derived(&out, OutputKind::File, &args.run_dir, REPORT_HTML);
+    let _lock = crate::cmd::claim_output(page, "--out FILE writes the report elsewhere")?;
     let run = Run::open(&args.run_dir)?;
     run.require_finished()?;
     crate::cmd::warn_unverified(&run);

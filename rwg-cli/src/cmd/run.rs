@@ -10,11 +10,11 @@ use rwg_study::env_source::EnvSource;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::data::KeptEpisodes;
 use rwg_study::rundir::meta::ShardMeta;
+use rwg_study::rundir::outputs::{Output, OutputKind};
 use rwg_study::rundir::REPORT_HTML;
 use rwg_study::runner::{run_study, Progress, RunOptions, RunOutcome, RunReport};
 use rwg_study::shell::sh_path;
 use rwg_study::StudyError;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -79,8 +79,9 @@ pub struct Args {
     /// across all cells, into its own directory; combine shards with `rwg merge`.
     #[arg(long, value_name = "K/N")]
     shard: Option<ShardMeta>,
-    /// Delete what the run directory holds and start over (needed when it holds
-    /// a different study).
+    /// Delete the run the directory holds and start over (needed when it holds
+    /// a different study): every file the old run wrote, its statistics,
+    /// figures and report too; nothing rwg did not write.
     #[arg(long)]
     force_new: bool,
     /// Seconds one call into a plugin env (create, reset or step) may take
@@ -173,9 +174,12 @@ pub fn run(args: Args) -> Result<i32> {
     let mut m = Manifest::load(&args.manifest)?;
     apply_overrides(&mut m, &args)?;
     let out = run_dir(&args, &m)?;
+    let manifest = crate::cmd::absolute(&args.manifest)?;
+    let pp = python_path(&m);
+    let pp = pp.as_deref();
     // Until the run directory holds the study, the command as given
     // resumes it; from then on, the directory's own manifest.
-    let (resume, resume_stopped) = guard_texts(&out, &resume_command(&args, &out, false));
+    let (resume, resume_stopped) = guard_texts(&out, &resume_command(&args, &out, false, pp));
     let _armed = fault_guard::arm(resume, resume_stopped, args.step_timeout);
     rwg_study::isolate::set_settings(rwg_study::isolate::IsolateSettings {
         timeout: (args.step_timeout > 0).then(|| std::time::Duration::from_secs(args.step_timeout)),
@@ -183,18 +187,31 @@ pub fn run(args: Args) -> Result<i32> {
     });
     let opts = RunOptions {
         out: out.clone(),
-        manifest_file: Some(&args.manifest),
+        manifest_file: Some(&manifest),
         shard: args.shard,
         force_new: args.force_new,
         stop: fault_guard::interrupt_flag(),
         keep_episodes: args.shard.is_none() && !args.no_report,
         commit_linger: crate::env_vars::commit_linger()?,
     };
-    let outcome = run_with_progress(&mut m, &opts, &args, &out);
-    let mut report = match finished(outcome, &args, &out)? {
+    let outcome = run_with_progress(&mut m, &opts, &args, &out, pp);
+    // What a crash while rwg exits (a plugin's exit handler) leaves.
+    let complete = format!(
+        "The run in {} is complete: every file was written and indexed before (`rwg verify {}` \
+         checks them).",
+        out.display(),
+        sh_path(&out)
+    );
+    let mut report = match finished(outcome, &args, &out, pp)? {
         Finished::Report(report) => report,
-        Finished::AlreadyComplete => return Ok(0),
-        Finished::Stopped(status) => return Ok(status),
+        Finished::AlreadyComplete => {
+            fault_guard::finished(complete);
+            return Ok(0);
+        }
+        Finished::Stopped(status) => {
+            fault_guard::finished(fault_guard::resume_stopped_text());
+            return Ok(status);
+        }
     };
     print_summary(&report, &m, &args);
     let report_time = finish_output(&mut report, &args, &out)?;
@@ -204,6 +221,7 @@ pub fn run(args: Args) -> Result<i32> {
             report_time,
         ));
     }
+    fault_guard::finished(complete);
     Ok(0)
 }
 
@@ -221,8 +239,9 @@ pub(crate) fn default_out(out: Option<&PathBuf>, m: &Manifest, manifest: &Path) 
     }
 }
 
-/// The run directory ([`default_out`]); refused if it exists and is not a
-/// directory.
+/// The run directory ([`default_out`]), made absolute (before any plugin
+/// code runs: a plugin may change the working directory); refused if it
+/// exists and is not a directory, or lies in another run's own files.
 fn run_dir(args: &Args, m: &Manifest) -> Result<PathBuf> {
     let out = default_out(args.out.as_ref(), m, &args.manifest);
     if out.exists() && !out.is_dir() {
@@ -232,7 +251,8 @@ fn run_dir(args: &Args, m: &Manifest) -> Result<PathBuf> {
             out.display()
         );
     }
-    Ok(out)
+    crate::cmd::claim_output(Output::new(&out, OutputKind::RunDir), "")?;
+    crate::cmd::absolute(&out)
 }
 
 /// Runs the study with the progress display `args` choose, then prints the
@@ -242,6 +262,7 @@ fn run_with_progress(
     opts: &RunOptions<'_>,
     args: &Args,
     out: &Path,
+    pp: Option<&str>,
 ) -> Result<RunOutcome, StudyError> {
     // told by the JAX envs' sources when their workers compile
     let compiling = Arc::new(Compiling::default());
@@ -252,7 +273,7 @@ fn run_with_progress(
     );
     let display: &mut dyn Progress = if args.quiet {
         &mut silent
-    } else if std::io::stderr().is_terminal() {
+    } else if crate::stdio::stderr_is_terminal() {
         &mut bar
     } else {
         &mut lines
@@ -261,7 +282,7 @@ fn run_with_progress(
         display,
         compiling,
         checks: vec![],
-        started: Some(guard_texts(out, &resume_command(args, out, true))),
+        started: Some(guard_texts(out, &resume_command(args, out, true, pp))),
         jax_lines: !args.quiet,
     };
     let outcome = run_study(m, opts, &mut progress);
@@ -295,7 +316,12 @@ enum Finished {
 /// What a run's outcome means: its report, a directory that was complete
 /// already (its report written if missing), or a run stopped by an
 /// interrupt or a failed cell, which prints how to resume.
-fn finished(outcome: Result<RunOutcome, StudyError>, args: &Args, out: &Path) -> Result<Finished> {
+fn finished(
+    outcome: Result<RunOutcome, StudyError>,
+    args: &Args,
+    out: &Path,
+    pp: Option<&str>,
+) -> Result<Finished> {
     Ok(match outcome {
         Ok(RunOutcome::AlreadyComplete(_lock)) => {
             crate::outln!(
@@ -312,17 +338,18 @@ fn finished(outcome: Result<RunOutcome, StudyError>, args: &Args, out: &Path) ->
             crate::errln!(
                 "stopped; every finished block is saved in {}. Resume with:\n  {}",
                 out.display(),
-                resume_command(args, out, true)
+                resume_command(args, out, true, pp)
             );
             fault_guard::disarm();
             Finished::Stopped(130)
         }
         Err(e @ StudyError::Cell { .. }) => {
             // (an isolated plugin's crash or hang, a Gymnasium worker's, an env error)
-            crate::errln!("error: {}", crate::error_text(&e.into()));
+            let text = crate::error_text(&e.into());
+            crate::errln!("error: {}", crate::details::one_line(&text, Some(out)));
             crate::errln!(
                 "Every committed block is kept; once the cause is fixed, resume with: {}",
-                resume_command(args, out, true)
+                resume_command(args, out, true, pp)
             );
             fault_guard::disarm();
             Finished::Stopped(1)
@@ -375,7 +402,12 @@ fn finish_output(report: &mut RunReport, args: &Args, out: &Path) -> Result<Opti
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(report.threads)
                     .build()
-                    .context("cannot start the report's threads")?
+                    .with_context(|| {
+                        format!(
+                            "cannot start the report's threads ({})",
+                            rwg_env::text::THREAD_LIMIT_ADVICE
+                        )
+                    })?
                     .install(|| write_report(out, episodes))?;
                 report_time = Some(t.elapsed());
             }
@@ -411,8 +443,9 @@ fn guard_texts(out: &Path, resume: &str) -> (String, String) {
 /// Once the run directory holds the study (`in_dir`), it runs the
 /// directory's `manifest.toml` (the study, every override applied: see
 /// [`crate::cmd::status::finish_command`]) with the options that are not
-/// part of the study; before, it is the command as given.
-fn resume_command(args: &Args, out: &Path, in_dir: bool) -> String {
+/// part of the study; before, it is the command as given. With
+/// `pythonpath`, it sets `PYTHONPATH` as the run had it.
+fn resume_command(args: &Args, out: &Path, in_dir: bool, pythonpath: Option<&str>) -> String {
     let mut cmd = if in_dir {
         crate::cmd::status::finish_command(out, args.shard)
     } else {
@@ -457,7 +490,19 @@ fn resume_command(args: &Args, out: &Path, in_dir: bool) -> String {
             opt(flag.into());
         }
     }
-    cmd
+    rwg_study::shell::with_pythonpath(pythonpath, cmd)
+}
+
+/// The `PYTHONPATH` a printed command that starts this study's envs again
+/// needs: this process's, when the study has a `gymnasium:` or JAX env
+/// (whose module may be found through it); `None` otherwise.
+fn python_path(m: &Manifest) -> Option<String> {
+    let python = m
+        .envs
+        .iter()
+        .any(|e| e.id.starts_with("gymnasium:") || rwg_study::jax_source::is_jax(&e.id));
+    let pp = std::env::var("PYTHONPATH").ok().filter(|p| !p.is_empty());
+    pp.filter(|_| python)
 }
 
 /// Starts the contract checks of the study's plugin envs when the cells

@@ -9,6 +9,7 @@ use anyhow::{bail, Context, Result};
 use rwg_study::cells::plan_cells;
 use rwg_study::manifest::Manifest;
 use rwg_study::rundir::export::write_atomic;
+use rwg_study::rundir::outputs::{Output, OutputKind};
 use rwg_study::rundir::{MANIFEST, RUN_JSON};
 use rwg_study::shell::sh_path;
 use std::path::{Path, PathBuf};
@@ -94,12 +95,20 @@ fn check_envs(m: &mut Manifest) -> Result<()> {
 /// Runs `rwg slurm`.
 pub fn run(args: Args) -> Result<()> {
     let mut m = Manifest::load(&args.manifest)?;
+    // Paths resolved before plugin code runs (checking the envs creates
+    // each once), which may change the working directory.
+    let out = crate::cmd::run::default_out(args.out.as_ref(), &m, &args.manifest);
+    crate::cmd::claim_output(Output::new(&out, OutputKind::RunDir), "")?;
+    let out = crate::cmd::absolute(&out)?;
+    let args = Args {
+        manifest: crate::cmd::absolute(&args.manifest)?,
+        ..args
+    };
     check_envs(&mut m)?;
     if args.isolate {
         // (how the shards run, not what: a resubmission may change it)
         m.isolate_all();
     }
-    let out = crate::cmd::run::default_out(args.out.as_ref(), &m, &args.manifest);
     let sub = Submission::resolve(&args, &out)?;
     let (common, array_only) = sbatch_options(&args)?;
     let mut plan = read_or_start_plan(&sub.sd, &m, args.shards)?;

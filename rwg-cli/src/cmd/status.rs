@@ -56,7 +56,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     if !manifest_path.is_file() {
         if !dir.is_dir() {
-            bail!("{}: no such directory", dir.display());
+            // a file, or nothing: said as every command that reads a run says it
+            rwg_study::rundir::data::require_run_dir(dir)?;
         }
         if let Some(holder) = rwg_study::rundir::lock::live_writer(dir) {
             bail!(
@@ -72,8 +73,14 @@ pub fn run(args: Args) -> Result<()> {
                 dir.display()
             );
         }
+        let inside = rwg_study::rundir::data::run_above(dir).map_or(String::new(), |r| {
+            format!(
+                "; it is inside the run directory {}: give that",
+                r.display()
+            )
+        });
         bail!(
-            "{} is not an rwg run directory: it has no manifest.toml (nor slurm/plan.json)",
+            "{} is not an rwg run directory: it has no manifest.toml (nor slurm/plan.json){inside}",
             dir.display()
         );
     }
@@ -126,7 +133,10 @@ pub fn run(args: Args) -> Result<()> {
     print_jax(dir, &cells);
     let ended = meta.as_ref().is_some_and(|m| m.end_time.is_some());
     print_totals(&t, if shard.is_some() { "shard" } else { "run" }, ended);
-    let finish = finish_command(dir, shard);
+    let finish = rwg_study::shell::with_pythonpath(
+        rwg_study::rundir::env_record::recorded_pythonpath(dir).as_deref(),
+        finish_command(dir, shard),
+    );
     if !t.complete() || !ended {
         crate::outln!("Finish it with:\n  {finish}");
     } else if shard.is_some() {

@@ -51,6 +51,9 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     let run = sh_path(&args.run_dir);
+    // (a jax: env of the user's: the PYTHONPATH its module was found
+    // through; rwg replay plans every cell, so any cell's)
+    let pythonpath = rwg_study::rundir::env_record::recorded_pythonpath(&args.run_dir);
     let stdout = crate::stdio::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     for cell in &run_dir.meta.cells {
@@ -103,14 +106,14 @@ pub fn run(args: Args) -> Result<()> {
             if flagged {
                 values.push(cut.to_string());
             }
-            writeln!(
-                out,
-                "  {}  rwg replay {run} --env {} --arch {} --bias {} --sample {s}",
-                columns.line(&values),
+            let replay = format!(
+                "rwg replay {run} --env {} --arch {} --bias {} --sample {s}",
                 sh_quote(&cell.id.env),
                 sh_quote(&cell.id.arch),
                 cell.id.bias
-            )?;
+            );
+            let replay = rwg_study::shell::with_pythonpath(pythonpath.as_deref(), replay);
+            writeln!(out, "  {}  {replay}", columns.line(&values))?;
         }
     }
     out.flush()?;

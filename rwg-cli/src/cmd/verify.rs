@@ -11,7 +11,8 @@ Checks every finished cell's scores.csv, samples.csv and cell.json against the
 cell's SHA256SUMS (and their rows against run.json), and every committed block
 of an unfinished cell or a shard against blocks/SHA256SUMS. Prints one line per
 cell and one per problem, naming the file; exits 1 on any problem. Takes no lock:
-it can run while the directory is being written.
+it can run while the directory is being written (a cell a run changes while it is
+checked is checked again, so each is read as one snapshot).
 
 Example:
   rwg verify runs/quick")]
@@ -23,7 +24,19 @@ pub struct Args {
 /// Runs `rwg verify`.
 pub fn run(args: Args) -> Result<()> {
     // a folder that is no run at all is said so, with what a run holds
-    rwg_study::rundir::data::require_run_dir(&args.run_dir)?;
+    if let Err(e) = rwg_study::rundir::data::require_run_dir(&args.run_dir) {
+        // (a run or merge in its first moments, before its run.json; or
+        // one that wrote its run.json just now)
+        if !rwg_study::rundir::verify::being_set_up(&args.run_dir) {
+            rwg_study::rundir::data::require_run_dir(&args.run_dir).map_err(|_| e)?;
+        } else {
+            crate::outln!(
+                "{}: a run (or merge) being set up, without run.json yet; checking what is \
+             committed so far",
+                args.run_dir.display()
+            );
+        }
+    }
     if let Ok(Some(progress)) =
         rwg_study::rundir::data::Run::open(&args.run_dir).map(|r| r.unfinished())
     {

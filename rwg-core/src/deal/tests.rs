@@ -14,6 +14,7 @@ fn plan(episodes: u32) -> CellPlan {
         },
         episodes,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: crate::policy::PolicyKind::Network,
         non_finite: Default::default(),
     }
 }

@@ -1,5 +1,5 @@
 use super::*;
-use crate::policy::Architecture;
+use crate::policy::{Architecture, PolicyKind};
 use crate::sampler::{run_blocks, WeightDist};
 use crate::test_envs::Toy;
 use rwg_env::Space;
@@ -78,6 +78,7 @@ fn plan(episodes: u32) -> CellPlan {
         },
         episodes,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: PolicyKind::Network,
         non_finite: Default::default(),
     }
 }
@@ -99,11 +100,18 @@ fn collect(
 fn many_lanes_give_the_lane_workers_results_and_first_error() {
     let blocks: Vec<Range<u64>> = vec![0..5, 5..37, 37..40];
     let (mut oks, mut errs) = (0, 0);
-    for continuous in [false, true] {
+    let kinds = [PolicyKind::Network, PolicyKind::Random];
+    for (continuous, policy) in [false, true]
+        .into_iter()
+        .flat_map(|c| kinds.map(|k| (c, k)))
+    {
         for episodes in [1, 3] {
             for fail_every in [1 << 40, 97, 13, 5] {
                 let toy = Toy::new(fail_every, continuous);
-                let p = plan(episodes);
+                let p = CellPlan {
+                    policy,
+                    ..plan(episodes)
+                };
                 let lanes = collect(|f| run_blocks(&p, &blocks, 2, || toy.clone(), f));
                 let many = collect(|f| {
                     run_blocks_many(

@@ -2,7 +2,7 @@
 //! and `rwg replay`'s controller, with the arithmetic of
 //! [`super::PolicyLanes`] lane by lane.
 
-use super::{argmax_tanh, ActionMap, NetShape};
+use super::{argmax_tanh, ActionMap, NetShape, RandomActions};
 use crate::tanh::tanh;
 use rwg_env::env::Action;
 use rwg_env::space::Space;
@@ -16,6 +16,8 @@ pub struct Policy {
     a: Vec<f64>,
     b: Vec<f64>,
     action: Vec<f64>,
+    /// Uniformly random actions instead of the network (no weights).
+    random: Option<Box<RandomActions<1>>>,
 }
 
 impl Policy {
@@ -31,6 +33,24 @@ impl Policy {
             action: vec![0.0; n_out],
             shape,
             map,
+            random: None,
+        }
+    }
+
+    /// Uniformly random actions of `action_space` ([`super::PolicyKind::Random`]):
+    /// no weights; [`Policy::seed_actions`] gives each episode its draws.
+    pub fn random(action_space: &Space) -> Self {
+        Policy {
+            random: Some(Box::new(RandomActions::new(action_space))),
+            ..Policy::new(NetShape::none(), action_space)
+        }
+    }
+
+    /// A random policy's actions come from `rng` from now on (an episode
+    /// starts); no effect on a network.
+    pub fn seed_actions(&mut self, rng: rwg_env::seeding::Pcg64) {
+        if let Some(r) = &mut self.random {
+            r.seed_lane(0, rng);
         }
     }
 
@@ -52,6 +72,10 @@ impl Policy {
     /// Runs the network on `obs` and returns the action.
     #[inline]
     pub fn act(&mut self, obs: &[f64]) -> Action<'_> {
+        if self.random.is_some() {
+            // (a random policy has no network: see `Policy::random`)
+            return random_action(&mut self.random);
+        }
         self.forward(obs);
         self.map_output()
     }
@@ -61,6 +85,9 @@ impl Policy {
     /// loops check ([`super::PolicyLanes::non_finite_outputs`]).
     #[inline]
     pub fn act_checked(&mut self, obs: &[f64]) -> Result<Action<'_>, f64> {
+        if self.random.is_some() {
+            return Ok(self.act(obs));
+        }
         self.forward(obs);
         match self.output().iter().find(|v| !v.is_finite()) {
             Some(&v) => Err(v),
@@ -134,5 +161,14 @@ impl Policy {
                 Action::Continuous(&self.action)
             }
         }
+    }
+}
+
+/// The next action of a random policy's only lane (`random` is `Some`).
+#[inline]
+fn random_action(random: &mut Option<Box<RandomActions<1>>>) -> Action<'_> {
+    match random {
+        Some(r) => r.action(0),
+        None => unreachable!("a policy without random actions"),
     }
 }

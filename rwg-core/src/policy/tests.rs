@@ -1,4 +1,5 @@
 use super::*;
+use crate::tanh::tanh;
 use rwg_env::space::BoxSpace;
 
 fn n_weights(obs: usize, hidden: &[usize], out: usize, bias: bool) -> usize {

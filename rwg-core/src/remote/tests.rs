@@ -1,5 +1,6 @@
 use super::*;
 use crate::policy::Architecture;
+use crate::policy::PolicyKind;
 use crate::sampler::{LaneWorker, WeightDist};
 use crate::test_envs::Toy;
 use rwg_env::Environment;
@@ -86,7 +87,11 @@ impl RemoteEnv for Hosted {
 #[test]
 fn remote_lanes_give_the_lane_workers_results_and_first_error() {
     let (mut oks, mut errs) = (0, 0);
-    for continuous in [false, true] {
+    let kinds = [PolicyKind::Network, PolicyKind::Random];
+    for (continuous, policy) in [false, true]
+        .into_iter()
+        .flat_map(|c| kinds.map(|k| (c, k)))
+    {
         for episodes in [1, 3] {
             let plan = CellPlan {
                 seed: 5,
@@ -97,6 +102,7 @@ fn remote_lanes_give_the_lane_workers_results_and_first_error() {
                 },
                 episodes,
                 dist: WeightDist::Normal { std: 1.0 },
+                policy,
                 non_finite: Default::default(),
             };
             for fail_every in [1 << 40, 3, 13, 41] {
@@ -152,6 +158,7 @@ fn with_end_remote_lanes_end_the_episodes_the_lane_workers_end() {
             },
             episodes: 3,
             dist: WeightDist::Normal { std: 1.0 },
+            policy: crate::policy::PolicyKind::Network,
             non_finite: crate::plan::NonFinite::End,
         };
         let n = 40 * 3;
@@ -182,6 +189,7 @@ fn pool_reuses_and_drops_failed_envs() {
         },
         episodes: 2,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: crate::policy::PolicyKind::Network,
         non_finite: Default::default(),
     };
     let pool = RemotePool::default();
@@ -267,6 +275,7 @@ fn a_failure_between_calls_blames_no_episode() {
         },
         episodes: 2,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: crate::policy::PolicyKind::Network,
         non_finite: Default::default(),
     };
     let env = DiesBetweenCalls {

@@ -29,7 +29,7 @@ for i in range(len(sizes) - 1):
     off += o * n_in
 assert off == len(weights), "weights for another architecture"
 
-# the key: PRNGKey(r), i.e. the threefry key data [r >> 32, r & 0xFFFFFFFF]
+# the key: the threefry key of data [r >> 32, r & 0xFFFFFFFF]
 key = jax.random.wrap_key_data(jnp.array([seed >> 32, seed & 0xFFFFFFFF], jnp.uint32),
                                impl="threefry2x32")
 

@@ -78,7 +78,9 @@ pub unsafe fn load_from_entry(origin: &Path, entry: EntryFn) -> Result<Plugin, P
     // SAFETY: see above.
     let fns = unsafe { read_identity(&e) }.map_err(err)?;
     // SAFETY: see above.
-    unsafe { run_init(e.init) }.map_err(err)?;
+    let init = unsafe { run_init(e.init) };
+    super::std_fds::refill();
+    init.map_err(err)?;
     let info = Arc::new(PluginInfo {
         path: origin.to_path_buf(),
         id: fns.plugin_id.clone(),
@@ -435,7 +437,13 @@ pub(super) fn buf_message(buf: &[c_char]) -> String {
         .take_while(|&&c| c != 0)
         .map(|&c| c as u8)
         .collect();
-    String::from_utf8_lossy(&bytes).into_owned()
+    rwg_env::text::escape_controls(&String::from_utf8_lossy(&bytes)).into_owned()
+}
+
+/// A message a plugin wrote (its `last_error`, an error buffer), as text
+/// safe to print: invalid UTF-8 replaced, control characters escaped.
+pub(super) fn plugin_text(s: &CStr) -> String {
+    rwg_env::text::escape_controls(&s.to_string_lossy()).into_owned()
 }
 
 /// Checks a Gymnasium-style id `[namespace/]Name-vN`: non-empty, at most 256

@@ -4,7 +4,7 @@
 
 use std::ffi::{c_char, CStr, CString};
 
-use super::handshake::buf_message;
+use super::handshake::{buf_message, plugin_text};
 use super::{PluginEnvType, PluginInfo, ERR_BUF_LEN};
 use rwg_env::env::{Action, EnvError, EnvSpec, Environment, Step};
 use rwg_env::plugin::abi::*;
@@ -55,6 +55,7 @@ impl PluginEnvType {
                 buf.len(),
             )
         };
+        super::std_fds::refill();
         if status != RWG_OK {
             return Err(EnvError::Other(format!(
                 "{}: create failed with {} ({status}): {}",
@@ -166,7 +167,7 @@ impl PluginEnv {
             if p.is_null() {
                 String::new()
             } else {
-                CStr::from_ptr(p).to_string_lossy().into_owned()
+                plugin_text(CStr::from_ptr(p))
             }
         };
         self.poisoned |= status == RWG_ERR_PANIC;

@@ -20,7 +20,10 @@ mod handshake;
 mod instance;
 mod lanes;
 mod search;
+mod std_fds;
 mod vec_env;
+
+pub use std_fds::refill as refill_std_fds;
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

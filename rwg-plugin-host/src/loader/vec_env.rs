@@ -16,6 +16,7 @@ use std::ffi::{CStr, CString};
 use super::batch::LaneFailure;
 use super::batch_scan::{all_finite, all_ones, fill_sentinels, outputs_ok};
 use super::clock::LaneClock;
+use super::handshake::plugin_text;
 use super::instance::{call_error, check_obs, lane_output_error};
 use super::{PluginEnvType, VecVTable, ERR_BUF_LEN};
 
@@ -105,10 +106,11 @@ impl PluginEnvType {
                 buf.len(),
             )
         };
+        super::std_fds::refill();
         if status != RWG_OK || out.is_null() {
             // SAFETY: the plugin NUL-terminates within the buffer; the last
             // byte is never written by anyone else.
-            let msg = unsafe { CStr::from_ptr(buf.as_ptr()) }.to_string_lossy();
+            let msg = plugin_text(unsafe { CStr::from_ptr(buf.as_ptr()) });
             return Err(EnvError::Other(format!(
                 "{}: vec_create of {lanes} lanes failed with {} ({status}): {}",
                 self.prefix(),
@@ -210,7 +212,7 @@ impl PluginVecEnv {
             if p.is_null() {
                 String::new()
             } else {
-                CStr::from_ptr(p).to_string_lossy().into_owned()
+                plugin_text(CStr::from_ptr(p))
             }
         };
         self.poisoned |= status == RWG_ERR_PANIC;

@@ -46,6 +46,8 @@ fn env(
     let non_finite = non_finite(at, key, e)?;
     let id = e.id.get_ref();
     let jax = jax_keys::check(key, id, e).map_err(|l| at.located(l))?;
+    // (a JAX env refuses the key: jax_keys::check)
+    let action_dtype = jax.precision.is_none().then_some(action_dtype);
     let plugin = plugin_path(e, base);
     let kwargs = kwargs(at, key, e)?;
     Ok(EnvEntry {

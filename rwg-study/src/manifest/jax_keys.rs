@@ -115,21 +115,13 @@ pub(super) fn check(key: &str, id: &str, e: &RawEnv) -> Result<JaxKeys, Located>
     })
 }
 
-/// `plugin`, `config`, `isolate` and an `action_dtype` other than the
-/// default on a JAX env.
+/// `plugin`, `config`, `isolate` and `action_dtype` on a JAX env.
 fn refuse_other_keys(key: &str, id: &str, e: &RawEnv) -> Result<(), Located> {
     let other: [(&str, Option<Range<usize>>); 4] = [
         ("plugin", e.plugin.as_ref().map(Spanned::span)),
         ("config", e.config.as_ref().map(Spanned::span)),
         ("isolate", e.isolate.as_ref().map(Spanned::span)),
-        // (float64, the default every resolved manifest writes, changes nothing)
-        (
-            "action_dtype",
-            e.action_dtype
-                .as_ref()
-                .filter(|d| d.get_ref() != "float64")
-                .map(Spanned::span),
-        ),
+        ("action_dtype", e.action_dtype.as_ref().map(Spanned::span)),
     ];
     match other.into_iter().find(|(_, s)| s.is_some()) {
         Some((name, Some(at))) => Err((

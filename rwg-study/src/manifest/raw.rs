@@ -72,7 +72,8 @@ pub(super) struct RawWeights {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawArch {
     pub(super) name: Spanned<String>,
-    pub(super) hidden: Spanned<Vec<Spanned<i64>>>,
+    pub(super) hidden: Option<Spanned<Vec<Spanned<i64>>>>,
+    pub(super) policy: Option<Spanned<String>>,
 }
 
 /// One `[[envs]]` entry.

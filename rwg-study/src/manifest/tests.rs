@@ -42,7 +42,7 @@ fn parses_a_full_manifest() {
     assert_eq!(m.weights, WeightDist::Uniform { a: 2.0 });
     assert_eq!(m.architectures[1].hidden, [4, 4]);
     assert_eq!(m.envs[0].solved, Some(195.0));
-    assert_eq!(m.envs[1].action_dtype, ActionDtype::F32);
+    assert_eq!(m.envs[1].action_dtype, Some(ActionDtype::F32));
     assert_eq!(
         m.envs[1].plugin.as_deref(),
         Some(Path::new("/base/libs/x.so"))
@@ -449,6 +449,11 @@ fn jax_keys_are_checked_where_they_stand() {
             "envs[0].action_dtype: 'jax:m:f' is a JAX environment",
         ),
         (
+            "gymnax:CartPole-v1",
+            "action_dtype = \"float64\"",
+            "envs[0].action_dtype: 'gymnax:CartPole-v1' is a JAX environment",
+        ),
+        (
             "jax:my_module",
             "",
             "m.toml:7:6: envs[0].id: 'jax:my_module' names no callable",
@@ -536,4 +541,67 @@ fn an_unreadable_manifest_chains_its_cause_without_printing_it() {
     let cause = e.source().expect("the I/O error is the source").to_string();
     assert!(!e.to_string().contains(&cause), "{e} repeats {cause}");
     assert!(e.to_string().starts_with("cannot read manifest "), "{e}");
+}
+
+#[test]
+fn a_random_architecture_has_no_layers_and_reads_back() {
+    let text = GOOD.replace(
+        "[[envs]]\nid = \"CartPole-v0\"",
+        "[[architectures]]\nname = \"random\"\npolicy = \"random\"\n\n[[envs]]\nid = \"CartPole-v0\"",
+    );
+    let m = parse(&text).unwrap();
+    let r = &m.architectures[2];
+    assert_eq!((r.name.as_str(), r.policy), ("random", PolicyKind::Random));
+    assert!(r.hidden.is_empty());
+    assert_eq!(m.architectures[0].policy, PolicyKind::Network);
+    let toml = m.to_toml();
+    assert_eq!(toml.matches("policy = \"random\"").count(), 1, "{toml}");
+    assert!(
+        !toml.contains("\"network\""),
+        "networks write no policy: {toml}"
+    );
+    let again = parse(&toml).unwrap();
+    assert_eq!(again.architectures, m.architectures);
+    assert!(m.study_differences(&again).is_empty());
+    // hidden = [] and policy = "network" are the same as leaving them out
+    let spelled = text.replace("policy = \"random\"", "policy = \"random\"\nhidden = []");
+    assert_eq!(parse(&spelled).unwrap().architectures, m.architectures);
+    let net = GOOD.replace("hidden = []", "hidden = []\npolicy = \"network\"");
+    assert!(parse(GOOD)
+        .unwrap()
+        .study_differences(&parse(&net).unwrap())
+        .is_empty());
+    // the random cell is part of the study
+    assert_eq!(
+        parse(GOOD).unwrap().study_differences(&m).len(),
+        1,
+        "architectures differ"
+    );
+}
+
+#[test]
+fn random_architectures_are_checked_where_they_stand() {
+    let with = |arch: &str| GOOD.replace("name = \"2HL\"\nhidden = [4, 4]", arch);
+    let e = error_of(&with("name = \"r\"\npolicy = \"random\"\nhidden = [4]"));
+    assert!(
+        e.starts_with("m.toml:18:10: architectures[1].hidden: policy = \"random\" runs no network"),
+        "{e}"
+    );
+    let e = error_of(&with("name = \"r\"\npolicy = \"uniform\""));
+    assert!(
+        e.starts_with("m.toml:17:10: architectures[1].policy: \"network\" (tanh networks"),
+        "{e}"
+    );
+    assert!(e.ends_with("got \"uniform\""), "{e}");
+    let e = error_of(&with("name = \"r\""));
+    assert!(
+        e.starts_with("m.toml:16:8: architectures[1]: missing key `hidden`")
+            && e.contains("policy = \"random\""),
+        "{e}"
+    );
+    let e = error_of(&with("name = \"r\"\npolicy = 1"));
+    assert!(
+        e.starts_with("m.toml:17:10: architectures[1].policy:"),
+        "{e}"
+    );
 }

@@ -158,7 +158,10 @@ pub fn write_blocks(
     let rows = rows.into();
     let dir = cell_dir.join(BLOCKS);
     if !dir.is_dir() {
-        export::create_dir_all(&dir).map_err(io_err(&dir))?;
+        // (only the cell's folder and its blocks/: never cells/ or the run
+        // directory, should they have been moved or deleted)
+        export::create_dir_in(cell_dir).map_err(io_err(cell_dir))?;
+        export::create_dir_in(&dir).map_err(io_err(&dir))?;
     }
     let mut done = Vec::with_capacity(blocks.len());
     let mut failed = None;
@@ -201,7 +204,7 @@ pub fn copy_block(src: &BlockIndex, dst: &Path, b: u64) -> Result<(), RunDirErro
     checksum::check(&from, &want, &checksum::digest_of(&bytes))?;
     let to = block_path(dst, b);
     let dir = to.parent().expect("block path has a parent");
-    export::create_dir_all(dir).map_err(io_err(dir))?;
+    export::create_dir_in(dir).map_err(io_err(dir))?;
     let digest = write_atomic_hashed(&to, &bytes).map_err(io_err(&to))?;
     append_sum(&dir.join(SUMS), &block_name(b), &digest)
 }

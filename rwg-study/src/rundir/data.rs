@@ -147,7 +147,13 @@ impl Run {
         let dir = dir.as_ref().to_path_buf();
         let path = dir.join(RUN_JSON);
         let meta: RunMeta = load_json(&path).map_err(|e| match e {
-            JsonFileError::Io(e) if e.kind() == std::io::ErrorKind::NotFound => not_a_run_dir(&dir),
+            // (a file given for the directory: ENOTDIR)
+            JsonFileError::Io(e)
+                if e.kind() == std::io::ErrorKind::NotFound
+                    || e.kind() == std::io::ErrorKind::NotADirectory =>
+            {
+                not_a_run_dir(&dir)
+            }
             JsonFileError::Io(e) => io_err(&path)(e),
             JsonFileError::Json(source) => RunReadError::Json {
                 path: path.clone(),
@@ -291,7 +297,7 @@ pub use cell_writers::{
     samples_csv, scores_csv, write_cell_files, write_run_json, write_samples_csv,
 };
 use not_a_run::not_a_run_dir;
-pub use not_a_run::require_run_dir;
+pub use not_a_run::{require_run_dir, run_above};
 pub use read_error::RunReadError;
 use unfinished::study_cells;
 pub use unfinished::Unfinished;

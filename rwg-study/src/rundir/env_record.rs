@@ -2,8 +2,9 @@
 //! (its spaces, time limit and reward threshold, and for a Gymnasium env
 //! Gymnasium's own text of its spaces and the workers' `PYTHONHASHSEED`; for
 //! a JAX env the library's text of its spaces, the versions of JAX and the
-//! env's library, the device's kind and platform, the precisions and the
-//! episode loop: its lanes and when ended lanes refill).
+//! env's library, the device's kind and platform, the precisions, the
+//! episode loop (its lanes and when ended lanes refill), and for a `jax:` env
+//! a digest of its module's source and the `PYTHONPATH` it was found through).
 //! Every block of a cell must be computed under the same env, so a resume
 //! or a merge compares the env as it is now with this record and is refused
 //! when they differ, naming the difference (a new version of the env's
@@ -68,6 +69,10 @@ pub struct JaxRecord {
     /// Ended lanes that wait to refill together (shown, not compared: it
     /// changes the speed, not the results).
     pub refill: u32,
+    /// For a `jax:module:callable` env: a digest of its module's source
+    /// (compared) and where it was imported from (not compared).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source: Option<rwg_jax::protocol::ModuleSource>,
     /// The observation's leaves (name, shape, dtype) in the order they are
     /// flattened into the networks' inputs (empty in records written before
     /// rwg recorded them).
@@ -120,6 +125,20 @@ impl JaxRecord {
             &now.matmul_precision,
         );
         differ("lanes", &self.lanes.to_string(), &now.lanes.to_string());
+        let code = |s: &Option<rwg_jax::protocol::ModuleSource>| {
+            s.as_ref().map_or("none".to_string(), |s| {
+                format!("SHA-256 {} of {} file(s)", s.sha256, s.files)
+            })
+        };
+        if code(&self.source) != code(&now.source) {
+            let module = self.source.as_ref().or(now.source.as_ref());
+            let what = module.map_or(String::new(), |s| format!(" {}", s.module));
+            differ(
+                &format!("the source of module{what} (edited since the cell started?)"),
+                &code(&self.source),
+                &code(&now.source),
+            );
+        }
         // (what an older record lacks is not compared)
         if !self.observation_leaves.is_empty() {
             let text = |r: &JaxRecord| format!("{:?}", r.observation_leaves);
@@ -272,6 +291,21 @@ impl EnvRecord {
     }
 }
 
+/// The `PYTHONPATH` the envs of run directory `run` were imported through
+/// (the first a cell's `env.json` records for a `jax:module:callable`
+/// env), if any: what a printed command that starts them again needs.
+pub fn recorded_pythonpath(run: &Path) -> Option<String> {
+    let cells = std::fs::read_dir(run.join(crate::rundir::CELLS)).ok()?;
+    let mut dirs: Vec<_> = cells.flatten().map(|e| e.path()).collect();
+    dirs.sort();
+    dirs.iter().find_map(|d| cell_pythonpath(d))
+}
+
+/// The `PYTHONPATH` cell directory `dir`'s `env.json` records, if any.
+pub fn cell_pythonpath(dir: &Path) -> Option<String> {
+    read_record(dir).ok()??.jax?.source?.pythonpath
+}
+
 /// Reads the record in cell directory `dir`, if there is one.
 pub fn read_record(dir: &Path) -> Result<Option<EnvRecord>, StudyError> {
     let p = dir.join(ENV_JSON);
@@ -296,7 +330,7 @@ pub fn read_record(dir: &Path) -> Result<Option<EnvRecord>, StudyError> {
 /// Writes `record` into cell directory `dir` (created if needed), atomically.
 pub fn write_record(dir: &Path, record: &EnvRecord) -> Result<(), StudyError> {
     let p = dir.join(ENV_JSON);
-    std::fs::create_dir_all(dir)
+    crate::rundir::export::create_dir_in(dir)
         .map_err(StudyError::io(format!("cannot create {}", dir.display())))?;
     let json = serde_json::to_string_pretty(record).expect("serialisable") + "\n";
     write_atomic(&p, json.as_bytes())
@@ -413,6 +447,7 @@ mod tests {
             matmul_precision: "highest".into(),
             lanes: 1024,
             refill: 128,
+            source: None,
             observation_leaves: vec![rwg_jax::protocol::Leaf {
                 name: "grid".into(),
                 shape: vec![5, 5, 3],
@@ -464,5 +499,29 @@ mod tests {
         }
         assert!(!err.contains("gymnax: "), "{err}");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_jax_module_s_source_is_compared_not_where_it_was_found() {
+        use rwg_jax::protocol::ModuleSource;
+        let source = |sha: &str, pythonpath: &str| {
+            let mut r = jax("0.10.2", "3.11.7", "cpu");
+            r.source = Some(ModuleSource {
+                module: "my_envs".into(),
+                sha256: sha.into(),
+                files: 2,
+                pythonpath: Some(pythonpath.into()),
+            });
+            EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(r)
+        };
+        let then = source("aa", "/home/me/envs");
+        assert!(then.differences(&source("aa", "/elsewhere")).is_empty());
+        assert_eq!(
+            then.differences(&source("bb", "/home/me/envs")),
+            [
+                "the source of module my_envs (edited since the cell started?): SHA-256 aa of 2 \
+              file(s) then, SHA-256 bb of 2 file(s) now"
+            ]
+        );
     }
 }

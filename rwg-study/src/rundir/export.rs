@@ -141,6 +141,19 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
+/// Creates folder `path`, whose parent must exist: a folder rwg makes in a
+/// run directory it holds, never the run directory again (had it been moved
+/// or deleted meanwhile, writes there fail rather than start a new one).
+/// Nothing to do if it is a folder already.
+pub fn create_dir_in(path: &Path) -> io::Result<()> {
+    match std::fs::create_dir(path) {
+        Err(e) if e.kind() == io::ErrorKind::AlreadyExists && path.is_dir() => Ok(()),
+        // (named, with what is in the way)
+        Err(e) if e.kind() == io::ErrorKind::AlreadyExists => create_dir_all(path),
+        r => r,
+    }
+}
+
 /// Creates folder `path` and its parents, as [`std::fs::create_dir_all`];
 /// when something on the way is not a folder (a file, or a symbolic link
 /// to nothing), the error names it and says what it is, instead of "File
@@ -179,7 +192,12 @@ pub fn create_dir_all(path: &Path) -> io::Result<()> {
     Err(e)
 }
 
-/// Syncs the directory holding `path`, so a rename into it is durable.
+/// Syncs the directory holding `path`, so a rename into it is durable. On
+/// a file system that cannot sync folders (`fsync` fails with `EINVAL`,
+/// `ENOTSUP` or `ENOSYS`: some FUSE mounts, CIFS) it does nothing: a rename
+/// there may be lost in a crash of the machine, which the checksums catch
+/// (what is missing or damaged is computed again), as for any file system
+/// that does not write what it was told before a crash.
 pub fn sync_dir(path: &Path) -> io::Result<()> {
     #[cfg(unix)]
     {
@@ -187,11 +205,24 @@ pub fn sync_dir(path: &Path) -> io::Result<()> {
             Some(p) if !p.as_os_str().is_empty() => p,
             _ => Path::new("."),
         };
-        File::open(dir)?.sync_all()?;
+        match File::open(dir)?.sync_all() {
+            Err(e) if cannot_sync_folders(&e) => {}
+            r => r?,
+        }
     }
     #[cfg(not(unix))]
     let _ = path;
     Ok(())
+}
+
+/// Whether an `fsync` of a folder failed because the file system cannot
+/// sync folders at all (rather than because the data could not be written).
+#[cfg(unix)]
+fn cannot_sync_folders(e: &io::Error) -> bool {
+    matches!(
+        e.raw_os_error(),
+        Some(libc::EINVAL | libc::ENOTSUP | libc::ENOSYS)
+    )
 }
 
 impl AtomicFile {

@@ -1,7 +1,8 @@
 //! The run directory's writer lock.
 //!
 //! Every command that writes into a run directory (`run`, `merge`, `stats`,
-//! `report`, `plot` into the run, `replay --export-weights` into the run)
+//! `report`, and `plot`, `compare` or `replay --export-weights` writing a
+//! file into the run: see [`crate::rundir::outputs`])
 //! first takes an exclusive `flock(2)` on `RUN/rwg.lock`. The kernel releases
 //! it when the holder exits or is killed, so a SIGKILL leaves no stale lock.
 //! A second writer fails at once with [`LockError::Held`], which names the
@@ -50,25 +51,35 @@ pub enum LockError {
 }
 
 /// What to say when the lock cannot be taken because the run directory is
-/// on a read-only file system (empty otherwise).
+/// on a read-only file system, or the lock file is a symbolic link (empty
+/// otherwise).
 fn read_only_hint(e: &std::io::Error) -> &'static str {
     if e.kind() == std::io::ErrorKind::ReadOnlyFilesystem {
         ": the run directory is on a read-only file system, and this command writes into it \
          (so it takes the writers' lock first); the readers work there: rwg verify, rwg \
          status, rwg top, rwg stats --no-write"
+    } else if e.raw_os_error() == Some(ELOOP) {
+        ": it is a symbolic link, which rwg never follows there (whatever it points to would \
+         be written); remove the link, and rwg makes the lock file again"
     } else {
         ""
     }
 }
 
+/// The errno of opening a symbolic link with `O_NOFOLLOW`.
+#[cfg(unix)]
+const ELOOP: i32 = libc::ELOOP;
+#[cfg(not(unix))]
+const ELOOP: i32 = -1;
+
 struct Inner {
-    _file: File,
+    file: File,
 }
 
 /// A held lock on a run directory; released when the last handle is dropped.
 #[derive(Clone)]
 pub struct RunLock {
-    _inner: Arc<Inner>,
+    inner: Arc<Inner>,
 }
 
 impl std::fmt::Debug for RunLock {
@@ -95,12 +106,42 @@ impl RunLock {
         let key = std::fs::canonicalize(dir).map_err(io)?;
         let mut map = held().lock().unwrap_or_else(|e| e.into_inner());
         if let Some(inner) = map.get(&key).and_then(Weak::upgrade) {
-            return Ok(RunLock { _inner: inner });
+            return Ok(RunLock { inner });
         }
         let file = lock_file(&path, dir)?;
-        let inner = Arc::new(Inner { _file: file });
+        let inner = Arc::new(Inner { file });
         map.insert(key, Arc::downgrade(&inner));
-        Ok(RunLock { _inner: inner })
+        Ok(RunLock { inner })
+    }
+}
+
+impl RunLock {
+    /// Whether the run directory this lock was taken in is still at `dir`:
+    /// `None` if it is; else where it is now, as far as the system says
+    /// (`Some(None)`: deleted, or not known). A run directory moved or
+    /// deleted while a writer holds it is what this tells.
+    pub fn moved_from(&self, dir: &Path) -> Option<Option<PathBuf>> {
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::MetadataExt;
+            use std::os::unix::io::AsRawFd;
+            let held = self.inner.file.metadata().ok()?;
+            let there = std::fs::symlink_metadata(dir.join(LOCK_FILE)).ok();
+            if there.is_some_and(|m| (m.dev(), m.ino()) == (held.dev(), held.ino())) {
+                return None;
+            }
+            let fd = self.inner.file.as_raw_fd();
+            let now = std::fs::read_link(format!("/proc/self/fd/{fd}"))
+                .ok()
+                .filter(|p| held.nlink() > 0 && !p.to_string_lossy().ends_with(" (deleted)"))
+                .and_then(|p| p.parent().map(Path::to_path_buf));
+            Some(now)
+        }
+        #[cfg(not(unix))]
+        {
+            let _ = dir;
+            None
+        }
     }
 }
 
@@ -193,9 +234,11 @@ fn lock_file(path: &Path, dir: &Path) -> Result<File, LockError> {
         });
     }
     let record = format!("pid {}: {}\n", std::process::id(), command_line());
-    file.set_len(0).map_err(io)?;
+    // Written over the old record, then cut to length: a reader
+    // (live_holder) sees one whole first line, never an empty file.
     file.rewind().map_err(io)?;
     file.write_all(record.as_bytes()).map_err(io)?;
+    file.set_len(record.len() as u64).map_err(io)?;
     Ok(file)
 }
 
@@ -238,5 +281,28 @@ mod tests {
         drop(b);
         assert!(try_lock(), "released with the last handle");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_lock_file_that_is_a_link_is_refused_saying_so_and_a_moved_directory_is_told() {
+        let base = std::env::temp_dir().join(format!("rwg-lock-moved-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&base);
+        let (dir, moved) = (base.join("run"), base.join("moved"));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::os::unix::fs::symlink(base.join("elsewhere"), dir.join(LOCK_FILE)).unwrap();
+        let err = RunLock::acquire(&dir).unwrap_err().to_string();
+        assert!(
+            err.contains("it is a symbolic link, which rwg never follows"),
+            "{err}"
+        );
+        assert!(!base.join("elsewhere").exists());
+        std::fs::remove_file(dir.join(LOCK_FILE)).unwrap();
+        let lock = RunLock::acquire(&dir).unwrap();
+        assert_eq!(lock.moved_from(&dir), None);
+        std::fs::rename(&dir, &moved).unwrap();
+        assert_eq!(lock.moved_from(&dir), Some(Some(moved.clone())));
+        std::fs::remove_dir_all(&moved).unwrap();
+        assert_eq!(lock.moved_from(&moved), Some(None));
+        std::fs::remove_dir_all(&base).unwrap();
     }
 }

@@ -15,11 +15,13 @@
 //! RUN/cells/CELL/blocks/SHA256SUMS  checksums of the committed blocks (checksum)
 //! RUN/stats.json, stats.csv    the run's statistics (data)
 //! RUN/rwg.lock                 the writers' lock (lock)
+//! RUN/last-error.txt           the last failed cell's whole message (the `rwg` binary)
 //! ```
 //!
 //! - [`names`]: the cell directory names (injective, portable).
 //! - [`lock`]: the exclusive lock every writer takes.
 //! - [`checksum`]: the `SHA256SUMS` index of committed files.
+//! - [`clear`]: what `--force-new` removes (what rwg wrote, nothing else).
 //! - [`verify`]: checking a whole run against it (`rwg verify`).
 //! - [`meta`]: `run.json` / `cell.json` contents and cell directory names.
 //! - [`env_record`]: a cell's `env.json`, checked by resumes and merges.
@@ -29,14 +31,19 @@
 //! - [`error`]: [`RunDirError`](error::RunDirError), why a cell's files could not be used.
 //! - [`export`]: the CSV writers and atomic file replacement.
 //! - [`rows`]: the fast path for rwg's own plain numeric CSV rows.
-//! - [`data`]: reading a finished run for analysis, writing its statistics.
+//! - [`data`]: reading a finished run for analysis, writing its statistics;
+//!   [`derived`]: whether the statistics files are this run's.
 //! - [`status`]: how far a run or a shard has got (read-only, safe while it runs).
 //! - [`study`]: the study a run directory holds, and edits of its manifest.
+//! - [`outputs`]: where a command may write (no path a user names lands on
+//!   a run's own files).
 
 pub mod block_check;
 pub mod blocks;
 pub mod checksum;
+pub mod clear;
 pub mod data;
+pub mod derived;
 pub mod env_record;
 pub mod error;
 pub mod export;
@@ -44,6 +51,7 @@ pub mod finalize;
 pub mod lock;
 pub mod meta;
 pub mod names;
+pub mod outputs;
 pub mod rows;
 pub mod status;
 pub mod study;
@@ -73,6 +81,9 @@ pub const STATS_CSV: &str = "stats.csv";
 pub const FIGURES: &str = "figures";
 /// The run's HTML report (written by `rwg-analysis`).
 pub const REPORT_HTML: &str = "report.html";
+/// The whole message of the last failed cell, its traceback included
+/// (written by the `rwg` binary, which prints one line naming it).
+pub const LAST_ERROR: &str = "last-error.txt";
 /// Header of a cell's `scores.csv` (and of its block files).
 pub const SCORES_HEADER: &str = "sample,episode,score,steps";
 /// Header of a cell's `samples.csv`.

@@ -48,7 +48,7 @@ pub fn cell_dirs(m: &Manifest) -> Vec<String> {
     let mut dirs = vec![];
     for e in &m.envs {
         for a in &m.architectures {
-            for &bias in &m.bias {
+            for &bias in a.biases(&m.bias) {
                 dirs.push(CellId::new(&e.id, &a.name, &a.hidden, bias).dir);
             }
         }

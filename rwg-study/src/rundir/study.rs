@@ -111,14 +111,17 @@ mod tests {
         .unwrap();
         let edits = manifest_edits(dir, &meta, &edited);
         assert_eq!(edits.len(), 2, "{edits:?}");
-        assert!(edits[0].starts_with("envs: "), "{edits:?}");
+        assert_eq!(
+            edits[0],
+            "envs[0] (CartPole-v1).id: \"CartPole-v1\" vs \"Acrobot-v1\""
+        );
         assert_eq!(edits[1], "samples: 64 vs 96");
         // A run.json without the study: its own fields are compared.
         meta.study = None;
         assert_eq!(manifest_edits(dir, &meta, &edited), ["samples: 64 vs 96"]);
         let text = edited_message(dir, &edits);
         assert!(
-            text.starts_with("/runs/x/manifest.toml was changed after rwg wrote it (envs: "),
+            text.starts_with("/runs/x/manifest.toml was changed after rwg wrote it (envs[0] "),
             "{text}"
         );
         assert!(

@@ -33,11 +33,24 @@ pub struct VerifyReport {
 /// them), and committed blocks against the block index. Every cell
 /// `run.json` lists as finished must be there and verify. Block files
 /// without an index line are not committed (a resumed run computes them
-/// again) and are not problems.
+/// again) and are not problems. A run (or merge) that is being set up
+/// ([`being_set_up`]) has its cells checked alone.
 pub fn verify_run(dir: &Path) -> VerifyReport {
     let mut r = VerifyReport::default();
     let meta = match read_run_meta(dir) {
         Ok(m) => m,
+        // A run (or merge) in its first moments: what it committed so far.
+        Err(_) if being_set_up(dir) => {
+            match cell_names(&dir.join(CELLS)) {
+                Ok(names) => {
+                    for name in &names {
+                        verify_cell_dir(&dir.join(CELLS), name, None, &mut r);
+                    }
+                }
+                Err(e) => r.problems.push(e),
+            }
+            return r;
+        }
         Err(e) => {
             r.problems.push(with_causes(&e));
             return r;
@@ -53,6 +66,10 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
         return r;
     }
     let study = check_study(dir, &meta, &mut r);
+    if meta.shard.is_none() {
+        let stale = crate::rundir::derived::check_stats_files(dir, &meta);
+        r.problems.extend(stale);
+    }
     let cells_dir = dir.join(CELLS);
     let names = match cell_names(&cells_dir) {
         Ok(n) => n,
@@ -91,6 +108,12 @@ pub fn verify_run(dir: &Path) -> VerifyReport {
         r.problems.extend(missing);
     }
     r
+}
+
+/// Whether `dir` is a run (or merge) that another rwg is setting up: no
+/// `run.json` yet, and its writer, alive, holds the lock.
+pub fn being_set_up(dir: &Path) -> bool {
+    !dir.join(RUN_JSON).exists() && crate::rundir::lock::live_writer(dir).is_some()
 }
 
 /// Checks `manifest.toml` against the study `run.json` records, and (for a
@@ -138,18 +161,83 @@ fn cell_names(cells_dir: &Path) -> Result<Vec<String>, String> {
     Ok(names)
 }
 
+impl VerifyReport {
+    /// Adds what `other` found.
+    fn absorb(&mut self, other: VerifyReport) {
+        self.ok.extend(other.ok);
+        self.problems.extend(other.problems);
+        self.files += other.files;
+        self.block_problems += other.block_problems;
+    }
+}
+
+/// How many times a cell that changed while it was checked (a run beside
+/// committing its blocks or finalising it) is checked again.
+const RECHECKS: usize = 8;
+
+/// What a writer changes in a cell's folder as it commits a block or
+/// finalises the cell: its `SHA256SUMS` (written last when it finishes),
+/// its `blocks/` folder (removed then) and block index (a line per block).
+#[derive(Debug, PartialEq)]
+struct CellState {
+    sums: Option<(u64, Option<std::time::SystemTime>)>,
+    blocks: bool,
+    index: Option<(u64, Option<std::time::SystemTime>)>,
+}
+
+impl CellState {
+    fn of(cdir: &Path) -> CellState {
+        let stamp = |p: &Path| {
+            std::fs::metadata(p)
+                .ok()
+                .map(|m| (m.len(), m.modified().ok()))
+        };
+        CellState {
+            sums: stamp(&cdir.join(SUMS)),
+            blocks: cdir.join(BLOCKS).is_dir(),
+            index: stamp(&cdir.join(BLOCKS).join(SUMS)),
+        }
+    }
+}
+
+/// Checks one cell directory ([`check_cell_dir`]) as one consistent
+/// snapshot: when it finds a problem and the cell changed meanwhile (a run
+/// finalised it between reading its block index and hashing the blocks,
+/// say), the cell is checked again.
+fn verify_cell_dir(cells_dir: &Path, name: &str, run: Option<&Run>, r: &mut VerifyReport) {
+    let cdir = cells_dir.join(name);
+    for attempt in 0..=RECHECKS {
+        let before = CellState::of(&cdir);
+        let mut one = VerifyReport::default();
+        check_cell_dir(&cdir, name, run, &mut one);
+        let settled = one.problems.is_empty() || CellState::of(&cdir) == before;
+        if settled || attempt == RECHECKS {
+            if !settled {
+                one.problems.push(format!(
+                    "{}: the cell changed each of the {} times it was checked (a run is \
+                     writing it): the problems above may be its writes in flight; run rwg \
+                     verify again once the run is done",
+                    cdir.display(),
+                    RECHECKS + 1
+                ));
+            }
+            r.absorb(one);
+            return;
+        }
+    }
+}
+
 /// Checks one cell directory: a finished cell's files against its
 /// `SHA256SUMS` (and its rows, as the analysis reads them, when `run` lists
 /// it), an unfinished one's committed blocks.
-fn verify_cell_dir(cells_dir: &Path, name: &str, run: Option<&Run>, r: &mut VerifyReport) {
-    let cdir = cells_dir.join(name);
+fn check_cell_dir(cdir: &Path, name: &str, run: Option<&Run>, r: &mut VerifyReport) {
     let before = r.problems.len();
     let mut what = vec![];
     match read_sums(&cdir.join(SUMS), true) {
         Ok(Some(sums)) => {
             for (file, d) in &sums {
                 r.files += 1;
-                if let Err(e) = checksum::verify_file(&cdir, file, d) {
+                if let Err(e) = checksum::verify_file(cdir, file, d) {
                     r.problems.push(with_causes(&e));
                 }
             }
@@ -176,7 +264,7 @@ fn verify_cell_dir(cells_dir: &Path, name: &str, run: Option<&Run>, r: &mut Veri
         Ok(None) => {}
         Err(e) => r.problems.push(with_causes(&e)),
     }
-    match verify_blocks(&cdir) {
+    match verify_blocks(cdir) {
         Ok((0, 0)) => {}
         Ok((n, uncommitted)) => {
             r.files += n;

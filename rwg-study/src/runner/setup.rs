@@ -7,6 +7,7 @@ use crate::cells::Cell;
 use crate::manifest::Manifest;
 use crate::rundir::blocks::{block_samples, cell_complete, n_blocks, BlockIndex};
 use crate::rundir::checksum::SUMS;
+use crate::rundir::clear::{clear_run, foreign_message, holds_run};
 use crate::rundir::env_record::{check_record, write_record};
 use crate::rundir::export::write_atomic;
 use crate::rundir::lock::RunLock;
@@ -40,19 +41,29 @@ pub(super) enum Opened {
     },
 }
 
+/// Whether the manifest the study was read from is the run directory's
+/// own `manifest.toml`: then it is the study, never rewritten. (Asked
+/// before plugin code runs, which may change the working directory a
+/// relative manifest path is resolved against.)
+pub(super) fn own_manifest(opts: &RunOptions<'_>) -> bool {
+    opts.manifest_file
+        .is_some_and(|f| crate::rundir::export::same_file(f, &opts.out.join(MANIFEST)))
+}
+
 /// Creates and locks the run directory `opts.out`, prepares it for the study
 /// `m` ([`prepare_dir`]), says whether it is complete already, and writes
-/// the study's `manifest.toml` (unless it was read from there).
-pub(super) fn open_dir(m: &Manifest, opts: &RunOptions<'_>) -> Result<Opened, StudyError> {
+/// the study's `manifest.toml` (unless it was read from there:
+/// `own_manifest`, see [`own_manifest`]).
+pub(super) fn open_dir(
+    m: &Manifest,
+    opts: &RunOptions<'_>,
+    own_manifest: bool,
+) -> Result<Opened, StudyError> {
     let out = &opts.out;
     crate::rundir::export::create_dir_all(out)
         .map_err(StudyError::io(format!("cannot create {}", out.display())))?;
     let lock = RunLock::acquire(out)?;
     let manifest_path = out.join(MANIFEST);
-    // The manifest given is the directory's own: it is the study, never rewritten.
-    let own_manifest = opts
-        .manifest_file
-        .is_some_and(|f| crate::rundir::export::same_file(f, &manifest_path));
     let previous = prepare_dir(out, m, opts.shard, opts.force_new, own_manifest)?;
     if previous.as_ref().is_some_and(|p| p.end_time.is_some()) {
         // Complete only if everything in it still verifies. Blocks that do
@@ -86,7 +97,12 @@ pub(super) fn worker_pool(threads: usize) -> Result<rayon::ThreadPool, StudyErro
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
-        .map_err(|e| StudyError::Refused(format!("cannot start {threads} worker threads: {e}")))
+        .map_err(|e| {
+            StudyError::Refused(format!(
+                "cannot start {threads} worker threads: {e}; {}",
+                rwg_env::text::THREAD_LIMIT_ADVICE
+            ))
+        })
 }
 
 /// The blocks a run owes: which it owns (all, or a shard's) and which each
@@ -231,8 +247,12 @@ fn prepare_dir(
             crate::shell::sh_path(out)
         )));
     }
-    if force_new {
-        clear_dir(out)?;
+    if !holds_run(out) {
+        if let Some(why) = foreign_message(out, own_manifest) {
+            return Err(StudyError::Refused(why));
+        }
+    } else if force_new {
+        clear_old_run(out)?;
     }
     let mut previous = None;
     if manifest_path.exists() {
@@ -297,21 +317,26 @@ fn prepare_dir(
     Ok(previous)
 }
 
-/// Deletes what `--force-new` starts over from: the cells, `run.json` and
-/// `manifest.toml` of the run directory `out`.
-fn clear_dir(out: &Path) -> Result<(), StudyError> {
-    for p in [CELLS, RUN_JSON, MANIFEST] {
-        let p = out.join(p);
-        let removed = if p.is_dir() {
-            std::fs::remove_dir_all(&p)
-        } else if p.exists() {
-            std::fs::remove_file(&p)
-        } else {
-            Ok(())
-        };
-        removed.map_err(StudyError::io(format!("cannot remove {}", p.display())))?;
+/// Deletes what `--force-new` starts over from: every file the old run in
+/// `out` wrote (see [`clear_run`]), its statistics, figures and report
+/// included. What rwg did not write is kept, and named: the run stops
+/// until it is moved out of `cells/` and `figures/`.
+fn clear_old_run(out: &Path) -> Result<(), StudyError> {
+    let kept = clear_run(out).map_err(StudyError::io(format!(
+        "--force-new cannot clear {}",
+        out.display()
+    )))?;
+    if kept.is_empty() {
+        return Ok(());
     }
-    Ok(())
+    let list: Vec<String> = kept.iter().map(|p| p.display().to_string()).collect();
+    Err(StudyError::Refused(format!(
+        "--force-new removed the old run's files from {} but kept {} (not written by rwg, \
+         so not deleted); move {} out of the run directory and run again",
+        out.display(),
+        list.join(", "),
+        if kept.len() == 1 { "it" } else { "them" },
+    )))
 }
 
 /// The `run.json` of the run directory `out`, which holds this study, if a

@@ -174,6 +174,7 @@ fn measure_env(args: &GymBenchArgs, id: &str) -> Result<Row> {
         },
         episodes: args.episodes,
         dist: WeightDist::Normal { std: 1.0 },
+        policy: rwg_core::policy::PolicyKind::Network,
         non_finite: Default::default(),
     };
     // Warm-up (untimed): starts the second worker process.

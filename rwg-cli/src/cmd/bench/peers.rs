@@ -39,6 +39,7 @@ use peer::{measure_peer, peer_python, peers_dir};
 use process::{measure, pin_to, TempDir};
 use report::{cpu_model, load_avg, now_utc, print_table, Report, Row, Setup};
 use rwg_env::simd::Simd;
+use rwg_study::rundir::outputs::{Output, OutputKind};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -360,6 +361,19 @@ fn measure_round(s: &Sitting, args: &PeersArgs, row: &mut Row, i: usize, round: 
 /// Runs `rwg bench peers`.
 pub fn run(args: PeersArgs) -> Result<()> {
     let (levels, parts) = check_args(&args)?;
+    // The folders it fills, checked against the run directories around them.
+    let mut _locks = vec![];
+    let folders = [
+        args.work_dir.as_ref(),
+        args.create_venv.then_some(&args.venv),
+    ];
+    for dir in folders.into_iter().flatten() {
+        let output = Output::new(dir, OutputKind::Folder);
+        _locks.extend(crate::cmd::claim_output(
+            output,
+            "a folder outside the run works now",
+        )?);
+    }
     let peers_dir = peers_dir(&args)?;
     let python = peer_python(&args)?;
     let rwg = match &args.rwg {

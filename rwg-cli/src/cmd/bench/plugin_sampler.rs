@@ -309,6 +309,7 @@ impl<'a> Workload<'a> {
             },
             episodes: args.episodes,
             dist: WeightDist::Normal { std: 1.0 },
+            policy: rwg_core::policy::PolicyKind::Network,
             non_finite: Default::default(),
         };
         let source = PluginSource {

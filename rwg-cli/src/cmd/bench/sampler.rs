@@ -173,6 +173,7 @@ pub(super) fn run(args: SamplerArgs) -> Result<()> {
             arch: arch.clone(),
             episodes: args.episodes,
             dist: WeightDist::Normal { std: 1.0 },
+            policy: rwg_core::policy::PolicyKind::Network,
             non_finite: Default::default(),
         };
         let bench = SamplerBench {

@@ -31,6 +31,7 @@ pub(crate) fn block(b: u64, samples: u64, episodes: u32) -> BlockResult {
 fn a_group_commits_like_single_blocks_and_indexes_those_before_a_failure() {
     let base = std::env::temp_dir().join(format!("rwg-rundir-group-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&base);
+    std::fs::create_dir_all(&base).unwrap();
     let (one, group) = (base.join("one"), base.join("group"));
     let samples = 5 * BLOCK_SAMPLES;
     let blocks: Vec<_> = (0..5).map(|b| block(b, samples, 3)).collect();

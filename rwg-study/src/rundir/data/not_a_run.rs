@@ -85,6 +85,19 @@ pub(super) fn not_a_run_dir(dir: &Path) -> RunReadError {
 /// a study inside `dir`, the run directories inside it, or the
 /// nearest-named run directory beside it (empty, or `; ...`).
 fn nearby_runs_hint(dir: &Path) -> String {
+    if let Some(run) = run_above(dir) {
+        // a cell's folder or a file of a run (`rwg stats RUN/cells/C`)
+        return format!(
+            "; it is inside the run directory {}: give that",
+            run.display()
+        );
+    }
+    if dir.is_file() && dir.extension().is_some_and(|e| e == "toml") {
+        return format!(
+            "; a manifest is run with `rwg run {}`, which writes a run directory",
+            crate::shell::sh_path(dir)
+        );
+    }
     let inside = if dir.is_dir() {
         run_dirs_in(dir)
     } else {
@@ -133,6 +146,15 @@ fn nearby_runs_hint(dir: &Path) -> String {
             None => String::new(),
         }
     }
+}
+
+/// The run directory that `path` (a cell's folder, a file of a run) is
+/// inside, if any.
+pub fn run_above(path: &Path) -> Option<&Path> {
+    path.ancestors()
+        .skip(1)
+        .filter(|a| !a.as_os_str().is_empty())
+        .find(|a| is_run_dir(a))
 }
 
 /// `Ok` when `dir` holds a `run.json` (a run or a shard's directory), else

@@ -159,6 +159,7 @@ fn changed_or_unindexed_blocks_do_not_count() {
 fn pending_blocks_finalise_as_committed_ones() {
     let base = std::env::temp_dir().join(format!("rwg-rundir-pend-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&base);
+    std::fs::create_dir_all(&base).unwrap();
     let samples = 4 * BLOCK_SAMPLES + 9;
     let blocks: Vec<_> = (0..5).map(|b| block(b, samples, 3)).collect();
     let (files, mixed, memory) = (base.join("f"), base.join("m"), base.join("p"));
