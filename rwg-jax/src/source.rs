@@ -8,7 +8,7 @@ use crate::{
     run, warm_up, CallError, JaxConfig, JaxError, JaxInfo, CACHE_VAR, DEFAULT_LANES_ACCELERATOR,
     DEFAULT_LANES_CPU, EPISODES_PER_LANE, MAX_DEFAULT_NETWORKS, MEMORY_SHARE, NETWORKS_MULTIPLE,
 };
-use rwg_core::policy::{NetShape, PolicyKind};
+use rwg_core::policy::PolicyKind;
 use rwg_core::sampler::{BlockResult, CellPlan, NonFinite, SampleError};
 use std::ops::Range;
 
@@ -70,12 +70,8 @@ impl JaxSource {
     /// random instead of the networks', whether a value that is not finite
     /// ends an episode.
     pub fn cell_shape(&self, plan: &CellPlan) -> CellShape {
-        let spec = &self.info.spec;
-        let shape = NetShape::new(
-            spec.obs_dim(),
-            &plan.arch,
-            NetShape::outputs_for(&spec.action_space),
-        );
+        // a random cell's shape has no weights
+        let shape = plan.net_shape(&self.info.spec);
         let lanes = self.lanes();
         CellShape {
             hidden: plan.arch.hidden.clone(),
