@@ -92,7 +92,7 @@ pub struct JaxConfig {
     /// The JAX devices: `gpu:1` that one, `gpu` (or `None`: JAX's default
     /// kind) every local device of that kind.
     pub device: Option<String>,
-    /// Networks per compiled call; `None`: [`JaxSource::networks_per_call`]'s
+    /// Networks per compiled call; `None`: [`JaxSource::networks_per_call`](crate::JaxSource::networks_per_call)'s
     /// default, from the lanes and the device's memory.
     pub networks_per_call: Option<u32>,
     /// Whether a discrete action is the argmax over the legal actions where
