@@ -148,6 +148,14 @@ fn a_craftax_classic_study_runs_without_auto_reset() {
     assert_eq!(r["settings"]["auto_reset"], "false", "{r}");
     assert_eq!(r["action_mask"], "none", "{r}");
     assert_eq!(r["versions"]["craftax"], "1.6.1", "{r}");
+    // Craftax's spaces have no repr of their own: env.json records their
+    // fields, not an address that differs in the next process (the same
+    // command again finds the study complete instead of "another env")
+    let cell = run.join("cells/craftax=Craftax-Classic-Symbolic-v1__0HL__nobias/env.json");
+    let env_json = std::fs::read_to_string(cell).unwrap();
+    assert!(!env_json.contains(" object at 0x"), "{env_json}");
+    let again = ok(&["run", &m, "--out", s(&run), "--no-report", "--threads", "1"]);
+    assert!(again.contains("complete"), "{again}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

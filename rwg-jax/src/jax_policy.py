@@ -46,6 +46,29 @@ def box_bounds(space, what):
                       f"which do not fit its shape {shape}")
 
 
+def space_text(space):
+    """How env.json records a space: its repr, or, for a class without a
+    repr of its own (whose default names a memory address, different in
+    every process, so a resume would see "another env"), its type and its
+    fields."""
+    import numpy as np
+
+    text = repr(space)
+    if " object at 0x" not in text:
+        return text
+    fields = []
+    for name in ("n", "shape", "dtype", "low", "high"):
+        if not hasattr(space, name):
+            continue
+        v = getattr(space, name)
+        if name in ("low", "high"):
+            a = np.asarray(v)
+            v = a.tolist() if a.size <= 8 else f"{a.dtype}{list(a.shape)} from {a.min()} to {a.max()}"
+        fields.append(f"{name}={v}")
+    kind = type(space)
+    return f"{kind.__module__}.{kind.__qualname__}({', '.join(fields)})"
+
+
 def describe_spaces(env, max_obs, leaves):
     """The R message's space fields, and (discrete n, box low, box high,
     action shape) for the policy. `leaves`: the observation's (name, shape,
@@ -71,7 +94,8 @@ def describe_spaces(env, max_obs, leaves):
                       f"network); give the env a smaller observation (a symbolic rather than a "
                       f"pixel one)")
     fields = {"obs_shape": list(shape), "obs_dim": dim, "obs_low": floats(low),
-              "obs_high": floats(high), "observation_space": repr(obs), "action_space": repr(act)}
+              "obs_high": floats(high), "observation_space": space_text(obs),
+              "action_space": space_text(act)}
     if hasattr(act, "n") and not hasattr(act, "low"):
         n = discrete_n(act, "action")
         fields["action"] = {"discrete": n}

@@ -374,14 +374,15 @@ fn print_summary(report: &RunReport, m: &Manifest, args: &Args) {
         }
     }
     crate::outln!(
-        "\n{} cells, {} networks x {} episodes; this session: {} env steps in {:.2} s ({:.3e} steps/s, {} threads)",
+        "\n{} cells, {} networks x {} episodes; this session: {} env steps in {:.2} s ({:.3e} steps/s, {} thread{})",
         report.cells,
         m.samples,
         m.episodes,
         report.env_steps,
         report.meta.wall_s,
         report.meta.steps_per_s,
-        report.threads
+        report.threads,
+        if report.threads == 1 { "" } else { "s" }
     );
 }
 
