@@ -596,7 +596,7 @@ fn jax_workers_end_with_rwg_on_sigterm_and_sighup() {
         ("HUP", libc::SIGHUP, 2, 2.0),
     ] {
         let err_file = dir.join(format!("stderr-{name}"));
-        let mut child = rwg_cmd(&[
+        let mut cmd = rwg_cmd(&[
             "run",
             &m,
             "--out",
@@ -604,11 +604,23 @@ fn jax_workers_end_with_rwg_on_sigterm_and_sighup() {
             "--threads",
             "2",
             "-q",
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::fs::File::create(&err_file).unwrap())
-        .spawn()
-        .unwrap();
+        ]);
+        // rwg starts with both signals at their default action, whatever this
+        // test inherited: under `nohup` SIGHUP arrives ignored, and rwg rightly
+        // leaves an ignored signal ignored.
+        // SAFETY: signal(2) is async-signal-safe, the only call between fork and exec.
+        unsafe {
+            std::os::unix::process::CommandExt::pre_exec(&mut cmd, || {
+                libc::signal(libc::SIGHUP, libc::SIG_DFL);
+                libc::signal(libc::SIGTERM, libc::SIG_DFL);
+                Ok(())
+            });
+        }
+        let mut child = cmd
+            .stdout(std::process::Stdio::null())
+            .stderr(std::fs::File::create(&err_file).unwrap())
+            .spawn()
+            .unwrap();
         let t0 = Instant::now();
         let started = loop {
             let w = children(child.id());
