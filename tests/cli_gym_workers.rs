@@ -332,27 +332,8 @@ fn signal_rwg(
     signal: &str,
     ready: impl Fn() -> bool,
 ) -> (Option<i32>, String) {
-    use std::os::unix::process::CommandExt;
     use std::process::Stdio;
-    // rwg starts with the signals at their default action, whatever this test
-    // inherited: under `nohup` or as a shell's background job SIGHUP, SIGINT or
-    // SIGQUIT arrive ignored, and rwg rightly leaves an ignored signal ignored.
-    // SAFETY: signal(2) is async-signal-safe, the only call between fork and exec.
-    unsafe {
-        cmd.pre_exec(|| {
-            for s in [
-                libc::SIGHUP,
-                libc::SIGINT,
-                libc::SIGQUIT,
-                libc::SIGTERM,
-                libc::SIGUSR2,
-            ] {
-                libc::signal(s, libc::SIG_DFL);
-            }
-            Ok(())
-        });
-    }
-    let mut child = cmd
+    let mut child = with_default_signals(&mut cmd)
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()

@@ -605,17 +605,7 @@ fn jax_workers_end_with_rwg_on_sigterm_and_sighup() {
             "2",
             "-q",
         ]);
-        // rwg starts with both signals at their default action, whatever this
-        // test inherited: under `nohup` SIGHUP arrives ignored, and rwg rightly
-        // leaves an ignored signal ignored.
-        // SAFETY: signal(2) is async-signal-safe, the only call between fork and exec.
-        unsafe {
-            std::os::unix::process::CommandExt::pre_exec(&mut cmd, || {
-                libc::signal(libc::SIGHUP, libc::SIG_DFL);
-                libc::signal(libc::SIGTERM, libc::SIG_DFL);
-                Ok(())
-            });
-        }
+        with_default_signals(&mut cmd);
         let mut child = cmd
             .stdout(std::process::Stdio::null())
             .stderr(std::fs::File::create(&err_file).unwrap())

@@ -533,3 +533,27 @@ impl Drop for Mounted {
         let _ = Command::new("umount").arg(&self.0).status();
     }
 }
+
+/// Makes `cmd` start with the signals a test sends rwg at their default
+/// action, whatever the test inherited: under `nohup` or as a shell's
+/// background job SIGHUP, SIGINT or SIGQUIT arrive ignored, and rwg rightly
+/// leaves an ignored signal ignored.
+#[cfg(unix)]
+pub fn with_default_signals(cmd: &mut Command) -> &mut Command {
+    use std::os::unix::process::CommandExt;
+    // SAFETY: signal(2) is async-signal-safe, the only call between fork and exec.
+    unsafe {
+        cmd.pre_exec(|| {
+            for s in [
+                libc::SIGHUP,
+                libc::SIGINT,
+                libc::SIGQUIT,
+                libc::SIGTERM,
+                libc::SIGUSR2,
+            ] {
+                libc::signal(s, libc::SIG_DFL);
+            }
+            Ok(())
+        })
+    }
+}
