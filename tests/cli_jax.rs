@@ -81,8 +81,12 @@ fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
         &manifest(&py, "gymnax:CartPole-v1", "", 64, 3, true),
     );
     let run = dir.join("run");
+    // a cache of its own, empty: the workers really compile (with the
+    // shared one, another test's run of the same program may have filled
+    // it, and loading takes less than a progress interval)
     let out = rwg_cmd(&["run", &m, "--out", s(&run), "--threads", "2", "--timing"])
-        .env("RWG_PROGRESS_INTERVAL", "0.5")
+        .env("RWG_PROGRESS_INTERVAL", "0.1")
+        .env("RWG_JAX_CACHE", dir.join("jax-cache"))
         .output()
         .unwrap();
     let text = output_text(&out);
