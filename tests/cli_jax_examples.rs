@@ -122,6 +122,16 @@ fn jax_replay_recomputes_scores_bit_for_bit() {
     let dir = temp_dir("jax-replay");
     let run = run_study(&py, &dir);
     let run_s = run.to_str().unwrap();
+    // Pendulum's episodes all end at its time limit: its cells ran the plain
+    // loop, which the script's lanes reproduce bit for bit all the same
+    for (cell, want) in [
+        ("gymnax=Pendulum-v1__2HL__bias", "plain"),
+        ("gymnax=CartPole-v1__2HL__bias", "lanes"),
+    ] {
+        let env = std::fs::read_to_string(run.join("cells").join(cell).join("env.json")).unwrap();
+        let env: serde_json::Value = serde_json::from_str(&env).unwrap();
+        assert_eq!(env["jax"]["episode_loop"]["loop"], want, "{cell}: {env}");
+    }
     // From the run directory: the script compares with scores.csv itself.
     for (env, sample, episode) in [
         ("gymnax:CartPole-v1", 37, 2),

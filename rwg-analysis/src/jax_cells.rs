@@ -177,6 +177,7 @@ mod tests {
             matmul_precision: "highest".into(),
             lanes: 1024,
             refill: 128,
+            episode_loop: None,
             source: None,
             observation_leaves: vec![],
             action_mask: None,

@@ -6,14 +6,17 @@ whose episode ended takes the chunk's next item inside the compiled loop, so
 no lane waits for the chunk's longest episode. A lane that ends waits until
 `refill` lanes have ended (or none runs any more); then every waiting lane
 writes its result and takes an item at once, so the bookkeeping is paid once
-per group. In an env whose episodes all run to the time limit the lanes end
-together: one refill per L episodes, every lane busy, as a plain batch would.
+per group. An env whose episodes all end at the same step whatever the actions
+(`fixed_length`: Pendulum, Playground's DM Control tasks) runs
+`plain_program` instead: the lanes take L items at a time and step until all
+have ended, with no refill to count or compile (about half the compile time).
 
 Every per-episode computation has the shape of the L lanes, whatever N (the
 resets run L at a time too), and the arithmetic of a lane does not depend on
 its place: an episode's return is the same bits whichever chunk, lane or
-networks_per_call computes it. Only L (and the cell: env, architecture,
-precision, device kind, versions) fixes the program.
+networks_per_call computes it, and whichever of the two programs runs it (the
+step of a lane is the same computation in both). Only L (and the cell: env,
+architecture, precision, device kind, versions) fixes the bits.
 """
 
 from rwg_pipe import fail
@@ -56,6 +59,74 @@ def lane_fns(jax, env, policy, dt):
     return reset, step
 
 
+def step_fn(jax, env, policy, dt, end):
+    """One step of every lane: (weights, obs, state, step keys, t, return,
+    fault, done) -> (obs, state, t, return, fault, done); a lane that has
+    ended steps too, its results left as they were. With `end`, a value that
+    is not finite (or a return beyond MAX_RETURN) ends the episode."""
+    jnp = jax.numpy
+    T = env.max_steps
+    vstep = jax.vmap(lane_fns(jax, env, policy, dt)[1])
+
+    def lanes_step(WL, obs, state, ks, t, ret, fault, done):
+        obs, state, r, d, f = vstep(WL, obs, state, ks, t)
+        run = ~done
+        total_r = ret + r
+        t = jnp.where(run, t + 1, t)
+        f = fault | f
+        if end:
+            ok = jnp.isfinite(total_r) & (jnp.abs(total_r) <= jnp.asarray(MAX_RETURN, dt))
+            bad_r = ~jnp.isfinite(r)
+            f = f | jnp.where(ok | bad_r, 0, FAULT_RETURN).astype(jnp.uint8)
+            cut = f != 0
+            total_r = jnp.where(cut, ret, total_r)
+            d = d | cut
+        ret = jnp.where(run, total_r, ret)
+        fault = jnp.where(run, f, fault)
+        done = done | (d | (t >= T))
+        return obs, state, t, ret, fault, done
+
+    return lanes_step
+
+
+def plain_program(jax, env, policy, dt, N, E, L, end=False):
+    """The program of an env whose episodes all end at the same step
+    (`fixed_length`): same arguments and results as `chunk_program`, the
+    same bits. The chunk's items run L at a time (a block): the block's
+    resets, then steps until every lane has ended, then the next block."""
+    jnp, lax = jax.numpy, jax.lax
+    M = N * E
+    blocks = -(-M // L)
+    vreset = jax.vmap(lane_fns(jax, env, policy, dt)[0])
+    lanes_step = step_fn(jax, env, policy, dt, end)
+
+    def program(Ws, keys, n, refill_at):
+        total = n * E
+        flat = jnp.zeros((blocks * L, 2), jnp.uint32).at[:M].set(keys.reshape(M, 2))
+        out = (jnp.zeros((blocks * L,), dt), jnp.zeros((blocks * L,), jnp.int32),
+               jnp.zeros((blocks * L,), jnp.uint8))
+
+        def block(b, out):
+            item = b * L + jnp.arange(L, dtype=jnp.int32)
+            obs, state, ks, fault = vreset(lax.dynamic_slice_in_dim(flat, b * L, L))
+            WL = [W[jnp.minimum(item // E, N - 1)] for W in Ws]
+            done = item >= total
+            if end:
+                done = done | (fault != 0)
+            c = (obs, state, jnp.zeros((L,), jnp.int32), jnp.zeros((L,), dt), fault, done)
+            _, _, t, ret, fault, _ = lax.while_loop(
+                lambda c: jnp.any(~c[5]), lambda c: lanes_step(WL, c[0], c[1], ks, *c[2:]), c)
+            return tuple(lax.dynamic_update_slice_in_dim(o, v, b * L, 0)
+                         for o, v in zip(out, (ret, t, fault)))
+
+        # a trip count known only when the chunk runs: the same loop for every N
+        out = lax.fori_loop(0, (total + L - 1) // L, block, out)
+        ret, length, fault = (o[:M].reshape(N, E) for o in out)
+        return ret, length, fault, (total + L - 1) // L
+
+    return program
+
+
 def chunk_program(jax, env, policy, dt, N, E, L, end=False):
     """The chunk's program: (weights per layer (N, out, in), keys (N, E, 2),
     n networks, refill) -> (returns, lengths, faults) (N, E), loop trips.
@@ -63,11 +134,10 @@ def chunk_program(jax, env, policy, dt, N, E, L, end=False):
     is not finite (or a return beyond MAX_RETURN), that step counted, its
     reward left out; a reset's non-finite observation ends it at step 0."""
     jnp, lax = jax.numpy, jax.lax
-    T = env.max_steps
     M = N * E
     blocks = -(-M // L)
-    reset, step = lane_fns(jax, env, policy, dt)
-    vreset, vstep = jax.vmap(reset), jax.vmap(step)
+    vreset = jax.vmap(lane_fns(jax, env, policy, dt)[0])
+    lanes_step = step_fn(jax, env, policy, dt, end)
     tree = jax.tree_util
 
     def lanes_where(mask, a, b):
@@ -119,33 +189,21 @@ def chunk_program(jax, env, policy, dt, N, E, L, end=False):
         obs, state = tree.tree_map(lambda x: x[:L], start[:2])
         out = (jnp.zeros((blocks * L,), dt), jnp.zeros((blocks * L,), jnp.int32),
                jnp.zeros((blocks * L,), jnp.uint8))
+        # every lane ended and without an item: the first trip steps none
+        # (its results are dropped) and refills them all (one refill in the
+        # program instead of a second one before the loop: less to compile)
         c = (jnp.full((L,), blocks * L, jnp.int32), obs, state, jnp.zeros((L, 2), jnp.uint32),
              jnp.zeros((L,), jnp.int32), jnp.zeros((L,), dt), jnp.zeros((L,), jnp.uint8),
              jnp.ones((L,), bool), [jnp.zeros((L,) + W.shape[1:], dt) for W in Ws],
              jnp.int32(0), out)
-        c = refill(c, Ws, start, total)
 
         def cond(lc):
-            return jnp.any(lc[0][0] < total)
+            return jnp.any(lc[0][0] < total) | (lc[1] == 0)
 
         def body(lc):
             c, trips = lc
             (item, obs, state, ks, t, ret, fault, done, WL, nxt, out) = c
-            obs, state, r, d, f = vstep(WL, obs, state, ks, t)
-            run = ~done
-            total_r = ret + r
-            t = jnp.where(run, t + 1, t)
-            f = fault | f
-            if end:
-                ok = jnp.isfinite(total_r) & (jnp.abs(total_r) <= jnp.asarray(MAX_RETURN, dt))
-                bad_r = ~jnp.isfinite(r)
-                f = f | jnp.where(ok | bad_r, 0, FAULT_RETURN).astype(jnp.uint8)
-                cut = f != 0
-                total_r = jnp.where(cut, ret, total_r)
-                d = d | cut
-            ret = jnp.where(run, total_r, ret)
-            fault = jnp.where(run, f, fault)
-            done = done | (d | (t >= T))
+            obs, state, t, ret, fault, done = lanes_step(WL, obs, state, ks, t, ret, fault, done)
             c = (item, obs, state, ks, t, ret, fault, done, WL, nxt, out)
             waiting = jnp.sum(done & (item < total), dtype=jnp.int32)
             now = (waiting >= refill_at) | jnp.all(done)
@@ -157,6 +215,88 @@ def chunk_program(jax, env, policy, dt, N, E, L, end=False):
         return ret, length, fault, trips
 
     return program
+
+
+def _input_deps(jaxpr, outs):
+    """The indices of `jaxpr`'s inputs that its outputs `outs` depend on: a
+    walk back over its equations, into the jaxpr of a call (`pjit`,
+    `custom_jvp_call`, ...); any other equation with a jaxpr inside (a loop,
+    a cond) counts every input as a dependency of every output."""
+    def var(v):
+        return not hasattr(v, "val")  # a Literal has a value, a Var has none
+
+    need = {v for i in outs for v in [jaxpr.outvars[i]] if var(v)}
+    for eqn in reversed(jaxpr.eqns):
+        hit = [k for k, v in enumerate(eqn.outvars) if v in need]
+        if not hit:
+            continue
+        inner = None
+        for name in ("jaxpr", "call_jaxpr", "fun_jaxpr"):
+            j = eqn.params.get(name)
+            j = getattr(j, "jaxpr", j)
+            if hasattr(j, "eqns") and len(j.invars) == len(eqn.invars) \
+                    and len(j.outvars) == len(eqn.outvars):
+                inner = j
+                break
+        ins = (range(len(eqn.invars)) if inner is None else _input_deps(inner, hit))
+        need.update(eqn.invars[i] for i in ins if var(eqn.invars[i]))
+    return {i for i, v in enumerate(jaxpr.invars) if v in need}
+
+
+def fixed_length(jax, env, dt, space):
+    """(True, why) when every episode of `env` ends at the same step whatever
+    the actions and keys, else (False, why): its `done` depends on no action,
+    no key and, through the state the step carries, on no value its reset
+    draws from the key (Pendulum's step counter, a task that ends only at the
+    time limit). Found from the traced reset and step; conservative (a loop
+    or cond inside counts as depending on all its inputs), so it may say no
+    of an env whose episodes all have one length, never yes of one whose
+    episodes do not."""
+    jnp, tree = jax.numpy, jax.tree_util
+    n, _, _, ashape = space
+    action = jax.ShapeDtypeStruct((), jnp.int32) if n is not None else \
+        jax.ShapeDtypeStruct(tuple(ashape), dt)
+    key = jax.ShapeDtypeStruct((2,), jnp.uint32)
+
+    def wrap(k):
+        return jax.random.wrap_key_data(k, impl="threefry2x32")
+
+    def reset(k):
+        return tree.tree_leaves(env.reset(wrap(k))[1])
+
+    try:
+        r = jax.make_jaxpr(reset)(key)
+        leaves, shape = tree.tree_flatten(env_state_shape(jax, env, key))
+
+        def step(k, a, *state):
+            _, s, _, d = env.step(wrap(k), tree.tree_unflatten(shape, state), a)
+            return [jnp.asarray(d)] + tree.tree_leaves(s)
+
+        st = jax.make_jaxpr(step)(key, action, *leaves)
+    except BaseException as e:  # noqa: BLE001 -- the env's own code; lanes are always right
+        return False, f"its step could not be analysed ({type(e).__name__})"
+    if len(st.jaxpr.outvars) != 1 + len(leaves):
+        return False, "its step returns a state of another structure than its reset's"
+    # the state leaves `done` depends on, and those they are computed from
+    deps = _input_deps(st.jaxpr, [0])
+    seen = set()
+    while True:
+        if deps & {0, 1}:
+            return False, "its episodes end on what the actions do"
+        new = {i - 2 for i in deps} - seen
+        if not new:
+            break
+        seen |= new
+        deps = _input_deps(st.jaxpr, [1 + i for i in new])
+    if _input_deps(r.jaxpr, sorted(seen)):
+        return False, "its episodes end on what its reset draws"
+    return True, "every episode ends at the same step, whatever the actions"
+
+
+def env_state_shape(jax, env, key):
+    """The shapes and dtypes of the env's state (a trace of its reset)."""
+    return jax.eval_shape(lambda k: env.reset(jax.random.wrap_key_data(k, impl="threefry2x32"))[1],
+                          key)
 
 
 def cell_layers(space, obs_dim, cell):
@@ -191,7 +331,8 @@ def compile_cell(jax, env, devs, dt, space, obs_dim, cell):
     policy = random_policy_fn(jax, dt, space) if random else policy_fn(jnp, layers, bias, dt,
                                                                          space)
     end = cell.get("non_finite") == "end"
-    program = jax.jit(chunk_program(jax, env, policy, dt, N, E, L, end))
+    make = plain_program if getattr(env, "fixed_length", False) else chunk_program
+    program = jax.jit(make(jax, env, policy, dt, N, E, L, end))
     calls = []
     with jax.default_matmul_precision(cell["matmul_precision"]):
         for dev in devs:

@@ -27,7 +27,7 @@ from rwg_jax_worker_common import fail_exc, import_family, version_of
 from rwg_jax_worker_families import MAKERS
 from rwg_jax_worker_obs import structured
 from rwg_jax_worker_policy import check_sizes, describe_spaces
-from rwg_jax_worker_episode import compile_cell, dispatch_chunk, outcome
+from rwg_jax_worker_episode import compile_cell, dispatch_chunk, fixed_length, outcome
 
 import collections
 import json
@@ -140,6 +140,9 @@ def start(hello):
     with jax.default_device(dev):
         check_sizes(jax, env, dt, space, fields["obs_shape"], fields["obs_dim"])
     fields["item_bytes"] = start_bytes(jax, env, dev)
+    with jax.default_device(dev):
+        env.fixed_length, why = fixed_length(jax, env, dt, space)
+    fields["episode_loop"] = {"loop": "plain" if env.fixed_length else "lanes", "why": why}
     import jaxlib
 
     versions = {"python": sys.version.split()[0], "jax": jax.__version__,

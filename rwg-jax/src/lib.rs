@@ -10,7 +10,9 @@
 //! The worker program ([`WORKER_PY`]) ships inside rwg and is handed to
 //! `python -c`; it compiles one program per cell: `lanes` episodes at a
 //! time, a lane whose episode ended taking the chunk's next (network,
-//! episode) inside the compiled loop (`jax_episode.py`). Every per-episode
+//! episode) inside the compiled loop (`jax_episode.py`); an env whose
+//! episodes all end at the same step whatever the actions runs a plain loop
+//! instead, with the same bits ([`protocol::EpisodeLoop`]). Every per-episode
 //! computation has the lanes' shape, so a network's results are the same
 //! bits whatever the chunk that holds it, `networks_per_call`, the threads,
 //! devices, shards or a resume. The weights are rwg's draw
@@ -99,7 +101,8 @@ pub const FAMILIES_PY: &str = include_str!("jax_families.py");
 pub const POLICY_PY: &str = include_str!("jax_policy.py");
 
 /// The compiled program of a cell: lanes that never idle, each taking a
-/// chunk's next (network, episode) inside the compiled loop.
+/// chunk's next (network, episode) inside the compiled loop, or a plain loop
+/// for an env whose episodes all end at the same step.
 pub const EPISODE_PY: &str = include_str!("jax_episode.py");
 
 /// The modules [`WORKER_PY`] imports from rwg (name, source), in the order
@@ -192,6 +195,8 @@ pub struct JaxInfo {
     pub item_bytes: u64,
     /// For a `jax:module:callable` env: what its code is.
     pub source: Option<protocol::ModuleSource>,
+    /// Which program runs the episodes, and why.
+    pub episode_loop: protocol::EpisodeLoop,
 }
 
 /// What can go wrong with a JAX environment.

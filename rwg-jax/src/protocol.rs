@@ -206,6 +206,23 @@ pub struct Ready {
     item_bytes: u64,
     #[serde(default)]
     source: Option<ModuleSource>,
+    #[serde(default)]
+    episode_loop: Option<EpisodeLoop>,
+}
+
+/// Which of the two programs runs a cell's episodes, and why: `lanes`
+/// (an ended lane takes the next episode) or `plain` (the lanes take their
+/// episodes together and step until all have ended, for an env whose
+/// episodes all end at the same step whatever the actions). The same bits
+/// either way: a speed choice, made by the worker from the env's traced
+/// step.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, Deserialize)]
+pub struct EpisodeLoop {
+    /// `lanes` or `plain`.
+    #[serde(rename = "loop")]
+    pub kind: String,
+    /// Why, in words.
+    pub why: String,
 }
 
 /// What the code of a `jax:module:callable` env is: a digest of its
@@ -278,6 +295,10 @@ pub fn parse_ready(cfg: &JaxConfig, r: Ready) -> Result<JaxInfo, JaxError> {
         memory: r.memory,
         item_bytes: r.item_bytes,
         source: r.source,
+        episode_loop: r.episode_loop.unwrap_or_else(|| EpisodeLoop {
+            kind: "lanes".into(),
+            why: "the worker did not say".into(),
+        }),
     })
 }
 

@@ -176,13 +176,14 @@ impl JaxSource {
             None => format!("no compilation cache ({CACHE_VAR}=off)"),
         };
         format!(
-            "{}: JAX on {} ({}, {devices}), {} networks per call ({why}), {} lanes, matmul \
-             precision {}; {cache}",
+            "{}: JAX on {} ({}, {devices}), {} networks per call ({why}), {} lanes ({}), \
+             matmul precision {}; {cache}",
             i.spec.id,
             i.device,
             i.device_kind,
             shape.networks,
             shape.lanes,
+            loop_text(&i.episode_loop),
             self.config.matmul_precision.name()
         )
     }
@@ -243,5 +244,13 @@ impl JaxSource {
         X: From<SampleError> + From<CallError> + Send,
     {
         run::run_blocks(self, plan, blocks, threads, on_block)
+    }
+}
+
+/// How the run's first line names a cell's episode loop.
+fn loop_text(l: &crate::protocol::EpisodeLoop) -> String {
+    match l.kind.as_str() {
+        "plain" => format!("run together to the end: {}", l.why),
+        _ => "an ended lane takes the next episode".to_string(),
     }
 }

@@ -419,6 +419,7 @@ impl Cell {
                 matmul_precision: j.config().matmul_precision.name().to_string(),
                 lanes: j.lanes(),
                 refill: (j.lanes() / 8).max(1),
+                episode_loop: Some(j.info().episode_loop.clone()),
                 source: j.info().source.clone(),
                 observation_leaves: j.info().observation_leaves.clone(),
                 action_mask: Some(j.info().action_mask.clone()),

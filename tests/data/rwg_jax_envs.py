@@ -184,3 +184,36 @@ class Actions(Slider):
 def make_actions(kind):
     """A slider with the odd action space `kind` (see Actions)."""
     return Actions(kind), Params()
+
+
+class Countdown(NamedTuple):
+    """A slider's state and the steps left."""
+
+    x: jax.Array
+    left: jax.Array
+
+
+class Timer(Slider):
+    """A slider whose episode ends when a countdown reaches 0, whatever the
+    actions: the countdown starts at 5 (`drawn` false), or at a number from
+    3 to 9 its reset draws from the key (`drawn` true)."""
+
+    def __init__(self, drawn):
+        super().__init__(None)
+        self.drawn = drawn
+
+    def reset(self, key, params):
+        k_x, k_left = jax.random.split(key)
+        x = jax.random.uniform(k_x, (), minval=-1.0, maxval=1.0)
+        left = jax.random.randint(k_left, (), 3, 10) if self.drawn else jnp.int32(5)
+        return jnp.stack([x, x]), Countdown(x, left)
+
+    def step(self, key, state, action, params):
+        x = state.x + 0.1 * jnp.clip(jnp.ravel(action)[0], -2.0, 2.0)
+        s = Countdown(x, state.left - 1)
+        return jnp.stack([x, x]), s, 1.0 - x * x, s.left <= 0, {}
+
+
+def make_timer(drawn=False):
+    """The countdown slider (see Timer), with a time limit of 60."""
+    return Timer(bool(drawn)), Params()

@@ -69,6 +69,11 @@ pub struct JaxRecord {
     /// Ended lanes that wait to refill together (shown, not compared: it
     /// changes the speed, not the results).
     pub refill: u32,
+    /// Which program ran the episodes (`lanes`, or `plain` for an env whose
+    /// episodes all end at the same step) and why; shown, not compared (the
+    /// same bits either way); absent in older records.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub episode_loop: Option<rwg_jax::protocol::EpisodeLoop>,
     /// For a `jax:module:callable` env: a digest of its module's source
     /// (compared) and where it was imported from (not compared).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -447,6 +452,10 @@ mod tests {
             matmul_precision: "highest".into(),
             lanes: 1024,
             refill: 128,
+            episode_loop: Some(rwg_jax::protocol::EpisodeLoop {
+                kind: "lanes".into(),
+                why: "its episodes end on what the actions do".into(),
+            }),
             source: None,
             observation_leaves: vec![rwg_jax::protocol::Leaf {
                 name: "grid".into(),
@@ -474,6 +483,20 @@ mod tests {
         other_refill.refill = 1;
         let other_refill = EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(other_refill);
         assert!(check_record(&dir, &other_refill, "refused").unwrap());
+        // nor which program ran the episodes (the same bits), nor a record
+        // that does not say
+        for episode_loop in [
+            None,
+            Some(rwg_jax::protocol::EpisodeLoop {
+                kind: "plain".into(),
+                why: "every episode ends at the same step, whatever the actions".into(),
+            }),
+        ] {
+            let mut other_loop = jax("0.10.2", "3.11.7", "cpu");
+            other_loop.episode_loop = episode_loop;
+            let other_loop = EnvRecord::new(&spec(1.0, Some(60)), None).with_jax(other_loop);
+            assert!(check_record(&dir, &other_loop, "refused").unwrap());
+        }
         let mut now = jax("0.4.30", "3.11.7", "NVIDIA H200");
         now.precision = "float64".into();
         now.matmul_precision = "default".into();
