@@ -28,6 +28,21 @@ pub fn chunk_len(chunk: &Chunk) -> usize {
         .sum()
 }
 
+/// Networks per chunk of a call of `total` networks run by `workers`
+/// workers (or devices) on a program that holds `capacity` networks:
+/// `capacity`, or fewer where `capacity` would leave a worker without a
+/// chunk (a cell of 1024 networks on two CPU workers: two chunks of 512,
+/// not one of 1024 and an idle core); a multiple of
+/// [`crate::NETWORKS_MULTIPLE`]. A chunk of
+/// fewer networks than the program holds runs only those (its loops' trip
+/// counts are the chunk's), and no result depends on how networks are
+/// grouped into chunks.
+pub fn per_chunk(capacity: u32, total: u64, workers: usize) -> usize {
+    let m = u64::from(crate::NETWORKS_MULTIPLE);
+    let spread = total.div_ceil(workers.max(1) as u64).div_ceil(m) * m;
+    spread.clamp(m.min(u64::from(capacity)), u64::from(capacity).max(1)) as usize
+}
+
 /// `blocks` (in order) cut into chunks of at most `per_call` networks,
 /// each filled with the networks of consecutive blocks (a block that does
 /// not fit is split between chunks); empty blocks are in no chunk.
@@ -227,6 +242,32 @@ mod tests {
             score,
             steps: 1,
             non_finite: false,
+        }
+    }
+
+    #[test]
+    fn a_chunk_is_smaller_than_the_program_where_a_worker_would_idle() {
+        // the program's capacity when there is work enough for every worker
+        assert_eq!(per_chunk(6528, 100_000, 2), 6528);
+        assert_eq!(per_chunk(1664, 5000, 1), 1664);
+        // one worker: one call of all the networks either way
+        assert_eq!(per_chunk(1664, 1000, 1), 1024);
+        // a cell of one program's worth or less: spread over the workers
+        assert_eq!(per_chunk(6528, 1024, 2), 512);
+        assert_eq!(per_chunk(6528, 100, 2), 64);
+        assert_eq!(per_chunk(6528, 6528, 2), 3264);
+        // never below one multiple, never above the capacity
+        assert_eq!(per_chunk(6528, 1, 4), 32);
+        assert_eq!(per_chunk(32, 10_000, 8), 32);
+        assert_eq!(per_chunk(6528, 0, 2), 32);
+        for (cap, total, workers) in [(6528, 1024, 2), (1664, 5000, 3), (64, 1000, 16)] {
+            let n = per_chunk(cap, total, workers);
+            let calls = chunks(&[0..total], n).len();
+            assert!(
+                calls >= workers.min(total.div_ceil(32) as usize),
+                "{n} {calls}"
+            );
+            assert!(n as u32 <= cap && n.is_multiple_of(32));
         }
     }
 

@@ -6,7 +6,7 @@
 //! cache on, the first worker compiles the cell and the others, started
 //! meanwhile, read its program from the cache.
 
-use crate::chunks::{chunk_len, chunks, results, Assembly, Chunk};
+use crate::chunks::{chunk_len, chunks, per_chunk, results, Assembly, Chunk};
 use crate::protocol::{CellShape, Outcome};
 use crate::worker::JaxWorker;
 use crate::{CallError, JaxError, JaxSource};
@@ -32,7 +32,10 @@ where
     X: From<SampleError> + From<CallError> + Send,
 {
     let cell = src.cell_shape(plan);
-    let all = chunks(blocks, cell.networks as usize);
+    // every worker, and every device of a worker, gets a chunk if it can
+    let total = blocks.iter().map(|b| b.end - b.start).sum();
+    let parallel = src.workers_for(threads) * src.info.devices.max(1);
+    let all = chunks(blocks, per_chunk(cell.networks, total, parallel));
     let mut assembly = Assembly::new(blocks, plan.episodes);
     if all.is_empty() {
         return assembly.add(&[], &mut on_block);
