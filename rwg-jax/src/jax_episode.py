@@ -7,9 +7,9 @@ no lane waits for the chunk's longest episode. A lane that ends waits until
 `refill` lanes have ended (or none runs any more); then every waiting lane
 writes its result and takes an item at once, so the bookkeeping is paid once
 per group. An env whose episodes all end at the same step whatever the actions
-(`fixed_length`: Pendulum, Playground's DM Control tasks) runs
+(`fixed_length`: Pendulum, which ends only at its time limit) runs
 `plain_program` instead: the lanes take L items at a time and step until all
-have ended, with no refill to count or compile (about half the compile time).
+have ended, with no refill to count and a smaller program to compile.
 
 Every per-episode computation has the shape of the L lanes, whatever N (the
 resets run L at a time too), and the arithmetic of a lane does not depend on
