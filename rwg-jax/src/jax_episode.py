@@ -261,12 +261,10 @@ def fixed_length(jax, env, dt, space):
     def wrap(k):
         return jax.random.wrap_key_data(k, impl="threefry2x32")
 
-    def reset(k):
-        return tree.tree_leaves(env.reset(wrap(k))[1])
-
     try:
-        r = jax.make_jaxpr(reset)(key)
-        leaves, shape = tree.tree_flatten(env_state_shape(jax, env, key))
+        # one trace of the reset: its jaxpr, and the state's leaves and tree
+        r, state = jax.make_jaxpr(lambda k: env.reset(wrap(k))[1], return_shape=True)(key)
+        leaves, shape = tree.tree_flatten(state)
 
         def step(k, a, *state):
             _, s, _, d = env.step(wrap(k), tree.tree_unflatten(shape, state), a)
@@ -281,8 +279,10 @@ def fixed_length(jax, env, dt, space):
     deps = _input_deps(st.jaxpr, [0])
     seen = set()
     while True:
-        if deps & {0, 1}:
+        if 1 in deps:
             return False, "its episodes end on what the actions do"
+        if 0 in deps:
+            return False, "its episodes end on what the step draws from its key"
         new = {i - 2 for i in deps} - seen
         if not new:
             break
@@ -291,12 +291,6 @@ def fixed_length(jax, env, dt, space):
     if _input_deps(r.jaxpr, sorted(seen)):
         return False, "its episodes end on what its reset draws"
     return True, "every episode ends at the same step, whatever the actions"
-
-
-def env_state_shape(jax, env, key):
-    """The shapes and dtypes of the env's state (a trace of its reset)."""
-    return jax.eval_shape(lambda k: env.reset(jax.random.wrap_key_data(k, impl="threefry2x32"))[1],
-                          key)
 
 
 def cell_layers(space, obs_dim, cell):
