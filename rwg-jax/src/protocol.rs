@@ -206,8 +206,7 @@ pub struct Ready {
     item_bytes: u64,
     #[serde(default)]
     source: Option<ModuleSource>,
-    #[serde(default)]
-    episode_loop: Option<EpisodeLoop>,
+    episode_loop: EpisodeLoop,
 }
 
 /// Which of the two programs runs a cell's episodes, and why: `lanes`
@@ -295,10 +294,7 @@ pub fn parse_ready(cfg: &JaxConfig, r: Ready) -> Result<JaxInfo, JaxError> {
         memory: r.memory,
         item_bytes: r.item_bytes,
         source: r.source,
-        episode_loop: r.episode_loop.unwrap_or_else(|| EpisodeLoop {
-            kind: "lanes".into(),
-            why: "the worker did not say".into(),
-        }),
+        episode_loop: r.episode_loop,
     })
 }
 
@@ -356,7 +352,8 @@ mod tests {
             "max_episode_steps": 1000, "observation_space": "Box", "action_space": "Box",
             "versions": {"jax": "0.10.2"}, "device": "cpu:0", "devices": 1,
             "device_kind": "cpu", "platform": "cpu", "precision": "float64", "memory": null,
-            "item_bytes": 40
+            "item_bytes": 40,
+            "episode_loop": {"loop": "lanes", "why": "its episodes end on what the actions do"}
         }))
         .unwrap();
         let info = parse_ready(&cfg, r).unwrap();
