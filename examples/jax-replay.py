@@ -13,7 +13,8 @@ cell's scores.csv, and exits 1 if they differ. With --weights (a file of
 
 It runs rwg's arithmetic (docs/jax.md, "Keys and policy"): key data [r >> 32,
 r & 0xFFFFFFFF]; k_reset, k_steps = split(key); step t uses fold_in(k_steps, t); per
-layer x = tanh(W @ concat(x, [1])) (bias) or tanh(W @ x); argmax, or high * tanh(y)
+layer x = tanh(W @ concat(x, [1])) (bias) or tanh(W @ x), W @ x as a left-to-right chain
+of products and sums for at most 64 inputs (`matvec`); argmax, or high * tanh(y)
 for a symmetric box, else low + (tanh(y) + 1) / 2 * (high - low); the return summed
 in the precision, the episode ended at the first done or at the time limit. It runs
 them by rwg's own program (`lane_program`: the lanes that never idle), the network's
@@ -47,7 +48,7 @@ def parse_args():
     p.add_argument("--device", help='"cpu", "gpu", "gpu:1"... (default: jax.devices()[0])')
     p.add_argument("--matmul-precision", default="highest", choices=["highest", "high", "default"])
     p.add_argument("--lanes", type=int,
-                   help="as the run's env.json (default: 1024 on a CPU, 65536 otherwise)")
+                   help="as the run's env.json (default: 512 on a CPU, 65536 otherwise)")
     a = p.parse_args()
     if (a.run_dir is None) == (a.weights is None):
         p.error("give a run directory or --weights FILE, not both")
@@ -248,12 +249,21 @@ def replay(export, setting, reset_seed, seeds):
         symmetric = bool((low == -high).all())
         low, high = jnp.asarray(low, dtype), jnp.asarray(high, dtype)
 
+    def matvec(W, x):
+        """W @ x: for at most 64 inputs, ((W[:, 0] * x[0] + W[:, 1] * x[1]) + ...)."""
+        if W.shape[1] > 64:
+            return W @ x
+        acc = W[:, 0] * x[0]
+        for k in range(1, W.shape[1]):
+            acc = acc + W[:, k] * x[k]
+        return acc
+
     def act(Ws, obs):
         x = jnp.ravel(obs).astype(dtype)
         for W in Ws:
             if bias:
                 x = jnp.concatenate([x, jnp.ones((1,), dtype)])
-            x = jnp.tanh(W @ x)
+            x = jnp.tanh(matvec(W, x))
         if n is not None:
             return jnp.argmax(x).astype(jnp.int32)
         return (high * x if symmetric else low + (x + 1) / 2 * (high - low)).reshape(shape)
@@ -262,7 +272,7 @@ def replay(export, setting, reset_seed, seeds):
     if setting["device"]:
         kind, _, i = setting["device"].partition(":")
         dev = jax.local_devices(backend=kind)[int(i or 0)]
-    L = setting["lanes"] or (1024 if dev.platform == "cpu" else 65536)
+    L = setting["lanes"] or (512 if dev.platform == "cpu" else 65536)
     E = len(seeds)
     Ws = [np.asarray(layer["weights"], np.float64).astype(dtype)[None] for layer in export["layers"]]
     # the key data of reset seed r: uint32 words [r >> 32, r & 0xFFFFFFFF] (numpy, exact)

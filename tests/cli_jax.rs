@@ -157,7 +157,7 @@ fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
         let jax = &record["jax"];
         assert_eq!(jax["precision"], "float32", "{record}");
         assert_eq!(jax["platform"], "cpu", "{record}");
-        assert_eq!(jax["lanes"], 1024, "{record}");
+        assert_eq!(jax["lanes"], 512, "{record}");
         assert_eq!(jax["matmul_precision"], "highest", "{record}");
         assert!(jax.get("networks_per_call").is_none(), "{record}");
         assert_eq!(jax["versions"]["jax"], "0.10.2", "{record}");
@@ -167,7 +167,7 @@ fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
     assert!(stats.contains("gymnax:CartPole-v1"), "{stats}");
     // how the JAX cells computed: in rwg status, rwg stats and report.html
     let setting =
-        "cpu, float32, matmul highest, 1024 lanes; jax 0.10.2, jaxlib 0.10.2, gymnax 1.0.1";
+        "cpu, float32, matmul highest, 512 lanes; jax 0.10.2, jaxlib 0.10.2, gymnax 1.0.1";
     let status = ok(&["status", s(&run)]);
     assert!(
         status.contains(&format!("gymnax:CartPole-v1 (2 cells): {setting}")),
@@ -181,7 +181,7 @@ fn a_gymnax_study_writes_the_run_directory_with_the_builtin_networks() {
         "report lacks the JAX table"
     );
     assert!(
-        report.contains("JAX: cpu, float32, matmul highest, 1024 lanes; jax 0.10.2"),
+        report.contains("JAX: cpu, float32, matmul highest, 512 lanes; jax 0.10.2"),
         "report lacks the cells' JAX line"
     );
 

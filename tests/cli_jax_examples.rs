@@ -189,7 +189,7 @@ fn jax_replay_recomputes_scores_bit_for_bit() {
     );
     let want = stored(&run, "gymnax:Pendulum-v1", 5, 2);
     let net_s = net.to_str().unwrap();
-    let args = ["--weights", net_s, "--episode", "2", "--lanes", "1024"];
+    let args = ["--weights", net_s, "--episode", "2", "--lanes", "512"];
     let got = printed(&replay(
         &py,
         &[&args[..], &["--precision", "float64"]].concat(),

@@ -55,9 +55,9 @@ fn a_fixed_length_env_runs_the_plain_loop_and_a_drawn_length_the_lanes() {
         let text = output_text(&out);
         assert!(out.status.success(), "{text}");
         let line = if drawn {
-            "1024 lanes (an ended lane takes the next episode)"
+            "512 lanes (an ended lane takes the next episode)"
         } else {
-            "1024 lanes (run together to the end: every episode ends at the same step"
+            "512 lanes (run together to the end: every episode ends at the same step"
         };
         assert!(text.contains(line), "{text}");
         let cell = run.join("cells/jax=rwg_jax_envs=make_timer__0HL__nobias");

@@ -92,7 +92,7 @@ pub fn choices_text(r: &JaxRecord) -> String {
 }
 
 /// One line per setting: `gymnax:CartPole-v1 (3 cells): cpu, float32,
-/// matmul highest, 1024 lanes; jax 0.10.2, ...`, and the choices made when the env
+/// matmul highest, 512 lanes; jax 0.10.2, ...`, and the choices made when the env
 /// was made, if any (`; argmax over legal actions`).
 pub fn setting_line(s: &JaxSetting) -> String {
     let choices = choices_text(&s.record);
@@ -213,7 +213,7 @@ mod tests {
         };
         assert_eq!(
             setting_line(&s),
-            "gymnax:CartPole-v1 (2 cells): cpu, float32, matmul highest, 1024 lanes; \
+            "gymnax:CartPole-v1 (2 cells): cpu, float32, matmul highest, 512 lanes; \
              jax 0.10.2, jaxlib 0.10.2, gymnax 1.0.1, Python 3.11.7"
         );
         assert_eq!(

@@ -142,10 +142,31 @@ def check_sizes(jax, env, dt, space, obs_shape, obs_dim):
                           f"{tuple(obs_shape)}); fix the env's spaces or what it computes")
 
 
+#: Layers with at most this many inputs (the bias's 1 included) compute
+#: W @ x as a chain of multiplies and adds; wider ones call XLA's dot.
+CHAIN_INPUTS = 64
+
+
+def matvec(jnp, W, x):
+    """W @ x. For a layer of at most `CHAIN_INPUTS` inputs, a chain in a
+    fixed order, ((W[:, 0] * x[0] + W[:, 1] * x[1]) + ...), each product and
+    sum rounded on its own: elementwise work, which runs faster than XLA's
+    batched dot on a CPU at these sizes and whose order of summation is
+    fixed (the dot picks
+    its own, and its use of fused multiply-adds, by the arrays' shapes). A
+    wider layer (a pixel or symbolic observation) calls the dot."""
+    if W.shape[1] > CHAIN_INPUTS:
+        return W @ x
+    acc = W[:, 0] * x[0]
+    for k in range(1, W.shape[1]):
+        acc = acc + W[:, k] * x[k]
+    return acc
+
+
 def policy_fn(jnp, layers, bias, dt, space):
-    """rwg's policy: x = tanh(W @ [x, 1]) per layer; argmax or the box map.
-    `legal` (a bool per action, or None): the argmax is over the legal
-    actions only; where none is legal, over all (plain argmax)."""
+    """rwg's policy: x = tanh(W @ [x, 1]) per layer (`matvec`); argmax or
+    the box map. `legal` (a bool per action, or None): the argmax is over
+    the legal actions only; where none is legal, over all (plain argmax)."""
     n, low, high, ashape = space
     if n is None:
         symmetric = bool((low == -high).all())
@@ -156,7 +177,7 @@ def policy_fn(jnp, layers, bias, dt, space):
         for W in Ws:
             if bias:
                 x = jnp.concatenate([x, jnp.ones((1,), dt)])
-            x = jnp.tanh(W @ x)
+            x = jnp.tanh(matvec(jnp, W, x))
         if n is not None:
             if legal is not None:
                 legal = jnp.asarray(legal, bool)

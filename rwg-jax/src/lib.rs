@@ -131,7 +131,7 @@ pub const MAX_TIMEOUT_S: f64 = 604_800.0;
 pub const NETWORKS_MULTIPLE: u32 = 32;
 
 /// Lanes (episodes run at once) of a cell's program on a CPU.
-pub const DEFAULT_LANES_CPU: u32 = 1024;
+pub const DEFAULT_LANES_CPU: u32 = 512;
 
 /// Lanes of a cell's program on a GPU or TPU.
 pub const DEFAULT_LANES_ACCELERATOR: u32 = 65_536;
