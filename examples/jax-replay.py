@@ -317,11 +317,20 @@ def main():
 
 if __name__ == "__main__":
     # XLA as rwg's workers run it: one thread on a CPU, no kernel chosen by timing
-    # on a GPU (unless XLA_FLAGS names these flags)
+    # on a GPU, and from jaxlib 0.6 XLA's older CPU fusion code (unless XLA_FLAGS
+    # names these flags)
+    import importlib.metadata
     flags = os.environ.get("XLA_FLAGS", "")
-    for name, flag in [("xla_cpu_multi_thread_eigen", "--xla_cpu_multi_thread_eigen=false "
-                                                      "intra_op_parallelism_threads=1"),
-                       ("xla_gpu_deterministic_ops", "--xla_gpu_deterministic_ops=true")]:
+    rwg_flags = [("xla_cpu_multi_thread_eigen", "--xla_cpu_multi_thread_eigen=false "
+                                                "intra_op_parallelism_threads=1"),
+                 ("xla_gpu_deterministic_ops", "--xla_gpu_deterministic_ops=true")]
+    try:
+        jaxlib = tuple(int(x) for x in importlib.metadata.version("jaxlib").split(".")[:2])
+    except (importlib.metadata.PackageNotFoundError, ValueError):
+        jaxlib = (0, 0)
+    if jaxlib >= (0, 6):
+        rwg_flags.append(("xla_cpu_use_fusion_emitters", "--xla_cpu_use_fusion_emitters=false"))
+    for name, flag in rwg_flags:
         if name not in flags:
             flags = f"{flags} {flag}".strip()
     os.environ["XLA_FLAGS"] = flags
