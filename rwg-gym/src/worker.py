@@ -60,8 +60,9 @@ def main():
     w.check_reset()
     w.probe_history()
     w.replace_checked_instances()
+    mark = lane_marker(w.hello)  # before the ready: rwg then removes the file's name
     w.send_ready()
-    w.exchange(lane_marker(w.hello))
+    w.exchange(mark)
 
 
 def read_hello():

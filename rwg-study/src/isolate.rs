@@ -453,12 +453,13 @@ pub fn worker_main(input: &mut impl Read, output: &mut impl Write) -> Result<(),
         action_dim: action_dim(&spec),
         max_episode_steps: spec.max_episode_steps,
     };
+    // mapped before the ready: the host then removes the file's name
+    let mark = hello.lane_file.as_deref().and_then(LaneMark::open);
     let json = serde_json::to_vec(&ready).expect("serialisable");
     output
         .write_all(&message(TAG_READY, &json))
         .and_then(|()| output.flush())
         .map_err(|e| ProcError::Protocol(format!("cannot answer the host: {e}")))?;
-    let mark = hello.lane_file.as_deref().and_then(LaneMark::open);
     rwg_worker::serve::serve(input, output, &mut envs, hello.lanes, mark)
 }
 

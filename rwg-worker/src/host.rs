@@ -95,13 +95,14 @@ impl PipeLanes {
     /// may take `timeout`.
     pub fn new(
         worker: Worker,
-        lane_file: LaneFile,
+        mut lane_file: LaneFile,
         spec: EnvSpec,
         lanes: usize,
         groups: usize,
         timeout: Duration,
         describe: Describe,
     ) -> PipeLanes {
+        lane_file.mapped();
         let obs_dim = spec.obs_dim();
         let action_dim = match &spec.action_space {
             Space::Discrete { .. } => 0,

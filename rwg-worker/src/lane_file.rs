@@ -8,7 +8,13 @@
 pub const NO_LANE: u8 = 255;
 
 /// The host's side: creates the file, reads the lane, removes the file.
-pub struct LaneFile(Option<std::path::PathBuf>);
+/// It reads through a handle of its own, so the file's name can be
+/// removed as soon as the worker has mapped it ([`LaneFile::mapped`]): a
+/// host killed later (SIGKILL skips `Drop`) leaves nothing behind.
+pub struct LaneFile {
+    path: Option<std::path::PathBuf>,
+    file: Option<std::fs::File>,
+}
 
 impl LaneFile {
     /// A new lane file in the temporary directory (no file if it cannot be
@@ -21,12 +27,32 @@ impl LaneFile {
             std::process::id(),
             NEXT.fetch_add(1, Ordering::Relaxed)
         ));
-        LaneFile(std::fs::write(&p, [255u8; 8]).ok().map(|()| p))
+        let file = std::fs::write(&p, [255u8; 8])
+            .and_then(|()| std::fs::File::open(&p))
+            .ok();
+        let path = match file {
+            Some(_) => Some(p),
+            None => {
+                let _ = std::fs::remove_file(&p);
+                None
+            }
+        };
+        LaneFile { path, file }
     }
 
     /// Its path, for the hello message.
     pub fn path(&self) -> Option<String> {
-        self.0.as_ref().map(|p| p.to_string_lossy().into_owned())
+        self.path.as_ref().map(|p| p.to_string_lossy().into_owned())
+    }
+
+    /// The worker answered its hello, so it has mapped the file: its name
+    /// is removed (on unix; elsewhere it stays until `Drop`), its bytes
+    /// stay readable through the host's handle and the worker's mapping.
+    pub fn mapped(&mut self) {
+        #[cfg(unix)]
+        if let Some(p) = self.path.take() {
+            let _ = std::fs::remove_file(p);
+        }
     }
 
     /// The lane the worker was resetting or stepping, if any.
@@ -37,14 +63,26 @@ impl LaneFile {
     /// The byte the worker last wrote: a lane, or [`NO_LANE`] between
     /// calls; `None` without a file.
     pub fn mark(&self) -> Option<u8> {
-        let bytes = std::fs::read(self.0.as_ref()?).ok()?;
-        bytes.first().copied()
+        let mut byte = [0u8; 1];
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::FileExt;
+            self.file.as_ref()?.read_exact_at(&mut byte, 0).ok()?;
+        }
+        #[cfg(not(unix))]
+        {
+            use std::io::{Read, Seek};
+            let mut f = self.file.as_ref()?;
+            f.seek(std::io::SeekFrom::Start(0)).ok()?;
+            f.read_exact(&mut byte).ok()?;
+        }
+        Some(byte[0])
     }
 }
 
 impl Drop for LaneFile {
     fn drop(&mut self) {
-        if let Some(p) = &self.0 {
+        if let Some(p) = &self.path {
             let _ = std::fs::remove_file(p);
         }
     }
@@ -138,5 +176,19 @@ mod tests {
         drop(m);
         drop(f);
         assert!(!std::path::Path::new(&path).exists());
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn once_mapped_the_file_has_no_name_and_still_reads() {
+        let mut f = LaneFile::create();
+        let path = f.path().unwrap();
+        let mut m = LaneMark::open(&path).unwrap();
+        f.mapped();
+        assert!(!std::path::Path::new(&path).exists());
+        m.set(Some(3));
+        assert_eq!(f.lane(), Some(3));
+        m.set(None);
+        assert_eq!(f.mark(), Some(NO_LANE));
     }
 }
