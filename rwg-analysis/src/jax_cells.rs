@@ -175,7 +175,7 @@ mod tests {
             platform: platform.into(),
             precision: "float32".into(),
             matmul_precision: "highest".into(),
-            lanes: 1024,
+            lanes: 512,
             refill: 128,
             episode_loop: None,
             source: None,
@@ -223,7 +223,7 @@ mod tests {
         let t = jax_table(&[s]);
         assert_eq!(t.rows[0][2].text, "cpu");
         assert_eq!(t.rows[0][4].text, "highest");
-        assert_eq!(t.rows[0][5].text, "1024");
+        assert_eq!(t.rows[0][5].text, "512");
     }
 
     #[test]
