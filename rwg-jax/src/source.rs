@@ -204,6 +204,12 @@ impl JaxSource {
         self.lock_pool().iter().map(|w| w.cpu_seconds()).sum()
     }
 
+    /// Ends the idle worker processes (a later cell starts new ones).
+    pub fn release_workers(&self) {
+        let idle = std::mem::take(&mut *self.lock_pool());
+        drop(idle);
+    }
+
     pub(crate) fn lock_pool(&self) -> std::sync::MutexGuard<'_, Vec<JaxWorker>> {
         self.pool.lock().unwrap_or_else(|p| p.into_inner())
     }

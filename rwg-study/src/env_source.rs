@@ -65,6 +65,23 @@ impl EnvSource {
         }
     }
 
+    /// Whether `self` and `other` are one JAX env's source (its workers).
+    fn same_jax(&self, other: &EnvSource) -> bool {
+        matches!((self, other), (EnvSource::Jax(a), EnvSource::Jax(b)) if std::sync::Arc::ptr_eq(a, b))
+    }
+
+    /// Ends a JAX env's idle worker processes, and the memory their
+    /// imports and compiled programs hold, unless a cell of `keep` runs
+    /// on the same env (a later cell of it starts new ones). Other envs
+    /// keep no process between cells.
+    pub fn release_unless_used<'a>(&self, mut keep: impl Iterator<Item = &'a EnvSource>) {
+        if let EnvSource::Jax(j) = self {
+            if !keep.any(|o| self.same_jax(o)) {
+                j.release_workers();
+            }
+        }
+    }
+
     /// For a JAX env, the wall time its cells' warm-ups (workers starting,
     /// compiling) took so far, added up (`rwg_jax::JaxSource::warm_up_time`);
     /// `None` for the envs that compile nothing.

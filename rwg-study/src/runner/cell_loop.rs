@@ -84,6 +84,17 @@ pub(super) fn run_cells(
     let mut serial = Vec::with_capacity(s.cells.len());
     std::thread::scope(|fin| -> Result<Sampled, StudyError> {
         let recorder = Recorder::start(fin, out, s.t0, meta, s.abort);
+        // Every JAX env's first worker started while the study was planned:
+        // only the first cell's is kept, so that a study of many JAX envs
+        // holds the workers of one env at a time, not of all.
+        let first = s
+            .cells
+            .iter()
+            .find(|c| !s.work.skips(&cell_dir(out, &c.id.dir)));
+        for cell in s.cells {
+            cell.source
+                .release_unless_used(first.map(|c| &c.source).into_iter());
+        }
         for (ci, cell) in s.cells.iter().enumerate() {
             let t_iter = Instant::now();
             let dir = cell_dir(out, &cell.id.dir);
@@ -97,6 +108,9 @@ pub(super) fn run_cells(
             if let Err(f) = done {
                 return fail(progress, recorder, out, s.t0, f.error, f.aborted);
             }
+            // the env's last cell: its workers end
+            cell.source
+                .release_unless_used(s.cells[ci + 1..].iter().map(|c| &c.source));
         }
         let t_drain = Instant::now();
         let (mut rec, ended) = recorder.finish();
