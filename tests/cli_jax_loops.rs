@@ -4,7 +4,8 @@
 //! on what its reset draws runs the refilling lanes; the run's first lines
 //! and each cell's `env.json` say which, and why. That both loops give the
 //! same bits is `cli_jax_examples.rs`' replay of a Pendulum study (plain)
-//! by the lanes' program.
+//! by the lanes' program. And the workers' lives across envs: a study of
+//! two JAX envs holds one env's workers at a time.
 //!
 //! Needs `RWG_PEER_PYTHON` (see `cli_jax.rs`).
 
@@ -85,4 +86,55 @@ fn a_fixed_length_env_runs_the_plain_loop_and_a_drawn_length_the_lanes() {
     assert_eq!(kind, "lanes", "{reason}");
     assert!(reason.contains("what the actions do"), "{reason}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A study of two JAX envs holds one env's workers at a time: the second
+/// env's worker made at planning ends before the first env's cells run,
+/// the first env's workers end after its last cell, and the second env's
+/// cells start workers of their own while none of the first's runs.
+#[test]
+fn a_study_of_two_jax_envs_ends_each_env_s_workers_after_its_cells() {
+    let Some(py) = python() else { return };
+    let dir = temp_dir("jax-workers");
+    let (a, b) = (dir.join("a.log"), dir.join("b.log"));
+    let m = write(
+        &dir,
+        "m.toml",
+        &format!(
+            "{}\n[[envs]]\nid = \"jax:rwg_jax_envs:make_watcher\"\npython = {py:?}\n\
+             kwargs = {{ log = {:?}, watch = {:?} }}\n",
+            manifest(
+                &py,
+                "jax:rwg_jax_envs:make_witness",
+                &format!("kwargs = {{ log = {:?} }}", s(&a)),
+                64,
+                2,
+                false
+            ),
+            s(&b),
+            s(&a)
+        ),
+    );
+    let run = dir.join("run");
+    let out = rwg_cmd(&["run", &m, "--out", s(&run), "--threads", "2"])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", output_text(&out));
+    let lines = |p: &std::path::Path| -> Vec<Vec<u32>> {
+        std::fs::read_to_string(p)
+            .unwrap()
+            .lines()
+            .map(|l| l.split_whitespace().map(|w| w.parse().unwrap()).collect())
+            .collect()
+    };
+    let (a, b) = (lines(&a), lines(&b));
+    // the first env: its planning worker, and one for the second thread
+    assert!((1..=2).contains(&a.len()), "{a:?}");
+    // the second env: made at planning, that worker ended before the first
+    // env's cell ran, then made by the two workers of its own cell (two
+    // chunks of 32 networks on two threads), when none of the first's ran
+    assert_eq!(b.len(), 3, "{b:?}");
+    for made in &b[1..] {
+        assert_eq!(made.len(), 1, "the first env's workers still ran: {b:?}");
+    }
 }
