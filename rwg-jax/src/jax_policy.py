@@ -152,9 +152,9 @@ def matvec(jnp, W, x):
     fixed order, ((W[:, 0] * x[0] + W[:, 1] * x[1]) + ...), each product and
     sum rounded on its own: elementwise work, which runs faster than XLA's
     batched dot on a CPU at these sizes and whose order of summation is
-    fixed (the dot picks
-    its own, and its use of fused multiply-adds, by the arrays' shapes). A
-    wider layer (a pixel or symbolic observation) calls the dot."""
+    fixed (the dot picks its own, and its use of fused multiply-adds, by
+    the arrays' shapes). A wider layer (a pixel or symbolic observation)
+    calls the dot."""
     if W.shape[1] > CHAIN_INPUTS:
         return W @ x
     acc = W[:, 0] * x[0]
