@@ -171,10 +171,7 @@ fn compare_page_renders_in_headless_chromium() {
         one_cell_run("compare-page-d", 6),
     );
     for (k, (a, b)) in [many, few].iter().enumerate() {
-        let page = a.with_file_name(format!(
-            "rwg-test-{}-compare-page-{k}.html",
-            std::process::id()
-        ));
+        let page = a.with_file_name(format!("rwg-test-compare-page-{k}.html"));
         rwg_ok(&[
             "compare",
             a.to_str().unwrap(),

@@ -41,9 +41,12 @@ pub fn data_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../tests/data")
 }
 
-/// A fresh temporary directory for one test.
+/// A fresh directory for one test, under Cargo's `target/tmp`: emptied when
+/// the same test starts again (so runs do not pile up in the system's temp
+/// folder) and left after it, to look at, until then or `cargo clean`.
 pub fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("rwg-test-{}-{name}", std::process::id()));
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("rwg-test-{}-{name}", env!("CARGO_CRATE_NAME")));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
