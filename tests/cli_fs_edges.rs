@@ -483,7 +483,6 @@ fn rwg_faulty_fs(args: &[&str], vars: &[(&str, &str)]) -> std::process::Output {
 fn a_file_system_that_cannot_sync_folders_runs_and_one_whose_rename_fails_resumes() {
     let dir = temp_dir("fs-faults");
     let m = write_manifest(&dir, "m.toml", SMALL);
-    let reference = finished_run(&dir, "reference", SMALL);
     // fsync of a folder refused with EINVAL, as on some FUSE and CIFS mounts.
     let run = dir.join("no-dir-sync");
     let args = ["run", s(&m), "--out", s(&run), "--no-report", "-q"];
@@ -492,8 +491,22 @@ fn a_file_system_that_cannot_sync_folders_runs_and_one_whose_rename_fails_resume
     rwg_ok(&["verify", s(&run)]);
     // A block's rename fails (EXDEV, as across mounts): an error naming the
     // block, the committed blocks kept, and a resume gives the same bytes.
+    // Enough networks that block 1 is committed while the cell still runs
+    // (a cell that ends first writes its results without block files).
+    let body = SMALL.replace("samples = 70", "samples = 1500");
+    let m = write_manifest(&dir, "big.toml", &body);
+    let reference = finished_run(&dir, "reference-big", &body);
     let run = dir.join("no-rename");
-    let args = ["run", s(&m), "--out", s(&run), "--no-report", "-q"];
+    let args = [
+        "run",
+        s(&m),
+        "--out",
+        s(&run),
+        "--no-report",
+        "-q",
+        "--threads",
+        "1",
+    ];
     let out = rwg_faulty_fs(&args, &[("RWG_TEST_RENAME_TO", "b0000001.csv")]);
     let text = output_text(&out);
     assert_eq!(out.status.code(), Some(1), "{text}");
