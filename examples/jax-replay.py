@@ -16,7 +16,8 @@ r & 0xFFFFFFFF]; k_reset, k_steps = split(key); step t uses fold_in(k_steps, t);
 layer x = tanh(W @ concat(x, [1])) (bias) or tanh(W @ x), W @ x as a left-to-right chain
 of products and sums for at most 64 inputs (`matvec`); argmax, or high * tanh(y)
 for a symmetric box, else low + (tanh(y) + 1) / 2 * (high - low); the return summed
-in the precision, the episode ended at the first done or at the time limit. It runs
+in the precision, the episode ended at the first done or at the time limit; on a CPU,
+float32 sin and cos as rwg computes them (`install_sincos`). It runs
 them by rwg's own program (`lane_program`: the lanes that never idle), the network's
 episodes alone: on the device kind and versions of the run the bits are the run's.
 Needs jax, and gymnax or brax for their envs.
@@ -289,6 +290,54 @@ def replay(export, setting, reset_seed, seeds):
     return float(rets[0, e]), int(lens[0, e]), dev
 
 
+def install_sincos(jax):
+    """float32 sin and cos on a CPU as rwg's workers lower them: |x| <= 65536
+    reduced in float64 to r in [-pi/4, pi/4] (x - k * pi/2, pi/2 in two
+    parts), then Cephes' sinf and cosf polynomials of r in float32; any other
+    element (beyond, infinite, NaN) by XLA's own lowering (the C library)."""
+    from functools import partial
+    from jax.extend.core import Primitive
+    from jax.interpreters import mlir
+
+    jnp, lax, f32, f64 = jax.numpy, jax.lax, jax.numpy.float32, jax.numpy.float64
+    pio2 = (float.fromhex("0x1.921fb544p0"), float.fromhex("0x1.0b4611a626331p-34"))
+    sin_c = (-1.6666654611e-1, 8.3321608736e-3, -1.9515295891e-4)
+    cos_c = (4.166664568298827e-2, -1.388731625493765e-3, 2.443315711809948e-5)
+
+    def fast(x, cos):
+        with jax.enable_x64(True):
+            x64 = x.astype(f64)
+            k = jnp.round(x64 * f64(0.63661977236758134308))
+            r = ((x64 - k * f64(pio2[0])) - k * f64(pio2[1])).astype(f32)
+            k = k.astype(jnp.int32)
+        z = r * r
+        s = r + r * z * (f32(sin_c[0]) + z * (f32(sin_c[1]) + z * f32(sin_c[2])))
+        c = f32(1.0) - f32(0.5) * z + z * z * (f32(cos_c[0]) + z * (f32(cos_c[1]) + z * f32(cos_c[2])))
+        q = (k + (1 if cos else 0)) & 3
+        v = jnp.where((q & 1) == 0, s, c)
+        return jnp.where(q >= 2, -v, v)
+
+    for prim, cos in ((lax.sin_p, False), (lax.cos_p, True)):
+        xla = mlir._lowerings[prim]
+        xla = getattr(xla, "rule", xla)
+        libm = Primitive(f"replay_libm_{prim.name}")
+        libm.def_abstract_eval(lambda x, **params: x)
+        mlir.register_lowering(libm, xla)
+
+        def impl(x, cos=cos, libm=libm, **params):
+            out = ~(jnp.abs(x) <= f32(65536.0))
+            return lax.cond(jnp.any(out),
+                            lambda x: jnp.where(out, libm.bind(x, **params), fast(x, cos)),
+                            partial(fast, cos=cos), x)
+
+        def lower(ctx, x, impl=impl, xla=xla, **params):
+            if str(ctx.avals_in[0].dtype) == "float32":
+                return mlir.lower_fun(partial(impl, **params), multiple_results=False)(ctx, x)
+            return xla(ctx, x, **params)
+
+        mlir.register_lowering(prim, lower, platform="cpu")
+
+
 def main():
     a = parse_args()
     stored = None
@@ -337,4 +386,5 @@ if __name__ == "__main__":
     import jax
     import jax.numpy as jnp
     import numpy as np
+    install_sincos(jax)
     main()

@@ -46,7 +46,9 @@ fn cache() -> PathBuf {
     std::env::temp_dir().join("rwg-test-jax-cache")
 }
 
-/// A study of three JAX envs: gymnax's CartPole-v1 (float32, discrete),
+/// A study of four JAX envs: gymnax's CartPole-v1 (float32, discrete),
+/// MountainCarContinuous-v0 (float32, a cos a step: rwg's own on a CPU; a
+/// return that sums every step's action, so a bit of any cos shows),
 /// Pendulum-v1 (float64, a box, 32 networks per call: the replay runs the
 /// network alone all the same) and the point mass of examples/jax-env (a
 /// box, with kwargs and a time limit of its own).
@@ -58,6 +60,7 @@ fn run_study(py: &str, dir: &Path) -> PathBuf {
             "seed = 4\nsamples = 40\nepisodes = 3\nbias = [true]\n\
              [[architectures]]\nname = \"2HL\"\nhidden = [4, 4]\n\
              [[envs]]\nid = \"gymnax:CartPole-v1\"\npython = {py:?}\n\
+             [[envs]]\nid = \"gymnax:MountainCarContinuous-v0\"\npython = {py:?}\n\
              [[envs]]\nid = \"gymnax:Pendulum-v1\"\npython = {py:?}\n\
              precision = \"float64\"\nnetworks_per_call = 32\n\
              [[envs]]\nid = \"jax:point_mass:make_env\"\npython = {py:?}\n\
@@ -135,6 +138,8 @@ fn jax_replay_recomputes_scores_bit_for_bit() {
     // From the run directory: the script compares with scores.csv itself.
     for (env, sample, episode) in [
         ("gymnax:CartPole-v1", 37, 2),
+        // an episode whose return XLA's own sin and cos would change
+        ("gymnax:MountainCarContinuous-v0", 2, 0),
         ("gymnax:Pendulum-v1", 5, 1),
         ("jax:point_mass:make_env", 33, 0),
     ] {

@@ -24,6 +24,7 @@ from rwg_pipe import (  # the pipe first: it redirects fd 0/1
     write_msg,
 )
 from rwg_jax_worker_common import fail_exc, import_family, version_of
+from rwg_jax_worker_trig import install as install_trig
 from rwg_jax_worker_families import MAKERS
 from rwg_jax_worker_obs import structured
 from rwg_jax_worker_policy import check_sizes, describe_spaces
@@ -137,6 +138,8 @@ def start(hello):
         fail("protocol", f"precision {precision!r}")
     progress(b"m")
     jax = import_jax(precision, hello.get("compile_cache"))
+    # float32 sin and cos on a CPU a whole array at a time, with XLA's bits
+    install_trig(jax)
     devs = pick_devices(jax, hello.get("device"))
     dev = devs[0]
     dt = jax.numpy.float64 if precision == "float64" else jax.numpy.float32

@@ -85,6 +85,10 @@ pub const WORKER_PY: &str = include_str!("jax_worker.py");
 /// versions of installed distributions: a module every other one imports.
 pub const COMMON_PY: &str = include_str!("jax_common.py");
 
+/// float32 sin and cos on a CPU as array operations XLA vectorises (Cephes'
+/// polynomials), instead of a C library call per element.
+pub const TRIG_PY: &str = include_str!("jax_trig.py");
+
 /// The env sources (gymnax, Brax, `jax:module:callable`), each adapted to
 /// the interface the episode loop drives.
 pub const ENVS_PY: &str = include_str!("jax_envs.py");
@@ -108,9 +112,10 @@ pub const EPISODE_PY: &str = include_str!("jax_episode.py");
 /// The modules [`WORKER_PY`] imports from rwg (name, source), in the order
 /// they are loaded: the pipe to rwg first, each module after those it
 /// imports.
-pub const MODULES: [(&str, &str); 7] = [
+pub const MODULES: [(&str, &str); 8] = [
     (rwg_worker::python::PIPE_MODULE, rwg_worker::python::PIPE_PY),
     ("rwg_jax_worker_common", COMMON_PY),
+    ("rwg_jax_worker_trig", TRIG_PY),
     ("rwg_jax_worker_envs", ENVS_PY),
     ("rwg_jax_worker_obs", OBS_PY),
     ("rwg_jax_worker_families", FAMILIES_PY),

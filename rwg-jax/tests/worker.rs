@@ -41,6 +41,11 @@ fn data_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data")
 }
 
+/// The worker's float32 sin and cos on a CPU, as a file.
+fn trig_module() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("src/jax_trig.py")
+}
+
 fn config(py: &str, kind: JaxKind, id: &str) -> JaxConfig {
     // the jax: test envs import from tests/data (the workers inherit it)
     std::env::set_var("PYTHONPATH", data_dir());
@@ -142,6 +147,7 @@ fn a_gymnax_return_is_what_the_replay_recipe_computes() {
     let seed = rwg_core::sampler::reset_seed(p.seed, &p.env_id, n, e);
     let out = std::process::Command::new(&py)
         .arg(data_dir().join("replay_check.py"))
+        .env("RWG_TRIG_MODULE", trig_module())
         .args(["CartPole-v1", "4", "1", &seed.to_string()])
         .args(weights.iter().map(|w| format!("{w:?}")))
         .output()
@@ -272,4 +278,20 @@ fn a_worker_that_dies_in_a_call_names_the_call_and_how_it_ended() {
     // the next run starts a new worker
     let err = run(&src, &p, &[0..1], 1).unwrap_err().to_string();
     assert!(err.contains("networks 0 to 0"), "{err}");
+}
+
+#[test]
+fn float32_sin_and_cos_are_vectorised_close_to_exact_and_lane_independent() {
+    let Some(py) = python() else { return };
+    let out = std::process::Command::new(&py)
+        .arg(data_dir().join("trig_check.py"))
+        .arg(trig_module())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

@@ -8,12 +8,21 @@ usage: python replay_check.py ENV HIDDEN BIAS SEED WEIGHTS...
   repr(float)) and the length.
 """
 
+import importlib.util
+import os
 import sys
 
 import numpy as np
 import jax
 import jax.numpy as jnp
 import gymnax
+
+# rwg's float32 sin and cos on a CPU (rwg-jax/src/jax_trig.py), part of its
+# program: RWG_TRIG_MODULE names the file
+spec = importlib.util.spec_from_file_location("jax_trig", os.environ["RWG_TRIG_MODULE"])
+trig = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(trig)
+trig.install(jax)
 
 env_id, hidden, bias, seed = sys.argv[1], sys.argv[2], sys.argv[3] == "1", int(sys.argv[4])
 weights = np.array([float(w) for w in sys.argv[5:]])
