@@ -9,15 +9,16 @@ arithmetic, eight elements an instruction. An element beyond `FAST_LIMIT`, an
 infinity or a NaN still gets the C library's value: an array that holds one
 computes both and takes, element by element, the C library's for those. So
 an element's value never depends on the others in its array (the lanes, the
-networks of a call). The values are within two units in the last place of the
-exact ones, the C library's within one (docs/jax.md): close, but other bits
+networks of a call). The values are within 1.6 units in the last place of the
+exact ones, the C library's within 0.6 (docs/jax.md): close, but other bits
 than XLA's own lowering, and part of rwg's CPU program.
 
 Other dtypes, and every platform but the CPU, keep XLA's own lowering.
 """
 
 # the reduction to the nearest multiple k of pi/2, in float64: pi/2 in two
-# parts, the first of 33 bits, so that k * PIO2[0] is exact for |k| < 2^20
+# parts, the first of 31 significant bits, so that k * PIO2[0] is exact for
+# |k| < 2^22
 PIO2 = (float.fromhex("0x1.921fb544p0"), float.fromhex("0x1.0b4611a626331p-34"))
 TWO_OVER_PI = 0.63661977236758134308
 # the fast path's bound (|k| < 2^16)
