@@ -294,10 +294,15 @@ def install_sincos(jax):
     """float32 sin and cos on a CPU as rwg's workers lower them: |x| <= 65536
     reduced in float64 to r in [-pi/4, pi/4] (x - k * pi/2, pi/2 in two
     parts), then Cephes' sinf and cosf polynomials of r in float32; any other
-    element (beyond, infinite, NaN) by XLA's own lowering (the C library)."""
+    element (beyond, infinite, NaN) by XLA's own lowering (the C library). Where
+    this JAX lacks what that needs, rwg's workers keep XLA's own, and so does this."""
     from functools import partial
-    from jax.extend.core import Primitive
-    from jax.interpreters import mlir
+    try:
+        from jax.extend.core import Primitive
+        from jax.interpreters import mlir
+        mlir._lowerings[jax.lax.sin_p], mlir._lowerings[jax.lax.cos_p], jax.enable_x64
+    except (ImportError, AttributeError, KeyError):
+        return
 
     jnp, lax, f32, f64 = jax.numpy, jax.lax, jax.numpy.float32, jax.numpy.float64
     pio2 = (float.fromhex("0x1.921fb544p0"), float.fromhex("0x1.0b4611a626331p-34"))
