@@ -299,6 +299,7 @@ mod tests {
         assert!(files.iter().all(|f| f.is_file()));
         let e = write_analysis(&dir.join("missing"), false, KeptEpisodes::new()).unwrap_err();
         assert!(matches!(e, AnalysisError::Load(_)), "{e}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     /// The cause of a failed write is chained, not also printed: a chain

@@ -209,6 +209,7 @@ mod tests {
             "{h}"
         );
         assert!(!h.contains(&out.display().to_string()), "{h}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
@@ -230,6 +231,7 @@ mod tests {
         );
         std::fs::remove_file(&file).unwrap();
         assert_eq!(hint(&e, &args), None);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
@@ -246,5 +248,6 @@ mod tests {
             nearby(&dir.join("exampels/actions.txt")),
             Some(dir.join("examples/actions.txt"))
         );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }
