@@ -25,7 +25,9 @@ fn cells(name: &str, both_bias: bool) -> Vec<(CellData, CellSummary)> {
         },
     )
     .unwrap();
-    crate::load_cells(&Run::open(&dir).unwrap()).unwrap()
+    let cells = crate::load_cells(&Run::open(&dir).unwrap()).unwrap();
+    let _ = std::fs::remove_dir_all(&dir);
+    cells
 }
 
 fn svg_text(f: &Figure) -> &str {
@@ -224,6 +226,7 @@ fn figure_bytes_unchanged() {
     )
     .unwrap();
     let dense = crate::load_cells(&Run::open(&dense_dir).unwrap()).unwrap();
+    let _ = std::fs::remove_dir_all(&dense_dir);
     let sparse = cells("golden", true);
     let mut got = Vec::new();
     for (cells, format) in [

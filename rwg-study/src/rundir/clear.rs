@@ -297,6 +297,7 @@ mod tests {
         std::fs::remove_file(d.join("figures/README")).unwrap();
         assert_eq!(clear_run(&d).unwrap(), Vec::<PathBuf>::new());
         assert!(!d.join("cells").exists() && !d.join("figures").exists());
+        let _ = std::fs::remove_dir_all(&d);
     }
 
     #[cfg(unix)]
@@ -318,6 +319,7 @@ mod tests {
             .file_type()
             .is_symlink());
         assert!(data.is_dir() && !data.join("c").exists());
+        let _ = std::fs::remove_dir_all(&d);
     }
 
     #[test]
@@ -343,5 +345,6 @@ mod tests {
         touch(&d.join("manifest.toml"));
         std::fs::remove_dir_all(d.join("cells")).unwrap();
         assert_eq!(foreign_entries(&d, true), vec![d.join("stats.csv")]);
+        let _ = std::fs::remove_dir_all(&d);
     }
 }

@@ -282,6 +282,7 @@ mod tests {
             .unwrap_err()
             .contains("is the run directory"));
         assert_eq!(check(&d.join("elsewhere.html"), OutputKind::File), Ok(None));
+        let _ = std::fs::remove_dir_all(&d);
     }
 
     #[test]
@@ -298,6 +299,7 @@ mod tests {
         assert!(check_output(&own).is_ok());
         let wrong = Output::derived(&figures, OutputKind::Folder, &a, REPORT_HTML);
         assert!(check_output(&wrong).is_err());
+        let _ = std::fs::remove_dir_all(&d);
     }
 
     #[test]
@@ -310,6 +312,7 @@ mod tests {
         assert!(check(&r.join("cells/x"), OutputKind::RunDir).is_err());
         assert!(check(&r.join("figures"), OutputKind::RunDir).is_err());
         assert!(check(&r.join("shards"), OutputKind::RunDir).is_err());
+        let _ = std::fs::remove_dir_all(&d);
     }
 
     #[cfg(unix)]
@@ -327,5 +330,6 @@ mod tests {
         let dangling = d.join("dangling.html");
         std::os::unix::fs::symlink(d.join("nothing"), &dangling).unwrap();
         assert_eq!(check(&dangling, OutputKind::File), Ok(None));
+        let _ = std::fs::remove_dir_all(&d);
     }
 }

@@ -77,6 +77,7 @@ fn load_round_trips_written_run() {
     let col = header.iter().position(|&h| h == "best_mean").unwrap();
     let best_field = lines[1].split(',').nth(col).unwrap();
     assert_eq!(best_field.parse::<f64>().unwrap(), stats.cells[0].best_mean);
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -102,6 +103,7 @@ fn manifest_is_read_when_present() {
         Run::open(&dir).unwrap().manifest.as_deref(),
         Some("samples = 50\n")
     );
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 fn load_err(dir: &Path, meta: &RunMeta) -> String {
@@ -171,6 +173,7 @@ fn malformed_scores_name_file_and_line() {
         e.starts_with("cannot read ") && e.contains("scores.csv"),
         "{e}"
     );
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -207,6 +210,7 @@ fn inconsistent_samples_csv_is_refused() {
     // a missing samples.csv is recomputed, not an error
     std::fs::remove_file(&path).unwrap();
     assert!(Run::open(&dir).unwrap().load_cell(&meta.cells[0]).is_ok());
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -224,6 +228,7 @@ fn bad_run_json() {
             && e.contains("resuming the run rebuilds it"),
         "{e}"
     );
+    let _ = std::fs::remove_dir_all(&dir);
     let (dir, mut meta) = small_run("format");
     meta.format = 99;
     write_run_json(&dir, &meta).unwrap();
@@ -234,6 +239,7 @@ fn bad_run_json() {
     write_run_json(&dir, &meta).unwrap();
     let e = Run::open(&dir).unwrap_err().to_string();
     assert!(e.contains("shard 1/3") && e.contains("rwg merge"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
@@ -300,6 +306,7 @@ fn damaged_files_are_caught_by_their_checksums() {
         e.contains("unverified") && e.contains("not finished"),
         "{e}"
     );
+    let _ = std::fs::remove_dir_all(&dir);
 }
 
 /// The plain-file fast path and the `csv` crate give the same values and the
