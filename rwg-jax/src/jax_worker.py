@@ -138,7 +138,8 @@ def start(hello):
         fail("protocol", f"precision {precision!r}")
     progress(b"m")
     jax = import_jax(precision, hello.get("compile_cache"))
-    # float32 sin and cos on a CPU a whole array at a time, with XLA's bits
+    # float32 sin and cos on a CPU a whole array at a time (rwg's own
+    # polynomials, not XLA's bits: jax_trig.py)
     install_trig(jax)
     devs = pick_devices(jax, hello.get("device"))
     dev = devs[0]

@@ -269,11 +269,11 @@ fn check_cell_dir(cdir: &Path, name: &str, run: Option<&Run>, r: &mut VerifyRepo
         Ok(None) => {}
         Err(e) => r.problems.push(with_causes(&e)),
     }
-    match if finalised {
-        Ok((0, 0))
-    } else {
-        verify_blocks(cdir)
-    } {
+    let blocks = match finalised {
+        true => Ok((0, 0)),
+        false => verify_blocks(cdir),
+    };
+    match blocks {
         Ok((0, 0)) => {}
         Ok((n, uncommitted)) => {
             r.files += n;
