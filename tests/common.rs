@@ -110,9 +110,12 @@ pub fn broken_plugin() -> PathBuf {
 }
 
 /// Compiles the C file `src` (relative to the repository root) into
-/// `lib<name>.so` in a fresh folder for `test`, with `-D` defines and
-/// warnings as errors, using `$CC` or `cc`.
+/// `lib<name>.so` in a folder for `test`, with `-D` defines and warnings as
+/// errors, using `$CC` or `cc`. The library is written under a name of its
+/// own and renamed into place, so a test loading it while another test of
+/// the same binary compiles it again never sees a half-written file.
 pub fn compile_c(test: &str, src: &str, name: &str, defines: &[&str]) -> PathBuf {
+    static BUILDS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
     let dir = deps_dir()
         .parent()
@@ -121,6 +124,8 @@ pub fn compile_c(test: &str, src: &str, name: &str, defines: &[&str]) -> PathBuf
         .join(format!("cli-{test}"));
     std::fs::create_dir_all(&dir).unwrap();
     let out = dir.join(rwg_plugin_host::library_file_name(name));
+    let build = BUILDS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tmp = dir.join(format!(".{name}-{}-{build}.so.tmp", std::process::id()));
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     let res = Command::new(&cc)
         .args([
@@ -137,7 +142,7 @@ pub fn compile_c(test: &str, src: &str, name: &str, defines: &[&str]) -> PathBuf
         .args(defines.iter().map(|d| format!("-D{d}")))
         .arg(root.join(src))
         .arg("-o")
-        .arg(&out)
+        .arg(&tmp)
         .output()
         .unwrap_or_else(|e| panic!("cannot run the C compiler '{cc}': {e}"));
     assert!(
@@ -145,6 +150,7 @@ pub fn compile_c(test: &str, src: &str, name: &str, defines: &[&str]) -> PathBuf
         "compiling {src} failed:\n{}",
         String::from_utf8_lossy(&res.stderr)
     );
+    std::fs::rename(&tmp, &out).unwrap();
     out
 }
 
